@@ -1,0 +1,2 @@
+//! furbake-bake: (being written)
+pub mod volume;

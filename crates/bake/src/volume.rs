@@ -1,0 +1,1 @@
+//! Hair volume (being written)

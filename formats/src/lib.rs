@@ -1,0 +1,100 @@
+//! furbake-formats: the one container format every furbake artifact is stored in, and the typed
+//! sections inside it. Nothing else: no baking, no rendering, no CLI.
+//!
+//! A container is a 64-byte header, a section table (kind, layout version, offset, length,
+//! CRC-32 per section) and 16-byte-aligned, little-endian sections; `docs/format.md` specifies
+//! every byte. A *pack* holds all artifacts of one asset; a single-artifact file is the same
+//! container with one section. Readers validate magic, version, bounds, checksums and counts
+//! before they allocate or trust anything, and return [`FormatError`]s; writers go through a
+//! temporary file and a rename.
+//!
+//! ```
+//! use furbake_formats::{Pack, PackWriter, Section, sections::fin_atlas::FinAtlas};
+//!
+//! let fins = FinAtlas { width: 4, height: 2, slices: 20, alpha: vec![0, 255, 0, 9, 1, 2, 3, 4] };
+//! let mut writer = PackWriter::new();
+//! writer.push(FinAtlas::KIND, FinAtlas::VERSION, fins.encode());
+//! let bytes = writer.to_bytes();
+//!
+//! let pack = Pack::from_bytes(&bytes)?;
+//! let back: FinAtlas = pack.decode_first()?;
+//! assert_eq!(back, fins);
+//! # Ok::<(), furbake_formats::FormatError>(())
+//! ```
+
+mod container;
+mod error;
+mod kind;
+pub mod record;
+pub mod sections;
+
+pub use container::{
+    ALIGN, AlignedBytes, HEADER_SIZE, MAGIC, MAX_SECTIONS, Pack, PackFile, PackWriter, SectionEntry, TABLE_ENTRY_SIZE,
+    VERSION_MAJOR, VERSION_MINOR, write_file_atomic,
+};
+pub use error::{FormatError, Result};
+pub use kind::SectionKind;
+pub use sections::Section;
+
+/// Decodes a payload as section type `S` after checking the entry's kind and layout version.
+pub fn decode_section<S: Section>(index: usize, entry: &SectionEntry, payload: &[u8]) -> Result<S> {
+    if entry.kind != S::KIND {
+        return Err(FormatError::Parameter {
+            path: None,
+            what: format!("section {index} is {}, not {}", entry.kind, S::KIND),
+        });
+    }
+    if entry.version == 0 || entry.version > S::VERSION {
+        return Err(FormatError::UnsupportedSectionVersion {
+            path: None,
+            index,
+            kind: entry.kind,
+            version: entry.version,
+            supported: S::VERSION,
+        });
+    }
+    S::decode(payload).map_err(|e| e.in_section(index, entry.offset))
+}
+
+impl Pack {
+    /// Decodes section `index` as `S`.
+    pub fn decode<S: Section>(&self, index: usize) -> Result<S> {
+        let entry = self.sections().get(index).ok_or_else(|| FormatError::Parameter {
+            path: None,
+            what: format!("no section {index} (the pack has {})", self.sections().len()),
+        })?;
+        decode_section(index, entry, self.payload(index))
+    }
+
+    /// Decodes the first section of `S`'s kind, or fails with a `Parameter` error naming the kind.
+    pub fn decode_first<S: Section>(&self) -> Result<S> {
+        match self.find(S::KIND).next() {
+            Some(i) => self.decode(i),
+            None => Err(FormatError::Parameter { path: None, what: format!("the pack has no {} section", S::KIND) }),
+        }
+    }
+
+    /// Decodes every section of `S`'s kind, in table order.
+    pub fn decode_all<S: Section>(&self) -> Result<Vec<S>> {
+        self.find(S::KIND).collect::<Vec<_>>().into_iter().map(|i| self.decode(i)).collect()
+    }
+}
+
+impl PackFile {
+    /// Reads (lazily, from disk) and decodes section `index` as `S`.
+    pub fn decode<S: Section>(&mut self, index: usize) -> Result<S> {
+        let entry = *self.sections().get(index).ok_or_else(|| FormatError::Parameter {
+            path: Some(self.path().to_path_buf()),
+            what: format!("no section {index} (the file has {})", self.sections().len()),
+        })?;
+        let bytes = self.read_section(index)?;
+        decode_section(index, &entry, &bytes).map_err(|e| e.with_path(self.path()))
+    }
+}
+
+impl PackWriter {
+    /// Appends a typed section.
+    pub fn push_section<S: Section>(&mut self, section: &S) -> &mut Self {
+        self.push(S::KIND, S::VERSION, section.encode())
+    }
+}

@@ -1,0 +1,49 @@
+//! Typed sections: one module per artifact kind, each a struct-of-arrays with `encode`/`decode`
+//! over the record layout of [`crate::record`] and a JSON `summary` for `furbake inspect`.
+
+use crate::SectionKind;
+use crate::error::Result;
+
+pub mod fin_atlas;
+
+pub mod manifest;
+pub mod shell_atlas;
+pub mod skin_mesh;
+
+/// A typed artifact stored as one container section.
+pub trait Section: Sized {
+    /// The section kind code.
+    const KIND: SectionKind;
+    /// The payload layout version this crate writes (and the newest it reads).
+    const VERSION: u16;
+    /// Serialises into a record payload.
+    fn encode(&self) -> Vec<u8>;
+    /// Parses and validates a record payload (counts, index ranges, finite values).
+    fn decode(payload: &[u8]) -> Result<Self>;
+    /// Parameters and statistics as named JSON fields (stable: scripts parse them).
+    fn summary(&self) -> serde_json::Value;
+}
+
+/// Fails with an `Invalid` error unless every value is finite.
+pub(crate) fn check_finite(values: &[f32], what: &str) -> Result<()> {
+    match values.iter().position(|v| !v.is_finite()) {
+        None => Ok(()),
+        Some(i) => Err(crate::FormatError::invalid(format!("{what}[{i}] is not finite ({})", values[i]))),
+    }
+}
+
+/// Fails unless every index is below `bound`.
+pub(crate) fn check_indices(indices: &[u32], bound: usize, what: &str) -> Result<()> {
+    match indices.iter().position(|&i| i as usize >= bound) {
+        None => Ok(()),
+        Some(i) => Err(crate::FormatError::invalid(format!(
+            "{what}[{i}] = {} is out of range (must be below {bound})",
+            indices[i]
+        ))),
+    }
+}
+
+/// `a * b`, or an `Invalid` error when the product overflows (a lying count).
+pub(crate) fn checked_count(a: usize, b: usize, what: &str) -> Result<usize> {
+    a.checked_mul(b).ok_or_else(|| crate::FormatError::invalid(format!("{what}: count {a} × {b} overflows")))
+}
