@@ -317,6 +317,7 @@ fn check_section_crc(index: usize, e: &SectionEntry, payload: &[u8]) -> Result<(
 }
 
 /// A whole container held in memory, fully validated (header, table, bounds, every checksum).
+#[derive(Debug)]
 pub struct Pack {
     bytes: AlignedBytes,
     minor: u16,
@@ -372,6 +373,7 @@ impl Pack {
 
 /// A container on disk whose header and section table were validated at open; sections are read
 /// (and their checksums checked) only when asked for, so a runtime loads only what it uses.
+#[derive(Debug)]
 pub struct PackFile {
     path: PathBuf,
     file: File,

@@ -5,10 +5,12 @@ use crate::SectionKind;
 use crate::error::Result;
 
 pub mod fin_atlas;
+pub mod fin_edges;
 
 pub mod manifest;
 pub mod shell_atlas;
 pub mod skin_mesh;
+pub mod triangle_uv_map;
 
 /// A typed artifact stored as one container section.
 pub trait Section: Sized {
