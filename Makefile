@@ -35,3 +35,7 @@ clippy:
 
 clean-out:
 	rm -rf out
+
+# Regenerate the golden pack checksums and the committed v1 pack (after an intended change).
+golden:
+	FURBAKE_BLESS=1 $(CARGO) test -p furbake-cli --test cli golden

@@ -51,7 +51,12 @@ fn sample_mesh() -> SkinMesh {
         triangles: vec![[0, 1, 2], [1, 3, 2]],
         fur_mask: vec![1, 0],
         corner_texcoords: vec![[[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]; 2],
-        stats: SkinMeshStats { primitives: 1, input_vertices: 6, degenerate_triangles_skipped: 1, ..Default::default() },
+        stats: SkinMeshStats {
+            primitives: 1,
+            input_vertices: 6,
+            degenerate_triangles_skipped: 1,
+            ..Default::default()
+        },
     }
 }
 

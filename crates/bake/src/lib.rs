@@ -1,2 +1,189 @@
-//! furbake-bake: (being written)
+//! furbake-bake: the bake pipeline — from an imported skin mesh and a validated [`BakeSettings`]
+//! plan to the typed sections of one pack. No file formats of its own (those are in
+//! `furbake-formats`), no glTF parsing (in `furbake-import`), no CLI.
+//!
+//! [`bake`] reads as the pipeline's table of contents: derive the fur length and texel density,
+//! grow the hair volume and slice it into shell and fin atlases (fur thesis §3.1), map every
+//! triangle on its own (§3.2), find the fin edges (§3.2), and record the manifest.
+//!
+//! ```
+//! use furbake_bake::{BakeSettings, bake, NoProgress};
+//! use furbake_import::{import_gltf_slice, testmesh};
+//!
+//! let gltf = testmesh::uv_sphere(8, 12, 1.0).gltf;
+//! let imported = import_gltf_slice(&gltf, "sphere.gltf", None, &Default::default())?;
+//! let mut settings = BakeSettings::preset("fur")?;
+//! settings.volume.resolution = 32; // keep the doctest quick
+//! let baked = bake(&imported, "sphere.gltf", &settings, &mut NoProgress)?;
+//! assert_eq!(baked.uv_map.corners.len(), baked.mesh.triangles.len());
+//! let bytes = baked.to_writer().to_bytes();
+//! assert!(furbake_formats::Pack::from_bytes(&bytes).is_ok());
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+pub mod fin_edges;
+pub mod rng;
+pub mod settings;
+pub mod uv_map;
 pub mod volume;
+
+use furbake_formats::PackWriter;
+use furbake_formats::sections::fin_atlas::FinAtlas;
+use furbake_formats::sections::fin_edges::FinEdges;
+use furbake_formats::sections::manifest::BakeManifest;
+use furbake_formats::sections::shell_atlas::ShellAtlas;
+use furbake_formats::sections::skin_mesh::SkinMesh;
+use furbake_formats::sections::triangle_uv_map::TriangleUvMap;
+use furbake_import::ImportedMesh;
+
+pub use settings::{BakeSettings, ShellSettings};
+
+/// Why a bake failed.
+#[derive(Debug, thiserror::Error)]
+pub enum BakeError {
+    /// A parameter is out of range or unknown. Blame: the caller's settings.
+    #[error("setting {field}: {what}")]
+    Settings {
+        /// Dotted path of the offending setting.
+        field: String,
+        /// What is wrong with it.
+        what: String,
+    },
+    /// The hair volume parameters are invalid.
+    #[error(transparent)]
+    Volume(#[from] volume::VolumeError),
+    /// The mesh cannot carry fur (e.g. the fur mask selects no triangle).
+    #[error("{input}: {what}")]
+    Mesh {
+        /// Input name.
+        input: String,
+        /// What is wrong.
+        what: String,
+    },
+}
+
+/// The stages of [`bake`], reported to a [`Progress`] as they start.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Stage {
+    /// Growing hairs and slicing the shell and fin atlases.
+    Volume,
+    /// Mapping every triangle into the texture.
+    UvMap,
+    /// Finding fin edges.
+    FinEdges,
+}
+
+impl Stage {
+    /// Every stage, in pipeline order.
+    pub const ALL: [Stage; 3] = [Stage::Volume, Stage::UvMap, Stage::FinEdges];
+
+    /// Short human name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Stage::Volume => "hair volume, shell and fin atlases",
+            Stage::UvMap => "per-triangle UV map",
+            Stage::FinEdges => "fin edges",
+        }
+    }
+}
+
+/// Receives stage notifications (the CLI drives a progress bar with them).
+pub trait Progress {
+    /// Stage `stage` starts.
+    fn stage(&mut self, stage: Stage);
+}
+
+/// A [`Progress`] that ignores everything.
+pub struct NoProgress;
+
+impl Progress for NoProgress {
+    fn stage(&mut self, _: Stage) {}
+}
+
+/// Every artifact of one bake, typed.
+#[derive(Clone, Debug)]
+pub struct BakedPack {
+    /// Provenance and parameters.
+    pub manifest: BakeManifest,
+    /// The welded skin.
+    pub mesh: SkinMesh,
+    /// Shell slices and shadow table.
+    pub shells: ShellAtlas,
+    /// Fin texture.
+    pub fins: FinAtlas,
+    /// Per-triangle UVs.
+    pub uv_map: TriangleUvMap,
+    /// Fin-carrying edges.
+    pub fin_edges: FinEdges,
+}
+
+impl BakedPack {
+    /// The container holding every section, manifest first.
+    pub fn to_writer(&self) -> PackWriter {
+        let mut w = PackWriter::new();
+        w.push_section(&self.manifest)
+            .push_section(&self.mesh)
+            .push_section(&self.shells)
+            .push_section(&self.fins)
+            .push_section(&self.uv_map);
+        w.push(
+            <FinEdges as furbake_formats::Section>::KIND,
+            <FinEdges as furbake_formats::Section>::VERSION,
+            self.fin_edges.encode_with_bounds(self.mesh.positions.len(), self.mesh.triangles.len()),
+        );
+        w
+    }
+}
+
+/// Runs the whole pipeline on an imported mesh.
+pub fn bake(
+    input: &ImportedMesh,
+    input_name: &str,
+    settings: &BakeSettings,
+    progress: &mut dyn Progress,
+) -> Result<BakedPack, BakeError> {
+    settings.validate()?;
+    let mesh = &input.mesh;
+    if mesh.furry_triangles() == 0 {
+        return Err(BakeError::Mesh { input: input_name.into(), what: "the fur mask selects no triangle".into() });
+    }
+    let fur_length_m = fur_length(mesh, &settings.shells);
+    let repeat_m = settings.uv.repeat_m.unwrap_or(4.0 * fur_length_m);
+
+    progress.stage(Stage::Volume);
+    let (shells, fins) =
+        volume::bake_volume(&settings.volume, rng::derive_seed(settings.seed, rng::stage::VOLUME, 0), fur_length_m)?;
+
+    progress.stage(Stage::UvMap);
+    let uv_map = uv_map::map_triangles(mesh, repeat_m, settings.uv.random_offset, settings.seed);
+
+    progress.stage(Stage::FinEdges);
+    let fin_edges = fin_edges::find_fin_edges(mesh);
+
+    let manifest = record_manifest(input, input_name, settings);
+    Ok(BakedPack { manifest, mesh: mesh.clone(), shells, fins, uv_map, fin_edges })
+}
+
+/// The fur length in metres: the explicit setting, or a fraction of the bounding-box diagonal.
+pub fn fur_length(mesh: &SkinMesh, shells: &ShellSettings) -> f32 {
+    if let Some(l) = shells.fur_length_m {
+        return l;
+    }
+    let (lo, hi) = mesh.bounds();
+    let diag = glam::Vec3::from(hi).distance(glam::Vec3::from(lo));
+    let l = diag * shells.auto_fur_length_fraction;
+    if l.is_finite() && l > 0.0 { l } else { 1e-3 }
+}
+
+fn record_manifest(input: &ImportedMesh, input_name: &str, settings: &BakeSettings) -> BakeManifest {
+    BakeManifest {
+        tool: "furbake".into(),
+        tool_version: env!("CARGO_PKG_VERSION").into(),
+        input_name: input_name.into(),
+        input_bytes: input.input_bytes,
+        input_sha256: input.input_sha256.clone(),
+        preset: settings.preset.clone(),
+        seed: settings.seed,
+        settings_json: serde_json::to_string(settings).expect("settings are plain serde structs"),
+    }
+}

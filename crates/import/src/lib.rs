@@ -1,1 +1,109 @@
-//! placeholder
+//! furbake-import: turns a glTF 2.0 file (`.glb`, or `.gltf` with embedded or external buffers)
+//! into the [`SkinMesh`] furbake grows fur from — nothing else (SPEC "Bake stages: Import").
+//!
+//! The pipeline, one verb per stage:
+//! 1. `source` — read the bytes, split the GLB container, refuse unsupported
+//!    required extensions, validate with the `gltf` crate, load and hash the buffers;
+//! 2. `scene` — walk the default scene (else scene 0, else every root node), apply node
+//!    transforms (matrix or TRS, normals by the inverse transpose, winding flipped under
+//!    mirroring), triangulate lists/strips/fans, decide the per-triangle fur mask;
+//! 3. `weld` — weld positions within the tolerance, skip degenerate triangles (counted),
+//!    average normals and colours per welded vertex, generate area-weighted normals where the
+//!    file had none.
+//!
+//! Skinned meshes are imported in their bind pose: each node's own mesh positions under the
+//! node's world transform; skins, joints, animations and morph targets are ignored. Every
+//! failure is an [`ImportError`] naming the file (and mesh/primitive); no input makes it panic.
+//!
+//! ```
+//! use furbake_import::{ImportSettings, import_gltf_slice, testmesh};
+//!
+//! let patch = testmesh::grass_patch(1.0);
+//! let imported = import_gltf_slice(&patch.gltf, "grass_patch.gltf", None, &ImportSettings::default())?;
+//! assert_eq!(imported.mesh.positions.len(), 13);
+//! assert_eq!(imported.mesh.triangles.len(), 16);
+//! assert_eq!(imported.mesh.furry_triangles(), 16);
+//! assert_eq!(imported.input_sha256.len(), 64);
+//! # Ok::<(), furbake_import::ImportError>(())
+//! ```
+
+mod accessor;
+mod base64;
+mod error;
+pub mod limits;
+mod scene;
+mod settings;
+mod source;
+#[doc(hidden)]
+pub mod testmesh;
+mod weld;
+
+use std::path::Path;
+
+pub use error::{ImportError, PrimitiveRef};
+pub use furbake_formats::sections::skin_mesh::{SkinMesh, SkinMeshStats};
+pub use settings::{ColorChannel, FurMaskSource, ImportSettings, WeldTolerance};
+
+/// The result of an import: the skin and what the bake manifest records about its input.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ImportedMesh {
+    /// The welded, triangulated skin.
+    pub mesh: SkinMesh,
+    /// Bytes read: the main file plus every external buffer file (embedded `data:` buffers are
+    /// part of the main file).
+    pub input_bytes: u64,
+    /// Lowercase hex SHA-256 over the main file's bytes, then each external buffer file's
+    /// bytes, in buffer order (images are not included: they do not affect the skin).
+    pub input_sha256: String,
+    /// Non-fatal findings, each prefixed with the file name: skipped point/line primitives,
+    /// ignored skins or morph targets, fur-mask fallbacks, dropped vertices.
+    pub warnings: Vec<String>,
+}
+
+/// Imports the glTF file at `path` (`.glb` or `.gltf`; external buffers are resolved relative
+/// to the file's directory).
+pub fn import_gltf(path: &Path, settings: &ImportSettings) -> Result<ImportedMesh, ImportError> {
+    let bytes = source::read_file_limited(path, path)?;
+    let base_dir = match path.parent() {
+        Some(dir) if !dir.as_os_str().is_empty() => dir,
+        _ => Path::new("."),
+    };
+    import(&bytes, path, Some(base_dir), settings)
+}
+
+/// Imports glTF bytes held in memory. `name_for_errors` names the input in errors and warnings;
+/// `base_dir` resolves external buffer URIs (`None`: only GLB-embedded or `data:` buffers work).
+pub fn import_gltf_slice(
+    bytes: &[u8],
+    name_for_errors: &str,
+    base_dir: Option<&Path>,
+    settings: &ImportSettings,
+) -> Result<ImportedMesh, ImportError> {
+    import(bytes, Path::new(name_for_errors), base_dir, settings)
+}
+
+fn import(
+    bytes: &[u8],
+    file: &Path,
+    base_dir: Option<&Path>,
+    settings: &ImportSettings,
+) -> Result<ImportedMesh, ImportError> {
+    settings.validate().map_err(|message| ImportError::Settings { file: file.to_path_buf(), message })?;
+    let asset = source::load_asset(bytes, file, base_dir)?;
+    let mut walker = scene::SceneWalker::new(&asset, file, &settings.fur_mask);
+    walker.walk()?;
+    let mut warnings = asset.warnings.clone();
+    warnings.append(&mut walker.warnings);
+    let welded = weld::weld_soup(&walker.soup, settings.weld_tolerance)
+        .map_err(|e| ImportError::NoTriangles { file: file.to_path_buf(), details: e.details })?;
+    warnings.extend(welded.warnings.into_iter().map(|w| format!("{}: {w}", file.display())));
+    if welded.mesh.furry_triangles() == 0 {
+        warnings.push(format!("{}: no triangle carries fur under the chosen fur mask", file.display()));
+    }
+    Ok(ImportedMesh {
+        mesh: welded.mesh,
+        input_bytes: asset.input_bytes,
+        input_sha256: asset.input_sha256,
+        warnings,
+    })
+}

@@ -50,7 +50,11 @@ impl FinEdges {
             triangle_count: triangle_count as u32,
         };
         let kinds: Vec<u8> = self.kinds.iter().map(|&k| k as u8).collect();
-        RecordWriter::new(&meta).array::<u32>(self.vertices.as_flattened()).array::<u32>(&self.triangles).array::<u8>(&kinds).finish()
+        RecordWriter::new(&meta)
+            .array::<u32>(self.vertices.as_flattened())
+            .array::<u32>(&self.triangles)
+            .array::<u8>(&kinds)
+            .finish()
     }
 }
 

@@ -4,12 +4,15 @@
 use crate::SectionKind;
 use crate::error::Result;
 
+pub mod blade_field;
 pub mod fin_atlas;
 pub mod fin_edges;
+pub mod keyframe_table;
 
 pub mod manifest;
 pub mod shell_atlas;
 pub mod skin_mesh;
+pub mod spring_topology;
 pub mod triangle_uv_map;
 
 /// A typed artifact stored as one container section.

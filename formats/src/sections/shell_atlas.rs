@@ -15,11 +15,13 @@ use crate::{FormatError, SectionKind};
 pub struct HairCoat {
     /// Hair roots per base texel, in (0, 1]. Coat default 0.05, undercoat 0.35.
     pub density: f32,
-    /// Shortest hair `lmin`, as a fraction of the volume height (eq. 3.2's length range).
+    /// Shortest hair `lmin`, as a fraction of the volume height (the length range of §3.1).
     pub length_min: f32,
-    /// Longest hair `hmax`, as a fraction of the volume height (≤ 1).
+    /// Longest hair, as a fraction of the volume height (≤ 1). Each hair's length is drawn from
+    /// `[length_min, length_max]`; the bending curve of eq. 3.1 is normalised by the volume top
+    /// (`hmax` = 1), so a short hair bends less than a long one.
     pub length_max: f32,
-    /// Largest lateral deviation `dmax` at the top of the volume, in texels (eq. 3.1).
+    /// Lateral deviation `dmax` of eq. 3.1 at the top of the volume (h = hmax = 1), in texels.
     pub max_deviation_texels: f32,
     /// Exponent `n` of the bending curve (eq. 3.1; 2 = quadratic, the thesis's choice).
     pub curvature_exponent: f32,
@@ -125,6 +127,9 @@ impl Section for ShellAtlas {
         let shadow = r.array_exact::<f32>(1, layers as usize, "shadow table")?;
         let coverage = r.array_exact::<f32>(2, layers as usize, "coverage")?;
         check_finite(&shadow, "shadow table")?;
+        if let Some(i) = shadow.iter().position(|&x| !(x > 0.0 && x <= 1.0)) {
+            return Err(FormatError::invalid(format!("shadow table[{i}] = {} is outside (0, 1]", shadow[i])));
+        }
         check_finite(&coverage, "coverage")?;
         if !m.fur_length_m.is_finite() || m.fur_length_m <= 0.0 {
             return Err(FormatError::invalid(format!("fur length {} must be positive", m.fur_length_m)));

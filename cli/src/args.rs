@@ -1,0 +1,112 @@
+//! Raw command-line flags (stage one of two: `bake_cmd` turns them into a validated plan).
+
+use std::path::PathBuf;
+
+use clap::{Args, Parser, Subcommand};
+
+const EXIT_CODES: &str = "Exit codes: 0 success, 1 bad input or invalid file (the message names the file and the \
+problem), 2 usage error.";
+
+/// Bake real-time fur and grass assets from glTF meshes, and inspect the baked packs.
+#[derive(Parser, Debug)]
+#[command(name = "furbake", version, after_help = EXIT_CODES)]
+pub struct Cli {
+    /// Print nothing but errors (no progress bar, no summaries).
+    #[arg(short, long, global = true)]
+    pub quiet: bool,
+    /// Worker threads (default: one per core). Output is identical for any value.
+    #[arg(long, global = true, value_name = "N", value_parser = clap::value_parser!(usize))]
+    pub threads: Option<usize>,
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The subcommands.
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Bake a glTF mesh (.glb, or .gltf with external buffers) into one pack file.
+    #[command(after_help = EXIT_CODES)]
+    Bake(BakeArgs),
+    /// Describe a pack or single-artifact file: sections, sizes, parameters, statistics.
+    #[command(after_help = EXIT_CODES)]
+    Inspect(InspectArgs),
+    /// Check everything in a file (header, table, checksums, every section's contents);
+    /// exit 0 when valid, 1 otherwise.
+    #[command(after_help = EXIT_CODES)]
+    Verify(VerifyArgs),
+    /// Write a file's atlases as PNG images and its description as JSON into a directory.
+    #[command(after_help = EXIT_CODES)]
+    Extract(ExtractArgs),
+}
+
+/// `furbake bake`
+#[derive(Args, Debug)]
+pub struct BakeArgs {
+    /// Input mesh (.glb or .gltf).
+    pub mesh: PathBuf,
+    /// Output pack file (written atomically: a failed bake leaves nothing behind).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Starting settings: `fur` (16 layers of 128², undercoat) or `grass` (64 layers of 64²).
+    #[arg(long, default_value = "fur")]
+    pub preset: String,
+    /// TOML file overriding any setting (same keys as the manifest's settings, e.g.
+    /// `[volume] layers = 32`).
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+    /// Override one setting, e.g. `--set volume.coat.density=0.1` (repeatable; applied after
+    /// --config).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
+    /// Master seed of every stochastic stage.
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Shell layers (volume.layers).
+    #[arg(long)]
+    pub layers: Option<u32>,
+    /// Shell texture size in texels (volume.resolution).
+    #[arg(long)]
+    pub resolution: Option<u32>,
+    /// Fur length in scene units, skin to outermost shell (shells.fur_length_m).
+    #[arg(long, value_name = "METRES")]
+    pub fur_length: Option<f32>,
+    /// Surface length per texture repeat in scene units (uv.repeat_m): the texel density.
+    #[arg(long, value_name = "METRES")]
+    pub repeat: Option<f32>,
+    /// Vertical slices composed onto the fin texture (volume.fin_slices).
+    #[arg(long)]
+    pub fin_slices: Option<u32>,
+    /// Bake without the undercoat pass.
+    #[arg(long)]
+    pub no_undercoat: bool,
+    /// Also write the atlases as PNG images into this directory.
+    #[arg(long, value_name = "DIR")]
+    pub png_dir: Option<PathBuf>,
+}
+
+/// `furbake inspect`
+#[derive(Args, Debug)]
+pub struct InspectArgs {
+    /// The file to describe.
+    pub file: PathBuf,
+    /// Print JSON (stable field names; see README) instead of a table.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// `furbake verify`
+#[derive(Args, Debug)]
+pub struct VerifyArgs {
+    /// The file to check.
+    pub file: PathBuf,
+}
+
+/// `furbake extract`
+#[derive(Args, Debug)]
+pub struct ExtractArgs {
+    /// The file to extract.
+    pub file: PathBuf,
+    /// Output directory (created if missing).
+    #[arg(short, long)]
+    pub output: PathBuf,
+}

@@ -1,0 +1,121 @@
+//! `furbake bake`: flags → validated [`BakeSettings`] plan → import → bake → atomic write.
+
+use std::io::IsTerminal;
+use std::path::Path;
+
+use anyhow::{Context, anyhow};
+use furbake_bake::{BakeSettings, Progress, Stage, bake, settings::dotted_override};
+use furbake_import::import_gltf;
+use indicatif::{ProgressBar, ProgressStyle};
+
+use crate::args::BakeArgs;
+use crate::failure::{Classify, Failure};
+
+/// Stage two of argument parsing: the preset, the config file, `--set` and the named flags,
+/// merged in that order and validated as a whole.
+pub fn plan(args: &BakeArgs) -> Result<BakeSettings, Failure> {
+    let mut settings = BakeSettings::preset(&args.preset).usage()?;
+    if let Some(path) = &args.config {
+        let text =
+            std::fs::read_to_string(path).with_context(|| format!("{}: cannot read config", path.display())).input()?;
+        let value: serde_json::Value =
+            toml::from_str(&text).with_context(|| format!("{}: invalid TOML", path.display())).input()?;
+        settings = settings.with_overrides(&value).with_context(|| format!("{}", path.display())).input()?;
+    }
+    let mut sets: Vec<String> = args.set.clone();
+    let mut named = |key: &str, v: Option<String>| {
+        if let Some(v) = v {
+            sets.push(format!("{key}={v}"));
+        }
+    };
+    named("seed", args.seed.map(|v| v.to_string()));
+    named("volume.layers", args.layers.map(|v| v.to_string()));
+    named("volume.resolution", args.resolution.map(|v| v.to_string()));
+    named("shells.fur_length_m", args.fur_length.map(|v| v.to_string()));
+    named("uv.repeat_m", args.repeat.map(|v| v.to_string()));
+    named("volume.fin_slices", args.fin_slices.map(|v| v.to_string()));
+    if args.no_undercoat {
+        sets.push("volume.undercoat=null".into());
+    }
+    for s in &sets {
+        settings =
+            settings.with_overrides(&dotted_override(s).usage()?).with_context(|| format!("--set {s}")).usage()?;
+    }
+    settings.validate().usage()?;
+    Ok(settings)
+}
+
+struct Bar(Option<ProgressBar>);
+
+impl Progress for Bar {
+    fn stage(&mut self, stage: Stage) {
+        if let Some(bar) = &self.0 {
+            bar.inc(1);
+            bar.set_message(stage.name());
+        }
+    }
+}
+
+/// Runs `furbake bake`.
+pub fn run(args: BakeArgs, quiet: bool) -> Result<(), Failure> {
+    let settings = plan(&args)?;
+    let show = !quiet && std::io::stderr().is_terminal();
+    let bar = show.then(|| {
+        let bar = ProgressBar::new(Stage::ALL.len() as u64 + 2);
+        bar.set_style(
+            ProgressStyle::with_template("{spinner} [{bar:20}] {pos}/{len} {msg}")
+                .expect("static template is valid")
+                .progress_chars("=> "),
+        );
+        bar.set_message("importing glTF");
+        bar
+    });
+    let imported = import_gltf(&args.mesh, &settings.import).input()?;
+    let mut progress = Bar(bar);
+    progress.stage_done_import();
+    let name = file_name(&args.mesh);
+    let baked = bake(&imported, &name, &settings, &mut progress)
+        .map_err(|e| anyhow!("{}: {e}", args.mesh.display()))
+        .input()?;
+    if let Some(bar) = &progress.0 {
+        bar.set_message("writing pack");
+    }
+    baked.to_writer().write_atomic(&args.output).input()?;
+    if let Some(dir) = &args.png_dir {
+        crate::png::write_atlases(dir, &baked.shells, &baked.fins).input()?;
+    }
+    if let Some(bar) = &progress.0 {
+        bar.finish_and_clear();
+    }
+    if !quiet {
+        for w in &imported.warnings {
+            eprintln!("furbake: warning: {w}");
+        }
+        let m = &baked.mesh;
+        eprintln!(
+            "baked {} → {}: {} triangles ({} furry, {} degenerate skipped), {} vertices, {} layers of {}², {} fin edges",
+            args.mesh.display(),
+            args.output.display(),
+            m.triangles.len(),
+            m.furry_triangles(),
+            m.stats.degenerate_triangles_skipped,
+            m.positions.len(),
+            baked.shells.params.layers,
+            baked.shells.params.resolution,
+            baked.fin_edges.vertices.len(),
+        );
+    }
+    Ok(())
+}
+
+impl Bar {
+    fn stage_done_import(&mut self) {
+        if let Some(bar) = &self.0 {
+            bar.inc(1);
+        }
+    }
+}
+
+fn file_name(p: &Path) -> String {
+    p.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| p.display().to_string())
+}

@@ -1,0 +1,261 @@
+//! `furbake inspect` and `furbake verify`: decode every section of a file with its typed decoder,
+//! describe it (human table or stable JSON), and check cross-section consistency.
+//!
+//! JSON layout (stable; documented in the README):
+//! `{ "file", "format_version", "file_size", "sections": [ { "index", "kind", "version",
+//! "offset", "size", "crc32", ...the section's own named fields } ], "statistics": {...} }`.
+//! A section's own field that would collide with a generic one is prefixed with the kind name
+//! (e.g. a topology's `kind` becomes `spring_topology_kind`).
+
+use std::path::Path;
+
+use anyhow::{Context, anyhow};
+use furbake_formats::sections::fin_atlas::FinAtlas;
+use furbake_formats::sections::fin_edges::FinEdges;
+use furbake_formats::sections::manifest::BakeManifest;
+use furbake_formats::sections::shell_atlas::ShellAtlas;
+use furbake_formats::sections::skin_mesh::SkinMesh;
+use furbake_formats::sections::triangle_uv_map::TriangleUvMap;
+use furbake_formats::{Pack, Section, SectionKind};
+use serde_json::{Map, Value, json};
+
+use crate::args::{InspectArgs, VerifyArgs};
+use crate::failure::{Classify, Failure};
+
+/// Every section of a pack, decoded.
+#[derive(Default)]
+pub struct Decoded {
+    pub manifest: Option<BakeManifest>,
+    pub mesh: Option<SkinMesh>,
+    pub shells: Option<ShellAtlas>,
+    pub fins: Option<FinAtlas>,
+    pub uv_map: Option<TriangleUvMap>,
+    pub fin_edges: Option<FinEdges>,
+    /// One summary per section, in table order (`None` for unknown kinds).
+    pub summaries: Vec<Option<Value>>,
+}
+
+/// Decodes every known section of `pack` (unknown kinds are listed, not decoded).
+pub fn decode_all(pack: &Pack) -> furbake_formats::Result<Decoded> {
+    let mut d = Decoded::default();
+    for (i, e) in pack.sections().iter().enumerate() {
+        let summary = match e.kind {
+            SectionKind::BAKE_MANIFEST => keep(&mut d.manifest, pack.decode(i)?),
+            SectionKind::SKIN_MESH => keep(&mut d.mesh, pack.decode(i)?),
+            SectionKind::SHELL_ATLAS => keep(&mut d.shells, pack.decode(i)?),
+            SectionKind::FIN_ATLAS => keep(&mut d.fins, pack.decode(i)?),
+            SectionKind::TRIANGLE_UV_MAP => keep(&mut d.uv_map, pack.decode(i)?),
+            SectionKind::FIN_EDGES => keep(&mut d.fin_edges, pack.decode(i)?),
+            _ => None,
+        };
+        d.summaries.push(summary);
+    }
+    Ok(d)
+}
+
+fn keep<S: Section>(slot: &mut Option<S>, value: S) -> Option<Value> {
+    let s = value.summary();
+    if slot.is_none() {
+        *slot = Some(value);
+    }
+    Some(s)
+}
+
+/// Cross-section checks: every artifact agrees with the skin mesh it was baked from.
+/// Returns the number of checks made.
+pub fn check_consistency(d: &Decoded) -> anyhow::Result<usize> {
+    let mut checks = 0;
+    if let Some(mesh) = &d.mesh {
+        let (v, f) = (mesh.positions.len(), mesh.triangles.len());
+        if let Some(uv) = &d.uv_map {
+            checks += 1;
+            if uv.corners.len() != f {
+                return Err(anyhow!("triangle UV map has {} triangles, the skin mesh {f}", uv.corners.len()));
+            }
+        }
+        if let Some(fe) = &d.fin_edges {
+            checks += 1;
+            if let Some(bad) = fe.vertices.iter().flatten().find(|&&i| i as usize >= v) {
+                return Err(anyhow!("fin edge vertex {bad} is outside the skin mesh's {v} vertices"));
+            }
+            checks += 1;
+            for (edge, &t) in fe.vertices.iter().zip(&fe.triangles) {
+                let tri =
+                    mesh.triangles.get(t as usize).ok_or_else(|| anyhow!("fin edge triangle {t} does not exist"))?;
+                if !(tri.contains(&edge[0]) && tri.contains(&edge[1])) {
+                    return Err(anyhow!("fin edge {edge:?} is not an edge of triangle {t}"));
+                }
+                if mesh.fur_mask[t as usize] == 0 {
+                    return Err(anyhow!("fin edge grows from bare triangle {t}"));
+                }
+            }
+        }
+    }
+    if let (Some(s), Some(f)) = (&d.shells, &d.fins) {
+        checks += 1;
+        if s.params.resolution != f.width {
+            return Err(anyhow!("fin atlas is {} wide but the shells are {}", f.width, s.params.resolution));
+        }
+    }
+    Ok(checks)
+}
+
+/// Reads, validates and decodes `path`.
+pub fn load(path: &Path) -> Result<(Pack, Decoded), Failure> {
+    let pack = Pack::read(path).input()?;
+    let decoded = decode_all(&pack).map_err(|e| e.with_path(path)).input()?;
+    check_consistency(&decoded).with_context(|| format!("{}: inconsistent pack", path.display())).input()?;
+    Ok((pack, decoded))
+}
+
+/// The JSON description of a pack (the `inspect --json` document).
+pub fn describe(path: &Path, pack: &Pack, d: &Decoded) -> Value {
+    let mut sections = Vec::new();
+    for (i, (e, summary)) in pack.sections().iter().zip(&d.summaries).enumerate() {
+        let mut obj = Map::new();
+        obj.insert("index".into(), json!(i));
+        obj.insert("kind".into(), json!(e.kind.to_string()));
+        obj.insert("version".into(), json!(e.version));
+        obj.insert("offset".into(), json!(e.offset));
+        obj.insert("size".into(), json!(e.length));
+        obj.insert("crc32".into(), json!(format!("{:08x}", e.crc32)));
+        if let Some(Value::Object(fields)) = summary {
+            for (k, v) in fields {
+                let key = if obj.contains_key(k) { format!("{}_{k}", e.kind) } else { k.clone() };
+                obj.insert(key, v.clone());
+            }
+        }
+        if e.kind == SectionKind::TRIANGLE_UV_MAP {
+            if let (Some(uv), Some(shells)) = (&d.uv_map, &d.shells) {
+                obj.insert("texels_per_m".into(), json!(shells.params.resolution as f32 / uv.repeat_m));
+            }
+        }
+        sections.push(Value::Object(obj));
+    }
+    let mut stats = Map::new();
+    if let Some(m) = &d.mesh {
+        stats.insert("triangles".into(), json!(m.triangles.len()));
+        stats.insert("furry_triangles".into(), json!(m.furry_triangles()));
+        stats.insert("vertices".into(), json!(m.positions.len()));
+        stats.insert("degenerate_triangles_skipped".into(), json!(m.stats.degenerate_triangles_skipped));
+    }
+    if let (Some(uv), Some(s)) = (&d.uv_map, &d.shells) {
+        stats.insert("texels_per_m".into(), json!(s.params.resolution as f32 / uv.repeat_m));
+    }
+    if let Some(s) = &d.shells {
+        stats.insert("hair_coverage_per_layer".into(), json!(s.coverage));
+        stats.insert("fur_length_m".into(), json!(s.fur_length_m));
+    }
+    if let Some(f) = &d.fin_edges {
+        stats.insert("fin_edges".into(), json!(f.vertices.len()));
+    }
+    let mut doc = json!({
+        "file": path.display().to_string(),
+        "format_version": format!("{}.{}", furbake_formats::VERSION_MAJOR, pack.minor_version()),
+        "file_size": pack.file_size(),
+        "sections": sections,
+        "statistics": stats,
+    });
+    tidy_f32(&mut doc);
+    doc
+}
+
+/// Rewrites numbers that are exactly an `f32` with the shortest decimal of that `f32`, so a
+/// stored 0.2f32 prints as 0.2 rather than 0.20000000298023224.
+fn tidy_f32(v: &mut Value) {
+    match v {
+        Value::Number(n) if n.is_f64() => {
+            let f = n.as_f64().unwrap_or(0.0);
+            let g = f as f32;
+            if g as f64 == f {
+                if let Some(m) = g.to_string().parse::<f64>().ok().and_then(serde_json::Number::from_f64) {
+                    *n = m;
+                }
+            }
+        }
+        Value::Array(a) => a.iter_mut().for_each(tidy_f32),
+        Value::Object(o) => o.values_mut().for_each(tidy_f32),
+        _ => {}
+    }
+}
+
+/// Runs `furbake inspect`.
+pub fn run_inspect(args: InspectArgs) -> Result<(), Failure> {
+    let (pack, decoded) = load(&args.file)?;
+    let doc = describe(&args.file, &pack, &decoded);
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&doc).expect("JSON values always serialise"));
+    } else {
+        print_table(&doc);
+    }
+    Ok(())
+}
+
+fn print_table(doc: &Value) {
+    println!(
+        "{}  (furbake format {}, {} bytes)",
+        doc["file"].as_str().unwrap_or(""),
+        doc["format_version"].as_str().unwrap_or(""),
+        doc["file_size"]
+    );
+    println!();
+    println!("{:>3}  {:<16} {:>3} {:>10} {:>10}  {}", "#", "kind", "ver", "offset", "size", "crc32");
+    let empty = Vec::new();
+    let sections = doc["sections"].as_array().unwrap_or(&empty);
+    for s in sections {
+        println!(
+            "{:>3}  {:<16} {:>3} {:>10} {:>10}  {}",
+            s["index"].as_u64().unwrap_or(0),
+            s["kind"].as_str().unwrap_or("?"),
+            s["version"].as_u64().unwrap_or(0),
+            s["offset"].as_u64().unwrap_or(0),
+            s["size"].as_u64().unwrap_or(0),
+            s["crc32"].as_str().unwrap_or("")
+        );
+    }
+    for s in sections {
+        println!();
+        println!("[{}] {}", s["index"], s["kind"].as_str().unwrap_or("?"));
+        if let Value::Object(fields) = s {
+            for (k, v) in fields {
+                if matches!(k.as_str(), "index" | "kind" | "version" | "offset" | "size" | "crc32") {
+                    continue;
+                }
+                println!("  {k:<30} {}", compact(v));
+            }
+        }
+    }
+    println!();
+    println!("statistics");
+    if let Value::Object(fields) = &doc["statistics"] {
+        for (k, v) in fields {
+            println!("  {k:<30} {}", compact(v));
+        }
+    }
+}
+
+fn compact(v: &Value) -> String {
+    match v {
+        Value::Array(a) if a.iter().all(|x| x.is_number()) => {
+            let items: Vec<String> =
+                a.iter().map(|x| x.as_f64().map_or(x.to_string(), |f| format!("{f:.3}"))).collect();
+            format!("[{}]", items.join(" "))
+        }
+        Value::Number(n) if n.is_f64() => format!("{:.6}", n.as_f64().unwrap_or(0.0)),
+        other => other.to_string(),
+    }
+}
+
+/// Runs `furbake verify`.
+pub fn run_verify(args: VerifyArgs, quiet: bool) -> Result<(), Failure> {
+    let (pack, decoded) = load(&args.file)?;
+    let checks = check_consistency(&decoded).input()?;
+    if !quiet {
+        println!(
+            "{}: ok ({} sections decoded and checksummed, {checks} cross-section checks)",
+            args.file.display(),
+            pack.sections().len()
+        );
+    }
+    Ok(())
+}

@@ -1,0 +1,59 @@
+//! Failures of a CLI command and their exit codes: 1 when the input (a mesh, a pack, a config
+//! file) is bad or unreadable, 2 when the command line itself is wrong. Messages are one line.
+
+/// Exit code for bad input or an invalid file.
+pub const EXIT_BAD_INPUT: u8 = 1;
+/// Exit code for a usage error (bad flags or settings).
+pub const EXIT_USAGE: u8 = 2;
+
+/// A failed command.
+#[derive(Debug)]
+pub enum Failure {
+    /// The input is bad (exit 1).
+    Input(anyhow::Error),
+    /// The command line or settings are wrong (exit 2).
+    Usage(anyhow::Error),
+}
+
+impl Failure {
+    /// The process exit code.
+    pub fn code(&self) -> u8 {
+        match self {
+            Failure::Input(_) => EXIT_BAD_INPUT,
+            Failure::Usage(_) => EXIT_USAGE,
+        }
+    }
+
+    /// The whole error chain on one line.
+    pub fn message(&self) -> String {
+        let e = match self {
+            Failure::Input(e) | Failure::Usage(e) => e,
+        };
+        let mut parts: Vec<String> = Vec::new();
+        for cause in e.chain() {
+            let s = cause.to_string();
+            // thiserror's `transparent`/`#[source]` chains often repeat the inner message.
+            if !parts.iter().any(|p| p.contains(&s)) {
+                parts.push(s);
+            }
+        }
+        parts.join(": ").replace('\n', " ")
+    }
+}
+
+/// Shorthands to classify any error.
+pub trait Classify<T> {
+    /// Marks an error as bad input (exit 1).
+    fn input(self) -> Result<T, Failure>;
+    /// Marks an error as a usage error (exit 2).
+    fn usage(self) -> Result<T, Failure>;
+}
+
+impl<T, E: Into<anyhow::Error>> Classify<T> for Result<T, E> {
+    fn input(self) -> Result<T, Failure> {
+        self.map_err(|e| Failure::Input(e.into()))
+    }
+    fn usage(self) -> Result<T, Failure> {
+        self.map_err(|e| Failure::Usage(e.into()))
+    }
+}

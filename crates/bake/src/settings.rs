@@ -1,0 +1,151 @@
+//! The bake plan: one settings struct per stage, presets (`fur`, `grass`), and deep-merged
+//! overrides from a config file or `--set key=value` flags. Parse, then plan: [`BakeSettings`] is
+//! validated as a whole before any stage runs, and it is what the manifest records.
+
+use furbake_formats::sections::shell_atlas::VolumeParams;
+use furbake_import::ImportSettings;
+use serde::{Deserialize, Serialize};
+
+use crate::BakeError;
+use crate::uv_map::UvSettings;
+use crate::volume;
+
+/// Settings of the shell geometry.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ShellSettings {
+    /// Distance from the skin to the outermost shell, in metres (scene units). `None` = a
+    /// fraction of the mesh's bounding-box diagonal given by `auto_fur_length_fraction`.
+    pub fur_length_m: Option<f32>,
+    /// Fur length as a fraction of the bounding-box diagonal when `fur_length_m` is unset.
+    /// `fur` preset 0.015, `grass` 0.04.
+    pub auto_fur_length_fraction: f32,
+}
+
+/// Every parameter of one bake.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BakeSettings {
+    /// Preset the settings started from (recorded in the manifest).
+    pub preset: String,
+    /// Master seed; every stochastic stage derives its own stream from it. Default 1.
+    pub seed: u64,
+    /// How the glTF is read (fur mask, welding).
+    pub import: ImportSettings,
+    /// The hair volume and the atlases sliced from it.
+    pub volume: VolumeParams,
+    /// Shell geometry.
+    pub shells: ShellSettings,
+    /// Per-triangle UV map.
+    pub uv: UvSettings,
+}
+
+/// Names of the built-in presets.
+pub const PRESETS: [&str; 2] = ["fur", "grass"];
+
+impl BakeSettings {
+    /// The settings of a named preset (`fur`: 16 layers of 128², undercoat; `grass`: 64 layers of
+    /// 64², longer blades, no undercoat).
+    pub fn preset(name: &str) -> Result<BakeSettings, BakeError> {
+        let (volume, fraction) = match name {
+            "fur" => (volume::fur_preset(), 0.015),
+            "grass" => (volume::grass_preset(), 0.04),
+            _ => {
+                return Err(BakeError::Settings {
+                    field: "preset".into(),
+                    what: format!("unknown preset {name:?} (known: {})", PRESETS.join(", ")),
+                });
+            }
+        };
+        Ok(BakeSettings {
+            preset: name.to_owned(),
+            seed: 1,
+            import: ImportSettings::default(),
+            volume,
+            shells: ShellSettings { fur_length_m: None, auto_fur_length_fraction: fraction },
+            uv: UvSettings::default(),
+        })
+    }
+
+    /// Applies `overrides` (a JSON object, e.g. parsed from TOML) on top of these settings: objects
+    /// merge key by key, anything else replaces. Unknown keys are errors that name the key.
+    pub fn with_overrides(&self, overrides: &serde_json::Value) -> Result<BakeSettings, BakeError> {
+        let mut base = serde_json::to_value(self).expect("settings are plain serde structs");
+        merge(&mut base, overrides);
+        serde_json::from_value(base).map_err(|e| BakeError::Settings { field: "config".into(), what: e.to_string() })
+    }
+
+    /// Checks every parameter's range.
+    pub fn validate(&self) -> Result<(), BakeError> {
+        volume::validate_volume_params(&self.volume)?;
+        let positive = |field: &str, v: f32| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(BakeError::Settings { field: field.into(), what: format!("{v} must be a positive finite number") })
+            }
+        };
+        if let Some(l) = self.shells.fur_length_m {
+            positive("shells.fur_length_m", l)?;
+        }
+        positive("shells.auto_fur_length_fraction", self.shells.auto_fur_length_fraction)?;
+        if let Some(r) = self.uv.repeat_m {
+            positive("uv.repeat_m", r)?;
+        }
+        Ok(())
+    }
+}
+
+/// Deep-merges `patch` into `base`.
+fn merge(base: &mut serde_json::Value, patch: &serde_json::Value) {
+    match (base, patch) {
+        (serde_json::Value::Object(b), serde_json::Value::Object(p)) => {
+            for (k, v) in p {
+                match b.get_mut(k) {
+                    Some(slot) if slot.is_object() && v.is_object() => merge(slot, v),
+                    _ => {
+                        b.insert(k.clone(), v.clone());
+                    }
+                }
+            }
+        }
+        (b, p) => *b = p.clone(),
+    }
+}
+
+/// Turns `a.b.c=value` into `{"a":{"b":{"c":value}}}`; the value is parsed as JSON when it can
+/// be (numbers, booleans, null, arrays), else taken as a string.
+pub fn dotted_override(assignment: &str) -> Result<serde_json::Value, BakeError> {
+    let (path, raw) = assignment.split_once('=').ok_or_else(|| BakeError::Settings {
+        field: assignment.into(),
+        what: "expected KEY=VALUE, e.g. volume.layers=32".into(),
+    })?;
+    let value = serde_json::from_str(raw.trim()).unwrap_or_else(|_| serde_json::Value::String(raw.trim().to_owned()));
+    let mut out = value;
+    for key in path.trim().split('.').rev() {
+        if key.is_empty() {
+            return Err(BakeError::Settings { field: path.into(), what: "empty key segment".into() });
+        }
+        out = serde_json::json!({ key: out });
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn overrides_merge_deeply_and_reject_unknown_keys() {
+        let base = BakeSettings::preset("fur").unwrap();
+        let s = base.with_overrides(&dotted_override("volume.layers=32").unwrap()).unwrap();
+        assert_eq!(s.volume.layers, 32);
+        assert_eq!(s.volume.resolution, base.volume.resolution, "untouched fields keep the preset");
+        let err = base.with_overrides(&dotted_override("volume.layerz=3").unwrap()).unwrap_err();
+        assert!(err.to_string().contains("layerz"), "{err}");
+        let s = base.with_overrides(&dotted_override("volume.undercoat=null").unwrap()).unwrap();
+        assert!(s.volume.undercoat.is_none());
+        assert!(BakeSettings::preset("fluff").is_err());
+        assert!(dotted_override("nokey").is_err());
+    }
+}

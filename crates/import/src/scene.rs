@@ -1,0 +1,551 @@
+//! Walking the scene: every mesh primitive reachable from the default scene (or scene 0, or every
+//! root node when the file has no scene), with node transforms (matrix or TRS) composed
+//! recursively, normals transformed by the inverse transpose and winding flipped under a
+//! mirroring transform. Triangle strips and fans are triangulated; points and lines are skipped
+//! with a warning. Skins, joints and morph targets are ignored: a skinned mesh is imported in its
+//! bind pose, i.e. its own POSITIONs under its node's world transform. The output is an unwelded
+//! triangle soup with the per-triangle fur mask already decided (SPEC "Import").
+
+use std::collections::BTreeSet;
+use std::path::Path;
+
+use glam::{DMat3, DMat4, DQuat, DVec3};
+use gltf::json;
+use gltf::json::accessor::Type;
+use gltf::json::mesh::{Mode, Semantic};
+use gltf::json::validation::Checked;
+
+use crate::accessor::{AccessorReader, Elements};
+use crate::limits::{MAX_NODE_DEPTH, MAX_NODE_VISITS, MAX_RAW_TRIANGLES, MAX_RAW_VERTICES};
+use crate::source::Asset;
+use crate::{FurMaskSource, ImportError, PrimitiveRef};
+
+/// The unwelded triangles of the whole scene, in world space, struct of arrays per raw vertex.
+#[derive(Default)]
+pub(crate) struct Soup {
+    pub positions: Vec<DVec3>,
+    /// The file's normal in world space (unit length), `None` where absent or unusable.
+    pub normals: Vec<Option<DVec3>>,
+    /// `COLOR_0 × baseColorFactor` (white × factor when absent).
+    pub colors: Vec<[f32; 4]>,
+    /// `TEXCOORD_0` (zeros where absent).
+    pub texcoords: Vec<[f32; 2]>,
+    /// Raw vertex indices, winding already corrected for mirroring transforms.
+    pub triangles: Vec<[u32; 3]>,
+    /// Per triangle: 1 furry, 0 bare.
+    pub fur: Vec<u8>,
+    /// Triangle primitives imported (node instances counted separately).
+    pub primitives: u32,
+    /// Whether every imported primitive had `TEXCOORD_0`.
+    pub all_have_texcoords: bool,
+    /// Whether some primitive had no `NORMAL` or some normal was unusable.
+    pub missing_normals: bool,
+    /// Whether some primitive had `COLOR_0`.
+    pub had_vertex_colors: bool,
+    /// Primitives skipped because they are points or lines.
+    pub skipped_primitives: u32,
+}
+
+/// The string a glTF file uses for a semantic (`POSITION`, `COLOR_0`, `_FUR`).
+fn semantic_name(s: &Semantic) -> String {
+    match s {
+        Semantic::Positions => "POSITION".to_string(),
+        Semantic::Normals => "NORMAL".to_string(),
+        Semantic::Tangents => "TANGENT".to_string(),
+        Semantic::Colors(n) => format!("COLOR_{n}"),
+        Semantic::TexCoords(n) => format!("TEXCOORD_{n}"),
+        Semantic::Joints(n) => format!("JOINTS_{n}"),
+        Semantic::Weights(n) => format!("WEIGHTS_{n}"),
+        Semantic::Extras(name) => format!("_{name}"),
+    }
+}
+
+/// Splits an index list into triangles for `mode` (glTF 2.0 §3.7.2.1 topology types).
+fn triangulate(mode: Mode, idx: &[u32]) -> Vec<[u32; 3]> {
+    match mode {
+        Mode::Triangles => idx.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
+        Mode::TriangleStrip => (0..idx.len().saturating_sub(2))
+            .map(|i| if i % 2 == 0 { [idx[i], idx[i + 1], idx[i + 2]] } else { [idx[i + 1], idx[i], idx[i + 2]] })
+            .collect(),
+        Mode::TriangleFan => (1..idx.len().saturating_sub(1)).map(|i| [idx[i], idx[i + 1], idx[0]]).collect(),
+        _ => Vec::new(),
+    }
+}
+
+fn mode_name(mode: Mode) -> &'static str {
+    match mode {
+        Mode::Points => "POINTS",
+        Mode::Lines => "LINES",
+        Mode::LineLoop => "LINE_LOOP",
+        Mode::LineStrip => "LINE_STRIP",
+        Mode::Triangles => "TRIANGLES",
+        Mode::TriangleStrip => "TRIANGLE_STRIP",
+        Mode::TriangleFan => "TRIANGLE_FAN",
+    }
+}
+
+/// The node's local transform: its matrix, or translation × rotation × scale.
+fn local_transform(node: &json::scene::Node) -> DMat4 {
+    if let Some(m) = node.matrix {
+        return DMat4::from_cols_array(&m.map(f64::from));
+    }
+    let t = node.translation.unwrap_or([0.0; 3]).map(f64::from);
+    let r = node.rotation.as_ref().map_or([0.0, 0.0, 0.0, 1.0], |q| q.0).map(f64::from);
+    let s = node.scale.unwrap_or([1.0; 3]).map(f64::from);
+    let q = DQuat::from_xyzw(r[0], r[1], r[2], r[3]);
+    // A non-unit quaternion is normalised; a zero one becomes NaN and is reported by the caller.
+    let q = q.normalize();
+    DMat4::from_scale_rotation_translation(DVec3::from(s), q, DVec3::from(t))
+}
+
+/// Walks the scene graph and gathers every triangle primitive into a [`Soup`].
+pub(crate) struct SceneWalker<'a> {
+    pub asset: &'a Asset,
+    pub file: &'a Path,
+    pub mask: &'a FurMaskSource,
+    pub soup: Soup,
+    pub warnings: Vec<String>,
+    on_path: Vec<bool>,
+    visits: u64,
+    /// Whether some primitive had the fur-mask attribute / colour.
+    mask_source_found: bool,
+    /// Material names used by imported primitives.
+    used_materials: BTreeSet<String>,
+    warned_skin: bool,
+    warned_morph: bool,
+    mask_warnings: u32,
+}
+
+impl<'a> SceneWalker<'a> {
+    pub fn new(asset: &'a Asset, file: &'a Path, mask: &'a FurMaskSource) -> Self {
+        SceneWalker {
+            asset,
+            file,
+            mask,
+            soup: Soup { all_have_texcoords: true, ..Soup::default() },
+            warnings: Vec::new(),
+            on_path: vec![false; asset.root.nodes.len()],
+            visits: 0,
+            mask_source_found: false,
+            used_materials: BTreeSet::new(),
+            warned_skin: false,
+            warned_morph: false,
+            mask_warnings: 0,
+        }
+    }
+
+    fn warn(&mut self, message: String) {
+        self.warnings.push(format!("{}: {message}", self.file.display()));
+    }
+
+    /// The root nodes to import: the default scene, else scene 0, else every node that is no
+    /// other node's child.
+    fn root_nodes(&mut self) -> Vec<usize> {
+        let root = &self.asset.root;
+        let scene = match root.scene {
+            Some(s) => root.scenes.get(s.value()),
+            None => root.scenes.first(),
+        };
+        if let Some(scene) = scene {
+            if root.scene.is_none() && root.scenes.len() > 1 {
+                self.warn("no default scene; importing scene 0".to_string());
+            }
+            return scene.nodes.iter().map(|n| n.value()).collect();
+        }
+        let mut is_child = vec![false; root.nodes.len()];
+        for node in &root.nodes {
+            for c in node.children.iter().flatten() {
+                if let Some(flag) = is_child.get_mut(c.value()) {
+                    *flag = true;
+                }
+            }
+        }
+        (0..root.nodes.len()).filter(|&i| !is_child[i]).collect()
+    }
+
+    /// Imports everything reachable from the scene, then checks the fur-mask source was usable.
+    pub fn walk(&mut self) -> Result<(), ImportError> {
+        for node in self.root_nodes() {
+            self.visit(node, DMat4::IDENTITY, 0)?;
+        }
+        match self.mask {
+            FurMaskSource::VertexColor { .. } if !self.mask_source_found && self.soup.primitives > 0 => {
+                return Err(ImportError::FurMask {
+                    file: self.file.to_path_buf(),
+                    message: "fur mask source is vertex_color, but no imported primitive has COLOR_0".to_string(),
+                });
+            }
+            FurMaskSource::Attribute { name, .. } if !self.mask_source_found && self.soup.primitives > 0 => {
+                return Err(ImportError::FurMask {
+                    file: self.file.to_path_buf(),
+                    message: format!("no imported primitive has the vertex attribute {name}"),
+                });
+            }
+            FurMaskSource::Materials { names } => {
+                let missing: Vec<&String> = names.iter().filter(|n| !self.used_materials.contains(*n)).collect();
+                if !missing.is_empty() {
+                    let used: Vec<&String> = self.used_materials.iter().collect();
+                    self.warn(format!(
+                        "fur mask names material(s) {missing:?} that no imported primitive uses (used: {used:?})"
+                    ));
+                }
+            }
+            _ => {}
+        }
+        Ok(())
+    }
+
+    fn scene_error(&self, node: usize, message: String) -> ImportError {
+        ImportError::Scene { file: self.file.to_path_buf(), node, message }
+    }
+
+    fn visit(&mut self, index: usize, parent: DMat4, depth: usize) -> Result<(), ImportError> {
+        let asset = self.asset;
+        let node = asset
+            .root
+            .nodes
+            .get(index)
+            .ok_or_else(|| self.scene_error(index, "the node does not exist".to_string()))?;
+        if self.on_path[index] {
+            return Err(self.scene_error(index, "the node hierarchy has a cycle through this node".to_string()));
+        }
+        if depth >= MAX_NODE_DEPTH {
+            return Err(self.scene_error(index, format!("the node hierarchy is deeper than {MAX_NODE_DEPTH}")));
+        }
+        self.visits += 1;
+        if self.visits > MAX_NODE_VISITS {
+            return Err(ImportError::TooLarge {
+                file: self.file.to_path_buf(),
+                what: "the number of node instances in the scene".to_string(),
+                count: self.visits,
+                limit: MAX_NODE_VISITS,
+            });
+        }
+        let world = parent * local_transform(node);
+        if !world.is_finite() {
+            return Err(self.scene_error(index, "the node's world transform is not finite".to_string()));
+        }
+        if let Some(mesh) = node.mesh {
+            if node.skin.is_some() && !self.warned_skin {
+                self.warned_skin = true;
+                self.warn("skinned mesh: importing the bind pose (skins, joints and animations are ignored)".to_string());
+            }
+            self.import_mesh(mesh.value(), world)?;
+        }
+        self.on_path[index] = true;
+        for child in node.children.iter().flatten() {
+            self.visit(child.value(), world, depth + 1)?;
+        }
+        self.on_path[index] = false;
+        Ok(())
+    }
+
+    fn import_mesh(&mut self, mesh_index: usize, world: DMat4) -> Result<(), ImportError> {
+        let asset = self.asset;
+        let mesh = asset.root.meshes.get(mesh_index).ok_or_else(|| ImportError::InvalidGltf {
+            file: self.file.to_path_buf(),
+            message: format!("mesh {mesh_index} does not exist"),
+        })?;
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            let at = PrimitiveRef { mesh: mesh_index, mesh_name: mesh.name.clone(), primitive: p };
+            self.import_primitive(primitive, &at, world)?;
+        }
+        Ok(())
+    }
+
+    fn non_finite(&self, at: &PrimitiveRef, attribute: &str, vertex: usize, value: &[f64]) -> ImportError {
+        ImportError::NonFinite {
+            file: self.file.to_path_buf(),
+            at: at.clone(),
+            attribute: attribute.to_string(),
+            vertex,
+            value: value.iter().map(|&v| v as f32).collect(),
+        }
+    }
+
+    /// Reads an optional attribute, checking its count and that every value is finite.
+    fn read_optional(
+        &self,
+        reader: &AccessorReader<'_>,
+        primitive: &json::mesh::Primitive,
+        name: &str,
+        types: &[Type],
+        vertex_count: usize,
+    ) -> Result<Option<Elements>, ImportError> {
+        let Some((_, &acc)) = primitive.attributes.iter().find(|(s, _)| match s {
+            Checked::Valid(s) => semantic_name(s) == name,
+            Checked::Invalid => false,
+        }) else {
+            return Ok(None);
+        };
+        let e = reader.read(name, acc.value(), types)?;
+        if e.count() != vertex_count {
+            return Err(ImportError::Accessor {
+                file: self.file.to_path_buf(),
+                at: reader.at.clone(),
+                attribute: name.to_string(),
+                accessor: acc.value(),
+                message: format!("{} elements, but POSITION has {vertex_count}", e.count()),
+            });
+        }
+        if name != "NORMAL" {
+            // Normals are allowed to be unusable (they are regenerated); other attributes are not.
+            if let Some(v) = (0..vertex_count).find(|&v| e.get(v).iter().any(|x| !x.is_finite())) {
+                return Err(self.non_finite(reader.at, name, v, e.get(v)));
+            }
+        }
+        Ok(Some(e))
+    }
+
+    fn import_primitive(
+        &mut self,
+        primitive: &json::mesh::Primitive,
+        at: &PrimitiveRef,
+        world: DMat4,
+    ) -> Result<(), ImportError> {
+        let asset = self.asset;
+        let file = self.file;
+        let mode = match primitive.mode {
+            Checked::Valid(m) => m,
+            Checked::Invalid => {
+                return Err(ImportError::InvalidGltf {
+                    file: file.to_path_buf(),
+                    message: format!("{at}: invalid primitive mode"),
+                });
+            }
+        };
+        if !matches!(mode, Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan) {
+            self.soup.skipped_primitives += 1;
+            self.warn(format!("{at}: skipped, mode {} has no triangles", mode_name(mode)));
+            return Ok(());
+        }
+        if primitive.targets.as_ref().is_some_and(|t| !t.is_empty()) && !self.warned_morph {
+            self.warned_morph = true;
+            self.warn(format!("{at}: morph targets ignored, the base shape is imported"));
+        }
+        let reader = AccessorReader { root: &asset.root, buffers: &asset.buffers, file, at };
+        let Some(pos_acc) = primitive.attributes.get(&Checked::Valid(Semantic::Positions)) else {
+            return Err(ImportError::MissingPosition { file: file.to_path_buf(), at: at.clone() });
+        };
+        let positions = reader.read("POSITION", pos_acc.value(), &[Type::Vec3])?;
+        let n = positions.count();
+        if let Some(v) = (0..n).find(|&v| positions.get(v).iter().any(|x| !x.is_finite())) {
+            return Err(self.non_finite(at, "POSITION", v, positions.get(v)));
+        }
+        let total = self.soup.positions.len() as u64 + n as u64;
+        if total > MAX_RAW_VERTICES {
+            return Err(ImportError::TooLarge {
+                file: file.to_path_buf(),
+                what: "the number of vertices in the scene (before welding)".to_string(),
+                count: total,
+                limit: MAX_RAW_VERTICES,
+            });
+        }
+        let normals = self.read_optional(&reader, primitive, "NORMAL", &[Type::Vec3], n)?;
+        let colors = self.read_optional(&reader, primitive, "COLOR_0", &[Type::Vec3, Type::Vec4], n)?;
+        let uvs = self.read_optional(&reader, primitive, "TEXCOORD_0", &[Type::Vec2], n)?;
+        let mask_attr = match self.mask {
+            FurMaskSource::Attribute { name, .. } => {
+                let full = if name.starts_with('_') { name.clone() } else { format!("_{name}") };
+                match self.read_optional(&reader, primitive, &full, &[Type::Scalar], n)? {
+                    Some(e) => Some(e),
+                    None => self.read_optional(&reader, primitive, name, &[Type::Scalar], n)?,
+                }
+            }
+            _ => None,
+        };
+
+        let indices: Vec<u32> = match primitive.indices {
+            Some(acc) => {
+                let idx = reader.read_indices(acc.value())?;
+                if let Some(position) = idx.iter().position(|&i| i as usize >= n) {
+                    return Err(ImportError::IndexOutOfRange {
+                        file: file.to_path_buf(),
+                        at: at.clone(),
+                        position,
+                        index: idx[position],
+                        vertex_count: n,
+                    });
+                }
+                idx
+            }
+            None => (0..n as u32).collect(),
+        };
+        if indices.len() < 3 {
+            return Err(ImportError::PrimitiveWithoutTriangles {
+                file: file.to_path_buf(),
+                at: at.clone(),
+                elements: indices.len(),
+            });
+        }
+        if mode == Mode::Triangles && indices.len() % 3 != 0 {
+            self.warn(format!(
+                "{at}: {} indices is not a multiple of 3; the last {} ignored",
+                indices.len(),
+                indices.len() % 3
+            ));
+        }
+        let mut local = triangulate(mode, &indices);
+        let total = self.soup.triangles.len() as u64 + local.len() as u64;
+        if total > MAX_RAW_TRIANGLES {
+            return Err(ImportError::TooLarge {
+                file: file.to_path_buf(),
+                what: "the number of triangles in the scene".to_string(),
+                count: total,
+                limit: MAX_RAW_TRIANGLES,
+            });
+        }
+
+        // Material: base colour factor and name.
+        let material = primitive.material.and_then(|m| asset.root.materials.get(m.value()));
+        let factor = material.map_or([1.0; 4], |m| m.pbr_metallic_roughness.base_color_factor.0);
+        let material_name = material.and_then(|m| m.name.clone());
+        if let Some(name) = &material_name {
+            self.used_materials.insert(name.clone());
+        }
+
+        // Transforms: positions by `world`; normals by the inverse transpose of its 3×3 part,
+        // computed as the cofactor matrix (columns c1×c2, c2×c0, c0×c1) times sign(det), which
+        // stays defined for singular matrices. A negative determinant mirrors: flip the winding.
+        let m3 = DMat3::from_mat4(world);
+        let det = m3.determinant();
+        let (c0, c1, c2) = (m3.x_axis, m3.y_axis, m3.z_axis);
+        let normal_matrix = DMat3::from_cols(c1.cross(c2), c2.cross(c0), c0.cross(c1)) * det.signum();
+        if det < 0.0 {
+            for t in &mut local {
+                t.swap(1, 2);
+            }
+        }
+
+        let base = self.soup.positions.len() as u32;
+        let mut bad_normals = 0usize;
+        for v in 0..n {
+            let p = positions.get(v);
+            let wp = world.transform_point3(DVec3::new(p[0], p[1], p[2]));
+            // Finite in f64 is not enough: the skin stores f32.
+            if !wp.as_vec3().is_finite() {
+                return Err(self.non_finite(at, "POSITION (after node transform)", v, &wp.to_array()));
+            }
+            self.soup.positions.push(wp);
+            let normal = normals.as_ref().and_then(|e| {
+                let q = e.get(v);
+                let wn = (normal_matrix * DVec3::new(q[0], q[1], q[2])).normalize_or_zero();
+                if wn == DVec3::ZERO || !wn.is_finite() {
+                    bad_normals += 1;
+                    None
+                } else {
+                    Some(wn)
+                }
+            });
+            self.soup.normals.push(normal);
+            let rgba = colors.as_ref().map_or([1.0; 4], |e| {
+                let c = e.get(v);
+                [c[0] as f32, c[1] as f32, c[2] as f32, if c.len() > 3 { c[3] as f32 } else { 1.0 }]
+            });
+            let color = [rgba[0] * factor[0], rgba[1] * factor[1], rgba[2] * factor[2], rgba[3] * factor[3]];
+            if !color.iter().all(|c| c.is_finite()) {
+                let value = color.map(f64::from);
+                return Err(self.non_finite(at, "COLOR_0 × baseColorFactor", v, &value));
+            }
+            self.soup.colors.push(color);
+            let uv = uvs.as_ref().map_or([0.0; 2], |e| [e.get(v)[0] as f32, e.get(v)[1] as f32]);
+            self.soup.texcoords.push(uv);
+        }
+        if normals.is_none() || bad_normals > 0 {
+            self.soup.missing_normals = true;
+        }
+        if bad_normals > 0 {
+            self.warn(format!("{at}: {bad_normals} zero or non-finite normals replaced by generated ones"));
+        }
+        self.soup.had_vertex_colors |= colors.is_some();
+        self.soup.all_have_texcoords &= uvs.is_some();
+
+        // Per-triangle fur mask from the corners' raw values.
+        let mean = |t: &[u32; 3], f: &dyn Fn(usize) -> f64| t.iter().map(|&i| f(i as usize)).sum::<f64>() / 3.0;
+        let furry: Vec<u8> = match self.mask {
+            FurMaskSource::All => vec![1; local.len()],
+            FurMaskSource::VertexColor { channel, threshold } => {
+                let ch = channel.index();
+                match &colors {
+                    Some(e) => {
+                        self.mask_source_found = true;
+                        let value = |v: usize| e.get(v).get(ch).copied().unwrap_or(1.0);
+                        local.iter().map(|t| u8::from(mean(t, &value) >= f64::from(*threshold))).collect()
+                    }
+                    None => {
+                        self.note_mask_fallback(at, "has no COLOR_0; counted as white");
+                        vec![u8::from(*threshold <= 1.0); local.len()]
+                    }
+                }
+            }
+            FurMaskSource::Attribute { name, threshold } => match &mask_attr {
+                Some(e) => {
+                    self.mask_source_found = true;
+                    let value = |v: usize| e.get(v)[0];
+                    local.iter().map(|t| u8::from(mean(t, &value) >= f64::from(*threshold))).collect()
+                }
+                None => {
+                    self.note_mask_fallback(at, &format!("has no attribute {name}; its triangles are bare"));
+                    vec![0; local.len()]
+                }
+            },
+            FurMaskSource::Materials { names } => {
+                let furry = material_name.as_ref().is_some_and(|m| names.contains(m));
+                vec![u8::from(furry); local.len()]
+            }
+        };
+
+        self.soup.triangles.extend(local.iter().map(|t| [t[0] + base, t[1] + base, t[2] + base]));
+        self.soup.fur.extend(furry);
+        self.soup.primitives += 1;
+        Ok(())
+    }
+
+    fn note_mask_fallback(&mut self, at: &PrimitiveRef, what: &str) {
+        self.mask_warnings += 1;
+        if self.mask_warnings <= 8 {
+            self.warn(format!("{at}: fur mask: the primitive {what}"));
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn strips_and_fans_keep_a_consistent_winding() {
+        let strip = triangulate(Mode::TriangleStrip, &[0, 1, 2, 3, 4]);
+        assert_eq!(strip, vec![[0, 1, 2], [2, 1, 3], [2, 3, 4]]);
+        let fan = triangulate(Mode::TriangleFan, &[0, 1, 2, 3]);
+        assert_eq!(fan, vec![[1, 2, 0], [2, 3, 0]]);
+        let tris = triangulate(Mode::Triangles, &[0, 1, 2, 3, 4]);
+        assert_eq!(tris, vec![[0, 1, 2]]);
+        assert!(triangulate(Mode::Lines, &[0, 1, 2]).is_empty());
+    }
+
+    #[test]
+    fn cofactor_normal_matrix_matches_inverse_transpose() {
+        let m = DMat4::from_scale_rotation_translation(
+            DVec3::new(2.0, -0.5, 3.0),
+            DQuat::from_axis_angle(DVec3::new(1.0, 2.0, 3.0).normalize(), 0.7),
+            DVec3::new(1.0, 2.0, 3.0),
+        );
+        let m3 = DMat3::from_mat4(m);
+        let det = m3.determinant();
+        let cof = DMat3::from_cols(
+            m3.y_axis.cross(m3.z_axis),
+            m3.z_axis.cross(m3.x_axis),
+            m3.x_axis.cross(m3.y_axis),
+        ) * det.signum();
+        let it = m3.inverse().transpose();
+        let mut checked = 0;
+        for n in [DVec3::X, DVec3::Y, DVec3::Z, DVec3::new(1.0, -2.0, 0.5)] {
+            let a = (cof * n).normalize();
+            let b = (it * n).normalize();
+            assert!((a - b).length() < 1e-12, "{a} vs {b}");
+            checked += 1;
+        }
+        assert_eq!(checked, 4);
+    }
+}

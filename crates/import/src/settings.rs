@@ -1,0 +1,142 @@
+//! Import settings: which triangles carry fur (SPEC "Import": "which triangles carry fur from a
+//! vertex attribute/colour or material name (default: all)") and how close two positions must be
+//! to be welded into one skin vertex. Serde-readable (TOML/JSON) with unknown fields rejected, so
+//! the CLI can read them from a config file and store them verbatim in the bake manifest.
+
+use serde::{Deserialize, Serialize};
+
+/// All settings of the import stage.
+///
+/// TOML example (every field optional; shown with the defaults except `fur_mask`):
+/// ```toml
+/// weld_tolerance = { relative = 1e-6 }   # or { absolute_m = 0.0001 }
+/// [fur_mask]
+/// source = "materials"                   # "all" | "vertex_color" | "attribute" | "materials"
+/// names = ["Fur", "Mane"]
+/// ```
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ImportSettings {
+    /// Which triangles carry fur. Default: [`FurMaskSource::All`].
+    pub fur_mask: FurMaskSource,
+    /// How close two positions must be to become one welded vertex.
+    /// Default: [`WeldTolerance::Relative`]`(1e-6)` of the bounding-box diagonal.
+    pub weld_tolerance: WeldTolerance,
+}
+
+/// Where the per-triangle fur mask comes from.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "source", rename_all = "snake_case", deny_unknown_fields)]
+pub enum FurMaskSource {
+    /// Every triangle carries fur (the default).
+    #[default]
+    All,
+    /// A triangle is furry when the mean of its three corners' `COLOR_0` channel is
+    /// `>= threshold`. The file's `COLOR_0` value is used as stored (not multiplied by the
+    /// material's base colour factor); a primitive without `COLOR_0` counts as white (1.0,
+    /// glTF's implied vertex colour) and produces a warning. It is an error when no imported
+    /// primitive has `COLOR_0`.
+    VertexColor {
+        /// The colour channel read.
+        channel: ColorChannel,
+        /// Threshold in `[0, 1]`.
+        threshold: f32,
+    },
+    /// A triangle is furry when the mean of its corners' values of the scalar vertex attribute
+    /// `name` (e.g. `_FUR`; float, or normalized unsigned byte/short) is `>= threshold`.
+    /// A primitive without the attribute counts as 0 (bare) and produces a warning. It is an
+    /// error when no imported primitive has the attribute.
+    Attribute {
+        /// Attribute name exactly as in the file (`_FUR`; the leading underscore may be omitted).
+        name: String,
+        /// Threshold, in the attribute's units (`[0, 1]` for normalized integers).
+        threshold: f32,
+    },
+    /// Triangles whose material's `name` is in `names` are furry; all others (including
+    /// primitives without a material) are bare. A listed name that no imported primitive uses
+    /// produces a warning.
+    Materials {
+        /// Material names, compared exactly (case-sensitive).
+        names: Vec<String>,
+    },
+}
+
+/// One channel of a vertex colour.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ColorChannel {
+    /// Red.
+    R,
+    /// Green.
+    G,
+    /// Blue.
+    B,
+    /// Alpha (1.0 for `vec3` colours).
+    A,
+}
+
+impl ColorChannel {
+    /// Index of the channel in an RGBA array.
+    pub fn index(self) -> usize {
+        match self {
+            ColorChannel::R => 0,
+            ColorChannel::G => 1,
+            ColorChannel::B => 2,
+            ColorChannel::A => 3,
+        }
+    }
+}
+
+/// The welding distance: positions closer than this become one vertex.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+pub enum WeldTolerance {
+    /// A fraction of the diagonal of the imported positions' bounding box (after node
+    /// transforms). Default `1e-6`.
+    Relative(f32),
+    /// An absolute distance in metres (scene units). `0` welds only bit-identical positions.
+    AbsoluteM(f32),
+}
+
+impl Default for WeldTolerance {
+    fn default() -> Self {
+        WeldTolerance::Relative(1e-6)
+    }
+}
+
+impl ImportSettings {
+    /// Checks the settings; returns a description of the first problem.
+    pub fn validate(&self) -> Result<(), String> {
+        match self.weld_tolerance {
+            WeldTolerance::Relative(f) if !(f.is_finite() && (0.0..=0.1).contains(&f)) => {
+                return Err(format!("weld_tolerance.relative = {f} (must be in [0, 0.1])"));
+            }
+            WeldTolerance::AbsoluteM(m) if !(m.is_finite() && m >= 0.0) => {
+                return Err(format!("weld_tolerance.absolute_m = {m} (must be finite and >= 0)"));
+            }
+            _ => {}
+        }
+        match &self.fur_mask {
+            FurMaskSource::All => {}
+            FurMaskSource::VertexColor { threshold, .. } => {
+                if !(threshold.is_finite() && (0.0..=1.0).contains(threshold)) {
+                    return Err(format!("fur_mask.threshold = {threshold} (must be in [0, 1])"));
+                }
+            }
+            FurMaskSource::Attribute { name, threshold } => {
+                if name.trim_start_matches('_').is_empty() {
+                    return Err("fur_mask.name is empty".to_string());
+                }
+                if !threshold.is_finite() {
+                    return Err(format!("fur_mask.threshold = {threshold} (must be finite)"));
+                }
+            }
+            FurMaskSource::Materials { names } => {
+                if names.is_empty() {
+                    return Err("fur_mask.names is empty (no triangle would carry fur)".to_string());
+                }
+            }
+        }
+        Ok(())
+    }
+}

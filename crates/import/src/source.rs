@@ -1,0 +1,332 @@
+//! Reading the asset: splitting a GLB container (validated with checked arithmetic, never
+//! trusting its header), parsing and validating the JSON with the `gltf` crate, refusing
+//! unsupported required extensions *before* the `gltf` crate sees them, and loading every buffer
+//! (GLB binary chunk, base64 `data:` URI or external file) with the input hash computed over the
+//! main file's bytes then each external buffer file's bytes, in buffer order.
+
+use std::path::{Path, PathBuf};
+
+use gltf::json;
+use sha2::{Digest, Sha256};
+
+use crate::ImportError;
+use crate::limits::MAX_FILE_BYTES;
+
+const GLB_MAGIC: &[u8; 4] = b"glTF";
+const CHUNK_JSON: u32 = 0x4E4F_534A;
+const CHUNK_BIN: u32 = 0x004E_4942;
+
+/// Required extensions that change nothing this importer reads (geometry, node transforms,
+/// `COLOR_0`, `TEXCOORD_0`, base colour factor, material names), so a file that requires them
+/// still imports correctly.
+const HARMLESS_EXTENSIONS: &[&str] = &[
+    "KHR_lights_punctual",
+    "KHR_materials_clearcoat",
+    "KHR_materials_emissive_strength",
+    "KHR_materials_ior",
+    "KHR_materials_iridescence",
+    "KHR_materials_sheen",
+    "KHR_materials_specular",
+    "KHR_materials_transmission",
+    "KHR_materials_unlit",
+    "KHR_materials_variants",
+    "KHR_materials_volume",
+    "KHR_materials_anisotropy",
+    "KHR_materials_dispersion",
+    "KHR_texture_basisu",
+    "KHR_texture_transform",
+    "EXT_texture_webp",
+    "EXT_texture_avif",
+];
+
+/// A parsed, validated asset with its buffers loaded.
+pub(crate) struct Asset {
+    /// The glTF JSON, validated by the `gltf` crate (indices in range, enums known); the
+    /// importer still reads it with `get()` so a validation gap cannot become a panic.
+    pub root: json::Root,
+    /// Buffer contents, each exactly its declared `byteLength` long.
+    pub buffers: Vec<Vec<u8>>,
+    /// Bytes hashed: the main file plus every external buffer file.
+    pub input_bytes: u64,
+    /// Lowercase hex SHA-256 over the main file then each external buffer file, in buffer order.
+    pub input_sha256: String,
+    /// Non-fatal findings (ignored extensions and the like).
+    pub warnings: Vec<String>,
+}
+
+#[derive(Debug)]
+struct Glb<'a> {
+    json: &'a [u8],
+    bin: Option<&'a [u8]>,
+}
+
+fn read_u32(bytes: &[u8], at: usize) -> Option<u32> {
+    let b = bytes.get(at..at.checked_add(4)?)?;
+    Some(u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+}
+
+/// Splits a GLB container into its JSON and BIN chunks, checking every length against the data.
+fn split_glb(bytes: &[u8]) -> Result<Glb<'_>, String> {
+    let version = read_u32(bytes, 4).ok_or("GLB header truncated (fewer than 12 bytes)")?;
+    if version != 2 {
+        return Err(format!("GLB container version {version} (only version 2 is glTF 2.0)"));
+    }
+    let declared = read_u32(bytes, 8).ok_or("GLB header truncated (fewer than 12 bytes)")? as usize;
+    if declared > bytes.len() {
+        return Err(format!("GLB header declares {declared} bytes but the file has only {}", bytes.len()));
+    }
+    let bytes = &bytes[..declared];
+    let mut offset = 12usize;
+    let mut json = None;
+    let mut bin = None;
+    let mut index = 0;
+    while offset < bytes.len() {
+        let (len, kind) = match (read_u32(bytes, offset), read_u32(bytes, offset + 4)) {
+            (Some(l), Some(k)) => (l as usize, k),
+            _ => return Err(format!("GLB chunk {index} header truncated at byte {offset}")),
+        };
+        let start = offset + 8;
+        let end = start
+            .checked_add(len)
+            .filter(|&e| e <= bytes.len())
+            .ok_or_else(|| format!("GLB chunk {index} ({len} bytes at byte {start}) runs past the end of the file"))?;
+        match (index, kind) {
+            (0, CHUNK_JSON) => json = Some(&bytes[start..end]),
+            (0, _) => return Err(format!("the first GLB chunk has type {kind:#010x}, not JSON")),
+            (1, CHUNK_BIN) => bin = Some(&bytes[start..end]),
+            _ => {} // Unknown chunks are skipped, as the GLB spec requires.
+        }
+        offset = end;
+        index += 1;
+    }
+    let json = json.ok_or("the GLB container has no JSON chunk")?;
+    Ok(Glb { json, bin })
+}
+
+/// Runs the `gltf` crate's validation (indices in range, enums known, sizes sane), minus the
+/// findings this importer handles itself with better errors: a missing `POSITION` (reported per
+/// primitive as [`ImportError::MissingPosition`]), missing accessor `min`/`max` (not needed: bounds
+/// are computed, so malformed ones are ignored too), and required extensions (already checked against [`HARMLESS_EXTENSIONS`]).
+fn validate(root: &json::Root) -> Result<(), String> {
+    use json::validation::{Error, Validate};
+    // gltf-json 1.4.1 indexes `accessors[POSITION]` unchecked in its primitive hook
+    // (mesh.rs:151) and panics on an out-of-range index; check that index first.
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            let position = primitive.attributes.get(&json::validation::Checked::Valid(json::mesh::Semantic::Positions));
+            if let Some(index) = position.filter(|i| i.value() >= root.accessors.len()) {
+                return Err(format!(
+                    "meshes[{m}].primitives[{p}].attributes[\"POSITION\"]: accessor {} does not exist ({} accessors)",
+                    index.value(),
+                    root.accessors.len()
+                ));
+            }
+        }
+    }
+    let mut errors = Vec::new();
+    root.validate(root, json::Path::new, &mut |path, error| {
+        let path = path().to_string();
+        let ours = match error {
+            Error::Missing => {
+                path.ends_with("[\"POSITION\"]") || path.ends_with(".min") || path.ends_with(".max")
+            }
+            Error::Invalid => path.ends_with(".min") || path.ends_with(".max"),
+            Error::Unsupported => path.starts_with("extensionsRequired"),
+            _ => false,
+        };
+        if !ours {
+            errors.push(format!("{path}: {error}"));
+        }
+    });
+    if errors.is_empty() {
+        return Ok(());
+    }
+    let more = if errors.len() > 5 { format!(" (and {} more)", errors.len() - 5) } else { String::new() };
+    errors.truncate(5);
+    Err(format!("validation failed: {}{more}", errors.join("; ")))
+}
+
+/// Decodes `%XX` escapes in a URI path.
+fn percent_decode(uri: &str) -> String {
+    let bytes = uri.as_bytes();
+    let mut out = Vec::with_capacity(bytes.len());
+    let mut i = 0;
+    while i < bytes.len() {
+        if bytes[i] == b'%' && i + 2 < bytes.len() {
+            let hex = std::str::from_utf8(&bytes[i + 1..i + 3]).ok().and_then(|h| u8::from_str_radix(h, 16).ok());
+            if let Some(b) = hex {
+                out.push(b);
+                i += 3;
+                continue;
+            }
+        }
+        out.push(bytes[i]);
+        i += 1;
+    }
+    String::from_utf8_lossy(&out).into_owned()
+}
+
+fn has_scheme(uri: &str) -> bool {
+    match uri.find(':') {
+        Some(colon) => {
+            let scheme = &uri[..colon];
+            colon > 1 && scheme.chars().all(|c| c.is_ascii_alphanumeric() || "+-.".contains(c))
+        }
+        None => false,
+    }
+}
+
+fn extension_hint(extension: &str) -> &'static str {
+    match extension {
+        "KHR_draco_mesh_compression" | "EXT_meshopt_compression" | "KHR_mesh_quantization" => {
+            " (re-export without mesh compression/quantization, e.g. `gltf-transform copy` or \
+             `gltfpack -noq`, or from your DCC tool with compression off)"
+        }
+        _ => "",
+    }
+}
+
+/// Parses `bytes` (a `.glb` or `.gltf`) and loads its buffers. `file` names the input in errors;
+/// `base_dir` resolves relative buffer URIs (`None`: external buffers are an error).
+pub(crate) fn load_asset(bytes: &[u8], file: &Path, base_dir: Option<&Path>) -> Result<Asset, ImportError> {
+    let invalid = |message: String| ImportError::InvalidGltf { file: file.to_path_buf(), message };
+    let (json_bytes, bin) = if bytes.starts_with(GLB_MAGIC) {
+        let glb = split_glb(bytes).map_err(invalid)?;
+        (glb.json, glb.bin)
+    } else {
+        (bytes, None)
+    };
+    let root: json::Root =
+        json::deserialize::from_slice(json_bytes).map_err(|e| invalid(format!("JSON: {e}")))?;
+
+    // Refuse unsupported required extensions before validation, which would report them
+    // obscurely (or, for compressed meshes, as missing accessors).
+    for extension in &root.extensions_required {
+        if !HARMLESS_EXTENSIONS.contains(&extension.as_str()) {
+            return Err(ImportError::UnsupportedExtension {
+                file: file.to_path_buf(),
+                extension: extension.clone(),
+                hint: extension_hint(extension).to_string(),
+            });
+        }
+    }
+    let mut warnings = Vec::new();
+    for extension in &root.extensions_used {
+        if extension == "EXT_mesh_gpu_instancing" {
+            warnings.push(format!(
+                "{}: EXT_mesh_gpu_instancing is used but ignored: only each node's own mesh is imported",
+                file.display()
+            ));
+        }
+    }
+
+    validate(&root).map_err(invalid)?;
+
+    let mut hasher = Sha256::new();
+    hasher.update(bytes);
+    let mut input_bytes = bytes.len() as u64;
+    let mut buffers = Vec::with_capacity(root.buffers.len());
+    for (index, buffer) in root.buffers.iter().enumerate() {
+        let buffer_error = |message: String| ImportError::Buffer { file: file.to_path_buf(), buffer: index, message };
+        let declared = buffer.byte_length.0;
+        if declared > MAX_FILE_BYTES {
+            return Err(ImportError::TooLarge {
+                file: file.to_path_buf(),
+                what: format!("buffer {index}'s byteLength"),
+                count: declared,
+                limit: MAX_FILE_BYTES,
+            });
+        }
+        let mut data: Vec<u8> = match &buffer.uri {
+            None => match (index, bin) {
+                (0, Some(bin)) => bin.to_vec(),
+                _ => return Err(buffer_error("has no uri and there is no GLB binary chunk for it".to_string())),
+            },
+            Some(uri) if uri.starts_with("data:") => {
+                let comma = uri.find(',').ok_or_else(|| buffer_error("data: URI without a ','".to_string()))?;
+                if !uri[..comma].ends_with(";base64") {
+                    return Err(buffer_error("only base64 data: URIs are supported".to_string()));
+                }
+                crate::base64::decode(&uri[comma + 1..]).map_err(|e| buffer_error(format!("data: URI: {e}")))?
+            }
+            Some(uri) => {
+                if has_scheme(uri) || uri.starts_with('/') || uri.starts_with('\\') {
+                    return Err(buffer_error(format!("uri {uri:?} is not a relative file reference")));
+                }
+                let dir = base_dir.ok_or_else(|| {
+                    buffer_error(format!("uri {uri:?} names an external file, but no base directory was given"))
+                })?;
+                let path: PathBuf = dir.join(percent_decode(uri));
+                let data = read_file_limited(&path, file)?;
+                hasher.update(&data);
+                input_bytes += data.len() as u64;
+                data
+            }
+        };
+        if (data.len() as u64) < declared {
+            return Err(buffer_error(format!("holds {} bytes but declares byteLength {declared}", data.len())));
+        }
+        data.truncate(declared as usize);
+        buffers.push(data);
+    }
+    let input_sha256 = hasher.finalize().iter().map(|b| format!("{b:02x}")).collect();
+    Ok(Asset { root, buffers, input_bytes, input_sha256, warnings })
+}
+
+/// Reads a whole file after checking its size against [`MAX_FILE_BYTES`].
+pub(crate) fn read_file_limited(path: &Path, file: &Path) -> Result<Vec<u8>, ImportError> {
+    let io = |source| ImportError::Io { file: file.to_path_buf(), what: path.to_path_buf(), source };
+    let len = std::fs::metadata(path).map_err(io)?.len();
+    if len > MAX_FILE_BYTES {
+        return Err(ImportError::TooLarge {
+            file: file.to_path_buf(),
+            what: format!("the size of {}", path.display()),
+            count: len,
+            limit: MAX_FILE_BYTES,
+        });
+    }
+    std::fs::read(path).map_err(io)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn glb_splitting_rejects_lying_lengths() {
+        let mut glb = Vec::new();
+        glb.extend_from_slice(b"glTF");
+        glb.extend_from_slice(&2u32.to_le_bytes());
+        glb.extend_from_slice(&0u32.to_le_bytes()); // patched below
+        glb.extend_from_slice(&4u32.to_le_bytes());
+        glb.extend_from_slice(&CHUNK_JSON.to_le_bytes());
+        glb.extend_from_slice(b"{}  ");
+        let total = glb.len() as u32;
+        glb[8..12].copy_from_slice(&total.to_le_bytes());
+        let ok = split_glb(&glb).unwrap();
+        assert_eq!(ok.json, b"{}  ");
+        assert!(ok.bin.is_none());
+
+        let mut lying = glb.clone();
+        lying[12..16].copy_from_slice(&u32::MAX.to_le_bytes());
+        assert!(split_glb(&lying).unwrap_err().contains("runs past the end"));
+        let mut long = glb.clone();
+        long[8..12].copy_from_slice(&(total + 1).to_le_bytes());
+        assert!(split_glb(&long).unwrap_err().contains("declares"));
+        let mut v1 = glb.clone();
+        v1[4] = 1;
+        assert!(split_glb(&v1).unwrap_err().contains("version 1"));
+        assert!(split_glb(&glb[..7]).is_err());
+    }
+
+    #[test]
+    fn percent_decoding_and_schemes() {
+        assert_eq!(percent_decode("a%20b.bin"), "a b.bin");
+        assert_eq!(percent_decode("100%"), "100%");
+        assert_eq!(percent_decode("x%zz"), "x%zz");
+        assert!(has_scheme("http://x/y.bin"));
+        assert!(has_scheme("file:///y.bin"));
+        assert!(!has_scheme("y.bin"));
+        assert!(!has_scheme("C:/y.bin")); // a drive letter is not a scheme (single letter)
+    }
+}

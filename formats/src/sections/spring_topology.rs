@@ -1,0 +1,525 @@
+//! One baked mass–spring topology (fur thesis §3.4.1, fig. 3.23–3.28): the masses, springs and
+//! sticks that move the shells, and the map from every shell vertex to the (root, tip) masses whose
+//! positions give its scale vector (eq. 3.35). Struct of arrays: one entry per mass, per spring,
+//! per stick and per shell vertex. Building topologies is `furbake-sim`'s job; this module only
+//! stores and validates them.
+
+use std::fmt;
+
+use serde::{Deserialize, Serialize};
+
+use super::{Section, check_finite, check_indices, checked_count};
+use crate::error::Result;
+use crate::record::{Record, RecordWriter};
+use crate::{FormatError, SectionKind};
+
+/// Marks a shell vertex that carries no fur (it belongs to bare triangles only): it has no masses.
+pub const NO_MASS: u32 = u32::MAX;
+
+/// Which of the eight topologies a section holds: an open set of `u32` codes (an unknown code is
+/// kept and printed as `unknown(N)`).
+#[derive(Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(transparent)]
+pub struct TopologyKind(pub u32);
+
+impl TopologyKind {
+    /// A mass on every shell layer, springs between consecutive layers (fig. 3.23).
+    pub const CHAIN: TopologyKind = TopologyKind(1);
+    /// `k` masses per chain on a subset of layers (fig. 3.24).
+    pub const REDUCED_CHAIN: TopologyKind = TopologyKind(2);
+    /// Root and tip mass per welded vertex, joined by a fixed-length stick (fig. 3.26).
+    pub const STICKS: TopologyKind = TopologyKind(3);
+    /// Root and tip mass per welded vertex, joined by a spring (fig. 3.25): 2V masses, V springs.
+    pub const SPRING_STICKS: TopologyKind = TopologyKind(4);
+    /// Spring–sticks plus springs along the mesh edges between tips (fig. 3.27): 2V, V+E.
+    pub const PRISMS: TopologyKind = TopologyKind(5);
+    /// Sticks with separate masses per triangle corner (fig. 3.28): 6F masses, 3F sticks.
+    pub const SEPARABLE_STICKS: TopologyKind = TopologyKind(6);
+    /// Spring–sticks with separate masses per triangle corner: 6F masses, 3F springs.
+    pub const SEPARABLE_SPRING_STICKS: TopologyKind = TopologyKind(7);
+    /// Prisms with separate masses per triangle corner: 6F masses, 6F springs.
+    pub const SEPARABLE_PRISMS: TopologyKind = TopologyKind(8);
+
+    /// Every kind this version knows, in code order.
+    pub const KNOWN: [TopologyKind; 8] = [
+        Self::CHAIN,
+        Self::REDUCED_CHAIN,
+        Self::STICKS,
+        Self::SPRING_STICKS,
+        Self::PRISMS,
+        Self::SEPARABLE_STICKS,
+        Self::SEPARABLE_SPRING_STICKS,
+        Self::SEPARABLE_PRISMS,
+    ];
+
+    /// The stable name used on the command line and in JSON, or `None` for unknown codes.
+    pub fn name(self) -> Option<&'static str> {
+        Some(match self {
+            Self::CHAIN => "chain",
+            Self::REDUCED_CHAIN => "reduced-chain",
+            Self::STICKS => "sticks",
+            Self::SPRING_STICKS => "spring-sticks",
+            Self::PRISMS => "prisms",
+            Self::SEPARABLE_STICKS => "separable-sticks",
+            Self::SEPARABLE_SPRING_STICKS => "separable-spring-sticks",
+            Self::SEPARABLE_PRISMS => "separable-prisms",
+            _ => return None,
+        })
+    }
+
+    /// Parses a name produced by [`TopologyKind::name`].
+    pub fn from_name(name: &str) -> Option<TopologyKind> {
+        Self::KNOWN.into_iter().find(|k| k.name() == Some(name))
+    }
+
+    /// True for the kinds with separate masses per triangle corner (fur can part).
+    pub fn is_separable(self) -> bool {
+        matches!(self, Self::SEPARABLE_STICKS | Self::SEPARABLE_SPRING_STICKS | Self::SEPARABLE_PRISMS)
+    }
+
+    /// True for the kinds whose root–tip links are fixed-length sticks instead of springs.
+    pub fn uses_sticks(self) -> bool {
+        matches!(self, Self::STICKS | Self::SEPARABLE_STICKS)
+    }
+}
+
+impl fmt::Display for TopologyKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.name() {
+            Some(n) => f.write_str(n),
+            None => write!(f, "unknown({})", self.0),
+        }
+    }
+}
+
+impl fmt::Debug for TopologyKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        fmt::Display::fmt(self, f)
+    }
+}
+
+/// The parameters a topology was built with (stored in the section's metadata). Defaults suit
+/// short fur (2 cm) on a mesh in metres.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TopologyParams {
+    /// Fur length: distance from a root mass to its tip mass along the vertex normal, metres.
+    /// Default 0.02.
+    pub fur_length_m: f32,
+    /// Masses per chain for `chain` (one per shell layer, skin included; thesis: 16) — default 16.
+    pub chain_layers: u32,
+    /// Masses per chain for `reduced-chain` (thesis fig. 3.24c: 3) — default 3. At least 2.
+    pub reduced_chain_masses: u32,
+    /// Total free mass of one hair chain (shared equally by its free masses), kg. Default 1e-4.
+    pub hair_mass_kg: f32,
+    /// Mass stored for anchored root masses (the thesis's "sufficiently large" skin mass), kg.
+    /// Anchored masses never move in the simulation; the value is informative. Default 1000.
+    pub root_mass_kg: f32,
+    /// Stiffness of one whole root-to-tip hair, N/m. Chain segments in series get
+    /// `stiffness × segments` each, so the chain as a whole has this stiffness. Default 10.
+    pub stiffness_n_per_m: f32,
+    /// Damping of root-to-tip springs and sticks (eq. 3.24, relative velocity), N·s/m. Default 0.005.
+    pub damping_n_s_per_m: f32,
+    /// Stiffness of prism springs between neighbouring tips, N/m. Default 10.
+    pub edge_stiffness_n_per_m: f32,
+    /// Damping of prism springs between neighbouring tips, N·s/m. Default 0.005.
+    pub edge_damping_n_s_per_m: f32,
+}
+
+impl Default for TopologyParams {
+    fn default() -> Self {
+        TopologyParams {
+            fur_length_m: 0.02,
+            chain_layers: 16,
+            reduced_chain_masses: 3,
+            hair_mass_kg: 1e-4,
+            root_mass_kg: 1000.0,
+            stiffness_n_per_m: 10.0,
+            damping_n_s_per_m: 0.005,
+            edge_stiffness_n_per_m: 10.0,
+            edge_damping_n_s_per_m: 0.005,
+        }
+    }
+}
+
+impl TopologyParams {
+    /// Fails unless every parameter is finite and in range.
+    pub fn validate(&self) -> Result<()> {
+        let reals = [
+            ("fur_length_m", self.fur_length_m),
+            ("hair_mass_kg", self.hair_mass_kg),
+            ("root_mass_kg", self.root_mass_kg),
+            ("stiffness_n_per_m", self.stiffness_n_per_m),
+            ("damping_n_s_per_m", self.damping_n_s_per_m),
+            ("edge_stiffness_n_per_m", self.edge_stiffness_n_per_m),
+            ("edge_damping_n_s_per_m", self.edge_damping_n_s_per_m),
+        ];
+        for (name, v) in reals {
+            if !v.is_finite() || v < 0.0 {
+                return Err(FormatError::invalid(format!("topology parameter {name} = {v} (must be finite, ≥ 0)")));
+            }
+        }
+        if self.hair_mass_kg <= 0.0 || self.root_mass_kg <= 0.0 {
+            return Err(FormatError::invalid("topology masses must be positive"));
+        }
+        if !(2..=1024).contains(&self.chain_layers) || !(2..=1024).contains(&self.reduced_chain_masses) {
+            return Err(FormatError::invalid(format!(
+                "chain_layers = {} and reduced_chain_masses = {} must lie in 2..=1024",
+                self.chain_layers, self.reduced_chain_masses
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// Statistics of the build (shown by `inspect`).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct TopologyStats {
+    /// Welded vertices of the skin mesh the topology was built on.
+    pub source_vertices: u32,
+    /// Triangles of the skin mesh the topology was built on.
+    pub source_triangles: u32,
+    /// Triangles skipped because they carry no fur.
+    pub bare_triangles: u32,
+    /// Vertices whose normal was zero and had to be replaced (face normal, else +Y).
+    pub normal_fallbacks: u32,
+}
+
+/// A mass–spring topology: masses, springs, sticks and the shell-vertex map, struct of arrays.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SpringTopology {
+    /// Which topology this is.
+    pub kind: TopologyKind,
+    /// Build parameters.
+    pub params: TopologyParams,
+    /// Build statistics.
+    pub stats: TopologyStats,
+    /// Per mass: rest position in the mesh frame, metres.
+    pub mass_rest_positions: Vec<[f32; 3]>,
+    /// Per mass: mass, kg (> 0).
+    pub mass_kg: Vec<f32>,
+    /// Per mass: 1 when anchored to the skin (never moves in the mesh frame), else 0.
+    pub mass_anchored: Vec<u8>,
+    /// Per spring: the two mass indices (distinct).
+    pub spring_ends: Vec<[u32; 2]>,
+    /// Per spring: rest length, metres (≥ 0).
+    pub spring_rest_lengths_m: Vec<f32>,
+    /// Per spring: Hooke constant (eq. 3.23), N/m (≥ 0).
+    pub spring_stiffness_n_per_m: Vec<f32>,
+    /// Per spring: viscosity constant (eq. 3.24), N·s/m (≥ 0).
+    pub spring_damping_n_s_per_m: Vec<f32>,
+    /// Per stick: the two mass indices (distinct; the first is the one nearer the skin).
+    pub stick_ends: Vec<[u32; 2]>,
+    /// Per stick: fixed length, metres (≥ 0).
+    pub stick_lengths_m: Vec<f32>,
+    /// Per shell vertex — per welded vertex for non-separable kinds, per triangle corner
+    /// (`3 × triangle + corner`) for separable ones: the (root, tip) masses of eq. 3.35, or
+    /// `[NO_MASS, NO_MASS]` for a vertex without fur.
+    pub shell_vertex_masses: Vec<[u32; 2]>,
+}
+
+#[derive(Serialize, Deserialize)]
+struct Meta {
+    kind: TopologyKind,
+    params: TopologyParams,
+    stats: TopologyStats,
+    masses: u64,
+    springs: u64,
+    sticks: u64,
+    shell_vertices: u64,
+}
+
+impl SpringTopology {
+    /// Number of anchored masses.
+    pub fn anchored_count(&self) -> usize {
+        self.mass_anchored.iter().filter(|&&a| a != 0).count()
+    }
+
+    /// Number of shell vertices that carry fur.
+    pub fn furry_shell_vertices(&self) -> usize {
+        self.shell_vertex_masses.iter().filter(|m| m[0] != NO_MASS).count()
+    }
+}
+
+impl Section for SpringTopology {
+    const KIND: SectionKind = SectionKind::SPRING_TOPOLOGY;
+    const VERSION: u16 = 1;
+
+    fn encode(&self) -> Vec<u8> {
+        let meta = Meta {
+            kind: self.kind,
+            params: self.params.clone(),
+            stats: self.stats.clone(),
+            masses: self.mass_kg.len() as u64,
+            springs: self.spring_ends.len() as u64,
+            sticks: self.stick_ends.len() as u64,
+            shell_vertices: self.shell_vertex_masses.len() as u64,
+        };
+        RecordWriter::new(&meta)
+            .array::<f32>(self.mass_rest_positions.as_flattened())
+            .array::<f32>(&self.mass_kg)
+            .array::<u8>(&self.mass_anchored)
+            .array::<u32>(self.spring_ends.as_flattened())
+            .array::<f32>(&self.spring_rest_lengths_m)
+            .array::<f32>(&self.spring_stiffness_n_per_m)
+            .array::<f32>(&self.spring_damping_n_s_per_m)
+            .array::<u32>(self.stick_ends.as_flattened())
+            .array::<f32>(&self.stick_lengths_m)
+            .array::<u32>(self.shell_vertex_masses.as_flattened())
+            .finish()
+    }
+
+    // Validation happens here once; consumers (the simulator, the runtime) trust the result:
+    // every index is in range, every real is finite, masses are positive, lengths and constants
+    // are non-negative, and shell vertices have either both masses or neither.
+    fn decode(payload: &[u8]) -> Result<Self> {
+        let r = Record::parse(payload)?;
+        let m: Meta = r.meta()?;
+        m.params.validate()?;
+        let as_count = |v: u64, what: &str| {
+            usize::try_from(v).map_err(|_| FormatError::invalid(format!("{what} count {v} does not fit in memory")))
+        };
+        let nm = as_count(m.masses, "mass")?;
+        let ns = as_count(m.springs, "spring")?;
+        let nt = as_count(m.sticks, "stick")?;
+        let nv = as_count(m.shell_vertices, "shell vertex")?;
+        // `array_exact` compares the claimed counts with the array lengths, which the record layer
+        // has already bounded by the payload size, so a lying count cannot cause an allocation.
+        let pos = r.array_exact::<f32>(0, checked_count(nm, 3, "mass positions")?, "mass rest positions")?;
+        let mass = r.array_exact::<f32>(1, nm, "mass_kg")?;
+        let anchored = r.array_exact::<u8>(2, nm, "mass_anchored")?;
+        let s_ends = r.array_exact::<u32>(3, checked_count(ns, 2, "spring ends")?, "spring ends")?;
+        let s_rest = r.array_exact::<f32>(4, ns, "spring rest lengths")?;
+        let s_k = r.array_exact::<f32>(5, ns, "spring stiffness")?;
+        let s_c = r.array_exact::<f32>(6, ns, "spring damping")?;
+        let t_ends = r.array_exact::<u32>(7, checked_count(nt, 2, "stick ends")?, "stick ends")?;
+        let t_len = r.array_exact::<f32>(8, nt, "stick lengths")?;
+        let shell = r.array_exact::<u32>(9, checked_count(nv, 2, "shell vertex masses")?, "shell vertex masses")?;
+
+        check_finite(&pos, "mass rest positions")?;
+        check_finite(&mass, "mass_kg")?;
+        check_finite(&s_rest, "spring rest lengths")?;
+        check_finite(&s_k, "spring stiffness")?;
+        check_finite(&s_c, "spring damping")?;
+        check_finite(&t_len, "stick lengths")?;
+        if let Some(i) = mass.iter().position(|&x| x <= 0.0) {
+            return Err(FormatError::invalid(format!("mass_kg[{i}] = {} (must be positive)", mass[i])));
+        }
+        if let Some(i) = anchored.iter().position(|&x| x > 1) {
+            return Err(FormatError::invalid(format!("mass_anchored[{i}] = {} (must be 0 or 1)", anchored[i])));
+        }
+        for (name, values) in [
+            ("spring rest lengths", &s_rest),
+            ("spring stiffness", &s_k),
+            ("spring damping", &s_c),
+            ("stick lengths", &t_len),
+        ] {
+            if let Some(i) = values.iter().position(|&x| x < 0.0) {
+                return Err(FormatError::invalid(format!("{name}[{i}] = {} is negative", values[i])));
+            }
+        }
+        check_indices(&s_ends, nm, "spring ends")?;
+        check_indices(&t_ends, nm, "stick ends")?;
+        for (what, ends) in [("spring", &s_ends), ("stick", &t_ends)] {
+            if let Some(i) = ends.chunks_exact(2).position(|e| e[0] == e[1]) {
+                return Err(FormatError::invalid(format!("{what} {i} joins mass {} to itself", ends[2 * i])));
+            }
+        }
+        for (i, e) in shell.chunks_exact(2).enumerate() {
+            let ok =
+                (e[0] == NO_MASS && e[1] == NO_MASS) || ((e[0] as usize) < nm && (e[1] as usize) < nm && e[0] != e[1]);
+            if !ok {
+                return Err(FormatError::invalid(format!(
+                    "shell vertex {i} maps to masses ({}, {}) (must be two distinct masses below {nm}, or none)",
+                    e[0], e[1]
+                )));
+            }
+        }
+        let pairs = |a: &[u32]| a.chunks_exact(2).map(|c| [c[0], c[1]]).collect::<Vec<_>>();
+        Ok(SpringTopology {
+            kind: m.kind,
+            params: m.params,
+            stats: m.stats,
+            mass_rest_positions: pos.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
+            mass_kg: mass.into_owned(),
+            mass_anchored: anchored.into_owned(),
+            spring_ends: pairs(&s_ends),
+            spring_rest_lengths_m: s_rest.into_owned(),
+            spring_stiffness_n_per_m: s_k.into_owned(),
+            spring_damping_n_s_per_m: s_c.into_owned(),
+            stick_ends: pairs(&t_ends),
+            stick_lengths_m: t_len.into_owned(),
+            shell_vertex_masses: pairs(&shell),
+        })
+    }
+
+    fn summary(&self) -> serde_json::Value {
+        serde_json::json!({
+            "kind": self.kind.to_string(),
+            "masses": self.mass_kg.len(),
+            "springs": self.spring_ends.len(),
+            "sticks": self.stick_ends.len(),
+            "anchored_masses": self.anchored_count(),
+            "shell_vertices": self.shell_vertex_masses.len(),
+            "furry_shell_vertices": self.furry_shell_vertices(),
+            "fur_length_m": self.params.fur_length_m,
+            "hair_mass_kg": self.params.hair_mass_kg,
+            "stiffness_n_per_m": self.params.stiffness_n_per_m,
+            "damping_n_s_per_m": self.params.damping_n_s_per_m,
+            "edge_stiffness_n_per_m": self.params.edge_stiffness_n_per_m,
+            "edge_damping_n_s_per_m": self.params.edge_damping_n_s_per_m,
+            "source_vertices": self.stats.source_vertices,
+            "source_triangles": self.stats.source_triangles,
+            "bare_triangles": self.stats.bare_triangles,
+            "normal_fallbacks": self.stats.normal_fallbacks,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample() -> SpringTopology {
+        SpringTopology {
+            kind: TopologyKind::PRISMS,
+            params: TopologyParams::default(),
+            stats: TopologyStats { source_vertices: 2, source_triangles: 0, bare_triangles: 0, normal_fallbacks: 0 },
+            mass_rest_positions: vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.02, 0.0], [1.0, 0.02, 0.0]],
+            mass_kg: vec![1000.0, 1000.0, 5e-5, 5e-5],
+            mass_anchored: vec![1, 1, 0, 0],
+            spring_ends: vec![[0, 2], [1, 3], [2, 3]],
+            spring_rest_lengths_m: vec![0.02, 0.02, 1.0],
+            spring_stiffness_n_per_m: vec![10.0, 10.0, 5.0],
+            spring_damping_n_s_per_m: vec![0.005, 0.005, 0.001],
+            stick_ends: vec![[0, 2]],
+            stick_lengths_m: vec![0.02],
+            shell_vertex_masses: vec![[0, 2], [1, 3], [NO_MASS, NO_MASS]],
+        }
+    }
+
+    #[test]
+    fn round_trip_and_summary() {
+        let t = sample();
+        let back = SpringTopology::decode(&t.encode()).expect("a freshly encoded topology decodes");
+        assert_eq!(back, t);
+        let s = t.summary();
+        assert_eq!(s["kind"], "prisms");
+        assert_eq!(s["masses"], 4);
+        assert_eq!(s["springs"], 3);
+        assert_eq!(s["sticks"], 1);
+        assert_eq!(s["furry_shell_vertices"], 2);
+    }
+
+    #[test]
+    fn kind_names_are_exact_and_open() {
+        let names: Vec<_> = TopologyKind::KNOWN.iter().map(|k| k.name().expect("known kinds have names")).collect();
+        assert_eq!(
+            names,
+            [
+                "chain",
+                "reduced-chain",
+                "sticks",
+                "spring-sticks",
+                "prisms",
+                "separable-sticks",
+                "separable-spring-sticks",
+                "separable-prisms"
+            ]
+        );
+        for k in TopologyKind::KNOWN {
+            assert_eq!(TopologyKind::from_name(k.name().expect("known")), Some(k));
+        }
+        assert_eq!(TopologyKind(99).to_string(), "unknown(99)");
+        let mut t = sample();
+        t.kind = TopologyKind(99);
+        assert_eq!(SpringTopology::decode(&t.encode()).expect("unknown kinds still decode").kind, TopologyKind(99));
+    }
+
+    /// Every corruption must come back as an `Invalid` error, never a panic.
+    #[test]
+    fn corrupted_payloads_are_rejected() {
+        let mut cases: Vec<(&str, SpringTopology)> = Vec::new();
+        let mut t = sample();
+        t.spring_ends[1] = [1, 4];
+        cases.push(("spring index out of range", t));
+        let mut t = sample();
+        t.stick_ends[0] = [2, 2];
+        cases.push(("self stick", t));
+        let mut t = sample();
+        t.mass_kg[3] = 0.0;
+        cases.push(("zero mass", t));
+        let mut t = sample();
+        t.mass_kg[2] = f32::NAN;
+        cases.push(("NaN mass", t));
+        let mut t = sample();
+        t.spring_rest_lengths_m[0] = -1.0;
+        cases.push(("negative rest length", t));
+        let mut t = sample();
+        t.mass_anchored[0] = 7;
+        cases.push(("anchored flag 7", t));
+        let mut t = sample();
+        t.shell_vertex_masses[2] = [NO_MASS, 1];
+        cases.push(("half-mapped shell vertex", t));
+        let mut t = sample();
+        t.mass_rest_positions[0][1] = f32::INFINITY;
+        cases.push(("infinite position", t));
+        let mut t = sample();
+        t.params.chain_layers = 0;
+        cases.push(("bad parameter", t));
+        let mut checked = 0;
+        for (what, t) in &cases {
+            let err = SpringTopology::decode(&t.encode()).expect_err(what);
+            assert!(err.is_bad_file(), "{what}: {err}");
+            checked += 1;
+        }
+        // Arrays that disagree with the counts in the metadata: drop one spring from one array.
+        let mut t = sample();
+        t.spring_stiffness_n_per_m.pop();
+        assert!(SpringTopology::decode(&t.encode()).is_err());
+        checked += 1;
+        assert_eq!(checked, cases.len() + 1);
+    }
+
+    /// Truncations and byte flips anywhere in the payload never panic.
+    #[test]
+    fn truncated_and_flipped_payloads_never_panic() {
+        let bytes = sample().encode();
+        let mut errors = 0;
+        for len in 0..bytes.len() {
+            if SpringTopology::decode(&bytes[..len]).is_err() {
+                errors += 1;
+            }
+        }
+        assert_eq!(errors, bytes.len(), "every strict prefix must be rejected");
+        let mut decoded = 0;
+        for i in 0..bytes.len() {
+            let mut b = bytes.clone();
+            b[i] ^= 0xA5;
+            if SpringTopology::decode(&b).is_ok() {
+                decoded += 1;
+            }
+        }
+        assert!(decoded < bytes.len(), "flipping bytes must break most payloads");
+    }
+
+    /// A metadata block claiming billions of masses over tiny arrays fails without allocating.
+    #[test]
+    fn lying_counts_fail_fast() {
+        let t = sample();
+        let meta = Meta {
+            kind: t.kind,
+            params: t.params.clone(),
+            stats: t.stats.clone(),
+            masses: u64::MAX / 2,
+            springs: 3,
+            sticks: 1,
+            shell_vertices: 3,
+        };
+        let bytes = RecordWriter::new(&meta)
+            .array::<f32>(t.mass_rest_positions.as_flattened())
+            .array::<f32>(&t.mass_kg)
+            .array::<u8>(&t.mass_anchored)
+            .finish();
+        assert!(SpringTopology::decode(&bytes).expect_err("lying count").is_bad_file());
+    }
+}

@@ -1,0 +1,238 @@
+//! End-to-end tests of the `furbake` binary: bake every real fixture, verify, inspect, extract;
+//! bad inputs give exit 1 and a one-line message and leave no file behind; usage errors exit 2;
+//! output is byte-identical for any thread count.
+
+use std::path::Path;
+
+mod common;
+mod golden;
+use common::*;
+
+#[test]
+fn every_real_fixture_bakes_verifies_inspects_and_extracts() {
+    let dir = tempfile::tempdir().unwrap();
+    let fixtures = real_fixtures();
+    assert!(fixtures.len() >= 6, "expected the six shared real fixtures, found {fixtures:?}");
+    let mut checked = 0;
+    for mesh in &fixtures {
+        let stem = mesh.file_stem().unwrap().to_string_lossy().into_owned();
+        let pack = dir.path().join(format!("{stem}.fbk"));
+        let out = furbake(&["bake", s(mesh), "-o", s(&pack), "--resolution", "64", "-q"]);
+        assert_ok(&out, &format!("bake {stem}"));
+        assert_ok(&furbake(&["verify", s(&pack)]), &format!("verify {stem}"));
+        let json = inspect_json(&pack);
+        let sections = json["sections"].as_array().unwrap();
+        let kinds: Vec<&str> = sections.iter().map(|s| s["kind"].as_str().unwrap()).collect();
+        for k in ["bake_manifest", "skin_mesh", "shell_atlas", "fin_atlas", "triangle_uv_map", "fin_edges"] {
+            assert!(kinds.contains(&k), "{stem}: no {k} in {kinds:?}");
+        }
+        for s in sections {
+            assert!(s["size"].as_u64().unwrap() > 0, "{stem}: empty section {s}");
+        }
+        let stats = &json["statistics"];
+        assert!(stats["triangles"].as_u64().unwrap() > 0);
+        assert!(stats["texels_per_m"].as_f64().unwrap() > 0.0);
+        assert_eq!(stats["hair_coverage_per_layer"].as_array().unwrap().len(), 16);
+        let ex = dir.path().join(format!("{stem}-png"));
+        assert_ok(&furbake(&["extract", s(&pack), "-o", s(&ex)]), &format!("extract {stem}"));
+        let grid = image::open(ex.join("shells_grid.png")).unwrap().to_luma8();
+        let lit = grid.pixels().filter(|p| p.0[0] > 128).count();
+        assert!(lit > 100, "{stem}: the shell grid shows no hair ({lit} bright pixels)");
+        let fins = image::open(ex.join("fins.png")).unwrap().to_luma8();
+        assert!(fins.pixels().any(|p| p.0[0] > 128), "{stem}: the fin texture is empty");
+        assert!(ex.join("metadata.json").exists());
+        checked += 1;
+    }
+    assert_eq!(checked, fixtures.len());
+}
+
+#[test]
+fn bake_is_byte_identical_for_any_thread_count() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = shared_fixture("Fox.glb");
+    let mut packs = Vec::new();
+    for threads in ["1", "2", "4"] {
+        let pack = dir.path().join(format!("fox-{threads}.fbk"));
+        assert_ok(&furbake(&["--threads", threads, "bake", s(&mesh), "-o", s(&pack), "-q"]), "bake");
+        packs.push(std::fs::read(&pack).unwrap());
+    }
+    assert!(packs.windows(2).all(|w| w[0] == w[1]), "packs differ between thread counts");
+    // A different seed gives different bytes (the seed is really used).
+    let other = dir.path().join("fox-seed2.fbk");
+    assert_ok(&furbake(&["bake", s(&mesh), "-o", s(&other), "--seed", "2", "-q"]), "bake seed 2");
+    assert_ne!(std::fs::read(&other).unwrap(), packs[0]);
+}
+
+#[test]
+fn grass_preset_and_config_overrides_reach_the_pack() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = dir.path().join("bake.toml");
+    std::fs::write(
+        &cfg,
+        "seed = 9\n[volume]\nlayers = 24\n[volume.coat]\ndensity = 0.2\n[shells]\nfur_length_m = 0.05\n",
+    )
+    .unwrap();
+    let pack = dir.path().join("box.fbk");
+    let mesh = shared_fixture("BoxVertexColors.glb");
+    let out = furbake(&[
+        "bake",
+        s(&mesh),
+        "-o",
+        s(&pack),
+        "--preset",
+        "grass",
+        "--config",
+        s(&cfg),
+        "--fin-slices",
+        "7",
+        "-q",
+    ]);
+    assert_ok(&out, "bake with config");
+    let json = inspect_json(&pack);
+    let shells = section(&json, "shell_atlas");
+    assert_eq!(shells["layers"], 24);
+    assert_eq!(shells["resolution"], 64, "grass preset resolution kept");
+    assert_eq!(shells["params"]["coat"]["density"], 0.2);
+    assert!((shells["fur_length_m"].as_f64().unwrap() - 0.05).abs() < 1e-6);
+    assert_eq!(section(&json, "fin_atlas")["slices"], 7);
+    let manifest = section(&json, "bake_manifest");
+    assert_eq!(manifest["seed"], 9);
+    assert_eq!(manifest["preset"], "grass");
+    assert_eq!(manifest["input_sha256"].as_str().unwrap().len(), 64);
+}
+
+#[test]
+fn corrupted_and_truncated_packs_exit_1_with_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let pack = dir.path().join("box.fbk");
+    assert_ok(&furbake(&["bake", s(&shared_fixture("Box.glb")), "-o", s(&pack), "--resolution", "16", "-q"]), "bake");
+    let bytes = std::fs::read(&pack).unwrap();
+    let mut cases = 0;
+    for (name, damaged) in [
+        ("truncated", bytes[..bytes.len() / 2].to_vec()),
+        ("empty", Vec::new()),
+        ("flipped", {
+            let mut b = bytes.clone();
+            let at = b.len() - 40;
+            b[at] ^= 0x20;
+            b
+        }),
+        ("not-a-pack", b"hello world, this is not a furbake container at all....................".to_vec()),
+    ] {
+        let bad = dir.path().join(format!("{name}.fbk"));
+        std::fs::write(&bad, &damaged).unwrap();
+        for cmd in ["verify", "inspect", "extract"] {
+            let mut args = vec![cmd, s(&bad)];
+            let ex = dir.path().join("ex");
+            if cmd == "extract" {
+                args.extend(["-o", s(&ex)]);
+            }
+            let out = furbake(&args);
+            assert_eq!(out.status.code(), Some(1), "{cmd} {name}: {}", stderr(&out));
+            let err = stderr(&out);
+            assert_eq!(err.trim_end().lines().count(), 1, "{cmd} {name}: not one line: {err}");
+            assert!(err.contains(&format!("{name}.fbk")), "{cmd} {name}: message does not name the file: {err}");
+            cases += 1;
+        }
+    }
+    assert_eq!(cases, 12);
+}
+
+#[test]
+fn broken_gltf_exits_1_and_leaves_no_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let cases: Vec<(&str, Vec<u8>)> = vec![
+        ("garbage.glb", b"glTF\x02\x00\x00\x00garbage".to_vec()),
+        ("truncated.glb", std::fs::read(shared_fixture("Fox.glb")).unwrap()[..5000].to_vec()),
+        ("empty.gltf", b"{\"asset\":{\"version\":\"2.0\"},\"scenes\":[{\"nodes\":[]}],\"scene\":0}".to_vec()),
+        (
+            "draco.gltf",
+            b"{\"asset\":{\"version\":\"2.0\"},\"extensionsUsed\":[\"KHR_draco_mesh_compression\"],\"extensionsRequired\":[\"KHR_draco_mesh_compression\"]}".to_vec(),
+        ),
+    ];
+    for (name, bytes) in &cases {
+        let input = dir.path().join(name);
+        std::fs::write(&input, bytes).unwrap();
+        let pack = dir.path().join(format!("{name}.fbk"));
+        let out = furbake(&["bake", s(&input), "-o", s(&pack)]);
+        assert_eq!(out.status.code(), Some(1), "{name}: {}", stderr(&out));
+        let err = stderr(&out);
+        assert_eq!(err.trim_end().lines().count(), 1, "{name}: {err}");
+        assert!(err.contains(name), "{name}: message does not name the file: {err}");
+        assert!(!pack.exists(), "{name}: a failed bake left {pack:?} behind");
+    }
+    let leftovers: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_name().to_string_lossy().ends_with(".tmp"))
+        .collect();
+    assert!(leftovers.is_empty(), "temporary files left: {leftovers:?}");
+    let err = stderr(&furbake(&["bake", s(&dir.path().join("draco.gltf")), "-o", s(&dir.path().join("x.fbk"))]));
+    assert!(err.contains("KHR_draco_mesh_compression"), "{err}");
+}
+
+#[test]
+fn usage_errors_exit_2() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = shared_fixture("Box.glb");
+    let out_path = dir.path().join("x.fbk");
+    for args in [
+        vec!["bake"],
+        vec!["frobnicate"],
+        vec!["bake", s(&mesh), "-o", s(&out_path), "--preset", "fluffy"],
+        vec!["bake", s(&mesh), "-o", s(&out_path), "--set", "volume.nonsense=1"],
+        vec!["bake", s(&mesh), "-o", s(&out_path), "--layers", "0"],
+        vec!["bake", s(&mesh), "-o", s(&out_path), "--fur-length", "-1"],
+    ] {
+        let out = furbake(&args);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {}", stderr(&out));
+        assert!(!out_path.exists());
+    }
+    let help = furbake(&["--help"]);
+    assert_eq!(help.status.code(), Some(0));
+    assert!(String::from_utf8_lossy(&help.stdout).contains("Exit codes"));
+}
+
+fn section<'a>(json: &'a serde_json::Value, kind: &str) -> &'a serde_json::Value {
+    json["sections"].as_array().unwrap().iter().find(|s| s["kind"] == kind).unwrap_or_else(|| panic!("no {kind}"))
+}
+
+fn inspect_json(pack: &Path) -> serde_json::Value {
+    let out = furbake(&["inspect", "--json", s(pack)]);
+    assert_ok(&out, "inspect --json");
+    serde_json::from_slice(&out.stdout).expect("inspect --json prints JSON")
+}
+
+#[test]
+fn bare_region_gets_fur_boundary_fins_and_the_table_inspects() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = furbake_import::testmesh::plane_with_bare_region(8, 2.0);
+    let input = dir.path().join("plane.gltf");
+    std::fs::write(&input, &mesh.gltf).unwrap();
+    let pack = dir.path().join("plane.fbk");
+    let out = furbake(&[
+        "bake",
+        s(&input),
+        "-o",
+        s(&pack),
+        "--resolution",
+        "16",
+        "-q",
+        "--set",
+        r#"import.fur_mask={"source":"materials","names":["fur"]}"#,
+    ]);
+    assert_ok(&out, "bake plane");
+    let json = inspect_json(&pack);
+    let mesh_json = section(&json, "skin_mesh");
+    assert_eq!(mesh_json["furry_triangles"].as_u64().unwrap() as usize, mesh.furry_triangles);
+    assert!(mesh.furry_triangles < mesh.triangles, "the fixture has a bare region");
+    let fins = section(&json, "fin_edges");
+    assert!(fins["fur_boundary_edges"].as_u64().unwrap() > 0, "{fins}");
+    assert!(fins["border_edges"].as_u64().unwrap() > 0, "{fins}");
+    let table = furbake(&["inspect", s(&pack)]);
+    assert_ok(&table, "inspect");
+    let text = String::from_utf8_lossy(&table.stdout);
+    for kind in ["skin_mesh", "shell_atlas", "fin_atlas", "triangle_uv_map", "fin_edges", "hair_coverage_per_layer"] {
+        assert!(text.contains(kind), "the table lacks {kind}");
+    }
+}
