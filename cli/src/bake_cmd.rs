@@ -70,7 +70,12 @@ pub fn run(args: BakeArgs, quiet: bool) -> Result<(), Failure> {
         bar.set_message("importing glTF");
         bar
     });
-    let imported = import_gltf(&args.mesh, &settings.import).input()?;
+    let imported = match import_gltf(&args.mesh, &settings.import) {
+        Ok(m) => m,
+        // Invalid import settings are the caller's mistake (exit 2); everything else is the file's.
+        Err(e @ furbake_import::ImportError::Settings { .. }) => return Err(Failure::Usage(e.into())),
+        Err(e) => return Err(Failure::Input(e.into())),
+    };
     let mut progress = Bar(bar);
     progress.stage_done_import();
     let name = file_name(&args.mesh);

@@ -16,7 +16,11 @@ const GOLDEN_DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../fixtures/golde
 /// (name, glTF bytes, extra bake flags)
 fn cases() -> Vec<(&'static str, Vec<u8>, Vec<&'static str>)> {
     vec![
-        ("grass_patch", testmesh::grass_patch(1.0).gltf, vec!["--preset", "grass", "--resolution", "16", "--layers", "8"]),
+        (
+            "grass_patch",
+            testmesh::grass_patch(1.0).gltf,
+            vec!["--preset", "grass", "--resolution", "16", "--layers", "8"],
+        ),
         ("sphere", testmesh::uv_sphere(6, 8, 0.5).gltf, vec!["--resolution", "32", "--seed", "5"]),
         ("bare_region", testmesh::plane_with_bare_region(4, 1.0).gltf, vec!["--resolution", "16"]),
     ]

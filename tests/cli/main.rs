@@ -236,3 +236,13 @@ fn bare_region_gets_fur_boundary_fins_and_the_table_inspects() {
         assert!(text.contains(kind), "the table lacks {kind}");
     }
 }
+
+#[test]
+fn invalid_import_settings_are_usage_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let out_path = dir.path().join("x.fbk");
+    let mesh = shared_fixture("Box.glb");
+    let out = furbake(&["bake", s(&mesh), "-o", s(&out_path), "--set", r#"import.weld_tolerance={"relative":-1}"#]);
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    assert!(!out_path.exists());
+}

@@ -100,10 +100,5 @@ fn import(
     if welded.mesh.furry_triangles() == 0 {
         warnings.push(format!("{}: no triangle carries fur under the chosen fur mask", file.display()));
     }
-    Ok(ImportedMesh {
-        mesh: welded.mesh,
-        input_bytes: asset.input_bytes,
-        input_sha256: asset.input_sha256,
-        warnings,
-    })
+    Ok(ImportedMesh { mesh: welded.mesh, input_bytes: asset.input_bytes, input_sha256: asset.input_sha256, warnings })
 }

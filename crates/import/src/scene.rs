@@ -228,7 +228,9 @@ impl<'a> SceneWalker<'a> {
         if let Some(mesh) = node.mesh {
             if node.skin.is_some() && !self.warned_skin {
                 self.warned_skin = true;
-                self.warn("skinned mesh: importing the bind pose (skins, joints and animations are ignored)".to_string());
+                self.warn(
+                    "skinned mesh: importing the bind pose (skins, joints and animations are ignored)".to_string(),
+                );
             }
             self.import_mesh(mesh.value(), world)?;
         }
@@ -247,7 +249,7 @@ impl<'a> SceneWalker<'a> {
             message: format!("mesh {mesh_index} does not exist"),
         })?;
         for (p, primitive) in mesh.primitives.iter().enumerate() {
-            let at = PrimitiveRef { mesh: mesh_index, mesh_name: mesh.name.clone(), primitive: p };
+            let at = PrimitiveRef { mesh: mesh_index, mesh_name: mesh.name.as_deref().map(Box::from), primitive: p };
             self.import_primitive(primitive, &at, world)?;
         }
         Ok(())
@@ -378,7 +380,7 @@ impl<'a> SceneWalker<'a> {
                 elements: indices.len(),
             });
         }
-        if mode == Mode::Triangles && indices.len() % 3 != 0 {
+        if mode == Mode::Triangles && !indices.len().is_multiple_of(3) {
             self.warn(format!(
                 "{at}: {} indices is not a multiple of 3; the last {} ignored",
                 indices.len(),
@@ -533,11 +535,8 @@ mod tests {
         );
         let m3 = DMat3::from_mat4(m);
         let det = m3.determinant();
-        let cof = DMat3::from_cols(
-            m3.y_axis.cross(m3.z_axis),
-            m3.z_axis.cross(m3.x_axis),
-            m3.x_axis.cross(m3.y_axis),
-        ) * det.signum();
+        let cof = DMat3::from_cols(m3.y_axis.cross(m3.z_axis), m3.z_axis.cross(m3.x_axis), m3.x_axis.cross(m3.y_axis))
+            * det.signum();
         let it = m3.inverse().transpose();
         let mut checked = 0;
         for n in [DVec3::X, DVec3::Y, DVec3::Z, DVec3::new(1.0, -2.0, 0.5)] {

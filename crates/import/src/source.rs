@@ -127,9 +127,7 @@ fn validate(root: &json::Root) -> Result<(), String> {
     root.validate(root, json::Path::new, &mut |path, error| {
         let path = path().to_string();
         let ours = match error {
-            Error::Missing => {
-                path.ends_with("[\"POSITION\"]") || path.ends_with(".min") || path.ends_with(".max")
-            }
+            Error::Missing => path.ends_with("[\"POSITION\"]") || path.ends_with(".min") || path.ends_with(".max"),
             Error::Invalid => path.ends_with(".min") || path.ends_with(".max"),
             Error::Unsupported => path.starts_with("extensionsRequired"),
             _ => false,
@@ -196,8 +194,7 @@ pub(crate) fn load_asset(bytes: &[u8], file: &Path, base_dir: Option<&Path>) -> 
     } else {
         (bytes, None)
     };
-    let root: json::Root =
-        json::deserialize::from_slice(json_bytes).map_err(|e| invalid(format!("JSON: {e}")))?;
+    let root: json::Root = json::deserialize::from_slice(json_bytes).map_err(|e| invalid(format!("JSON: {e}")))?;
 
     // Refuse unsupported required extensions before validation, which would report them
     // obscurely (or, for compressed meshes, as missing accessors).

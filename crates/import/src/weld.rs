@@ -131,7 +131,8 @@ pub(crate) fn weld_soup(soup: &Soup, tolerance: WeldTolerance) -> Result<Welded,
         let p = w.map(|i| soup.positions[reps[i as usize] as usize]);
         let cross = (p[1] - p[0]).cross(p[2] - p[0]);
         let longest2 = p[0].distance_squared(p[1]).max(p[1].distance_squared(p[2])).max(p[2].distance_squared(p[0]));
-        if !(cross.length() > DEGENERATE_SINE * longest2) {
+        // `partial_cmp` so that a NaN length also counts as degenerate.
+        if cross.length().partial_cmp(&(DEGENERATE_SINE * longest2)) != Some(std::cmp::Ordering::Greater) {
             degenerate += 1;
             continue;
         }
@@ -253,10 +254,7 @@ pub(crate) fn weld_soup(soup: &Soup, tolerance: WeldTolerance) -> Result<Welded,
         had_vertex_colors: soup.had_vertex_colors,
         weld_tolerance_m: tol as f32,
     };
-    Ok(Welded {
-        mesh: SkinMesh { positions, normals, colors, triangles, fur_mask, corner_texcoords, stats },
-        warnings,
-    })
+    Ok(Welded { mesh: SkinMesh { positions, normals, colors, triangles, fur_mask, corner_texcoords, stats }, warnings })
 }
 
 #[cfg(test)]

@@ -66,7 +66,7 @@ fn primitives_and_scenes_without_triangles_are_errors() {
 
     // Only a POINTS primitive: skipped with a warning, so the scene has no triangles.
     let points = TestPrimitive { mode: 0, ..TestPrimitive::triangles(p.clone(), vec![0, 1, 2]) };
-    let err = import_value(&document_of(&[points.clone()]), &defaults()).unwrap_err();
+    let err = import_value(&document_of(std::slice::from_ref(&points)), &defaults()).unwrap_err();
     assert!(matches!(&err, ImportError::NoTriangles { details, .. } if details.contains("1 point/line")), "{err}");
 
     // Points next to a triangle: imported, with a warning about the skipped primitive.
@@ -134,7 +134,9 @@ fn required_draco_is_refused_by_name_before_the_gltf_crate_sees_it() {
 #[test]
 fn not_gltf_at_all_is_invalid_gltf() {
     let mut checked = 0;
-    for bytes in [&b"hello"[..], b"{}", b"glTF\x02\0\0\0", b"{\"asset\":{\"version\":\"2.0\"},\"nodes\":[{\"mesh\":5}]}"] {
+    for bytes in
+        [&b"hello"[..], b"{}", b"glTF\x02\0\0\0", b"{\"asset\":{\"version\":\"2.0\"},\"nodes\":[{\"mesh\":5}]}"]
+    {
         let err = import_gltf_slice(bytes, "junk.gltf", None, &defaults()).unwrap_err();
         assert!(matches!(err, ImportError::InvalidGltf { .. }), "{err}");
         assert!(err.to_string().starts_with("junk.gltf: "), "{err}");
@@ -209,4 +211,15 @@ fn invalid_settings_are_rejected() {
         checked += 1;
     }
     assert_eq!(checked, 4);
+}
+
+#[test]
+fn out_of_range_position_accessor_index_is_an_error_not_a_gltf_json_panic() {
+    // Cause: gltf-json 1.4.1's primitive validation hook indexes `accessors[POSITION]` without a
+    // bounds check (mesh.rs:151) and panicked on this input before the importer checked it.
+    let (p, i) = triangle();
+    let mut doc = document(p, i);
+    doc["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = json!(9);
+    let err = import_value(&doc, &defaults()).unwrap_err();
+    assert!(matches!(&err, ImportError::InvalidGltf { message, .. } if message.contains("accessor 9")), "{err}");
 }

@@ -6,9 +6,7 @@ mod common;
 
 use common::{document, document_of, edge_count, import_value};
 use furbake_import::testmesh::{self, TestPrimitive, gltf_json};
-use furbake_import::{
-    ColorChannel, FurMaskSource, ImportError, ImportSettings, WeldTolerance, import_gltf_slice,
-};
+use furbake_import::{ColorChannel, FurMaskSource, ImportError, ImportSettings, WeldTolerance, import_gltf_slice};
 use glam::Vec3;
 
 fn import(bytes: &[u8], settings: &ImportSettings) -> furbake_import::ImportedMesh {
@@ -157,9 +155,9 @@ fn degenerate_triangles_are_skipped_and_counted() {
         [0.0, 0.0, 0.0],
         [1.0, 0.0, 0.0],
         [0.0, 1.0, 0.0],
-        [2.0, 0.0, 0.0],  // collinear with 0 and 1
-        [1.0, 0.0, 0.0],  // a duplicate of vertex 1 (welds to it)
-        [0.0, 0.0, 5.0],  // only used by a degenerate triangle
+        [2.0, 0.0, 0.0], // collinear with 0 and 1
+        [1.0, 0.0, 0.0], // a duplicate of vertex 1 (welds to it)
+        [0.0, 0.0, 5.0], // only used by a degenerate triangle
     ];
     let indices = vec![
         0, 1, 2, // good
@@ -210,13 +208,23 @@ fn a_mirroring_node_matrix_flips_the_winding_and_transforms_bounds() {
         ..TestPrimitive::triangles(vec![[0.0, 0.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]], vec![0, 1, 2])
     };
     let shear = [1.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0];
-    let m = import(&gltf_json(&[grid], Some(shear)), &ImportSettings::default()).mesh;
-    let [a, b, c] = m.triangles[0].map(|i| Vec3::from(m.positions[i as usize]));
-    let face = (b - a).cross(c - a).normalize();
-    for n in &m.normals {
-        assert!((Vec3::from(*n) - face).length() < 1e-6, "{n:?} vs {face}");
+    // Mirroring y: the inverse transpose turns +Y into -Y and the flipped winding agrees.
+    let mirror_y = [1.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0];
+    let mut checked = 0;
+    for (name, matrix, expected) in [("shear", shear, None), ("mirror y", mirror_y, Some(Vec3::NEG_Y))] {
+        let m = import(&gltf_json(std::slice::from_ref(&grid), Some(matrix)), &ImportSettings::default()).mesh;
+        let [a, b, c] = m.triangles[0].map(|i| Vec3::from(m.positions[i as usize]));
+        let face = (b - a).cross(c - a).normalize();
+        if let Some(e) = expected {
+            assert!((face - e).length() < 1e-6, "{name}: face {face}");
+        }
+        for n in &m.normals {
+            assert!((Vec3::from(*n) - face).length() < 1e-6, "{name}: {n:?} vs {face}");
+            checked += 1;
+        }
+        assert!(!m.stats.generated_normals);
     }
-    assert!(!m.stats.generated_normals);
+    assert_eq!(checked, 6);
 }
 
 #[test]
@@ -236,7 +244,8 @@ fn strips_fans_and_unindexed_primitives_are_triangulated() {
     }
     assert_eq!(checked, 8);
     // Unindexed TRIANGLES: 6 corners, welded to 4 vertices.
-    let soup = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0]];
+    let soup =
+        vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0]];
     let unindexed = TestPrimitive { indices: None, ..TestPrimitive::triangles(soup, vec![]) };
     let m = import(&gltf_json(&[unindexed], None), &ImportSettings::default()).mesh;
     assert_eq!(counts(&m), (4, 2, 5));

@@ -2,7 +2,9 @@
 //! small real files, strided truncations of a large one, single-byte corruptions of the GLB JSON
 //! chunk and of the binary chunk. Each import must return `Ok` or `Err`; a panic (in our code or
 //! in the `gltf` crate underneath) is caught with `catch_unwind` and fails the test with the
-//! input that caused it.
+//! input that caused it. The single-byte JSON test found a panic inside gltf-json 1.4.1's
+//! validation (an out-of-range POSITION accessor index, mesh.rs:151), which the importer now
+//! checks before validating; `errors.rs` pins it.
 
 mod common;
 
@@ -116,4 +118,85 @@ fn single_byte_corruptions_of_the_binary_chunk() {
     assert_eq!(tried, 3 * (bytes.len() - bin_start));
     // Flipped index bytes go out of range and flipped exponents make NaN/huge positions.
     assert!(failed > 0, "no corruption was detected");
+}
+
+/// SplitMix64: a tiny deterministic generator so the splice test is reproducible.
+struct SplitMix64(u64);
+
+impl SplitMix64 {
+    fn next(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+}
+
+#[test]
+fn json_token_splices_never_panic_and_successes_are_finite() {
+    // Splicing JSON tokens (huge counts, out-of-range indices, nulls, f32 overflow) into the
+    // JSON reaches the validation and accessor paths that byte flips rarely do.
+    let tokens: &[&[u8]] = &[
+        b"0",
+        b"1",
+        b"9",
+        b"-1",
+        b"1e39",
+        b"4294967295",
+        b"null",
+        b"[]",
+        b"{}",
+        b"\"\"",
+        b"\"POSITION\"",
+        b"5",
+        b"65535",
+        b"1e-45",
+        b"18446744073709551615",
+    ];
+    let mut rng = SplitMix64(0x5EED);
+    let (mut ok, mut tried) = (0, 0);
+    for name in ["Box.glb", "BoxVertexColors.glb", "TwoSidedPlane/TwoSidedPlane.gltf"] {
+        let path = fixture(name);
+        let bytes = std::fs::read(&path).unwrap();
+        let dir = path.parent().unwrap().to_path_buf();
+        let glb = bytes.starts_with(b"glTF");
+        let json = if glb { json_chunk_range(&bytes) } else { 0..bytes.len() };
+        for _ in 0..3000 {
+            let mut j = bytes[json.clone()].to_vec();
+            for _ in 0..1 + rng.next() % 3 {
+                let at = rng.next() as usize % j.len();
+                let end = (at + (rng.next() % 4) as usize).min(j.len());
+                j.splice(at..end, tokens[rng.next() as usize % tokens.len()].iter().copied());
+            }
+            let data = if glb {
+                j.resize(j.len().div_ceil(4) * 4, b' ');
+                let mut out = bytes[..12].to_vec();
+                out.extend_from_slice(&(j.len() as u32).to_le_bytes());
+                out.extend_from_slice(&bytes[16..20]);
+                out.extend_from_slice(&j);
+                out.extend_from_slice(&bytes[json.end..]);
+                let total = out.len() as u32;
+                out[8..12].copy_from_slice(&total.to_le_bytes());
+                out
+            } else {
+                j
+            };
+            let settings = ImportSettings::default();
+            let r = catch_unwind(AssertUnwindSafe(|| import_gltf_slice(&data, "fuzz", Some(&dir), &settings)));
+            match r {
+                Ok(Ok(m)) => {
+                    let m = m.mesh;
+                    let all = m.positions.iter().flatten().chain(m.normals.iter().flatten());
+                    assert!(all.chain(m.colors.iter().flatten()).all(|x| x.is_finite()), "{name}: non-finite skin");
+                    ok += 1;
+                }
+                Ok(Err(_)) => {}
+                Err(_) => panic!("import panicked on a splice of {name}: {:?}", String::from_utf8_lossy(&data)),
+            }
+            tried += 1;
+        }
+    }
+    assert_eq!(tried, 9000);
+    assert!(ok > 0 && ok < tried, "{ok} of {tried} imported");
 }

@@ -82,7 +82,7 @@ fn cesium_milk_truck_gets_its_yup2zup_root_rotation() {
     // Materials "glass" (0, 0.04, 0.02) and "window_trim" (0.064 grey) are dark; "wheels" and
     // "truck" have no factor (white). Vertices on a material border average their colours.
     assert!(m.colors.iter().any(|c| c[0] < 0.07 && c[1] < 0.07 && c[2] < 0.07));
-    assert!(m.colors.iter().any(|c| *c == [1.0; 4]));
+    assert!(m.colors.contains(&[1.0; 4]));
     assert!(check_skin(m) > 3000);
 }
 

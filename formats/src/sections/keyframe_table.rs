@@ -389,7 +389,7 @@ impl Section for KeyframeTable {
         let encoding = DisplacementEncoding::from_code(m.encoding)
             .ok_or_else(|| FormatError::invalid(format!("unknown displacement encoding code {}", m.encoding)))?;
         let g = m.grid;
-        if g.magnitudes == 0 || g.angles == 0 || g.angles % symmetry.factor() != 0 {
+        if g.magnitudes == 0 || g.angles == 0 || !g.angles.is_multiple_of(symmetry.factor()) {
             return Err(FormatError::invalid(format!(
                 "pose grid {} magnitudes × {} angles does not fit symmetry {}",
                 g.magnitudes,
