@@ -34,6 +34,9 @@ pub enum Command {
     /// exit 0 when valid, 1 otherwise.
     #[command(after_help = EXIT_CODES)]
     Verify(VerifyArgs),
+    /// Bake a grass-blade keyframe table alone into a single-section file (grass thesis §3.2–3.3).
+    #[command(after_help = EXIT_CODES)]
+    Keyframes(KeyframesArgs),
     /// Write a file's atlases as PNG images and its description as JSON into a directory.
     #[command(after_help = EXIT_CODES)]
     Extract(ExtractArgs),
@@ -79,6 +82,10 @@ pub struct BakeArgs {
     /// Bake without the undercoat pass.
     #[arg(long)]
     pub no_undercoat: bool,
+    /// Also scatter grass blades over the furry triangles, this many per square metre (scene
+    /// units²), and bake their keyframe table into the pack (blades.field.density_per_m2).
+    #[arg(long, value_name = "PER_M2")]
+    pub blades: Option<f32>,
     /// Also write the atlases as PNG images into this directory.
     #[arg(long, value_name = "DIR")]
     pub png_dir: Option<PathBuf>,
@@ -109,4 +116,36 @@ pub struct ExtractArgs {
     /// Output directory (created if missing).
     #[arg(short, long)]
     pub output: PathBuf,
+}
+
+/// `furbake keyframes`
+#[derive(Args, Debug)]
+pub struct KeyframesArgs {
+    /// Output file (a container with one keyframe_table section).
+    #[arg(short, long)]
+    pub output: std::path::PathBuf,
+    /// Blade segments (level of detail); vertices = 4 × segments.
+    #[arg(long, default_value_t = 8)]
+    pub segments: u32,
+    /// Represented poses (force magnitudes × angles over the full circle).
+    #[arg(long, default_value_t = 1000)]
+    pub poses: u32,
+    /// Force magnitudes in the grid (default: chosen from --poses, 1000 ⇒ 10 × 100 angles).
+    #[arg(long)]
+    pub magnitudes: Option<u32>,
+    /// Largest simulated force magnitude.
+    #[arg(long, default_value_t = 4.0)]
+    pub max_force: f32,
+    /// Mirror symmetry exploited: none, x (half the poses) or xz (a quarter).
+    #[arg(long, default_value = "xz", value_parser = ["none", "x", "xz"])]
+    pub symmetry: String,
+    /// Component encoding: snorm16 (thesis), f16, unorm8, snorm8 or f32 (no quantisation).
+    #[arg(long, default_value = "snorm16", value_parser = ["snorm16", "f16", "unorm8", "snorm8", "f32"])]
+    pub encoding: String,
+    /// Keep vertices that never move (skip the static-vertex stage).
+    #[arg(long)]
+    pub no_drop_static: bool,
+    /// Store both vertices of each rigid segment edge (skip the rigid-pair stage).
+    #[arg(long)]
+    pub no_rigid_pairs: bool,
 }

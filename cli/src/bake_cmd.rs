@@ -34,6 +34,7 @@ pub fn plan(args: &BakeArgs) -> Result<BakeSettings, Failure> {
     named("shells.fur_length_m", args.fur_length.map(|v| v.to_string()));
     named("uv.repeat_m", args.repeat.map(|v| v.to_string()));
     named("volume.fin_slices", args.fin_slices.map(|v| v.to_string()));
+    named("blades.field.density_per_m2", args.blades.map(|v| v.to_string()));
     if args.no_undercoat {
         sets.push("volume.undercoat=null".into());
     }
@@ -109,6 +110,9 @@ pub fn run(args: BakeArgs, quiet: bool) -> Result<(), Failure> {
             baked.shells.params.resolution,
             baked.fin_edges.vertices.len(),
         );
+        if let Some((field, _)) = &baked.blades {
+            eprintln!("  {} grass blades in {} clusters", field.blade_count(), field.grid.clusters());
+        }
     }
     Ok(())
 }

@@ -10,8 +10,10 @@
 use std::path::Path;
 
 use anyhow::{Context, anyhow};
+use furbake_formats::sections::blade_field::BladeField;
 use furbake_formats::sections::fin_atlas::FinAtlas;
 use furbake_formats::sections::fin_edges::FinEdges;
+use furbake_formats::sections::keyframe_table::KeyframeTable;
 use furbake_formats::sections::manifest::BakeManifest;
 use furbake_formats::sections::shell_atlas::ShellAtlas;
 use furbake_formats::sections::skin_mesh::SkinMesh;
@@ -31,6 +33,8 @@ pub struct Decoded {
     pub fins: Option<FinAtlas>,
     pub uv_map: Option<TriangleUvMap>,
     pub fin_edges: Option<FinEdges>,
+    pub blade_fields: Vec<BladeField>,
+    pub keyframe_tables: Vec<KeyframeTable>,
     /// One summary per section, in table order (`None` for unknown kinds).
     pub summaries: Vec<Option<Value>>,
 }
@@ -46,6 +50,8 @@ pub fn decode_all(pack: &Pack) -> furbake_formats::Result<Decoded> {
             SectionKind::FIN_ATLAS => keep(&mut d.fins, pack.decode(i)?),
             SectionKind::TRIANGLE_UV_MAP => keep(&mut d.uv_map, pack.decode(i)?),
             SectionKind::FIN_EDGES => keep(&mut d.fin_edges, pack.decode(i)?),
+            SectionKind::BLADE_FIELD => push(&mut d.blade_fields, pack.decode(i)?),
+            SectionKind::KEYFRAME_TABLE => push(&mut d.keyframe_tables, pack.decode(i)?),
             _ => None,
         };
         d.summaries.push(summary);
@@ -58,6 +64,12 @@ fn keep<S: Section>(slot: &mut Option<S>, value: S) -> Option<Value> {
     if slot.is_none() {
         *slot = Some(value);
     }
+    Some(s)
+}
+
+fn push<S: Section>(list: &mut Vec<S>, value: S) -> Option<Value> {
+    let s = value.summary();
+    list.push(value);
     Some(s)
 }
 
@@ -149,12 +161,22 @@ pub fn describe(path: &Path, pack: &Pack, d: &Decoded) -> Value {
     if let Some(f) = &d.fin_edges {
         stats.insert("fin_edges".into(), json!(f.vertices.len()));
     }
+    let of_kind = |kind: SectionKind| -> Vec<Value> {
+        pack.sections()
+            .iter()
+            .zip(&d.summaries)
+            .filter(|(e, _)| e.kind == kind)
+            .filter_map(|(_, s)| s.clone())
+            .collect()
+    };
     let mut doc = json!({
         "file": path.display().to_string(),
         "format_version": format!("{}.{}", furbake_formats::VERSION_MAJOR, pack.minor_version()),
         "file_size": pack.file_size(),
         "sections": sections,
         "statistics": stats,
+        "keyframe_tables": of_kind(SectionKind::KEYFRAME_TABLE),
+        "blade_fields": of_kind(SectionKind::BLADE_FIELD),
     });
     tidy_f32(&mut doc);
     doc

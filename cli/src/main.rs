@@ -7,6 +7,7 @@ mod bake_cmd;
 mod describe;
 mod extract_cmd;
 mod failure;
+mod keyframes_cmd;
 mod png;
 
 use std::process::ExitCode;
@@ -34,6 +35,7 @@ fn main() -> ExitCode {
         Command::Bake(a) => bake_cmd::run(a, cli.quiet),
         Command::Inspect(a) => describe::run_inspect(a),
         Command::Verify(a) => describe::run_verify(a, cli.quiet),
+        Command::Keyframes(a) => keyframes_cmd::run(a, cli.quiet),
         Command::Extract(a) => extract_cmd::run(a, cli.quiet),
     };
     match result {

@@ -246,3 +246,57 @@ fn invalid_import_settings_are_usage_errors() {
     assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
     assert!(!out_path.exists());
 }
+
+#[test]
+fn keyframes_reproduce_the_thesis_bit_counts() {
+    // Grass thesis §3.3: 8 segments, 32 vertices, 1000 poses ⇒ 3,072,000 bits raw,
+    // 720,000 bits compressed without symmetry, 180,000 with (xz).
+    let dir = tempfile::tempdir().unwrap();
+    let mut checked = 0;
+    for (symmetry, payload) in [("none", 720_000u64), ("x", 360_000), ("xz", 180_000)] {
+        let file = dir.path().join(format!("kf-{symmetry}.fbk"));
+        assert_ok(&furbake(&["keyframes", "-o", s(&file), "--symmetry", symmetry, "-q"]), "keyframes");
+        assert_ok(&furbake(&["verify", s(&file)]), "verify keyframes");
+        let json = inspect_json(&file);
+        let table = &json["keyframe_tables"][0];
+        assert_eq!(table["raw_bits"], 3_072_000u64, "{symmetry}");
+        assert_eq!(table["payload_bits"], payload, "{symmetry}");
+        assert_eq!(table["vertices"], 32);
+        assert!(table["error_max_blade_lengths"].as_f64().unwrap() < 1e-4, "snorm16 within 1e-4 blade lengths");
+        checked += 1;
+    }
+    assert_eq!(checked, 3);
+    let out = furbake(&["keyframes", "-o", s(&dir.path().join("bad.fbk")), "--segments", "0"]);
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+}
+
+#[test]
+fn bake_with_blades_adds_a_blade_field_and_its_keyframes() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = furbake_import::testmesh::grass_patch(4.0);
+    let input = dir.path().join("patch.gltf");
+    std::fs::write(&input, &mesh.gltf).unwrap();
+    let pack = dir.path().join("patch.fbk");
+    let out = furbake(&[
+        "bake",
+        s(&input),
+        "-o",
+        s(&pack),
+        "--preset",
+        "grass",
+        "--blades",
+        "50",
+        "--resolution",
+        "16",
+        "-q",
+    ]);
+    assert_ok(&out, "bake with blades");
+    assert_ok(&furbake(&["verify", s(&pack)]), "verify");
+    let json = inspect_json(&pack);
+    let field = &json["blade_fields"][0];
+    let blades = field["blades"].as_u64().unwrap();
+    // 16 m² at 50 per m²: a Poisson-like count near 800.
+    assert!((600..=1000).contains(&blades), "{blades} blades");
+    assert!(field["clusters"].as_u64().unwrap() >= 1);
+    assert_eq!(json["keyframe_tables"].as_array().unwrap().len(), 1);
+}

@@ -28,15 +28,17 @@ pub mod uv_map;
 pub mod volume;
 
 use furbake_formats::PackWriter;
+use furbake_formats::sections::blade_field::BladeField;
 use furbake_formats::sections::fin_atlas::FinAtlas;
 use furbake_formats::sections::fin_edges::FinEdges;
+use furbake_formats::sections::keyframe_table::KeyframeTable;
 use furbake_formats::sections::manifest::BakeManifest;
 use furbake_formats::sections::shell_atlas::ShellAtlas;
 use furbake_formats::sections::skin_mesh::SkinMesh;
 use furbake_formats::sections::triangle_uv_map::TriangleUvMap;
 use furbake_import::ImportedMesh;
 
-pub use settings::{BakeSettings, ShellSettings};
+pub use settings::{BakeSettings, BladeSettings, ShellSettings};
 
 /// Why a bake failed.
 #[derive(Debug, thiserror::Error)]
@@ -52,6 +54,9 @@ pub enum BakeError {
     /// The hair volume parameters are invalid.
     #[error(transparent)]
     Volume(#[from] volume::VolumeError),
+    /// The grass-blade stages failed (bad blade settings, or a mesh blades cannot grow on).
+    #[error(transparent)]
+    Grass(#[from] furbake_grass::GrassError),
     /// The mesh cannot carry fur (e.g. the fur mask selects no triangle).
     #[error("{input}: {what}")]
     Mesh {
@@ -71,11 +76,13 @@ pub enum Stage {
     UvMap,
     /// Finding fin edges.
     FinEdges,
+    /// Scattering grass blades and simulating their keyframe table (only with blades).
+    Blades,
 }
 
 impl Stage {
     /// Every stage, in pipeline order.
-    pub const ALL: [Stage; 3] = [Stage::Volume, Stage::UvMap, Stage::FinEdges];
+    pub const ALL: [Stage; 4] = [Stage::Volume, Stage::UvMap, Stage::FinEdges, Stage::Blades];
 
     /// Short human name.
     pub fn name(self) -> &'static str {
@@ -83,6 +90,7 @@ impl Stage {
             Stage::Volume => "hair volume, shell and fin atlases",
             Stage::UvMap => "per-triangle UV map",
             Stage::FinEdges => "fin edges",
+            Stage::Blades => "grass blades and keyframes",
         }
     }
 }
@@ -115,6 +123,8 @@ pub struct BakedPack {
     pub uv_map: TriangleUvMap,
     /// Fin-carrying edges.
     pub fin_edges: FinEdges,
+    /// Grass blades and their keyframe table, when the settings ask for blades.
+    pub blades: Option<(BladeField, KeyframeTable)>,
 }
 
 impl BakedPack {
@@ -131,6 +141,9 @@ impl BakedPack {
             <FinEdges as furbake_formats::Section>::VERSION,
             self.fin_edges.encode_with_bounds(self.mesh.positions.len(), self.mesh.triangles.len()),
         );
+        if let Some((field, keyframes)) = &self.blades {
+            w.push_section(field).push_section(keyframes);
+        }
         w
     }
 }
@@ -160,8 +173,21 @@ pub fn bake(
     progress.stage(Stage::FinEdges);
     let fin_edges = fin_edges::find_fin_edges(mesh);
 
+    let blades = match &settings.blades {
+        Some(b) => {
+            progress.stage(Stage::Blades);
+            let mut field_settings = b.field;
+            field_settings.seed = rng::derive_seed(settings.seed, rng::stage::BLADES, b.field.seed);
+            Some((
+                furbake_grass::scatter_blades(mesh, &field_settings)?,
+                furbake_grass::bake_keyframe_table(&b.keyframes)?,
+            ))
+        }
+        None => None,
+    };
+
     let manifest = record_manifest(input, input_name, settings);
-    Ok(BakedPack { manifest, mesh: mesh.clone(), shells, fins, uv_map, fin_edges })
+    Ok(BakedPack { manifest, mesh: mesh.clone(), shells, fins, uv_map, fin_edges, blades })
 }
 
 /// The fur length in metres: the explicit setting, or a fraction of the bounding-box diagonal.

@@ -42,4 +42,6 @@ pub mod stage {
     pub const VOLUME: u64 = 1;
     /// The per-triangle UV offsets.
     pub const UV_OFFSETS: u64 = 2;
+    /// Grass blade scattering.
+    pub const BLADES: u64 = 3;
 }

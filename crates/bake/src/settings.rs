@@ -3,6 +3,7 @@
 //! validated as a whole before any stage runs, and it is what the manifest records.
 
 use furbake_formats::sections::shell_atlas::VolumeParams;
+use furbake_grass::{BladeFieldSettings, KeyframeSettings};
 use furbake_import::ImportSettings;
 use serde::{Deserialize, Serialize};
 
@@ -38,6 +39,26 @@ pub struct BakeSettings {
     pub shells: ShellSettings,
     /// Per-triangle UV map.
     pub uv: UvSettings,
+    /// Grass blades (grass thesis): a blade field scattered over the furry triangles and the
+    /// keyframe table that animates it. `None` (the default of both presets) bakes no blades;
+    /// `--blades DENSITY` turns it on.
+    pub blades: Option<BladeSettings>,
+}
+
+/// Settings of the grass-blade stages.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BladeSettings {
+    /// Where blades grow and how they are clustered.
+    pub field: BladeFieldSettings,
+    /// The keyframe table (blade shape, simulated poses, compression).
+    pub keyframes: KeyframeSettings,
+}
+
+impl Default for BladeSettings {
+    fn default() -> Self {
+        BladeSettings { field: BladeFieldSettings::default(), keyframes: KeyframeSettings::default() }
+    }
 }
 
 /// Names of the built-in presets.
@@ -64,13 +85,20 @@ impl BakeSettings {
             volume,
             shells: ShellSettings { fur_length_m: None, auto_fur_length_fraction: fraction },
             uv: UvSettings::default(),
+            blades: None,
         })
     }
 
     /// Applies `overrides` (a JSON object, e.g. parsed from TOML) on top of these settings: objects
     /// merge key by key, anything else replaces. Unknown keys are errors that name the key.
     pub fn with_overrides(&self, overrides: &serde_json::Value) -> Result<BakeSettings, BakeError> {
-        let mut base = serde_json::to_value(self).expect("settings are plain serde structs");
+        let mut start = self.clone();
+        // A patch that configures blades on settings without them starts from the blade defaults,
+        // so `--set blades.field.density_per_m2=100` alone turns blades on.
+        if start.blades.is_none() && overrides.get("blades").is_some_and(|b| b.is_object()) {
+            start.blades = Some(BladeSettings::default());
+        }
+        let mut base = serde_json::to_value(&start).expect("settings are plain serde structs");
         merge(&mut base, overrides);
         serde_json::from_value(base).map_err(|e| BakeError::Settings { field: "config".into(), what: e.to_string() })
     }
@@ -147,5 +175,9 @@ mod tests {
         assert!(s.volume.undercoat.is_none());
         assert!(BakeSettings::preset("fluff").is_err());
         assert!(dotted_override("nokey").is_err());
+        let s = base.with_overrides(&dotted_override("blades.field.density_per_m2=50").unwrap()).unwrap();
+        let blades = s.blades.expect("a blade override turns blades on");
+        assert_eq!(blades.field.density_per_m2, 50.0);
+        assert_eq!(blades.keyframes, BladeSettings::default().keyframes);
     }
 }

@@ -13,7 +13,8 @@ use glam::DVec3;
 use crate::GrassError;
 
 /// Shape of the reference blade. All lengths in blade lengths.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct BladeShape {
     /// Quads along the blade (level of detail), 1..=256. Default 8.
     pub segments: u32,

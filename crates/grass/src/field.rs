@@ -19,7 +19,8 @@ pub const MAX_CLUSTERS: u64 = 1 << 24;
 const STAGE_SCATTER: u64 = 0x0067_7261_7373; // "grass"
 
 /// Blade field settings.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct BladeFieldSettings {
     /// Blades per square metre of furry surface. Default 400.
     pub density_per_m2: f32,

@@ -30,7 +30,8 @@ use crate::simulate::{BladeMaterial, BladeSimulator};
 pub const MAX_POSES: u32 = 1 << 20;
 
 /// The force grid to simulate.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct PoseGridSettings {
     /// Represented poses, `magnitudes × angles` (the thesis's "1000 poses"). Default 1000.
     pub poses: u32,
@@ -83,7 +84,8 @@ impl PoseGridSettings {
 }
 
 /// Everything a keyframe table bake needs.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct KeyframeSettings {
     /// Reference blade shape (segments = level of detail).
     pub shape: BladeShape,

@@ -24,7 +24,8 @@ use crate::blade::ReferenceBlade;
 
 /// Material of the simulated blade. Units: a blade one length unit long (the keyframes are in
 /// blade lengths), forces in the same unit as [`crate::PoseGridSettings::max_force`].
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct BladeMaterial {
     /// Bending stiffness `EI` across the blade (bending towards its normal) at the root, force ×
     /// length². Default 1.0. Scaled along the blade by the local width.

@@ -36,6 +36,7 @@ pub const MAX_POSES: u64 = 1 << 24;
 
 /// Which mirror symmetries of the animation are exploited (thesis fig. 3.8–3.9).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum Symmetry {
     /// Every pose of the full circle of angles is stored.
     #[default]
@@ -94,7 +95,8 @@ impl Symmetry {
 }
 
 /// How each displacement component is stored.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum DisplacementEncoding {
     /// IEEE binary32, uncompressed.
     F32,
@@ -263,6 +265,7 @@ impl PoseGrid {
 /// Which lossless compression stages were applied (quantisation is the payload's encoding and
 /// symmetry is [`KeyframeTable::symmetry`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct CompressionStages {
     /// Vertices that never move are not stored (`vertex_map` = [`STATIC_VERTEX`]).
     pub drop_static_vertices: bool,
