@@ -1,17 +1,28 @@
 # furbake — the two commands of the README, plus helpers.
-# `make demo`: bake the bundled Fox, inspect it, verify it and extract its atlases as PNGs into out/demo.
-# `make test`: the whole test suite (unit, integration, doc tests).
+# `make demo`: bake the bundled Fox (fur) and a grass patch, inspect, verify, extract PNG atlases
+#              and render preview PNGs into out/demo.
+# `make test`: the whole test suite (unit, integration, render tests on lavapipe, doc tests).
 
 CARGO ?= cargo
-FURBAKE := target/release/furbake
+FURBAKE := target/debug/furbake
 OUT := out/demo
+SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-.PHONY: demo test build bench fmt clippy golden clean-out
+.PHONY: demo test build deps bench fmt clippy golden clean-out
 
+# The renderer needs a Vulkan driver; on machines without a GPU that is Mesa's lavapipe.
+deps:
+	@if ! ls /usr/share/vulkan/icd.d/*.json >/dev/null 2>&1 || ! ldconfig -p | grep -q 'libvulkan.so.1 '; then \
+		echo "installing Mesa's software Vulkan driver (lavapipe)"; \
+		$(SUDO) apt-get update -qq && $(SUDO) apt-get install -y -qq --no-install-recommends mesa-vulkan-drivers libvulkan1; \
+	fi
+
+# The demo uses the dev profile (our crates at opt-level 1, dependencies at 2; see Cargo.toml):
+# it shares its build with `make test`, and a release build of wgpu takes ~10 minutes on 2 cores.
 build:
-	$(CARGO) build --release -p furbake-cli
+	$(CARGO) build -p furbake-cli
 
-demo: build
+demo: deps build
 	mkdir -p $(OUT)
 	$(FURBAKE) bake fixtures/real/Fox.glb -o $(OUT)/fox.fbk --preset fur --png-dir $(OUT)/fox-png
 	$(FURBAKE) inspect $(OUT)/fox.fbk
@@ -19,9 +30,11 @@ demo: build
 	$(FURBAKE) extract $(OUT)/fox.fbk -o $(OUT)/fox-extract
 	$(FURBAKE) bake fixtures/real/BoxVertexColors.glb -o $(OUT)/grass-box.fbk --preset grass --png-dir $(OUT)/grass-png
 	$(FURBAKE) inspect --json $(OUT)/grass-box.fbk > $(OUT)/grass-box.json
-	@echo "demo done: open $(OUT)/fox-png/shells_grid.png and $(OUT)/fox-png/fins.png"
+	$(FURBAKE) preview $(OUT)/fox.fbk -o $(OUT)/fox-preview.png --size 640x480
+	$(FURBAKE) preview $(OUT)/grass-box.fbk -o $(OUT)/grass-box-preview.png --size 640x480
+	@echo "demo done: open $(OUT)/fox-preview.png, $(OUT)/grass-box-preview.png and $(OUT)/fox-png/shells_grid.png"
 
-test:
+test: deps
 	$(CARGO) test --workspace
 
 bench:

@@ -37,6 +37,10 @@ pub enum Command {
     /// Bake a grass-blade keyframe table alone into a single-section file (grass thesis §3.2–3.3).
     #[command(after_help = EXIT_CODES)]
     Keyframes(KeyframesArgs),
+    /// Render a pack headless (skin, shells, fins) into a PNG, on a GPU or on Mesa's software
+    /// Vulkan driver (lavapipe) when there is none.
+    #[command(after_help = EXIT_CODES)]
+    Preview(PreviewArgs),
     /// Write a file's atlases as PNG images and its description as JSON into a directory.
     #[command(after_help = EXIT_CODES)]
     Extract(ExtractArgs),
@@ -148,4 +152,26 @@ pub struct KeyframesArgs {
     /// Store both vertices of each rigid segment edge (skip the rigid-pair stage).
     #[arg(long)]
     pub no_rigid_pairs: bool,
+}
+
+/// `furbake preview`
+#[derive(Args, Debug)]
+pub struct PreviewArgs {
+    /// The pack to render.
+    pub pack: std::path::PathBuf,
+    /// Output PNG.
+    #[arg(short, long)]
+    pub output: std::path::PathBuf,
+    /// Image size, WIDTHxHEIGHT.
+    #[arg(long, default_value = "512x512", value_parser = parse_size)]
+    pub size: (u32, u32),
+}
+
+fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(|| format!("{s:?} is not WIDTHxHEIGHT, e.g. 512x512"))?;
+    let parse = |v: &str| v.trim().parse::<u32>().ok().filter(|&n| (1..=16384).contains(&n));
+    match (parse(w), parse(h)) {
+        (Some(w), Some(h)) => Ok((w, h)),
+        _ => Err(format!("{s:?}: width and height must be whole numbers from 1 to 16384")),
+    }
 }

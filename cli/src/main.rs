@@ -9,6 +9,7 @@ mod extract_cmd;
 mod failure;
 mod keyframes_cmd;
 mod png;
+mod preview_cmd;
 
 use std::process::ExitCode;
 
@@ -25,6 +26,9 @@ fn main() -> ExitCode {
             return ExitCode::from(if e.use_stderr() { failure::EXIT_USAGE } else { 0 });
         }
     };
+    if matches!(cli.command, Command::Preview(_)) {
+        quiet_wayland_probe();
+    }
     if let Some(n) = cli.threads {
         if let Err(e) = rayon::ThreadPoolBuilder::new().num_threads(n).build_global() {
             eprintln!("furbake: error: cannot start {n} threads: {e}");
@@ -36,6 +40,7 @@ fn main() -> ExitCode {
         Command::Inspect(a) => describe::run_inspect(a),
         Command::Verify(a) => describe::run_verify(a, cli.quiet),
         Command::Keyframes(a) => keyframes_cmd::run(a, cli.quiet),
+        Command::Preview(a) => preview_cmd::run(a, cli.quiet),
         Command::Extract(a) => extract_cmd::run(a, cli.quiet),
     };
     match result {
@@ -44,5 +49,25 @@ fn main() -> ExitCode {
             eprintln!("furbake: error: {}", f.message());
             ExitCode::from(f.code())
         }
+    }
+}
+
+/// The Vulkan loader probes Wayland, whose client library prints "error: XDG_RUNTIME_DIR is invalid
+/// or not set" on headless machines. Give it a private runtime directory so a preview prints only
+/// our own messages.
+fn quiet_wayland_probe() {
+    if std::env::var_os("XDG_RUNTIME_DIR").is_some() {
+        return;
+    }
+    let dir = std::env::temp_dir().join("furbake-xdg-runtime");
+    if std::fs::create_dir_all(&dir).is_ok() {
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            let _ = std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o700));
+        }
+        // SAFETY: called from `main` before any thread is started (rayon's pool included), so no
+        // other thread can read the environment concurrently.
+        unsafe { std::env::set_var("XDG_RUNTIME_DIR", &dir) };
     }
 }

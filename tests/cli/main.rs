@@ -300,3 +300,26 @@ fn bake_with_blades_adds_a_blade_field_and_its_keyframes() {
     assert!(field["clusters"].as_u64().unwrap() >= 1);
     assert_eq!(json["keyframe_tables"].as_array().unwrap().len(), 1);
 }
+
+#[test]
+fn preview_renders_a_recognisable_fur_image() {
+    // Runs on lavapipe (software Vulkan) where there is no GPU; `.ci/run` installs it.
+    let dir = tempfile::tempdir().unwrap();
+    let pack = dir.path().join("fox.fbk");
+    assert_ok(&furbake(&["bake", s(&shared_fixture("Fox.glb")), "-o", s(&pack), "--resolution", "64", "-q"]), "bake");
+    let png = dir.path().join("fox.png");
+    let out = furbake(&["preview", s(&pack), "-o", s(&png), "--size", "160x120"]);
+    assert_ok(&out, "preview");
+    assert!(!stderr(&out).contains("XDG_RUNTIME_DIR"), "driver noise leaked: {}", stderr(&out));
+    let img = image::open(&png).unwrap().to_rgba8();
+    assert_eq!(img.dimensions(), (160, 120));
+    // The background is a flat colour; the fox covers a good part of the frame.
+    let bg = *img.get_pixel(0, 0);
+    let covered = img.pixels().filter(|p| p.0.iter().zip(bg.0).any(|(a, b)| a.abs_diff(b) > 24)).count();
+    assert!(covered > 160 * 120 / 10, "only {covered} pixels differ from the background");
+    let bad = furbake(&["preview", s(&pack), "-o", s(&png), "--size", "0x10"]);
+    assert_eq!(bad.status.code(), Some(2));
+    let missing = furbake(&["preview", s(&dir.path().join("nope.fbk")), "-o", s(&png)]);
+    assert_eq!(missing.status.code(), Some(1));
+    assert!(stderr(&missing).contains("nope.fbk"));
+}

@@ -1,0 +1,219 @@
+//! [`FurAsset`]: the sections of one pack the renderer draws, checked against one another once
+//! (UV map and fin edges match the skin), and the CPU-side geometry built from them: triangle
+//! corners de-indexed (the shell UV map is per triangle corner, fur thesis §3.2, fig. 3.18–3.19),
+//! fin quads on the fin edges (§3.2, fig. 3.16), and the box-filtered mip chain of the shell and
+//! fin atlases.
+
+use std::sync::Arc;
+
+use furbake_formats::sections::fin_atlas::FinAtlas;
+use furbake_formats::sections::fin_edges::FinEdges;
+use furbake_formats::sections::shell_atlas::ShellAtlas;
+use furbake_formats::sections::skin_mesh::SkinMesh;
+use furbake_formats::sections::triangle_uv_map::TriangleUvMap;
+use furbake_runtime::Pack;
+use glam::Vec3;
+
+use crate::RenderError;
+use crate::shaders::{FinVertex, SurfaceVertex};
+
+/// The sections the fur renderer needs, validated against each other.
+#[derive(Clone, Debug)]
+pub struct FurAsset {
+    mesh: Arc<SkinMesh>,
+    shells: Arc<ShellAtlas>,
+    uv_map: Arc<TriangleUvMap>,
+    fins: Option<(Arc<FinAtlas>, Arc<FinEdges>)>,
+}
+
+impl FurAsset {
+    /// Reads exactly the skin mesh, shell atlas, triangle UV map and — when `with_fins` and the
+    /// pack has both — the fin atlas and fin edges. No other section of the pack is touched.
+    pub fn from_pack(pack: &Pack, with_fins: bool) -> Result<FurAsset, RenderError> {
+        use furbake_formats::SectionKind;
+        let fins = if with_fins && pack.has(SectionKind::FIN_ATLAS) && pack.has(SectionKind::FIN_EDGES) {
+            Some((pack.fin_atlas()?, pack.fin_edges()?))
+        } else {
+            None
+        };
+        FurAsset::new(pack.skin_mesh()?, pack.shell_atlas()?, pack.triangle_uv_map()?, fins)
+    }
+
+    /// Checks that the sections belong together (one UV triple per triangle, one normal and colour
+    /// per vertex, fin edge indices inside the mesh). After this the geometry builders trust them.
+    pub fn new(
+        mesh: Arc<SkinMesh>,
+        shells: Arc<ShellAtlas>,
+        uv_map: Arc<TriangleUvMap>,
+        fins: Option<(Arc<FinAtlas>, Arc<FinEdges>)>,
+    ) -> Result<FurAsset, RenderError> {
+        let bad = |what: String| Err(RenderError::InvalidAsset { what });
+        let (v, f) = (mesh.positions.len(), mesh.triangles.len());
+        if mesh.normals.len() != v || mesh.colors.len() != v || mesh.fur_mask.len() != f {
+            return bad(format!(
+                "skin mesh arrays disagree: {v} positions, {} normals, {} colours; {f} triangles, {} fur flags",
+                mesh.normals.len(),
+                mesh.colors.len(),
+                mesh.fur_mask.len()
+            ));
+        }
+        if v > u32::MAX as usize / 2 {
+            return bad(format!("{v} vertices exceed the renderer's index range"));
+        }
+        if let Some(t) = mesh.triangles.iter().flatten().find(|&&i| i as usize >= v) {
+            return bad(format!("triangle index {t} is out of range ({v} vertices)"));
+        }
+        if uv_map.corners.len() != f {
+            return bad(format!("the UV map has {} triangles, the skin {f}", uv_map.corners.len()));
+        }
+        if shells.alpha.len() != shells.layers() * shells.layer_texels() || shells.shadow.len() != shells.layers() {
+            return bad("the shell atlas arrays do not match its layer count".into());
+        }
+        if let Some((atlas, edges)) = &fins {
+            if atlas.alpha.len() != atlas.width as usize * atlas.height as usize {
+                return bad("the fin atlas size does not match its texel count".into());
+            }
+            if edges.triangles.len() != edges.vertices.len() {
+                return bad("fin edge arrays disagree".into());
+            }
+            if edges.vertices.iter().flatten().any(|&i| i as usize >= v)
+                || edges.triangles.iter().any(|&t| t as usize >= f)
+            {
+                return bad(format!("a fin edge refers to a vertex or triangle outside the skin ({v} / {f})"));
+            }
+        }
+        Ok(FurAsset { mesh, shells, uv_map, fins })
+    }
+
+    /// The skin.
+    pub fn mesh(&self) -> &SkinMesh {
+        &self.mesh
+    }
+
+    /// The shell atlas.
+    pub fn shells(&self) -> &ShellAtlas {
+        &self.shells
+    }
+
+    /// The per-triangle UVs.
+    pub fn uv_map(&self) -> &TriangleUvMap {
+        &self.uv_map
+    }
+
+    /// The fin atlas and edges, when loaded.
+    pub fn fins(&self) -> Option<(&FinAtlas, &FinEdges)> {
+        self.fins.as_ref().map(|(a, e)| (&**a, &**e))
+    }
+
+    /// A sphere holding the skin and its fur: centre of the skin's bounding box, radius = the
+    /// farthest vertex plus the fur length (metres).
+    pub fn bounding_sphere(&self) -> ([f32; 3], f32) {
+        let (lo, hi) = self.mesh.bounds();
+        let center = (Vec3::from(lo) + Vec3::from(hi)) * 0.5;
+        let far = self.mesh.positions.iter().map(|&p| Vec3::from(p).distance(center)).fold(0.0f32, f32::max);
+        (center.to_array(), far + self.shells.fur_length_m)
+    }
+
+    /// The automatic preview camera: a three-quarter view fitted tightly around the furry mesh
+    /// for a target of the given aspect ratio (width / height).
+    pub fn auto_view(&self, aspect: f32) -> crate::View {
+        crate::View::fit_points(&self.mesh.positions, self.shells.fur_length_m, aspect, self.bounding_sphere())
+    }
+
+    /// Every triangle corner, furry triangles first (so the shells draw the prefix
+    /// `0..3·furry_triangles` of the same buffer the skin draws whole). Returns the corners and
+    /// the furry triangle count.
+    pub fn surface_vertices(&self) -> (Vec<SurfaceVertex>, u32) {
+        let m = &*self.mesh;
+        let mut order: Vec<usize> = (0..m.triangles.len()).filter(|&t| m.fur_mask[t] != 0).collect();
+        let furry = order.len() as u32;
+        order.extend((0..m.triangles.len()).filter(|&t| m.fur_mask[t] == 0));
+        let mut out = Vec::with_capacity(order.len() * 3);
+        for t in order {
+            for (c, &vi) in m.triangles[t].iter().enumerate() {
+                let i = vi as usize;
+                out.push(SurfaceVertex {
+                    position: m.positions[i],
+                    normal: m.normals[i],
+                    color: m.colors[i],
+                    uv: self.uv_map.corners[t][c],
+                    vertex_index: vi,
+                    flags: u32::from(m.fur_mask[t] != 0),
+                });
+            }
+        }
+        (out, furry)
+    }
+
+    /// Six corners (two triangles) per fin edge: roots at the edge ends, tips at height 1.
+    pub fn fin_vertices(&self) -> Vec<FinVertex> {
+        let Some((_, edges)) = self.fins() else { return Vec::new() };
+        let m = &*self.mesh;
+        let mut out = Vec::with_capacity(edges.vertices.len() * 6);
+        for (&[a, b], &t) in edges.vertices.iter().zip(&edges.triangles) {
+            let [i, j, k] = m.triangles[t as usize].map(|x| Vec3::from(m.positions[x as usize]));
+            let face_normal = (j - i).cross(k - i).normalize_or_zero().to_array();
+            let (pa, pb) = (Vec3::from(m.positions[a as usize]), Vec3::from(m.positions[b as usize]));
+            let length = pa.distance(pb);
+            let corner = |v: u32, along_m: f32, height: f32| FinVertex {
+                position: m.positions[v as usize],
+                normal: m.normals[v as usize],
+                face_normal,
+                color: m.colors[v as usize],
+                along_m,
+                height,
+                vertex_index: v,
+            };
+            let (a0, b0, a1, b1) =
+                (corner(a, 0.0, 0.0), corner(b, length, 0.0), corner(a, 0.0, 1.0), corner(b, length, 1.0));
+            out.extend_from_slice(&[a0, b0, b1, a0, b1, a1]);
+        }
+        out
+    }
+
+    /// The initial scale vectors (eq. 3.35 at rest: s = n), one `[x, y, z, 0]` per vertex.
+    pub fn rest_scale_vectors(&self) -> Vec<[f32; 4]> {
+        self.mesh.normals.iter().map(|n| [n[0], n[1], n[2], 0.0]).collect()
+    }
+}
+
+/// Box-filtered mip chain of one `width × height` 8-bit image (level 0 first). Odd sizes are
+/// handled by clamping the 2×2 footprint at the border; the chain ends at 1×1.
+pub(crate) fn mip_chain(width: u32, height: u32, texels: &[u8]) -> Vec<(u32, u32, Vec<u8>)> {
+    let mut levels = vec![(width, height, texels.to_vec())];
+    while let Some((w, h, prev)) = levels.last().filter(|(w, h, _)| *w > 1 || *h > 1) {
+        let (nw, nh) = ((*w / 2).max(1), (*h / 2).max(1));
+        let (w, h) = (*w as usize, *h as usize);
+        let mut next = vec![0u8; nw as usize * nh as usize];
+        for y in 0..nh as usize {
+            for x in 0..nw as usize {
+                let (x0, y0) = ((2 * x).min(w - 1), (2 * y).min(h - 1));
+                let (x1, y1) = ((2 * x + 1).min(w - 1), (2 * y + 1).min(h - 1));
+                let sum = prev[y0 * w + x0] as u32
+                    + prev[y0 * w + x1] as u32
+                    + prev[y1 * w + x0] as u32
+                    + prev[y1 * w + x1] as u32;
+                next[y * nw as usize + x] = ((sum + 2) / 4) as u8;
+            }
+        }
+        levels.push((nw, nh, next));
+    }
+    levels
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn mip_chain_averages_and_ends_at_one_texel() {
+        let levels = mip_chain(4, 2, &[0, 255, 100, 100, 255, 0, 100, 100]);
+        let sizes: Vec<(u32, u32)> = levels.iter().map(|(w, h, _)| (*w, *h)).collect();
+        assert_eq!(sizes, [(4, 2), (2, 1), (1, 1)]);
+        assert_eq!(levels[1].2, [128, 100]);
+        assert_eq!(levels[2].2, [114]);
+        let odd = mip_chain(3, 3, &[9; 9]);
+        assert_eq!(odd.len(), 2);
+        assert_eq!(odd[1].2, [9], "a constant image stays constant");
+    }
+}

@@ -1,0 +1,311 @@
+//! furbake-render: draws baked fur with wgpu, headless into an image — skin, shells innermost
+//! to outermost with the eq. 3.36 shearing in the vertex shader, and fins (fur thesis §3.2,
+//! §3.4.2). Nothing else: packs are opened by `furbake-runtime`, physics lives in `furbake-sim`.
+//!
+//! GPU functions take the `wgpu::Device` and `wgpu::Queue` to work on, so a game passes its own;
+//! [`HeadlessGpu`] makes one without a window (any adapter: a GPU, else a software one such as
+//! Mesa's lavapipe), and [`render_preview`] is the one-call path `furbake preview` uses:
+//!
+//! ```no_run
+//! let image = furbake_render::render_preview("fox.fbk".as_ref(), 512, 512)?;
+//! image.save("fox.png").expect("writable");
+//! # Ok::<(), furbake_render::RenderError>(())
+//! ```
+//!
+//! The frame: [`FurRenderer::render`] clears the [`RenderTarget`], draws the skin (Lambert ×
+//! vertex colour), the shells as one instanced draw (instance = layer, so layers rasterise
+//! innermost first), then the fins on the pack's fin edges; [`read_back`] copies the colour
+//! target into an [`image::RgbaImage`].
+
+mod asset;
+mod renderer;
+pub mod shaders;
+
+use std::path::Path;
+
+use furbake_runtime::{Camera, Light, Pack, RuntimeError};
+use glam::Vec3;
+
+pub use asset::FurAsset;
+pub use renderer::{COLOR_FORMAT, DEPTH_FORMAT, FurRenderer, RenderSettings, RenderTarget, ShellBlend};
+
+/// The command that installs a software Vulkan driver on Debian/Ubuntu machines without a GPU.
+pub const LAVAPIPE_HINT: &str =
+    "apt-get update && apt-get install -y --no-install-recommends mesa-vulkan-drivers libvulkan1";
+
+/// Why rendering failed.
+#[derive(Debug, thiserror::Error)]
+pub enum RenderError {
+    /// No adapter at all (not even a software one). Blame: the machine.
+    #[error(
+        "no GPU adapter found (tried a hardware adapter, then a fallback one): {detail}. On a machine without a GPU install Mesa's software Vulkan driver (lavapipe): {LAVAPIPE_HINT}"
+    )]
+    NoAdapter {
+        /// What wgpu reported.
+        detail: String,
+    },
+    /// The adapter refused to create a device.
+    #[error("the GPU adapter refused to create a device: {0}")]
+    RequestDevice(#[from] wgpu::RequestDeviceError),
+    /// The pack could not be read.
+    #[error(transparent)]
+    Runtime(#[from] RuntimeError),
+    /// The pack's sections do not belong together. Blame: the file.
+    #[error("invalid fur asset: {what}")]
+    InvalidAsset {
+        /// What is inconsistent.
+        what: String,
+    },
+    /// A caller-supplied value is out of range. Blame: the caller.
+    #[error("invalid render parameter: {what}")]
+    Parameter {
+        /// What is wrong.
+        what: String,
+    },
+    /// The asset exceeds a device limit.
+    #[error("{what} is {value}, above this device's limit of {limit}")]
+    Limit {
+        /// What was measured.
+        what: &'static str,
+        /// The value needed.
+        value: u64,
+        /// The device's limit.
+        limit: u64,
+    },
+    /// wgpu reported a validation error or a failed readback (a bug in this crate or the driver).
+    #[error("GPU error: {what}")]
+    Gpu {
+        /// wgpu's message.
+        what: String,
+    },
+}
+
+/// A device and queue created without a window.
+pub struct HeadlessGpu {
+    /// The adapter's name, backend and driver (for logs and reports).
+    pub info: wgpu::AdapterInfo,
+    /// The device.
+    pub device: wgpu::Device,
+    /// Its queue.
+    pub queue: wgpu::Queue,
+}
+
+impl HeadlessGpu {
+    /// Requests a hardware adapter, then a fallback (software) one, and a device with no optional
+    /// features and the WebGPU default limits (the renderer uses only core features: R8 and
+    /// RGBA8 textures, Depth32Float, storage buffers in vertex shaders). Blocks (pollster).
+    pub fn new() -> Result<HeadlessGpu, RenderError> {
+        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle());
+        let mut errors = Vec::new();
+        let mut adapter = None;
+        for force_fallback_adapter in [false, true] {
+            let options = wgpu::RequestAdapterOptions {
+                power_preference: wgpu::PowerPreference::HighPerformance,
+                force_fallback_adapter,
+                compatible_surface: None,
+                ..Default::default()
+            };
+            match pollster::block_on(instance.request_adapter(&options)) {
+                Ok(a) => {
+                    adapter = Some(a);
+                    break;
+                }
+                Err(e) => errors.push(e.to_string()),
+            }
+        }
+        let adapter = adapter.ok_or_else(|| RenderError::NoAdapter { detail: errors.join("; ") })?;
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("furbake headless device"),
+            required_features: wgpu::Features::empty(),
+            required_limits: wgpu::Limits::default(),
+            ..Default::default()
+        }))?;
+        Ok(HeadlessGpu { info: adapter.get_info(), device, queue })
+    }
+}
+
+/// Where the camera and light are.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct View {
+    /// The camera (`furbake-runtime`'s scene camera).
+    pub camera: Camera,
+    /// The light (`furbake-runtime`'s scene light).
+    pub light: Light,
+    /// Centre and radius of a sphere holding everything drawn, in metres (fits near/far planes).
+    pub bounds_center: [f32; 3],
+    /// Radius of that sphere in metres.
+    pub bounds_radius: f32,
+}
+
+impl View {
+    /// A three-quarter view from the front-right and slightly above (glTF: +Y up, +Z front) that
+    /// frames the sphere (`center`, `radius` in metres) whole at any aspect ≥ 1, with the default
+    /// light.
+    pub fn framing(center: [f32; 3], radius: f32) -> View {
+        let center = Vec3::from(center);
+        let radius = if radius.is_finite() && radius > 0.0 { radius } else { 1.0 };
+        let fov_y_deg = 35.0f32;
+        let distance = radius / (fov_y_deg.to_radians() * 0.5).sin() * 1.02;
+        let dir = Vec3::new(0.75, 0.35, 1.0).normalize();
+        let camera = Camera {
+            eye: (center + dir * distance).to_array(),
+            target: center.to_array(),
+            up: [0.0, 1.0, 0.0],
+            fov_y_deg,
+        };
+        View { camera, light: Light::default(), bounds_center: center.to_array(), bounds_radius: radius }
+    }
+
+    /// The same three-quarter direction as [`View::framing`], aimed at the centre of the points'
+    /// projection and at the distance where every point (grown by `pad_m` metres) fits an
+    /// `aspect`-wide target with a 4 % margin — a tight frame for elongated meshes. `bounds`
+    /// (centre, radius) fits the near and far planes.
+    pub fn fit_points(points: &[[f32; 3]], pad_m: f32, aspect: f32, bounds: ([f32; 3], f32)) -> View {
+        let mut view = View::framing(bounds.0, bounds.1);
+        let mut center = Vec3::from(bounds.0);
+        let back = (Vec3::from(view.camera.eye) - center).normalize();
+        let right = Vec3::Y.cross(back).normalize();
+        let up = back.cross(right);
+        let tan_y = (view.camera.fov_y_deg.to_radians() * 0.5).tan() * 0.96;
+        let tan_x = tan_y * if aspect.is_finite() && aspect > 0.0 { aspect } else { 1.0 };
+        // Distance at which every point fits around `center`: x/(d − z) ≤ tan for each point.
+        let fit = |center: Vec3| {
+            let mut distance = 0.0f32;
+            for p in points {
+                let d = Vec3::from(*p) - center;
+                let (x, y, z) = (d.dot(right).abs() + pad_m, d.dot(up).abs() + pad_m, d.dot(back) + pad_m);
+                distance = distance.max(z + x / tan_x).max(z + y / tan_y);
+            }
+            distance
+        };
+        // Twice: fit, then move the aim to the middle of the projected extent (perspective makes
+        // the near side of the mesh project larger) and fit again.
+        for _ in 0..2 {
+            let distance = fit(center);
+            if !(distance.is_finite() && distance > 0.0) {
+                return view;
+            }
+            let eye = center + back * distance;
+            let (mut lo, mut hi) = (glam::Vec2::splat(f32::INFINITY), glam::Vec2::splat(f32::NEG_INFINITY));
+            for p in points {
+                let d = Vec3::from(*p) - eye;
+                let depth = (-d.dot(back)).max(1e-6);
+                let q = glam::Vec2::new(d.dot(right), d.dot(up)) / depth;
+                (lo, hi) = (lo.min(q), hi.max(q));
+            }
+            let mid = (lo + hi) * 0.5 * distance;
+            view.camera.eye = eye.to_array();
+            view.camera.target = center.to_array();
+            if mid.is_finite() {
+                center += right * mid.x + up * mid.y;
+            }
+        }
+        view
+    }
+
+    /// The `Frame` uniforms for a target of the given aspect ratio.
+    pub fn uniforms(&self, aspect: f32) -> shaders::FrameUniforms {
+        let c = &self.camera;
+        let (eye, target, up) = (Vec3::from(c.eye), Vec3::from(c.target), Vec3::from(c.up));
+        let vp =
+            renderer::view_proj(eye, target, up, c.fov_y_deg, aspect, self.bounds_center.into(), self.bounds_radius);
+        let to_light = -Vec3::from(self.light.direction).normalize_or(Vec3::Y * -1.0);
+        let [r, g, b] = self.light.color;
+        shaders::FrameUniforms {
+            view_proj: vp.to_cols_array_2d(),
+            camera_pos: [eye.x, eye.y, eye.z, 1.0],
+            light_dir: [to_light.x, to_light.y, to_light.z, 0.0],
+            light_color: [r, g, b, self.light.ambient],
+        }
+    }
+}
+
+/// Copies `target`'s colour texture into an image (waits for the GPU).
+pub fn read_back(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    target: &RenderTarget,
+) -> Result<image::RgbaImage, RenderError> {
+    let (w, h) = (target.width, target.height);
+    let row = w * 4;
+    let padded_row = row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+    let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("furbake readback"),
+        size: padded_row as u64 * h as u64,
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+        mapped_at_creation: false,
+    });
+    let mut encoder =
+        device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("furbake readback") });
+    encoder.copy_texture_to_buffer(
+        wgpu::TexelCopyTextureInfo {
+            texture: &target.color,
+            mip_level: 0,
+            origin: wgpu::Origin3d::ZERO,
+            aspect: wgpu::TextureAspect::All,
+        },
+        wgpu::TexelCopyBufferInfo {
+            buffer: &buffer,
+            layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(padded_row), rows_per_image: Some(h) },
+        },
+        wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+    );
+    queue.submit([encoder.finish()]);
+    let (tx, rx) = std::sync::mpsc::channel();
+    buffer.map_async(wgpu::MapMode::Read, .., move |r| {
+        let _ = tx.send(r);
+    });
+    device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| RenderError::Gpu { what: e.to_string() })?;
+    match rx.recv() {
+        Ok(Ok(())) => {}
+        Ok(Err(e)) => return Err(RenderError::Gpu { what: format!("readback mapping failed: {e}") }),
+        Err(_) => return Err(RenderError::Gpu { what: "readback mapping never completed".into() }),
+    }
+    let mut pixels = Vec::with_capacity(row as usize * h as usize);
+    {
+        let view = buffer.get_mapped_range(..).map_err(|e| RenderError::Gpu { what: e.to_string() })?;
+        for y in 0..h as usize {
+            let start = y * padded_row as usize;
+            pixels.extend_from_slice(&view[start..start + row as usize]);
+        }
+    }
+    buffer.unmap();
+    Ok(image::RgbaImage::from_raw(w, h, pixels).expect("w·h·4 bytes were copied"))
+}
+
+/// Renders one frame of `asset` at `width × height` from `view` and reads it back.
+pub fn render_image(
+    gpu: &HeadlessGpu,
+    asset: &FurAsset,
+    settings: &RenderSettings,
+    view: &View,
+    width: u32,
+    height: u32,
+) -> Result<image::RgbaImage, RenderError> {
+    let renderer = FurRenderer::new(&gpu.device, &gpu.queue, asset, settings)?;
+    let target = RenderTarget::new(&gpu.device, width, height)?;
+    renderer.render(&gpu.device, &gpu.queue, &target, view);
+    read_back(&gpu.device, &gpu.queue, &target)
+}
+
+/// What `furbake preview` calls: opens the pack at `pack_path`, creates a headless device, frames
+/// the furry mesh automatically (three-quarter view) and renders it with the default settings.
+/// Reads only the skin mesh, shell atlas, UV map, fin atlas and fin edges.
+pub fn render_preview(pack_path: &Path, width: u32, height: u32) -> Result<image::RgbaImage, RenderError> {
+    render_pack(pack_path, width, height, None, &RenderSettings::default())
+}
+
+/// [`render_preview`] with a chosen view (`None`: framed automatically) and settings.
+pub fn render_pack(
+    pack_path: &Path,
+    width: u32,
+    height: u32,
+    view: Option<View>,
+    settings: &RenderSettings,
+) -> Result<image::RgbaImage, RenderError> {
+    let pack = Pack::open(pack_path)?;
+    let asset = FurAsset::from_pack(&pack, settings.fins)?;
+    let gpu = HeadlessGpu::new()?;
+    let view = view.unwrap_or_else(|| asset.auto_view(width as f32 / height.max(1) as f32));
+    render_image(&gpu, &asset, settings, &view, width, height)
+}

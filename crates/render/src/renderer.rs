@@ -1,0 +1,597 @@
+//! [`FurRenderer`]: the GPU side of one furry asset (fur thesis §3.2): uploads the skin corners,
+//! the shell atlas (R8 texture array with a box-filtered mip chain, repeat sampler), the
+//! per-layer shadow table, the fin atlas and fin quads, and a per-vertex scale-vector buffer
+//! (eq. 3.35; the physics rewrites it through [`FurRenderer::set_scale_vectors`]); then draws
+//! skin, shells innermost to outermost (one instanced draw, instance = layer) and fins into a
+//! [`RenderTarget`]. Effects are switched with WGSL `override` constants at pipeline creation.
+//! Every function takes the `wgpu::Device` and `wgpu::Queue` it works on.
+
+use glam::{Mat4, Vec3};
+use wgpu::util::DeviceExt;
+
+use crate::asset::{FurAsset, mip_chain};
+use crate::shaders::{
+    FIN_ATTRIBUTES, FIN_WGSL, FinVertex, FrameUniforms, FurUniforms, SHELL_WGSL, SKIN_WGSL, SURFACE_ATTRIBUTES,
+    SurfaceVertex,
+};
+use crate::{RenderError, View};
+
+/// Colour format of [`RenderTarget`]s (sRGB-encoded 8-bit RGBA; shaders write linear colour).
+pub const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
+/// Depth format of [`RenderTarget`]s.
+pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+
+/// How shell and fin fragments combine with what is behind them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ShellBlend {
+    /// Alpha blending, no depth writes (soft, order from innermost to outermost). Default.
+    AlphaBlend,
+    /// Alpha test: fragments above the threshold are opaque and write depth (hard, order-free).
+    AlphaTest,
+}
+
+/// Rendering parameters of one asset.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RenderSettings {
+    /// Shell layers drawn; `None` = one per atlas slice. `Some(0)` draws the bare skin (and no
+    /// fins). When different from the atlas, layer i samples slice `i·atlas/drawn`.
+    pub shell_layers: Option<u32>,
+    /// Exponent k of the shell shearing, eq. 3.36. Default 2.
+    pub shear_exponent: f32,
+    /// Compile the eq. 3.36 shearing into the shaders (off for static fur: s = n). Default true.
+    pub shearing: bool,
+    /// Per-layer self-shadow factor from the atlas table. Default true.
+    pub self_shadow: bool,
+    /// Lambert diffuse (off: unlit colour). Default true.
+    pub lambert: bool,
+    /// Draw fins on the fin edges (when the asset has them). Default true.
+    pub fins: bool,
+    /// Blending of shells and fins. Default [`ShellBlend::AlphaBlend`].
+    pub blend: ShellBlend,
+    /// Fragments with alpha at or below this are discarded, in [0, 1). Default 0.02: with
+    /// blending it only skips empty texels, so the faint mip-averaged coverage of sparse hair tips
+    /// still softens the silhouette at a distance. Use about 0.4 with [`ShellBlend::AlphaTest`].
+    pub alpha_threshold: f32,
+    /// Linear RGB multiplier of the vertex colours. Default `[1, 1, 1]`.
+    pub tint: [f32; 3],
+    /// Linear RGBA clear colour. Default opaque dark grey.
+    pub background: [f32; 4],
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        RenderSettings {
+            shell_layers: None,
+            shear_exponent: 2.0,
+            shearing: true,
+            self_shadow: true,
+            lambert: true,
+            fins: true,
+            blend: ShellBlend::AlphaBlend,
+            alpha_threshold: 0.02,
+            tint: [1.0, 1.0, 1.0],
+            background: [0.06, 0.06, 0.07, 1.0],
+        }
+    }
+}
+
+impl RenderSettings {
+    /// The default settings with the shader features a scene needs: the eq. 3.36 shearing is
+    /// compiled in only when the scene declares an effect that moves the fur (any physics effect);
+    /// a static scene keeps s = n and skips the scale-vector math.
+    pub fn for_scene(scene: &furbake_runtime::Scene) -> RenderSettings {
+        RenderSettings { shearing: !scene.effects().is_empty(), ..Default::default() }
+    }
+
+    fn validate(&self) -> Result<(), RenderError> {
+        let bad = |what: &str| Err(RenderError::Parameter { what: what.into() });
+        if !(self.shear_exponent.is_finite() && self.shear_exponent > 0.0) {
+            return bad("shear_exponent must be positive");
+        }
+        if !(0.0..1.0).contains(&self.alpha_threshold) {
+            return bad("alpha_threshold must be in [0, 1)");
+        }
+        if self.tint.iter().chain(&self.background).any(|c| !c.is_finite() || *c < 0.0) {
+            return bad("tint and background must be finite and non-negative");
+        }
+        if self.shell_layers.is_some_and(|n| n > furbake_formats::sections::shell_atlas::MAX_LAYERS) {
+            return bad("shell_layers is above the atlas layer limit");
+        }
+        Ok(())
+    }
+}
+
+/// An offscreen colour + depth target of a given size.
+pub struct RenderTarget {
+    /// Colour texture ([`COLOR_FORMAT`], copyable to a buffer).
+    pub color: wgpu::Texture,
+    /// Depth texture ([`DEPTH_FORMAT`]).
+    pub depth: wgpu::Texture,
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+}
+
+impl RenderTarget {
+    /// Creates a `width × height` target; fails when a side is 0 or above the device's limit.
+    pub fn new(device: &wgpu::Device, width: u32, height: u32) -> Result<RenderTarget, RenderError> {
+        let max = device.limits().max_texture_dimension_2d;
+        if width == 0 || height == 0 || width > max || height > max {
+            return Err(RenderError::Parameter {
+                what: format!("target size {width}×{height} (each side in 1..={max})"),
+            });
+        }
+        let size = wgpu::Extent3d { width, height, depth_or_array_layers: 1 };
+        let make = |label, format, usage| {
+            device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(label),
+                size,
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage,
+                view_formats: &[],
+            })
+        };
+        let color = make(
+            "furbake color target",
+            COLOR_FORMAT,
+            wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+        );
+        let depth = make("furbake depth target", DEPTH_FORMAT, wgpu::TextureUsages::RENDER_ATTACHMENT);
+        Ok(RenderTarget { color, depth, width, height })
+    }
+
+    /// Width / height.
+    pub fn aspect(&self) -> f32 {
+        self.width as f32 / self.height as f32
+    }
+}
+
+/// One asset's GPU resources and pipelines.
+pub struct FurRenderer {
+    settings: RenderSettings,
+    frame_buffer: wgpu::Buffer,
+    scale_buffer: wgpu::Buffer,
+    vertex_count: u32,
+    bind_group: wgpu::BindGroup,
+    surface: wgpu::Buffer,
+    surface_corners: u32,
+    furry_corners: u32,
+    fins: Option<(wgpu::Buffer, u32)>,
+    drawn_layers: u32,
+    skin_pipeline: wgpu::RenderPipeline,
+    shell_pipeline: wgpu::RenderPipeline,
+    fin_pipeline: wgpu::RenderPipeline,
+}
+
+impl FurRenderer {
+    /// Uploads `asset` and builds the pipelines for `settings`.
+    pub fn new(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        asset: &FurAsset,
+        settings: &RenderSettings,
+    ) -> Result<FurRenderer, RenderError> {
+        settings.validate()?;
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let renderer = Self::build(device, queue, asset, settings)?;
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(RenderError::Gpu { what: e.to_string() });
+        }
+        Ok(renderer)
+    }
+
+    fn build(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        asset: &FurAsset,
+        settings: &RenderSettings,
+    ) -> Result<FurRenderer, RenderError> {
+        let shells = asset.shells();
+        let (corners, furry_triangles) = asset.surface_vertices();
+        let fin_vertices = if settings.fins { asset.fin_vertices() } else { Vec::new() };
+        let limits = device.limits();
+        let check = |what: &'static str, bytes: usize, limit: u64| {
+            if bytes as u64 > limit { Err(RenderError::Limit { what, value: bytes as u64, limit }) } else { Ok(()) }
+        };
+        check("skin vertex buffer bytes", std::mem::size_of_val(corners.as_slice()), limits.max_buffer_size)?;
+        check("fin vertex buffer bytes", std::mem::size_of_val(fin_vertices.as_slice()), limits.max_buffer_size)?;
+        let vertex_count = asset.mesh().positions.len();
+        check("scale vector bytes", vertex_count.max(1) * 16, limits.max_storage_buffer_binding_size)?;
+        let res = shells.params.resolution;
+        check("shell resolution", res as usize, limits.max_texture_dimension_2d as u64)?;
+        check("shell layers", shells.layers(), limits.max_texture_array_layers as u64)?;
+
+        let frame_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("furbake frame uniforms"),
+            size: std::mem::size_of::<FrameUniforms>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let drawn_layers = settings.shell_layers.unwrap_or(shells.params.layers);
+        let fur = FurUniforms {
+            tint: [settings.tint[0], settings.tint[1], settings.tint[2], 1.0],
+            fur_length_m: shells.fur_length_m,
+            shear_exponent: settings.shear_exponent,
+            alpha_threshold: settings.alpha_threshold,
+            atlas_layers: shells.params.layers,
+            drawn_layers: drawn_layers.max(1),
+            fin_repeat_m: asset.uv_map().repeat_m,
+            pad0: 0,
+            pad1: 0,
+        };
+        let init = |label, contents: &[u8], usage| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage })
+        };
+        let fur_buffer = init("furbake fur uniforms", bytemuck::bytes_of(&fur), wgpu::BufferUsages::UNIFORM);
+        let mut rest = asset.rest_scale_vectors();
+        if rest.is_empty() {
+            rest.push([0.0; 4]); // storage bindings cannot be empty
+        }
+        let scale_buffer = init(
+            "furbake scale vectors",
+            bytemuck::cast_slice(&rest),
+            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+        );
+        let shadow_buffer =
+            init("furbake shadow table", bytemuck::cast_slice(&shells.shadow), wgpu::BufferUsages::STORAGE);
+        let placeholder = [SurfaceVertex::default()]; // vertex buffers cannot be empty
+        let surface = init(
+            "furbake skin corners",
+            bytemuck::cast_slice(if corners.is_empty() { &placeholder[..] } else { &corners }),
+            wgpu::BufferUsages::VERTEX,
+        );
+
+        let shell_view =
+            upload_r8_array(device, queue, "furbake shell atlas", res, res, shells.layers() as u32, &shells.alpha);
+        let fin_view = match asset.fins() {
+            Some((atlas, _)) => {
+                upload_r8_array(device, queue, "furbake fin atlas", atlas.width, atlas.height, 1, &atlas.alpha)
+            }
+            None => upload_r8_array(device, queue, "furbake empty fin atlas", 1, 1, 1, &[0]),
+        };
+        let fin_view = fin_view.create_view(&wgpu::TextureViewDescriptor {
+            dimension: Some(wgpu::TextureViewDimension::D2),
+            ..Default::default()
+        });
+        let shell_view = shell_view.create_view(&wgpu::TextureViewDescriptor {
+            dimension: Some(wgpu::TextureViewDimension::D2Array),
+            ..Default::default()
+        });
+        let sampler = |label, v_mode| {
+            device.create_sampler(&wgpu::SamplerDescriptor {
+                label: Some(label),
+                address_mode_u: wgpu::AddressMode::Repeat,
+                address_mode_v: v_mode,
+                address_mode_w: wgpu::AddressMode::ClampToEdge,
+                mag_filter: wgpu::FilterMode::Linear,
+                min_filter: wgpu::FilterMode::Linear,
+                mipmap_filter: wgpu::MipmapFilterMode::Linear,
+                ..Default::default()
+            })
+        };
+        let repeat_sampler = sampler("furbake repeat sampler", wgpu::AddressMode::Repeat);
+        let fin_sampler = sampler("furbake fin sampler", wgpu::AddressMode::ClampToEdge);
+
+        let layout = bind_group_layout(device);
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("furbake fur bind group"),
+            layout: &layout,
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: frame_buffer.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 1, resource: fur_buffer.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 2, resource: scale_buffer.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 3, resource: shadow_buffer.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::TextureView(&shell_view) },
+                wgpu::BindGroupEntry { binding: 5, resource: wgpu::BindingResource::Sampler(&repeat_sampler) },
+                wgpu::BindGroupEntry { binding: 6, resource: wgpu::BindingResource::TextureView(&fin_view) },
+                wgpu::BindGroupEntry { binding: 7, resource: wgpu::BindingResource::Sampler(&fin_sampler) },
+            ],
+        });
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("furbake fur pipeline layout"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let skin_pipeline = pipeline(device, &pipeline_layout, settings, Stage::Skin);
+        let shell_pipeline = pipeline(device, &pipeline_layout, settings, Stage::Shell);
+        let fin_pipeline = pipeline(device, &pipeline_layout, settings, Stage::Fin);
+
+        let fins = (!fin_vertices.is_empty()).then(|| {
+            let buffer = init("furbake fin quads", bytemuck::cast_slice(&fin_vertices), wgpu::BufferUsages::VERTEX);
+            (buffer, fin_vertices.len() as u32)
+        });
+        Ok(FurRenderer {
+            settings: *settings,
+            frame_buffer,
+            scale_buffer,
+            vertex_count: vertex_count as u32,
+            bind_group,
+            surface,
+            surface_corners: corners.len() as u32,
+            furry_corners: furry_triangles * 3,
+            fins,
+            drawn_layers,
+            skin_pipeline,
+            shell_pipeline,
+            fin_pipeline,
+        })
+    }
+
+    /// Replaces the per-vertex scale vectors (eq. 3.35, one unit vector per skin vertex), e.g.
+    /// with the physics solver's result for this frame. Vectors are used as given.
+    pub fn set_scale_vectors(&self, queue: &wgpu::Queue, scale_vectors: &[[f32; 3]]) -> Result<(), RenderError> {
+        if scale_vectors.len() != self.vertex_count as usize {
+            return Err(RenderError::Parameter {
+                what: format!("{} scale vectors for {} vertices", scale_vectors.len(), self.vertex_count),
+            });
+        }
+        if scale_vectors.iter().flatten().any(|c| !c.is_finite()) {
+            return Err(RenderError::Parameter { what: "scale vectors must be finite".into() });
+        }
+        if scale_vectors.is_empty() {
+            return Ok(());
+        }
+        let padded: Vec<[f32; 4]> = scale_vectors.iter().map(|s| [s[0], s[1], s[2], 0.0]).collect();
+        queue.write_buffer(&self.scale_buffer, 0, bytemuck::cast_slice(&padded));
+        Ok(())
+    }
+
+    /// Shell layers drawn per frame.
+    pub fn drawn_layers(&self) -> u32 {
+        self.drawn_layers
+    }
+
+    /// Records and submits one frame into `target`: clear, skin, shells innermost to outermost,
+    /// fins. Returns once the work is submitted (not finished; see [`crate::read_back`]).
+    pub fn render(&self, device: &wgpu::Device, queue: &wgpu::Queue, target: &RenderTarget, view: &View) {
+        let frame = view.uniforms(target.aspect());
+        queue.write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&frame));
+        let color_view = target.color.create_view(&Default::default());
+        let depth_view = target.depth.create_view(&Default::default());
+        let mut encoder =
+            device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("furbake frame") });
+        {
+            let [r, g, b, a] = self.settings.background.map(f64::from);
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("furbake fur pass"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &color_view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color { r, g, b, a }),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: &depth_view,
+                    depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Store }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_bind_group(0, &self.bind_group, &[]);
+            if self.surface_corners > 0 {
+                pass.set_pipeline(&self.skin_pipeline);
+                pass.set_vertex_buffer(0, self.surface.slice(..));
+                pass.draw(0..self.surface_corners, 0..1);
+            }
+            if self.furry_corners > 0 && self.drawn_layers > 0 {
+                pass.set_pipeline(&self.shell_pipeline);
+                pass.draw(0..self.furry_corners, 0..self.drawn_layers);
+            }
+            if let Some((buffer, count)) = self.fins.as_ref().filter(|_| self.drawn_layers > 0) {
+                pass.set_pipeline(&self.fin_pipeline);
+                pass.set_vertex_buffer(0, buffer.slice(..));
+                pass.draw(0..*count, 0..1);
+            }
+        }
+        queue.submit([encoder.finish()]);
+    }
+}
+
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Stage {
+    Skin,
+    Shell,
+    Fin,
+}
+
+fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
+    let vf = wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT;
+    let uniform = |binding| wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: vf,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    };
+    let storage = |binding| wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: vf,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only: true },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    };
+    let texture = |binding, view_dimension| wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::FRAGMENT,
+        ty: wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Float { filterable: true },
+            view_dimension,
+            multisampled: false,
+        },
+        count: None,
+    };
+    let sampler = |binding| wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::FRAGMENT,
+        ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+        count: None,
+    };
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("furbake fur bind group layout"),
+        entries: &[
+            uniform(0),
+            uniform(1),
+            storage(2),
+            storage(3),
+            texture(4, wgpu::TextureViewDimension::D2Array),
+            sampler(5),
+            texture(6, wgpu::TextureViewDimension::D2),
+            sampler(7),
+        ],
+    })
+}
+
+fn pipeline(
+    device: &wgpu::Device,
+    layout: &wgpu::PipelineLayout,
+    settings: &RenderSettings,
+    stage: Stage,
+) -> wgpu::RenderPipeline {
+    let (label, source, vs, fs) = match stage {
+        Stage::Skin => ("furbake skin", SKIN_WGSL, "vs_skin", "fs_skin"),
+        Stage::Shell => ("furbake shells", SHELL_WGSL, "vs_shell", "fs_shell"),
+        Stage::Fin => ("furbake fins", FIN_WGSL, "vs_fin", "fs_fin"),
+    };
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some(label),
+        source: wgpu::ShaderSource::Wgsl(source.into()),
+    });
+    let flag = |on: bool| if on { 1.0 } else { 0.0 };
+    let blend = settings.blend == ShellBlend::AlphaBlend;
+    // Overrides each shader declares (the skin has no shearing or blending switch).
+    let all = [
+        ("LAMBERT", flag(settings.lambert)),
+        ("SHADOW", flag(settings.self_shadow)),
+        ("SHEAR", flag(settings.shearing)),
+        ("ALPHA_BLEND", flag(blend)),
+    ];
+    let constants: &[(&str, f64)] = if stage == Stage::Skin { &all[..2] } else { &all };
+    let options = wgpu::PipelineCompilationOptions { constants, zero_initialize_workgroup_memory: false };
+    let surface_layout = wgpu::VertexBufferLayout {
+        array_stride: std::mem::size_of::<SurfaceVertex>() as u64,
+        step_mode: wgpu::VertexStepMode::Vertex,
+        attributes: &SURFACE_ATTRIBUTES,
+    };
+    let fin_layout = wgpu::VertexBufferLayout {
+        array_stride: std::mem::size_of::<FinVertex>() as u64,
+        step_mode: wgpu::VertexStepMode::Vertex,
+        attributes: &FIN_ATTRIBUTES,
+    };
+    let buffers = [Some(if stage == Stage::Fin { fin_layout } else { surface_layout })];
+    let (blend_state, depth_write, cull) = match stage {
+        Stage::Skin => (None, true, Some(wgpu::Face::Back)),
+        // Shells cull nothing: back-facing shells near the silhouette are what makes it furry.
+        _ if blend => (Some(wgpu::BlendState::ALPHA_BLENDING), false, None),
+        _ => (None, true, None),
+    };
+    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some(label),
+        layout: Some(layout),
+        vertex: wgpu::VertexState {
+            module: &module,
+            entry_point: Some(vs),
+            compilation_options: options.clone(),
+            buffers: &buffers,
+        },
+        primitive: wgpu::PrimitiveState {
+            topology: wgpu::PrimitiveTopology::TriangleList,
+            front_face: wgpu::FrontFace::Ccw,
+            cull_mode: cull,
+            ..Default::default()
+        },
+        depth_stencil: Some(wgpu::DepthStencilState {
+            format: DEPTH_FORMAT,
+            depth_write_enabled: Some(depth_write),
+            depth_compare: Some(wgpu::CompareFunction::LessEqual),
+            stencil: Default::default(),
+            bias: Default::default(),
+        }),
+        multisample: Default::default(),
+        fragment: Some(wgpu::FragmentState {
+            module: &module,
+            entry_point: Some(fs),
+            compilation_options: options,
+            targets: &[Some(wgpu::ColorTargetState {
+                format: COLOR_FORMAT,
+                blend: blend_state,
+                write_mask: wgpu::ColorWrites::ALL,
+            })],
+        }),
+        multiview_mask: None,
+        cache: None,
+    })
+}
+
+/// Uploads `layers` slices of `width × height` R8 texels with a full box-filtered mip chain.
+fn upload_r8_array(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    label: &str,
+    width: u32,
+    height: u32,
+    layers: u32,
+    texels: &[u8],
+) -> wgpu::Texture {
+    let slice_len = width as usize * height as usize;
+    let chains: Vec<_> = texels.chunks_exact(slice_len).map(|s| mip_chain(width, height, s)).collect();
+    let mip_level_count = chains.first().map_or(1, |c| c.len() as u32);
+    let texture = device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size: wgpu::Extent3d { width, height, depth_or_array_layers: layers },
+        mip_level_count,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: wgpu::TextureFormat::R8Unorm,
+        usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+        view_formats: &[],
+    });
+    for (layer, chain) in chains.iter().enumerate() {
+        for (level, (w, h, data)) in chain.iter().enumerate() {
+            queue.write_texture(
+                wgpu::TexelCopyTextureInfo {
+                    texture: &texture,
+                    mip_level: level as u32,
+                    origin: wgpu::Origin3d { x: 0, y: 0, z: layer as u32 },
+                    aspect: wgpu::TextureAspect::All,
+                },
+                data,
+                wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(*w), rows_per_image: Some(*h) },
+                wgpu::Extent3d { width: *w, height: *h, depth_or_array_layers: 1 },
+            );
+        }
+    }
+    texture
+}
+
+/// View-projection matrix (wgpu clip space, depth in [0, 1]) of a camera, with near and far
+/// planes fitted around a bounding sphere.
+pub(crate) fn view_proj(
+    eye: Vec3,
+    target: Vec3,
+    up: Vec3,
+    fov_y_deg: f32,
+    aspect: f32,
+    center: Vec3,
+    radius: f32,
+) -> Mat4 {
+    let view = Mat4::look_at_rh(eye, target, up);
+    let dist = eye.distance(center);
+    let far = (dist + radius * 1.5).max(1e-3);
+    let near = (dist - radius * 1.5).max(far * 1e-4);
+    Mat4::perspective_rh(fov_y_deg.to_radians(), aspect, near, far) * view
+}

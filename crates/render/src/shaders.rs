@@ -1,0 +1,206 @@
+//! The WGSL sources (in the workspace's `shaders/` folder, embedded with `include_str!`) and the
+//! Rust mirrors of their uniform structs. The unit tests parse and validate every shader with
+//! naga and check each `#[repr(C)]` struct's size and member offsets against naga's layout of
+//! the WGSL struct of the same name, so the two can never drift apart silently.
+
+/// Skin: Lambert-lit vertex colour (fur thesis §3.2).
+pub const SKIN_WGSL: &str = include_str!("../../../shaders/skin.wgsl");
+/// Shells: extrusion, eq. 3.36 shearing, shell alpha, self-shadow, Lambert (§3.2, §3.4.2).
+pub const SHELL_WGSL: &str = include_str!("../../../shaders/shell.wgsl");
+/// Fins on fin edges (§3.2, fig. 3.16).
+pub const FIN_WGSL: &str = include_str!("../../../shaders/fin.wgsl");
+
+/// Per-frame uniforms (`Frame` in every shader; binding 0).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct FrameUniforms {
+    /// Column-major view-projection matrix (world → clip, depth in [0, 1]).
+    pub view_proj: [[f32; 4]; 4],
+    /// Eye position in metres (w unused).
+    pub camera_pos: [f32; 4],
+    /// Unit vector from the surface towards the light (w unused).
+    pub light_dir: [f32; 4],
+    /// Light colour × intensity (rgb) and ambient term (a, in [0, 1]).
+    pub light_color: [f32; 4],
+}
+
+/// Per-asset fur uniforms (`Fur` in every shader; binding 1).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct FurUniforms {
+    /// Colour multiplier for every vertex colour (rgb; a unused).
+    pub tint: [f32; 4],
+    /// Distance from the skin to the outermost shell, in metres.
+    pub fur_length_m: f32,
+    /// Exponent k of the shell shearing, eq. 3.36.
+    pub shear_exponent: f32,
+    /// Shell and fin fragments with alpha at or below this are discarded.
+    pub alpha_threshold: f32,
+    /// Slices in the shell texture array.
+    pub atlas_layers: u32,
+    /// Shell layers drawn.
+    pub drawn_layers: u32,
+    /// Metres of edge per fin texture repeat.
+    pub fin_repeat_m: f32,
+    /// Padding to 16 bytes.
+    pub pad0: u32,
+    /// Padding to 16 bytes.
+    pub pad1: u32,
+}
+
+/// One corner of a skin/shell triangle (vertex buffer 0 of the skin and shell pipelines).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct SurfaceVertex {
+    /// Position in metres.
+    pub position: [f32; 3],
+    /// Unit vertex normal.
+    pub normal: [f32; 3],
+    /// Linear RGBA vertex colour.
+    pub color: [f32; 4],
+    /// Per-triangle shell UV of this corner, in texture repeats.
+    pub uv: [f32; 2],
+    /// Welded vertex index (into the scale-vector buffer).
+    pub vertex_index: u32,
+    /// Bit 0: the triangle carries fur.
+    pub flags: u32,
+}
+
+/// One corner of a fin quad (vertex buffer 0 of the fin pipeline).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct FinVertex {
+    /// Root position (an edge end) in metres.
+    pub position: [f32; 3],
+    /// Vertex normal at that edge end.
+    pub normal: [f32; 3],
+    /// Normal of the furry triangle the fin grows from.
+    pub face_normal: [f32; 3],
+    /// Linear RGBA vertex colour.
+    pub color: [f32; 4],
+    /// Distance along the edge in metres.
+    pub along_m: f32,
+    /// 0 at the root, 1 at the tip.
+    pub height: f32,
+    /// Welded vertex index (into the scale-vector buffer).
+    pub vertex_index: u32,
+}
+
+/// Vertex attributes of [`SurfaceVertex`], locations 0–5 as in `skin.wgsl` / `shell.wgsl`.
+pub const SURFACE_ATTRIBUTES: [wgpu::VertexAttribute; 6] = wgpu::vertex_attr_array![
+    0 => Float32x3, 1 => Float32x3, 2 => Float32x4, 3 => Float32x2, 4 => Uint32, 5 => Uint32
+];
+
+/// Vertex attributes of [`FinVertex`], locations 0–6 as in `fin.wgsl`.
+pub const FIN_ATTRIBUTES: [wgpu::VertexAttribute; 7] = wgpu::vertex_attr_array![
+    0 => Float32x3, 1 => Float32x3, 2 => Float32x3, 3 => Float32x4, 4 => Float32, 5 => Float32, 6 => Uint32
+];
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn validated(name: &str, source: &str) -> (naga::Module, naga::valid::ModuleInfo) {
+        let module =
+            naga::front::wgsl::parse_str(source).unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(source)));
+        let info = naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::empty())
+            .validate(&module)
+            .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(source)));
+        (module, info)
+    }
+
+    const SHADERS: [(&str, &str); 3] = [("skin.wgsl", SKIN_WGSL), ("shell.wgsl", SHELL_WGSL), ("fin.wgsl", FIN_WGSL)];
+
+    #[test]
+    fn every_shader_parses_and_validates() {
+        let mut entry_points = Vec::new();
+        for (name, source) in SHADERS {
+            let (module, _) = validated(name, source);
+            entry_points.extend(module.entry_points.iter().map(|e| e.name.clone()));
+        }
+        entry_points.sort();
+        assert_eq!(entry_points, ["fs_fin", "fs_shell", "fs_skin", "vs_fin", "vs_shell", "vs_skin"]);
+    }
+
+    /// (size, member names and offsets) of the WGSL struct `name`, from naga's layout.
+    fn wgsl_struct(module: &naga::Module, name: &str) -> Option<(u32, Vec<(String, u32)>)> {
+        module.types.iter().find_map(|(_, ty)| match (&ty.name, &ty.inner) {
+            (Some(n), naga::TypeInner::Struct { members, span }) if n == name => {
+                Some((*span, members.iter().map(|m| (m.name.clone().unwrap_or_default(), m.offset)).collect()))
+            }
+            _ => None,
+        })
+    }
+
+    fn check_layout(name: &str, size: usize, rust: &[(&str, usize)]) -> usize {
+        let mut checked = 0;
+        for (file, source) in SHADERS {
+            let (module, _) = validated(file, source);
+            let Some((span, members)) = wgsl_struct(&module, name) else { continue };
+            // naga's layouter agrees with the span recorded in the struct type.
+            let mut layouter = naga::proc::Layouter::default();
+            layouter.update(module.to_ctx()).expect("a validated module lays out");
+            let handle = module.types.iter().find(|(_, t)| t.name.as_deref() == Some(name)).map(|(h, _)| h).unwrap();
+            assert_eq!(layouter[handle].size, span, "{file}: {name}");
+            assert_eq!(span as usize, size, "{file}: size of {name}");
+            let got: Vec<(&str, usize)> = members.iter().map(|(n, o)| (n.as_str(), *o as usize)).collect();
+            assert_eq!(got, rust, "{file}: members of {name}");
+            checked += 1;
+        }
+        checked
+    }
+
+    #[test]
+    fn uniform_structs_match_the_shaders() {
+        use std::mem::{offset_of, size_of};
+        let frame = [
+            ("view_proj", offset_of!(FrameUniforms, view_proj)),
+            ("camera_pos", offset_of!(FrameUniforms, camera_pos)),
+            ("light_dir", offset_of!(FrameUniforms, light_dir)),
+            ("light_color", offset_of!(FrameUniforms, light_color)),
+        ];
+        assert_eq!(check_layout("Frame", size_of::<FrameUniforms>(), &frame), 3, "Frame is in all three shaders");
+        let fur = [
+            ("tint", offset_of!(FurUniforms, tint)),
+            ("fur_length_m", offset_of!(FurUniforms, fur_length_m)),
+            ("shear_exponent", offset_of!(FurUniforms, shear_exponent)),
+            ("alpha_threshold", offset_of!(FurUniforms, alpha_threshold)),
+            ("atlas_layers", offset_of!(FurUniforms, atlas_layers)),
+            ("drawn_layers", offset_of!(FurUniforms, drawn_layers)),
+            ("fin_repeat_m", offset_of!(FurUniforms, fin_repeat_m)),
+            ("pad0", offset_of!(FurUniforms, pad0)),
+            ("pad1", offset_of!(FurUniforms, pad1)),
+        ];
+        assert_eq!(check_layout("Fur", size_of::<FurUniforms>(), &fur), 3, "Fur is in all three shaders");
+    }
+
+    #[test]
+    fn vertex_attributes_cover_the_vertex_structs() {
+        use std::mem::{offset_of, size_of};
+        // Attribute offsets are the struct's field offsets, and the last attribute ends at the
+        // struct's end (no hidden padding that the stride would have to skip).
+        let surface = [
+            offset_of!(SurfaceVertex, position),
+            offset_of!(SurfaceVertex, normal),
+            offset_of!(SurfaceVertex, color),
+            offset_of!(SurfaceVertex, uv),
+            offset_of!(SurfaceVertex, vertex_index),
+            offset_of!(SurfaceVertex, flags),
+        ];
+        let got: Vec<usize> = SURFACE_ATTRIBUTES.iter().map(|a| a.offset as usize).collect();
+        assert_eq!(got, surface);
+        assert_eq!(SURFACE_ATTRIBUTES[5].offset as usize + 4, size_of::<SurfaceVertex>());
+        let fin = [
+            offset_of!(FinVertex, position),
+            offset_of!(FinVertex, normal),
+            offset_of!(FinVertex, face_normal),
+            offset_of!(FinVertex, color),
+            offset_of!(FinVertex, along_m),
+            offset_of!(FinVertex, height),
+            offset_of!(FinVertex, vertex_index),
+        ];
+        let got: Vec<usize> = FIN_ATTRIBUTES.iter().map(|a| a.offset as usize).collect();
+        assert_eq!(got, fin);
+        assert_eq!(FIN_ATTRIBUTES[6].offset as usize + 4, size_of::<FinVertex>());
+    }
+}

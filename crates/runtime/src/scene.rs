@@ -1,0 +1,607 @@
+//! Scene descriptions (SPEC "Runtime: Scenes"): which packs to load and where, the camera, the
+//! light, the time step, and the list of effects the scene wants. Parsed from TOML, then
+//! validated once into a [`Scene`] whose values can be trusted (finite, in range, unique names);
+//! the runtime builds only the stages the declared effects need (see [`Scene::effects`]).
+//!
+//! Effects and the thesis parts they stand for: gravity and global wind (fur thesis §3.3 external
+//! forces), wind sources `w = normalize(WP)·ω/|WP|^σ` (grass thesis eq. 4.1), object motion
+//! (inertial forces, fur thesis §3.4), local interaction, collisions as local sources (grass
+//! thesis §5), windless areas (grass thesis §5.1), parting (separable topologies, fur thesis
+//! §3.4.1) and the wrong-side guard (fur thesis §3.4.3, eq. 3.37).
+//!
+//! ```toml
+//! time_step_s = 0.0166
+//! [camera]
+//! eye = [0.0, 1.0, 3.0]
+//! target = [0.0, 0.5, 0.0]
+//! [light]
+//! direction = [-0.3, -1.0, -0.4]
+//! [[packs]]
+//! name = "fox"
+//! path = "fox.fbk"
+//! [effects.gravity]
+//! [effects.wind]
+//! velocity_m_s = [2.0, 0.0, 0.0]
+//! ```
+
+use std::path::{Path, PathBuf};
+
+use glam::{EulerRot, Mat4, Quat, Vec3};
+use serde::{Deserialize, Serialize};
+
+/// Why a scene file was rejected.
+#[derive(Debug, thiserror::Error)]
+pub enum SceneError {
+    /// The file could not be read.
+    #[error("{path}: {source}", path = path.display())]
+    Io {
+        /// The scene file.
+        path: PathBuf,
+        /// The underlying error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The file is not valid TOML or does not have the scene's shape (unknown key, wrong type).
+    #[error("{path}: {message}", path = path.display())]
+    Parse {
+        /// The scene file (or `<memory>`).
+        path: PathBuf,
+        /// The TOML parser's message, with line and column.
+        message: String,
+    },
+    /// A value is out of range. Blame: the scene's author.
+    #[error("{path}: {field}: {what}", path = path.display())]
+    Invalid {
+        /// The scene file (or `<memory>`).
+        path: PathBuf,
+        /// Dotted path of the offending key (`effects.wind_sources[1].falloff_exponent`).
+        field: String,
+        /// What is wrong with it.
+        what: String,
+    },
+}
+
+/// A validated scene.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scene {
+    /// Simulation time step in seconds. Default 1/60.
+    #[serde(default = "default_time_step")]
+    pub time_step_s: f32,
+    /// Solver choice; `auto` picks from the topology and stiffness. Default `auto`.
+    #[serde(default)]
+    pub solver: SolverChoice,
+    /// The viewpoint. Default: framed automatically from the packs' bounds (`None`).
+    #[serde(default)]
+    pub camera: Option<Camera>,
+    /// The directional light. Default: [`Light::default`].
+    #[serde(default)]
+    pub light: Light,
+    /// The packs to load, at least one.
+    pub packs: Vec<ScenePack>,
+    /// The effects the scene asks for; anything absent is not built.
+    #[serde(default)]
+    pub effects: Effects,
+}
+
+fn default_time_step() -> f32 {
+    1.0 / 60.0
+}
+
+/// Which mass–spring solver the scene runs (fur thesis §3.3).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SolverChoice {
+    /// Chosen from the topology and stiffness (implicit for prisms, stick solver for sticks, ...).
+    #[default]
+    Auto,
+    /// Explicit Euler (eq. 3.20–3.25).
+    Explicit,
+    /// Implicit Euler (eq. 3.26–3.34).
+    Implicit,
+    /// Stick solver (orientation only).
+    Stick,
+}
+
+/// A pinhole camera.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Camera {
+    /// Eye position in metres (world space).
+    pub eye: [f32; 3],
+    /// Point looked at, in metres.
+    pub target: [f32; 3],
+    /// Up direction. Default `[0, 1, 0]` (glTF is Y-up).
+    #[serde(default = "default_up")]
+    pub up: [f32; 3],
+    /// Vertical field of view in degrees, in (0, 180). Default 40.
+    #[serde(default = "default_fov")]
+    pub fov_y_deg: f32,
+}
+
+fn default_up() -> [f32; 3] {
+    [0.0, 1.0, 0.0]
+}
+fn default_fov() -> f32 {
+    40.0
+}
+
+/// A directional light with an ambient term.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Light {
+    /// Direction the light travels (from the light towards the scene); need not be unit length.
+    /// Default `[-0.4, -1.0, -0.6]`.
+    #[serde(default = "default_light_dir")]
+    pub direction: [f32; 3],
+    /// Linear RGB colour × intensity. Default white `[1, 1, 1]`.
+    #[serde(default = "default_light_color")]
+    pub color: [f32; 3],
+    /// Ambient term added to Lambert's, in [0, 1]. Default 0.25 (the thesis uses none; a small
+    /// ambient keeps the unlit side readable in previews).
+    #[serde(default = "default_ambient")]
+    pub ambient: f32,
+}
+
+fn default_light_dir() -> [f32; 3] {
+    [-0.4, -1.0, -0.6]
+}
+fn default_light_color() -> [f32; 3] {
+    [1.0, 1.0, 1.0]
+}
+fn default_ambient() -> f32 {
+    0.25
+}
+
+impl Default for Light {
+    fn default() -> Self {
+        Light { direction: default_light_dir(), color: default_light_color(), ambient: default_ambient() }
+    }
+}
+
+/// One pack placed in the scene.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ScenePack {
+    /// Unique name within the scene.
+    pub name: String,
+    /// Path of the pack; relative paths are resolved against the scene file's directory.
+    pub path: PathBuf,
+    /// Translation at time 0, in metres. Default zero.
+    #[serde(default)]
+    pub translation: [f32; 3],
+    /// Rotation at time 0 about X, then Y, then Z, in degrees. Default zero.
+    #[serde(default)]
+    pub rotation_deg: [f32; 3],
+    /// Uniform scale, > 0. Default 1.
+    #[serde(default = "one")]
+    pub scale: f32,
+    /// Keyframes of a motion path (times strictly increasing); empty = static.
+    #[serde(default)]
+    pub motion: Vec<MotionKey>,
+}
+
+/// Translation, Euler rotation (XYZ, degrees) and uniform scale.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Transform {
+    /// Translation in metres.
+    pub translation: [f32; 3],
+    /// Rotation about X, then Y, then Z, in degrees.
+    pub rotation_deg: [f32; 3],
+    /// Uniform scale, > 0.
+    pub scale: f32,
+}
+
+fn one() -> f32 {
+    1.0
+}
+
+impl Default for Transform {
+    fn default() -> Self {
+        Transform { translation: [0.0; 3], rotation_deg: [0.0; 3], scale: 1.0 }
+    }
+}
+
+impl Transform {
+    /// The model matrix (scale, then rotation, then translation).
+    pub fn to_mat4(&self) -> Mat4 {
+        let [x, y, z] = self.rotation_deg.map(f32::to_radians);
+        Mat4::from_scale_rotation_translation(
+            Vec3::splat(self.scale),
+            Quat::from_euler(EulerRot::XYZ, x, y, z),
+            Vec3::from(self.translation),
+        )
+    }
+}
+
+/// One keyframe of a pack's motion path; positions between keys are interpolated linearly.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MotionKey {
+    /// Time of the key in seconds, ≥ 0.
+    pub time_s: f32,
+    /// Translation at that time, in metres. Default zero.
+    #[serde(default)]
+    pub translation: [f32; 3],
+    /// Rotation at that time (XYZ, degrees). Default zero.
+    #[serde(default)]
+    pub rotation_deg: [f32; 3],
+    /// Uniform scale at that time, > 0. Default 1.
+    #[serde(default = "one")]
+    pub scale: f32,
+}
+
+impl MotionKey {
+    /// The placement at this key.
+    pub fn transform(&self) -> Transform {
+        Transform { translation: self.translation, rotation_deg: self.rotation_deg, scale: self.scale }
+    }
+}
+
+impl ScenePack {
+    /// The placement at time 0.
+    pub fn transform(&self) -> Transform {
+        Transform { translation: self.translation, rotation_deg: self.rotation_deg, scale: self.scale }
+    }
+}
+
+/// The effects a scene declares. Every field defaults to "absent"; the runtime builds a stage
+/// only for what is present.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Effects {
+    /// Constant acceleration on every mass.
+    pub gravity: Option<Gravity>,
+    /// Global wind.
+    pub wind: Option<Wind>,
+    /// Point wind sources (grass thesis eq. 4.1).
+    #[serde(default)]
+    pub wind_sources: Vec<WindSource>,
+    /// Inertial forces from the packs' motion paths.
+    pub object_motion: Option<ObjectMotion>,
+    /// A local force the user applies (e.g. a brush following the cursor).
+    pub interaction: Option<Interaction>,
+    /// Colliders acting as local wind sources (grass thesis §5).
+    #[serde(default)]
+    pub collisions: Vec<Collider>,
+    /// Boxes in which wind does not blow (grass thesis §5.1).
+    #[serde(default)]
+    pub windless_areas: Vec<WindlessArea>,
+    /// Fur that can part: the runtime loads a separable topology.
+    pub parting: Option<Parting>,
+    /// The wrong-side-scale guard (fur thesis §3.4.3).
+    pub wrong_side_guard: Option<WrongSideGuard>,
+}
+
+/// Gravity.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Gravity {
+    /// Acceleration in m/s². Default `[0, -9.81, 0]`.
+    #[serde(default = "default_gravity")]
+    pub acceleration_m_s2: [f32; 3],
+}
+
+fn default_gravity() -> [f32; 3] {
+    [0.0, -9.81, 0.0]
+}
+
+/// Global wind: a constant velocity plus an optional sinusoidal gust.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Wind {
+    /// Wind velocity in m/s.
+    pub velocity_m_s: [f32; 3],
+    /// Relative gust amplitude in [0, 1]. Default 0.
+    #[serde(default)]
+    pub gust_amplitude: f32,
+    /// Gust frequency in Hz, ≥ 0. Default 0.5.
+    #[serde(default = "default_gust_hz")]
+    pub gust_frequency_hz: f32,
+}
+
+fn default_gust_hz() -> f32 {
+    0.5
+}
+
+/// A point wind source, `w = normalize(WP)·ω/|WP|^σ` (grass thesis eq. 4.1).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WindSource {
+    /// Position W in metres.
+    pub position: [f32; 3],
+    /// Emissive power ω, ≥ 0.
+    pub power: f32,
+    /// Concentration σ, ≥ 0 (higher spreads the wind more locally). Default 2.
+    #[serde(default = "default_sigma")]
+    pub falloff_exponent: f32,
+    /// Propagation speed in m/s for the delayed per-blade attenuation; `None` = instantaneous.
+    #[serde(default)]
+    pub propagation_m_s: Option<f32>,
+}
+
+fn default_sigma() -> f32 {
+    2.0
+}
+
+/// Inertial forces from object motion.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ObjectMotion {
+    /// Scale of the inertial force, ≥ 0. Default 1.
+    #[serde(default = "one")]
+    pub inertia_scale: f32,
+}
+
+/// A spherical force brush controlled by the user.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Interaction {
+    /// Radius of influence in metres, > 0.
+    pub radius_m: f32,
+    /// Peak force in newtons, ≥ 0.
+    pub strength_n: f32,
+}
+
+/// A collider acting as a local wind source.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "shape", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Collider {
+    /// A sphere.
+    Sphere {
+        /// Centre in metres.
+        center: [f32; 3],
+        /// Radius in metres, > 0.
+        radius_m: f32,
+    },
+    /// An axis-aligned ellipsoid.
+    Ellipsoid {
+        /// Centre in metres.
+        center: [f32; 3],
+        /// Semi-axes in metres, each > 0.
+        radii_m: [f32; 3],
+    },
+}
+
+/// An axis-aligned box in which wind forces are removed.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WindlessArea {
+    /// Minimum corner in metres.
+    pub min: [f32; 3],
+    /// Maximum corner in metres, ≥ `min` on every axis.
+    pub max: [f32; 3],
+}
+
+/// Fur parting: use a separable topology so triangles can move apart.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Parting {}
+
+/// The wrong-side guard: restoring force `F = (n − s)(1 − n·s)·w` (eq. 3.37) and the threshold
+/// test `n·s < cos α` with impulse and frozen scale vector.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WrongSideGuard {
+    /// Weight w of the restoring force, ≥ 0. Default 1.
+    #[serde(default = "one")]
+    pub weight: f32,
+    /// Threshold angle α between normal and scale vector in degrees, in (0, 90]. Default 80.
+    #[serde(default = "default_alpha")]
+    pub max_angle_deg: f32,
+}
+
+fn default_alpha() -> f32 {
+    80.0
+}
+
+/// One effect kind, for planning stages and for stage counters.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Effect {
+    /// [`Effects::gravity`].
+    Gravity,
+    /// [`Effects::wind`].
+    Wind,
+    /// [`Effects::wind_sources`].
+    WindSources,
+    /// [`Effects::object_motion`].
+    ObjectMotion,
+    /// [`Effects::interaction`].
+    Interaction,
+    /// [`Effects::collisions`].
+    Collisions,
+    /// [`Effects::windless_areas`].
+    WindlessAreas,
+    /// [`Effects::parting`].
+    Parting,
+    /// [`Effects::wrong_side_guard`].
+    WrongSideGuard,
+}
+
+impl Effects {
+    /// The declared effects, in a fixed order.
+    pub fn enabled(&self) -> Vec<Effect> {
+        let mut out = Vec::new();
+        let flags = [
+            (self.gravity.is_some(), Effect::Gravity),
+            (self.wind.is_some(), Effect::Wind),
+            (!self.wind_sources.is_empty(), Effect::WindSources),
+            (self.object_motion.is_some(), Effect::ObjectMotion),
+            (self.interaction.is_some(), Effect::Interaction),
+            (!self.collisions.is_empty(), Effect::Collisions),
+            (!self.windless_areas.is_empty(), Effect::WindlessAreas),
+            (self.parting.is_some(), Effect::Parting),
+            (self.wrong_side_guard.is_some(), Effect::WrongSideGuard),
+        ];
+        for (on, effect) in flags {
+            if on {
+                out.push(effect);
+            }
+        }
+        out
+    }
+
+    /// True when `effect` is declared.
+    pub fn has(&self, effect: Effect) -> bool {
+        self.enabled().contains(&effect)
+    }
+}
+
+impl Scene {
+    /// Reads, parses and validates the scene file at `path`; relative pack paths are resolved
+    /// against its directory.
+    pub fn load(path: impl AsRef<Path>) -> Result<Scene, SceneError> {
+        let path = path.as_ref();
+        let text = std::fs::read_to_string(path).map_err(|source| SceneError::Io { path: path.into(), source })?;
+        let base = path.parent().unwrap_or(Path::new(""));
+        Scene::from_toml_str(&text, path, base)
+    }
+
+    /// Parses and validates scene TOML. `name` labels errors; `base_dir` resolves relative pack
+    /// paths.
+    pub fn from_toml_str(text: &str, name: &Path, base_dir: &Path) -> Result<Scene, SceneError> {
+        let mut scene: Scene =
+            toml::from_str(text).map_err(|e| SceneError::Parse { path: name.into(), message: e.to_string() })?;
+        scene.validate().map_err(|(field, what)| SceneError::Invalid { path: name.into(), field, what })?;
+        for p in &mut scene.packs {
+            if p.path.is_relative() {
+                p.path = base_dir.join(&p.path);
+            }
+        }
+        Ok(scene)
+    }
+
+    /// The effects the scene declares.
+    pub fn effects(&self) -> Vec<Effect> {
+        self.effects.enabled()
+    }
+
+    fn validate(&self) -> Result<(), (String, String)> {
+        let bad = |field: &str, what: &str| Err((field.to_owned(), what.to_owned()));
+        if !(self.time_step_s.is_finite() && self.time_step_s > 0.0 && self.time_step_s <= 1.0) {
+            return bad("time_step_s", "must be in (0, 1] seconds");
+        }
+        if let Some(c) = &self.camera {
+            finite3(&c.eye, "camera.eye")?;
+            finite3(&c.target, "camera.target")?;
+            nonzero3(&c.up, "camera.up")?;
+            if Vec3::from(c.eye).distance(Vec3::from(c.target)) <= 0.0 {
+                return bad("camera.target", "must differ from camera.eye");
+            }
+            if Vec3::from(c.up).cross(Vec3::from(c.target) - Vec3::from(c.eye)).length_squared() <= 0.0 {
+                return bad("camera.up", "must not be parallel to the viewing direction");
+            }
+            range(c.fov_y_deg, 1.0, 179.0, "camera.fov_y_deg")?;
+        }
+        nonzero3(&self.light.direction, "light.direction")?;
+        finite3(&self.light.color, "light.color")?;
+        if self.light.color.iter().any(|&c| c < 0.0) {
+            return bad("light.color", "must not be negative");
+        }
+        range(self.light.ambient, 0.0, 1.0, "light.ambient")?;
+        if self.packs.is_empty() {
+            return bad("packs", "a scene needs at least one [[packs]] entry");
+        }
+        for (i, p) in self.packs.iter().enumerate() {
+            let f = |k: &str| format!("packs[{i}].{k}");
+            if p.name.is_empty() {
+                return Err((f("name"), "must not be empty".into()));
+            }
+            if self.packs[..i].iter().any(|q| q.name == p.name) {
+                return Err((f("name"), format!("\"{}\" is used twice", p.name)));
+            }
+            check_transform(&p.transform(), &f(""))?;
+            let mut last = -1.0f32;
+            for (k, key) in p.motion.iter().enumerate() {
+                let g = format!("packs[{i}].motion[{k}]");
+                if !(key.time_s.is_finite() && key.time_s >= 0.0 && key.time_s > last) {
+                    return Err((format!("{g}.time_s"), "times must be ≥ 0 and strictly increasing".into()));
+                }
+                last = key.time_s;
+                check_transform(&key.transform(), &format!("{g}."))?;
+            }
+        }
+        let e = &self.effects;
+        if let Some(g) = &e.gravity {
+            finite3(&g.acceleration_m_s2, "effects.gravity.acceleration_m_s2")?;
+        }
+        if let Some(w) = &e.wind {
+            finite3(&w.velocity_m_s, "effects.wind.velocity_m_s")?;
+            range(w.gust_amplitude, 0.0, 1.0, "effects.wind.gust_amplitude")?;
+            range(w.gust_frequency_hz, 0.0, 1000.0, "effects.wind.gust_frequency_hz")?;
+        }
+        for (i, s) in e.wind_sources.iter().enumerate() {
+            let f = |k: &str| format!("effects.wind_sources[{i}].{k}");
+            finite3(&s.position, &f("position"))?;
+            range(s.power, 0.0, f32::MAX, &f("power"))?;
+            range(s.falloff_exponent, 0.0, 16.0, &f("falloff_exponent"))?;
+            if let Some(v) = s.propagation_m_s {
+                if !(v.is_finite() && v > 0.0) {
+                    return Err((f("propagation_m_s"), "must be a positive speed".into()));
+                }
+            }
+        }
+        if let Some(m) = &e.object_motion {
+            range(m.inertia_scale, 0.0, f32::MAX, "effects.object_motion.inertia_scale")?;
+        }
+        if let Some(it) = &e.interaction {
+            positive(it.radius_m, "effects.interaction.radius_m")?;
+            range(it.strength_n, 0.0, f32::MAX, "effects.interaction.strength_n")?;
+        }
+        for (i, c) in e.collisions.iter().enumerate() {
+            let f = |k: &str| format!("effects.collisions[{i}].{k}");
+            match c {
+                Collider::Sphere { center, radius_m } => {
+                    finite3(center, &f("center"))?;
+                    positive(*radius_m, &f("radius_m"))?;
+                }
+                Collider::Ellipsoid { center, radii_m } => {
+                    finite3(center, &f("center"))?;
+                    for &r in radii_m {
+                        positive(r, &f("radii_m"))?;
+                    }
+                }
+            }
+        }
+        for (i, a) in e.windless_areas.iter().enumerate() {
+            let f = |k: &str| format!("effects.windless_areas[{i}].{k}");
+            finite3(&a.min, &f("min"))?;
+            finite3(&a.max, &f("max"))?;
+            if (0..3).any(|k| a.max[k] < a.min[k]) {
+                return Err((f("max"), "must be ≥ min on every axis".into()));
+            }
+        }
+        if let Some(g) = &e.wrong_side_guard {
+            range(g.weight, 0.0, f32::MAX, "effects.wrong_side_guard.weight")?;
+            range(g.max_angle_deg, 1e-3, 90.0, "effects.wrong_side_guard.max_angle_deg")?;
+        }
+        Ok(())
+    }
+}
+
+fn finite3(v: &[f32; 3], field: &str) -> Result<(), (String, String)> {
+    if v.iter().all(|x| x.is_finite()) { Ok(()) } else { Err((field.into(), "must be finite".into())) }
+}
+
+fn nonzero3(v: &[f32; 3], field: &str) -> Result<(), (String, String)> {
+    finite3(v, field)?;
+    if Vec3::from(*v).length_squared() > 0.0 { Ok(()) } else { Err((field.into(), "must not be zero".into())) }
+}
+
+fn range(x: f32, lo: f32, hi: f32, field: &str) -> Result<(), (String, String)> {
+    if x.is_finite() && x >= lo && x <= hi {
+        Ok(())
+    } else {
+        Err((field.into(), format!("{x} is not in [{lo}, {hi}]")))
+    }
+}
+
+fn positive(x: f32, field: &str) -> Result<(), (String, String)> {
+    if x.is_finite() && x > 0.0 { Ok(()) } else { Err((field.into(), format!("{x} must be positive"))) }
+}
+
+fn check_transform(t: &Transform, prefix: &str) -> Result<(), (String, String)> {
+    finite3(&t.translation, &format!("{prefix}translation"))?;
+    finite3(&t.rotation_deg, &format!("{prefix}rotation_deg"))?;
+    positive(t.scale, &format!("{prefix}scale"))
+}

@@ -1,0 +1,136 @@
+//! Scene parsing and validation: the example scenes parse into the effects they declare, unknown
+//! keys and out-of-range values are rejected with the offending key's dotted path.
+
+use std::path::Path;
+
+use furbake_runtime::scene::{Collider, SolverChoice};
+use furbake_runtime::{Effect, Scene, SceneError};
+
+fn scenes_dir() -> &'static Path {
+    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/scenes"))
+}
+
+fn parse(text: &str) -> Result<Scene, SceneError> {
+    Scene::from_toml_str(text, Path::new("test.toml"), Path::new("/base"))
+}
+
+const MINIMAL: &str = "[[packs]]\nname = \"a\"\npath = \"a.fbk\"\n";
+
+#[test]
+fn fox_scene_declares_only_its_effects() {
+    let scene = Scene::load(scenes_dir().join("fox_in_wind.toml")).unwrap();
+    assert_eq!(
+        scene.effects(),
+        vec![Effect::Gravity, Effect::Wind, Effect::WindSources, Effect::ObjectMotion, Effect::WrongSideGuard]
+    );
+    assert!(!scene.effects.has(Effect::Parting));
+    assert_eq!(scene.packs.len(), 1);
+    assert_eq!(scene.packs[0].path, scenes_dir().join("fox.fbk"), "relative paths resolve against the file");
+    assert_eq!(scene.packs[0].motion.len(), 2);
+    assert_eq!(scene.effects.gravity.unwrap().acceleration_m_s2, [0.0, -9.81, 0.0], "default gravity");
+    assert_eq!(scene.effects.wind_sources[0].falloff_exponent, 2.0);
+    let guard = scene.effects.wrong_side_guard.unwrap();
+    assert_eq!((guard.weight, guard.max_angle_deg), (2.0, 75.0));
+    // The transform places the origin at the translation and scales uniformly.
+    let m = scene.packs[0].motion[1].transform().to_mat4();
+    assert_eq!(m.transform_point3(glam::Vec3::ZERO), glam::Vec3::new(0.5, 0.0, 0.0));
+}
+
+#[test]
+fn every_effect_parses() {
+    let scene = Scene::load(scenes_dir().join("everything.toml")).unwrap();
+    let all = [
+        Effect::Gravity,
+        Effect::Wind,
+        Effect::WindSources,
+        Effect::ObjectMotion,
+        Effect::Interaction,
+        Effect::Collisions,
+        Effect::WindlessAreas,
+        Effect::Parting,
+        Effect::WrongSideGuard,
+    ];
+    assert_eq!(scene.effects(), all.to_vec());
+    assert_eq!(scene.packs[0].path, Path::new("/abs/grass.fbk"), "absolute paths are kept");
+    assert_eq!(scene.effects.collisions.len(), 2);
+    assert!(matches!(scene.effects.collisions[1], Collider::Ellipsoid { radii_m: [0.3, 0.1, 0.2], .. }));
+    assert_eq!(scene.effects.wind_sources[0].propagation_m_s, Some(4.0));
+}
+
+#[test]
+fn minimal_scene_has_no_effects_and_defaults() {
+    let scene = parse(MINIMAL).unwrap();
+    assert!(scene.effects().is_empty());
+    assert_eq!(scene.solver, SolverChoice::Auto);
+    assert!(scene.camera.is_none());
+    assert!((scene.time_step_s - 1.0 / 60.0).abs() < 1e-9);
+    assert_eq!(scene.packs[0].path, Path::new("/base/a.fbk"));
+}
+
+#[test]
+fn unknown_keys_and_wrong_types_are_parse_errors() {
+    let cases = [
+        format!("{MINIMAL}[effects.wnid]\n"),
+        format!("{MINIMAL}[effects.wind]\nvelocity = [1.0, 0.0, 0.0]\n"),
+        format!("{MINIMAL}[[effects.collisions]]\nshape = \"cube\"\ncenter = [0.0, 0.0, 0.0]\n"),
+        format!("{MINIMAL}solver = \"magic\"\n"),
+        format!("{MINIMAL}time_step_s = \"fast\"\n"),
+        "[[packs]]\nname = \"a\"\n".to_owned(),
+        "packs = 3".to_owned(),
+    ];
+    for text in &cases {
+        match parse(text) {
+            Err(SceneError::Parse { .. }) => {}
+            other => panic!("expected a parse error for {text:?}, got {other:?}"),
+        }
+    }
+    assert_eq!(cases.len(), 7);
+}
+
+#[test]
+fn out_of_range_values_name_their_key() {
+    let cases = [
+        (format!("time_step_s = 0.0\n{MINIMAL}"), "time_step_s"),
+        (format!("{MINIMAL}scale = -1.0\n"), "packs[0].scale"),
+        ("packs = []\n".to_owned(), "packs"),
+        (format!("{MINIMAL}{}", MINIMAL), "packs[1].name"),
+        (format!("[camera]\neye = [0.0, 0.0, 1.0]\ntarget = [0.0, 0.0, 1.0]\n{MINIMAL}"), "camera.target"),
+        (format!("[camera]\neye = [0.0, 1.0, 0.0]\ntarget = [0.0, 0.0, 0.0]\n{MINIMAL}"), "camera.up"),
+        (format!("[light]\ndirection = [0.0, 0.0, 0.0]\n{MINIMAL}"), "light.direction"),
+        (format!("{MINIMAL}[effects.wind]\nvelocity_m_s = [nan, 0.0, 0.0]\n"), "effects.wind.velocity_m_s"),
+        (
+            format!("{MINIMAL}[[effects.wind_sources]]\nposition = [0.0, 0.0, 0.0]\npower = -1.0\n"),
+            "effects.wind_sources[0].power",
+        ),
+        (
+            format!("{MINIMAL}[[effects.collisions]]\nshape = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius_m = 0.0\n"),
+            "effects.collisions[0].radius_m",
+        ),
+        (
+            format!("{MINIMAL}[[effects.windless_areas]]\nmin = [0.0, 0.0, 0.0]\nmax = [1.0, -1.0, 1.0]\n"),
+            "effects.windless_areas[0].max",
+        ),
+        (
+            format!("{MINIMAL}[effects.wrong_side_guard]\nmax_angle_deg = 120.0\n"),
+            "effects.wrong_side_guard.max_angle_deg",
+        ),
+        (
+            format!("{MINIMAL}[[packs.motion]]\ntime_s = 1.0\n[[packs.motion]]\ntime_s = 1.0\n"),
+            "packs[0].motion[1].time_s",
+        ),
+    ];
+    for (text, key) in &cases {
+        match parse(text) {
+            Err(SceneError::Invalid { field, .. }) => assert_eq!(&field, key, "for {text:?}"),
+            other => panic!("expected {key} to be rejected in {text:?}, got {other:?}"),
+        }
+    }
+    assert_eq!(cases.len(), 13);
+}
+
+#[test]
+fn missing_file_is_an_io_error() {
+    let err = Scene::load("/definitely/not/here.toml").unwrap_err();
+    assert!(matches!(err, SceneError::Io { .. }), "{err}");
+    assert!(err.to_string().contains("/definitely/not/here.toml"));
+}

@@ -1,0 +1,126 @@
+// fin.wgsl — fins (fur thesis §3.2, fig. 3.16; Lengyel et al.): one quad per fin edge, standing
+// on the edge and extruded along the vertex normals (sheared like the shells, eq. 3.36) so that
+// it is perpendicular to the surface and as tall as the outermost shell. Alpha from the fin atlas
+// (u along the edge in texture repeats, v from tip (0) to root (1)), faded by how much the
+// surface faces the viewer: fins fill the gaps between shells where the surface is seen
+// edge-on, and vanish where the shells already read well.
+
+struct Frame {
+    view_proj: mat4x4<f32>,
+    camera_pos: vec4<f32>,
+    light_dir: vec4<f32>,
+    light_color: vec4<f32>,
+};
+
+struct Fur {
+    tint: vec4<f32>,
+    fur_length_m: f32,
+    shear_exponent: f32,
+    alpha_threshold: f32,
+    atlas_layers: u32,
+    drawn_layers: u32,
+    // Metres of edge per fin texture repeat (the shell texture's texel density).
+    fin_repeat_m: f32,
+    pad0: u32,
+    pad1: u32,
+};
+
+override LAMBERT: bool = true;
+override SHADOW: bool = true;
+override SHEAR: bool = true;
+override ALPHA_BLEND: bool = true;
+
+@group(0) @binding(0) var<uniform> frame: Frame;
+@group(0) @binding(1) var<uniform> fur: Fur;
+@group(0) @binding(2) var<storage, read> scale_vectors: array<vec4<f32>>;
+@group(0) @binding(3) var<storage, read> shadow: array<f32>;
+@group(0) @binding(6) var fin_alpha: texture_2d<f32>;
+@group(0) @binding(7) var fin_sampler: sampler;
+
+struct FinIn {
+    // Root position of this corner (an edge end) in metres.
+    @location(0) position: vec3<f32>,
+    // Vertex normal at that edge end (direction of extrusion).
+    @location(1) normal: vec3<f32>,
+    // Normal of the furry triangle the fin grows from (for the view fade).
+    @location(2) face_normal: vec3<f32>,
+    @location(3) color: vec4<f32>,
+    // Distance along the edge in metres.
+    @location(4) along_m: f32,
+    // 0 at the root, 1 at the tip.
+    @location(5) height: f32,
+    @location(6) vertex_index: u32,
+};
+
+struct FinOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) normal: vec3<f32>,
+    @location(1) color: vec4<f32>,
+    @location(2) uv: vec2<f32>,
+    @location(3) world: vec3<f32>,
+    @location(4) face_normal: vec3<f32>,
+    @location(5) height: f32,
+};
+
+fn shell_offset(n: vec3<f32>, s: vec3<f32>, t: f32) -> vec3<f32> {
+    var offset = n * t;
+    if SHEAR {
+        offset = offset + pow(t, fur.shear_exponent) * (s - n);
+        // A scale vector pointing into the surface (the wrong-side-scale problem, §3.4.3) would
+        // shear the outer layers below the skin; drop the inward component so that fur lies
+        // flat instead of rendering inside the surface.
+        offset = offset - min(dot(offset, n), 0.0) * n;
+    }
+    return offset * fur.fur_length_m;
+}
+
+@vertex
+fn vs_fin(v: FinIn) -> FinOut {
+    let n = normalize(v.normal);
+    let s = scale_vectors[v.vertex_index].xyz;
+    let world = v.position + shell_offset(n, s, v.height);
+    var out: FinOut;
+    out.clip = frame.view_proj * vec4<f32>(world, 1.0);
+    out.normal = n;
+    out.color = v.color;
+    out.uv = vec2<f32>(v.along_m / fur.fin_repeat_m, 1.0 - v.height);
+    out.world = world;
+    out.face_normal = v.face_normal;
+    out.height = v.height;
+    return out;
+}
+
+fn lambert(n: vec3<f32>) -> vec3<f32> {
+    if !LAMBERT {
+        return vec3<f32>(1.0);
+    }
+    let d = max(dot(normalize(n), frame.light_dir.xyz), 0.0);
+    let ambient = frame.light_color.a;
+    return frame.light_color.rgb * (ambient + (1.0 - ambient) * d);
+}
+
+@fragment
+fn fs_fin(in: FinOut) -> @location(0) vec4<f32> {
+    var texel: f32;
+    if ALPHA_BLEND {
+        texel = textureSample(fin_alpha, fin_sampler, in.uv).r;
+    } else {
+        texel = textureSampleLevel(fin_alpha, fin_sampler, in.uv, 0.0).r;
+    }
+    let to_eye = normalize(frame.camera_pos.xyz - in.world);
+    let facing = abs(dot(normalize(in.face_normal), to_eye));
+    let alpha = texel * (1.0 - facing);
+    if alpha <= fur.alpha_threshold {
+        discard;
+    }
+    var shade = lambert(in.normal);
+    if SHADOW {
+        let layer = min(fur.atlas_layers - 1u, u32(in.height * f32(fur.atlas_layers)));
+        shade = shade * shadow[layer];
+    }
+    let rgb = in.color.rgb * fur.tint.rgb * shade;
+    if ALPHA_BLEND {
+        return vec4<f32>(rgb, alpha);
+    }
+    return vec4<f32>(rgb, 1.0);
+}
