@@ -36,6 +36,7 @@ mod settings;
 mod source;
 #[doc(hidden)]
 pub mod testmesh;
+mod texture;
 mod weld;
 
 use std::path::Path;
@@ -90,7 +91,7 @@ fn import(
 ) -> Result<ImportedMesh, ImportError> {
     settings.validate().map_err(|message| ImportError::Settings { file: file.to_path_buf(), message })?;
     let asset = source::load_asset(bytes, file, base_dir)?;
-    let mut walker = scene::SceneWalker::new(&asset, file, &settings.fur_mask);
+    let mut walker = scene::SceneWalker::new(&asset, file, base_dir, settings);
     walker.walk()?;
     let mut warnings = asset.warnings.clone();
     warnings.append(&mut walker.warnings);

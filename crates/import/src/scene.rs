@@ -18,7 +18,8 @@ use gltf::json::validation::Checked;
 use crate::accessor::{AccessorReader, Elements};
 use crate::limits::{MAX_NODE_DEPTH, MAX_NODE_VISITS, MAX_RAW_TRIANGLES, MAX_RAW_VERTICES};
 use crate::source::Asset;
-use crate::{FurMaskSource, ImportError, PrimitiveRef};
+use crate::texture::TextureCache;
+use crate::{FurMaskSource, ImportError, ImportSettings, PrimitiveRef};
 
 /// The unwelded triangles of the whole scene, in world space, struct of arrays per raw vertex.
 #[derive(Default)]
@@ -103,6 +104,9 @@ pub(crate) struct SceneWalker<'a> {
     pub asset: &'a Asset,
     pub file: &'a Path,
     pub mask: &'a FurMaskSource,
+    base_dir: Option<&'a Path>,
+    sample_textures: bool,
+    textures: TextureCache,
     pub soup: Soup,
     pub warnings: Vec<String>,
     on_path: Vec<bool>,
@@ -117,11 +121,14 @@ pub(crate) struct SceneWalker<'a> {
 }
 
 impl<'a> SceneWalker<'a> {
-    pub fn new(asset: &'a Asset, file: &'a Path, mask: &'a FurMaskSource) -> Self {
+    pub fn new(asset: &'a Asset, file: &'a Path, base_dir: Option<&'a Path>, settings: &'a ImportSettings) -> Self {
         SceneWalker {
             asset,
             file,
-            mask,
+            mask: &settings.fur_mask,
+            base_dir,
+            sample_textures: settings.base_color_texture,
+            textures: TextureCache::default(),
             soup: Soup { all_have_texcoords: true, ..Soup::default() },
             warnings: Vec::new(),
             on_path: vec![false; asset.root.nodes.len()],
@@ -402,6 +409,22 @@ impl<'a> SceneWalker<'a> {
         let material = primitive.material.and_then(|m| asset.root.materials.get(m.value()));
         let factor = material.map_or([1.0; 4], |m| m.pbr_metallic_roughness.base_color_factor.0);
         let material_name = material.and_then(|m| m.name.clone());
+        // Base colour texture, sampled per vertex at its TEXCOORD set (thesis §3.2: the fur takes
+        // the skin's colour).
+        let texture_info = material.and_then(|m| m.pbr_metallic_roughness.base_color_texture.as_ref());
+        let texture_uvs = match texture_info {
+            Some(info) if self.sample_textures => {
+                let name = format!("TEXCOORD_{}", info.tex_coord);
+                self.read_optional(&reader, primitive, &name, &[Type::Vec2], n)?
+            }
+            _ => None,
+        };
+        let texture = match (texture_info, &texture_uvs) {
+            (Some(info), Some(_)) => {
+                self.textures.get(asset, file, self.base_dir, info.index.value(), &mut self.warnings)
+            }
+            _ => None,
+        };
         if let Some(name) = &material_name {
             self.used_materials.insert(name.clone());
         }
@@ -444,7 +467,11 @@ impl<'a> SceneWalker<'a> {
                 let c = e.get(v);
                 [c[0] as f32, c[1] as f32, c[2] as f32, if c.len() > 3 { c[3] as f32 } else { 1.0 }]
             });
-            let color = [rgba[0] * factor[0], rgba[1] * factor[1], rgba[2] * factor[2], rgba[3] * factor[3]];
+            let texel = match (texture, &texture_uvs) {
+                (Some(img), Some(uv)) => img.sample([uv.get(v)[0] as f32, uv.get(v)[1] as f32]),
+                _ => [1.0; 4],
+            };
+            let color = [0, 1, 2, 3].map(|k| rgba[k] * factor[k] * texel[k]);
             if !color.iter().all(|c| c.is_finite()) {
                 let value = color.map(f64::from);
                 return Err(self.non_finite(at, "COLOR_0 × baseColorFactor", v, &value));

@@ -14,7 +14,7 @@ use serde::{Deserialize, Serialize};
 /// source = "materials"                   # "all" | "vertex_color" | "attribute" | "materials"
 /// names = ["Fur", "Mane"]
 /// ```
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ImportSettings {
     /// Which triangles carry fur. Default: [`FurMaskSource::All`].
@@ -22,6 +22,19 @@ pub struct ImportSettings {
     /// How close two positions must be to become one welded vertex.
     /// Default: [`WeldTolerance::Relative`]`(1e-6)` of the bounding-box diagonal.
     pub weld_tolerance: WeldTolerance,
+    /// Multiply each vertex colour by the material's base colour texture sampled at the vertex
+    /// (so a textured model's fur takes the texture's colour). Default true.
+    pub base_color_texture: bool,
+}
+
+impl Default for ImportSettings {
+    fn default() -> Self {
+        ImportSettings {
+            fur_mask: FurMaskSource::default(),
+            weld_tolerance: WeldTolerance::default(),
+            base_color_texture: true,
+        }
+    }
 }
 
 /// Where the per-triangle fur mask comes from.

@@ -145,7 +145,7 @@ fn validate(root: &json::Root) -> Result<(), String> {
 }
 
 /// Decodes `%XX` escapes in a URI path.
-fn percent_decode(uri: &str) -> String {
+pub(crate) fn percent_decode(uri: &str) -> String {
     let bytes = uri.as_bytes();
     let mut out = Vec::with_capacity(bytes.len());
     let mut i = 0;

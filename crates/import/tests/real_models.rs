@@ -180,3 +180,16 @@ fn import_is_deterministic() {
     let b = import("Quaternius_Wolf.glb");
     assert_eq!(a, b);
 }
+
+#[test]
+fn fox_takes_its_colour_from_the_base_colour_texture() {
+    // Fox.glb has no COLOR_0, only a base colour texture: its fur must come out fox-coloured
+    // (orange: red well above blue), and white when texture sampling is switched off.
+    let textured = import("Fox.glb").mesh;
+    let orange = textured.colors.iter().filter(|c| c[0] > 0.3 && c[0] > 2.0 * c[2]).count();
+    assert!(orange > textured.colors.len() / 3, "{orange} of {} vertices are orange", textured.colors.len());
+    let settings = ImportSettings { base_color_texture: false, ..ImportSettings::default() };
+    let plain = import_gltf(&fixture("Fox.glb"), &settings).unwrap().mesh;
+    assert!(plain.colors.iter().all(|c| *c == [1.0; 4]), "without the texture every vertex is the white factor");
+    assert_eq!(plain.positions, textured.positions, "colour sampling leaves the geometry alone");
+}
