@@ -50,11 +50,11 @@ pub use settings::{ColorChannel, FurMaskSource, ImportSettings, WeldTolerance};
 pub struct ImportedMesh {
     /// The welded, triangulated skin.
     pub mesh: SkinMesh,
-    /// Bytes read: the main file plus every external buffer file (embedded `data:` buffers are
-    /// part of the main file).
+    /// Bytes read: the main file, every external buffer file and every external image file
+    /// sampled for colour (embedded `data:` buffers and GLB images are part of the main file).
     pub input_bytes: u64,
     /// Lowercase hex SHA-256 over the main file's bytes, then each external buffer file's
-    /// bytes, in buffer order (images are not included: they do not affect the skin).
+    /// bytes in buffer order, then each external base-colour image file sampled, in first-use order.
     pub input_sha256: String,
     /// Non-fatal findings, each prefixed with the file name: skipped point/line primitives,
     /// ignored skins or morph targets, fur-mask fallbacks, dropped vertices.
@@ -101,5 +101,12 @@ fn import(
     if welded.mesh.furry_triangles() == 0 {
         warnings.push(format!("{}: no triangle carries fur under the chosen fur mask", file.display()));
     }
-    Ok(ImportedMesh { mesh: welded.mesh, input_bytes: asset.input_bytes, input_sha256: asset.input_sha256, warnings })
+    let mut hasher = asset.input_hasher.clone();
+    let mut input_bytes = asset.input_bytes;
+    for image in &walker.textures.external {
+        sha2::Digest::update(&mut hasher, image);
+        input_bytes += image.len() as u64;
+    }
+    let input_sha256 = sha2::Digest::finalize(hasher).iter().map(|b| format!("{b:02x}")).collect();
+    Ok(ImportedMesh { mesh: welded.mesh, input_bytes, input_sha256, warnings })
 }

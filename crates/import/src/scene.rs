@@ -106,7 +106,7 @@ pub(crate) struct SceneWalker<'a> {
     pub mask: &'a FurMaskSource,
     base_dir: Option<&'a Path>,
     sample_textures: bool,
-    textures: TextureCache,
+    pub textures: TextureCache,
     pub soup: Soup,
     pub warnings: Vec<String>,
     on_path: Vec<bool>,

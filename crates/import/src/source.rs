@@ -48,8 +48,9 @@ pub(crate) struct Asset {
     pub buffers: Vec<Vec<u8>>,
     /// Bytes hashed: the main file plus every external buffer file.
     pub input_bytes: u64,
-    /// Lowercase hex SHA-256 over the main file then each external buffer file, in buffer order.
-    pub input_sha256: String,
+    /// SHA-256 state over the main file then each external buffer file, in buffer order; the
+    /// importer appends the external images it samples, then finalises it.
+    pub input_hasher: Sha256,
     /// Non-fatal findings (ignored extensions and the like).
     pub warnings: Vec<String>,
 }
@@ -266,8 +267,7 @@ pub(crate) fn load_asset(bytes: &[u8], file: &Path, base_dir: Option<&Path>) -> 
         data.truncate(declared as usize);
         buffers.push(data);
     }
-    let input_sha256 = hasher.finalize().iter().map(|b| format!("{b:02x}")).collect();
-    Ok(Asset { root, buffers, input_bytes, input_sha256, warnings })
+    Ok(Asset { root, buffers, input_bytes, input_hasher: hasher, warnings })
 }
 
 /// Reads a whole file after checking its size against [`MAX_FILE_BYTES`].

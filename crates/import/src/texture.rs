@@ -52,6 +52,9 @@ const MAX_IMAGE_SIDE: u32 = 16_384;
 #[derive(Default)]
 pub(crate) struct TextureCache {
     images: HashMap<usize, Option<LinearImage>>,
+    /// Bytes of the external image files read, in the order they were first used (the scene
+    /// walk is deterministic): they shape the output, so the input hash covers them.
+    pub external: Vec<Vec<u8>>,
 }
 
 impl TextureCache {
@@ -67,7 +70,7 @@ impl TextureCache {
     ) -> Option<&LinearImage> {
         let image = asset.root.textures.get(texture)?.source.value();
         if !self.images.contains_key(&image) {
-            let decoded = match decode_image(asset, file, base_dir, image) {
+            let decoded = match decode_image(asset, file, base_dir, image, &mut self.external) {
                 Ok(img) => Some(img),
                 Err(why) => {
                     warnings.push(format!(
@@ -83,7 +86,13 @@ impl TextureCache {
     }
 }
 
-fn image_bytes(asset: &Asset, file: &Path, base_dir: Option<&Path>, image: &json::Image) -> Result<Vec<u8>, String> {
+fn image_bytes(
+    asset: &Asset,
+    file: &Path,
+    base_dir: Option<&Path>,
+    image: &json::Image,
+    external: &mut Vec<Vec<u8>>,
+) -> Result<Vec<u8>, String> {
     if let Some(view) = image.buffer_view {
         let v = asset.root.buffer_views.get(view.value()).ok_or("its buffer view does not exist")?;
         let buffer = asset.buffers.get(v.buffer.value()).ok_or("its buffer does not exist")?;
@@ -106,12 +115,20 @@ fn image_bytes(asset: &Asset, file: &Path, base_dir: Option<&Path>, image: &json
         return Err(format!("uri {uri:?} is not a relative file reference"));
     }
     let dir = base_dir.ok_or("it names an external file but no base directory is known")?;
-    read_file_limited(&dir.join(crate::source::percent_decode(uri)), file).map_err(|e| e.to_string())
+    let bytes = read_file_limited(&dir.join(crate::source::percent_decode(uri)), file).map_err(|e| e.to_string())?;
+    external.push(bytes.clone());
+    Ok(bytes)
 }
 
-fn decode_image(asset: &Asset, file: &Path, base_dir: Option<&Path>, index: usize) -> Result<LinearImage, String> {
+fn decode_image(
+    asset: &Asset,
+    file: &Path,
+    base_dir: Option<&Path>,
+    index: usize,
+    external: &mut Vec<Vec<u8>>,
+) -> Result<LinearImage, String> {
     let image = asset.root.images.get(index).ok_or("it does not exist")?;
-    let bytes = image_bytes(asset, file, base_dir, image)?;
+    let bytes = image_bytes(asset, file, base_dir, image, external)?;
     let reader = image::ImageReader::new(std::io::Cursor::new(&bytes))
         .with_guessed_format()
         .map_err(|e| format!("cannot read its header: {e}"))?;

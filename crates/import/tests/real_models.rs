@@ -142,7 +142,9 @@ fn quaternius_wolf_imports_as_a_closed_skinned_mesh() {
 #[test]
 fn two_sided_plane_reads_its_external_buffer_and_hashes_it() {
     let path = fixture("TwoSidedPlane/TwoSidedPlane.gltf");
-    let p = import_gltf(&path, &ImportSettings::default()).unwrap();
+    // Without texture sampling only the .gltf and its .bin are read.
+    let settings = ImportSettings { base_color_texture: false, ..ImportSettings::default() };
+    let p = import_gltf(&path, &settings).unwrap();
     assert_eq!((p.mesh.positions.len(), p.mesh.triangles.len()), (4, 2));
     assert_eq!(p.mesh.bounds(), ([-1.0, 0.0, -1.0], [1.0, 0.0, 1.0]));
     assert!(p.mesh.normals.iter().all(|n| *n == [0.0, 1.0, 0.0]));
@@ -154,6 +156,17 @@ fn two_sided_plane_reads_its_external_buffer_and_hashes_it() {
     let expected: String = h.finalize().iter().map(|b| format!("{b:02x}")).collect();
     assert_eq!(p.input_sha256, expected);
     assert_eq!(p.input_bytes, (gltf.len() + bin.len()) as u64);
+    // With it (the default), the external base colour PNG shapes the colours, so it joins the hash.
+    let textured = import_gltf(&path, &ImportSettings::default()).unwrap();
+    let png = std::fs::read(path.with_file_name("TwoSidedPlane_BaseColor.png")).unwrap();
+    let mut h = Sha256::new();
+    h.update(&gltf);
+    h.update(&bin);
+    h.update(&png);
+    let expected: String = h.finalize().iter().map(|b| format!("{b:02x}")).collect();
+    assert_eq!(textured.input_sha256, expected);
+    assert_eq!(textured.input_bytes, (gltf.len() + bin.len() + png.len()) as u64);
+    assert!(textured.mesh.colors.iter().any(|c| *c != [1.0; 4]), "the texture colours the vertices");
 }
 
 #[test]
