@@ -295,3 +295,14 @@ pub fn plane_with_bare_region(cells: u32, size_m: f32) -> TestMesh {
         edges: 3 * n * n + 2 * n,
     }
 }
+
+/// The generated meshes committed under `fixtures/generated/` (file name, mesh): the thesis's
+/// grass patch scaled to 4 m, a 1 m sphere of ~1,000 triangles, and a 2 m plane with a bare
+/// centre (materials `fur` / `bare`).
+pub fn committed_meshes() -> Vec<(&'static str, TestMesh)> {
+    vec![
+        ("grass_patch.gltf", grass_patch(4.0)),
+        ("sphere.gltf", uv_sphere(24, 24, 0.5)),
+        ("plane_bare_centre.gltf", plane_with_bare_region(8, 2.0)),
+    ]
+}
