@@ -1,0 +1,213 @@
+//! External forces on the free masses (fur thesis §3.4.1, last paragraph; §3.4.3): gravity,
+//! global time-varying wind, object motion turned into inertial forces in the mesh frame, local
+//! interaction forces (a point with radius and strength) and the restoring force of eq. 3.37,
+//! `F = (n − s)(1 − n·s)·w`, on every tip mass.
+//!
+//! The simulation runs in the mesh (object) frame: anchored masses never move there, and every
+//! vector below is expressed in that frame. A moving object is described by the frame's linear
+//! acceleration, angular velocity and angular acceleration; a free mass of mass `m` at `r` with
+//! velocity `v` then feels `−m (a + α×r + ω×(ω×r) + 2 ω×v)`.
+
+use glam::Vec3A;
+use serde::{Deserialize, Serialize};
+
+use crate::SimError;
+
+/// Global wind: a force on every free mass along `direction`, modulated by a travelling gust
+/// `force_n · (1 + gust_amplitude · sin(2π (gust_frequency_hz · t − (d̂·x_rest) / gust_wavelength_m)))`.
+/// The phase uses the mass's rest position, so wind adds no stiffness.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Wind {
+    /// Direction (normalised internally; zero disables the wind). Default +X.
+    pub direction: [f32; 3],
+    /// Mean force on each free mass, newtons. Default 1e-4.
+    pub force_n: f32,
+    /// Relative gust amplitude, 0 = steady. Default 0.5.
+    pub gust_amplitude: f32,
+    /// Gust frequency, hertz. Default 1.
+    pub gust_frequency_hz: f32,
+    /// Gust wavelength along the wind, metres (> 0). Default 1.
+    pub gust_wavelength_m: f32,
+}
+
+impl Default for Wind {
+    fn default() -> Self {
+        Wind {
+            direction: [1.0, 0.0, 0.0],
+            force_n: 1e-4,
+            gust_amplitude: 0.5,
+            gust_frequency_hz: 1.0,
+            gust_wavelength_m: 1.0,
+        }
+    }
+}
+
+/// A local interaction force: pushes free masses within `radius_m` of `point_m` away from it with
+/// magnitude `strength_n · (1 − d/radius)²`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LocalForce {
+    /// Centre, metres (mesh frame).
+    pub point_m: [f32; 3],
+    /// Radius of influence, metres (> 0).
+    pub radius_m: f32,
+    /// Force at the centre, newtons (negative pulls).
+    pub strength_n: f32,
+}
+
+/// Motion of the mesh frame (all zero: the object is at rest).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct FrameMotion {
+    /// Linear acceleration of the frame origin, m/s².
+    pub linear_accel_m_per_s2: [f32; 3],
+    /// Angular velocity of the frame, rad/s.
+    pub angular_velocity_rad_per_s: [f32; 3],
+    /// Angular acceleration of the frame, rad/s².
+    pub angular_accel_rad_per_s2: [f32; 3],
+}
+
+/// Every external force acting on the free masses.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ForceSet {
+    /// Gravity, m/s² (mesh frame). Default (0, −9.81, 0).
+    pub gravity_m_per_s2: [f32; 3],
+    /// Weight `w` of the restoring force of eq. 3.37 on each tip mass, newtons. Default 0.01.
+    pub restoring_weight_n: f32,
+    /// Global wind (none by default).
+    pub wind: Option<Wind>,
+    /// Object motion turned into inertial forces (at rest by default).
+    pub motion: FrameMotion,
+    /// Local interaction forces (none by default).
+    pub local: Vec<LocalForce>,
+}
+
+impl Default for ForceSet {
+    fn default() -> Self {
+        ForceSet {
+            gravity_m_per_s2: [0.0, -9.81, 0.0],
+            restoring_weight_n: 0.01,
+            wind: None,
+            motion: FrameMotion::default(),
+            local: Vec::new(),
+        }
+    }
+}
+
+impl ForceSet {
+    /// No external force at all (the restoring force stays: it is part of the fur model).
+    pub fn none() -> Self {
+        ForceSet { gravity_m_per_s2: [0.0; 3], ..ForceSet::default() }
+    }
+
+    /// Fails unless every value is finite and in range.
+    pub fn validate(&self) -> Result<(), SimError> {
+        let bad = |name: &'static str, what: &str| Err(SimError::Parameter { name, what: what.to_owned() });
+        let finite3 = |v: &[f32; 3]| v.iter().all(|c| c.is_finite());
+        if !finite3(&self.gravity_m_per_s2) {
+            return bad("gravity_m_per_s2", "not finite");
+        }
+        if !self.restoring_weight_n.is_finite() || self.restoring_weight_n < 0.0 {
+            return bad("restoring_weight_n", "must be finite and ≥ 0");
+        }
+        if let Some(w) = &self.wind {
+            if !finite3(&w.direction)
+                || ![w.force_n, w.gust_amplitude, w.gust_frequency_hz].iter().all(|v| v.is_finite())
+            {
+                return bad("wind", "not finite");
+            }
+            if !(w.gust_wavelength_m.is_finite() && w.gust_wavelength_m > 0.0) {
+                return bad("wind.gust_wavelength_m", "must be positive");
+            }
+        }
+        let m = &self.motion;
+        if !finite3(&m.linear_accel_m_per_s2)
+            || !finite3(&m.angular_velocity_rad_per_s)
+            || !finite3(&m.angular_accel_rad_per_s2)
+        {
+            return bad("motion", "not finite");
+        }
+        for l in &self.local {
+            if !(finite3(&l.point_m) && l.strength_n.is_finite() && l.radius_m.is_finite() && l.radius_m > 0.0) {
+                return bad("local", "point and strength must be finite, radius positive");
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The force set prepared for one evaluation time: vectors converted, flags for the costly terms.
+#[derive(Clone, Debug)]
+pub(crate) struct ForceEval {
+    /// Mass-proportional acceleration: gravity − frame linear acceleration.
+    pub accel: Vec3A,
+    pub rotating: bool,
+    pub omega: Vec3A,
+    pub alpha: Vec3A,
+    pub wind: Option<(Vec3A, f32, f32, f32, f32)>,
+    pub local: Vec<(Vec3A, f32, f32)>,
+    pub restoring_w: f32,
+    time_s: f32,
+}
+
+impl ForceEval {
+    pub fn new(f: &ForceSet, time_s: f64) -> ForceEval {
+        let omega = Vec3A::from(f.motion.angular_velocity_rad_per_s);
+        let alpha = Vec3A::from(f.motion.angular_accel_rad_per_s2);
+        ForceEval {
+            accel: Vec3A::from(f.gravity_m_per_s2) - Vec3A::from(f.motion.linear_accel_m_per_s2),
+            rotating: omega != Vec3A::ZERO || alpha != Vec3A::ZERO,
+            omega,
+            alpha,
+            wind: f.wind.as_ref().and_then(|w| {
+                let d = Vec3A::from(w.direction).try_normalize()?;
+                Some((d, w.force_n, w.gust_amplitude, w.gust_frequency_hz, 1.0 / w.gust_wavelength_m))
+            }),
+            local: f.local.iter().map(|l| (Vec3A::from(l.point_m), l.radius_m, l.strength_n)).collect(),
+            restoring_w: f.restoring_weight_n,
+            time_s: time_s as f32,
+        }
+    }
+
+    /// True when only the mass-proportional term is active (the fast path of the kernels).
+    #[inline]
+    pub fn uniform_only(&self) -> bool {
+        !self.rotating && self.wind.is_none() && self.local.is_empty()
+    }
+
+    /// External force on a free mass of `mass` at `x` (rest position `rest`) moving at `v`.
+    #[inline]
+    pub fn external(&self, mass: f32, x: Vec3A, v: Vec3A, rest: Vec3A) -> Vec3A {
+        let mut f = self.accel * mass;
+        if self.rotating {
+            let inertial = self.alpha.cross(x) + self.omega.cross(self.omega.cross(x)) + 2.0 * self.omega.cross(v);
+            f -= inertial * mass;
+        }
+        if let Some((d, force, amp, freq, inv_wl)) = self.wind {
+            let phase = std::f32::consts::TAU * (freq * self.time_s - d.dot(rest) * inv_wl);
+            f += d * (force * (1.0 + amp * phase.sin()));
+        }
+        for &(p, r, s) in &self.local {
+            let delta = x - p;
+            let dist = delta.length();
+            if dist < r && dist > 1e-12 {
+                let fall = 1.0 - dist / r;
+                f += delta * (s * fall * fall / dist);
+            }
+        }
+        f
+    }
+}
+
+/// Restoring force of eq. 3.37 on a tip at `tip` whose root is at `root`, rest direction `n`
+/// (unit): `(n − s)(1 − n·s)·w` with `s` the unit scale vector (eq. 3.35). Zero when the tip sits
+/// on its root (s undefined).
+#[inline]
+pub fn restoring_force(root: Vec3A, tip: Vec3A, n: Vec3A, w: f32) -> Vec3A {
+    match (tip - root).try_normalize() {
+        Some(s) => (n - s) * ((1.0 - n.dot(s)) * w),
+        None => Vec3A::ZERO,
+    }
+}

@@ -1,0 +1,557 @@
+//! The simulator: a topology's state as struct of arrays (positions, velocities, inverse masses in
+//! [`crate::model`]'s internal order), the chosen solver, the force set, the wrong-side guard and
+//! the energy bookkeeping the stability tests check. One [`Simulator::step`] advances one frame
+//! step: the explicit and stick solvers split it into equal substeps below their stable step
+//! (or refuse), every solver checks that the new state is finite before accepting it.
+
+use furbake_formats::sections::spring_topology::SpringTopology;
+use glam::Vec3A;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::SimError;
+use crate::forces::{ForceEval, ForceSet};
+use crate::model::{NONE, SimModel};
+use crate::shell::{GuardParams, GuardState};
+use crate::solvers::{self, ImplicitScratch, ReferenceScratch, sum_over};
+
+/// Which solver advances the state.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SolverKind {
+    /// Explicit Euler, eq. 3.20–3.25 (substeps below its stable step).
+    Explicit,
+    /// Implicit Euler, eq. 3.26–3.34 (Jacobi sweeps; 1 = the thesis).
+    Implicit,
+    /// The stick solver: parent links are rigid sticks, orientation only.
+    Stick,
+    /// Linearised backward Euler converged by conjugate gradient (Baraff & Witkin 1998).
+    Reference,
+}
+
+impl SolverKind {
+    /// All solvers, in a fixed order.
+    pub const ALL: [SolverKind; 4] =
+        [SolverKind::Explicit, SolverKind::Implicit, SolverKind::Stick, SolverKind::Reference];
+
+    /// The stable name (`explicit`, `implicit`, `stick`, `reference`).
+    pub fn name(self) -> &'static str {
+        match self {
+            SolverKind::Explicit => "explicit",
+            SolverKind::Implicit => "implicit",
+            SolverKind::Stick => "stick",
+            SolverKind::Reference => "reference",
+        }
+    }
+
+    /// Parses [`SolverKind::name`].
+    pub fn from_name(name: &str) -> Option<SolverKind> {
+        SolverKind::ALL.into_iter().find(|k| k.name() == name)
+    }
+}
+
+/// Solver settings.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SolverSettings {
+    /// The solver. Default implicit.
+    pub kind: SolverKind,
+    /// Jacobi sweeps of the implicit solver per step (≥ 1; 1 = the thesis). Default 1.
+    pub implicit_iterations: u32,
+    /// Let the explicit and stick solvers split a step that exceeds their stable step into equal
+    /// substeps (default true); off, such a step fails with [`SimError::StepTooLarge`].
+    pub allow_substeps: bool,
+    /// Most substeps per step before [`SimError::StepTooLarge`]. Default 10,000.
+    pub max_substeps: u32,
+    /// Fraction of the theoretical stable step the explicit solvers use, (0, 1]. Default 0.25:
+    /// `hω ≤ 0.5` for the stiffest mode, which keeps symplectic Euler's energy within
+    /// `(1 + hω/2)/(1 − hω/2) ≤ 1.67` of its conserved shadow value.
+    pub stability_safety: f32,
+    /// Implicit and reference solvers: largest angle (radians) a free mass may turn its shortest
+    /// link by in one substep, estimated from its speed and external acceleration; longer steps
+    /// are split into substeps. Linearised implicit Euler turns large rotations into stretch and
+    /// can add energy, so this keeps it stable by construction. 0 disables it (the raw scheme,
+    /// as the accuracy report measures it). Default 0.5.
+    pub max_link_rotation_rad: f32,
+    /// Relative residual at which the reference solver's CG stops. Default 1e-10.
+    pub reference_tolerance: f64,
+    /// Most CG iterations per reference step before [`SimError::NotConverged`]. Default 5,000.
+    pub reference_max_iterations: u32,
+    /// The wrong-side-scale guard.
+    pub guard: GuardParams,
+    /// Compute energy, external work and the largest displacement every step (the statistics of
+    /// [`StepStats`]; off in benchmarks). Default true.
+    pub track_energy: bool,
+}
+
+impl Default for SolverSettings {
+    fn default() -> Self {
+        SolverSettings {
+            kind: SolverKind::Implicit,
+            implicit_iterations: 1,
+            allow_substeps: true,
+            max_substeps: 10_000,
+            stability_safety: 0.25,
+            max_link_rotation_rad: 0.5,
+            reference_tolerance: 1e-10,
+            reference_max_iterations: 5_000,
+            guard: GuardParams::default(),
+            track_energy: true,
+        }
+    }
+}
+
+impl SolverSettings {
+    /// Settings for `kind` with every other field at its default.
+    pub fn of(kind: SolverKind) -> Self {
+        SolverSettings { kind, ..Default::default() }
+    }
+
+    fn validate(&self) -> Result<(), SimError> {
+        let bad = |name, what: &str| Err(SimError::Parameter { name, what: what.into() });
+        if self.implicit_iterations == 0 {
+            return bad("implicit_iterations", "must be at least 1");
+        }
+        if self.max_substeps == 0 {
+            return bad("max_substeps", "must be at least 1");
+        }
+        if !(self.stability_safety > 0.0 && self.stability_safety <= 1.0) {
+            return bad("stability_safety", "must lie in (0, 1]");
+        }
+        if !(self.max_link_rotation_rad.is_finite() && self.max_link_rotation_rad >= 0.0) {
+            return bad("max_link_rotation_rad", "must be finite and ≥ 0");
+        }
+        if !(self.reference_tolerance > 0.0 && self.reference_tolerance < 1.0) {
+            return bad("reference_tolerance", "must lie in (0, 1)");
+        }
+        let a = self.guard.threshold_angle_deg;
+        let impulse = self.guard.impulse_m_per_s;
+        if !(a > 0.0 && a < 90.0 && impulse.is_finite() && impulse >= 0.0) {
+            return bad("guard", "threshold_angle_deg must lie in (0, 90), impulse_m_per_s finite and ≥ 0");
+        }
+        Ok(())
+    }
+}
+
+/// Energy of the fur, joules. The stability bound applies to [`Energy::total_j`] = kinetic +
+/// spring energy; the restoring force of eq. 3.37 is not conservative (its pull does not depend
+/// on distance), so its work is booked with the external forces' and `restoring_j` is only
+/// informative.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Energy {
+    /// `Σ ½ m v²` over free masses.
+    pub kinetic_j: f64,
+    /// `Σ ½ k (l − l₀)²` over springs.
+    pub spring_j: f64,
+    /// `Σ ½ w L (1 − n·s)²` over restoring links (an approximate potential of eq. 3.37; not in
+    /// the total).
+    pub restoring_j: f64,
+}
+
+impl Energy {
+    /// Kinetic + spring energy (the quantity the energy budget bounds).
+    pub fn total_j(&self) -> f64 {
+        self.kinetic_j + self.spring_j
+    }
+}
+
+/// What one step did.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct StepStats {
+    /// Substeps taken (1 for the implicit and reference solvers).
+    pub substeps: u32,
+    /// Conjugate-gradient iterations (reference solver; summed over substeps).
+    pub cg_iterations: u32,
+    /// Energy after the step (zero when energy tracking is off).
+    pub energy: Energy,
+    /// Upper bound the energy must respect: initial energy plus the work of the external and
+    /// restoring forces, guard impulses and teleports so far (zero when tracking is off).
+    pub energy_budget_j: f64,
+    /// Largest distance of a free mass from its rest position, metres (zero when tracking is off).
+    pub max_displacement_m: f32,
+    /// Tips whose wrong-side test fired in this step.
+    pub guard_triggers: u32,
+    /// Tips whose scale vector is frozen after this step.
+    pub frozen_scale_vectors: u32,
+}
+
+/// A topology being simulated.
+pub struct Simulator {
+    model: SimModel,
+    settings: SolverSettings,
+    forces: ForceSet,
+    x: Vec<Vec3A>,
+    v: Vec<Vec3A>,
+    x_next: Vec<Vec3A>,
+    v_next: Vec<Vec3A>,
+    guard: GuardState,
+    implicit: ImplicitScratch,
+    reference: ReferenceScratch,
+    stable_dt: Option<(f32, f64)>,
+    time_s: f64,
+    steps: u64,
+    budget_j: f64,
+}
+
+impl Simulator {
+    /// Starts at rest (every mass at its rest position, zero velocity) under `ForceSet::default()`.
+    pub fn new(topology: &SpringTopology, settings: SolverSettings) -> Result<Simulator, SimError> {
+        settings.validate()?;
+        let model = SimModel::new(topology, settings.kind == SolverKind::Stick)?;
+        let x = model.rest.clone();
+        let n = model.n;
+        let guard = GuardState::new(&model);
+        let mut sim = Simulator {
+            x_next: x.clone(),
+            x,
+            v: vec![Vec3A::ZERO; n],
+            v_next: vec![Vec3A::ZERO; n],
+            model,
+            settings,
+            forces: ForceSet::default(),
+            guard,
+            implicit: ImplicitScratch::default(),
+            reference: ReferenceScratch::default(),
+            stable_dt: None,
+            time_s: 0.0,
+            steps: 0,
+            budget_j: 0.0,
+        };
+        sim.budget_j = sim.energy().total_j();
+        Ok(sim)
+    }
+
+    /// Replaces the force set.
+    pub fn set_forces(&mut self, forces: ForceSet) -> Result<(), SimError> {
+        forces.validate()?;
+        self.forces = forces;
+        Ok(())
+    }
+
+    /// The current force set.
+    pub fn forces(&self) -> &ForceSet {
+        &self.forces
+    }
+
+    /// The settings.
+    pub fn settings(&self) -> &SolverSettings {
+        &self.settings
+    }
+
+    /// Simulated time, seconds.
+    pub fn time_s(&self) -> f64 {
+        self.time_s
+    }
+
+    /// Steps taken.
+    pub fn steps(&self) -> u64 {
+        self.steps
+    }
+
+    /// Number of masses, springs and sticks.
+    pub fn counts(&self) -> (usize, usize, usize) {
+        (self.model.n, self.model.spring_count, self.model.stick_count)
+    }
+
+    /// The stable step of the explicit and stick solvers for the current forces, seconds
+    /// (infinite for the implicit and reference solvers and when nothing limits the step).
+    pub fn stable_step_s(&mut self) -> f64 {
+        let w = self.forces.restoring_weight_n;
+        match self.stable_dt {
+            Some((cw, dt)) if cw == w => dt,
+            _ => {
+                let dt = match self.settings.kind {
+                    SolverKind::Explicit => solvers::stable_step(&self.model, w, false, self.settings.stability_safety),
+                    SolverKind::Stick => solvers::stable_step(&self.model, w, false, self.settings.stability_safety),
+                    SolverKind::Implicit | SolverKind::Reference => f64::INFINITY,
+                };
+                self.stable_dt = Some((w, dt));
+                dt
+            }
+        }
+    }
+
+    /// The implicit solvers' step limit from `max_link_rotation_rad`: per free mass the `h` with
+    /// `|v| h + |a| h² = θ · shortest link`, `a` the external and restoring acceleration at the
+    /// current state; infinite when disabled.
+    fn rotation_limited_step_s(&self) -> f64 {
+        let theta = self.settings.max_link_rotation_rad as f64;
+        if theta == 0.0 {
+            return f64::INFINITY;
+        }
+        let m = &self.model;
+        let fe = ForceEval::new(&self.forces, self.time_s);
+        (0..m.n_free)
+            .into_par_iter()
+            .with_min_len(solvers::CHUNK)
+            .map(|k| {
+                let reach = theta * m.shortest_link[k] as f64;
+                if !reach.is_finite() {
+                    return f64::INFINITY;
+                }
+                let f = fe.external(m.mass[k], self.x[k], self.v[k], m.rest[k]);
+                let a = (f.length() + 4.0 * fe.restoring_w) as f64 / m.mass[k] as f64;
+                let v = self.v[k].length() as f64;
+                if a > 0.0 {
+                    2.0 * reach / (v + (v * v + 4.0 * a * reach).sqrt())
+                } else if v > 0.0 {
+                    reach / v
+                } else {
+                    f64::INFINITY
+                }
+            })
+            .reduce(|| f64::INFINITY, f64::min)
+    }
+
+    /// Moves the mesh frame by `offset_m` in one instant: free masses stay where they were in the
+    /// world, so in the mesh frame they jump by `−offset_m`; rigid links are re-projected at once
+    /// (removing velocity along them); otherwise velocities are unchanged. The change in energy is
+    /// added to the energy budget.
+    pub fn teleport(&mut self, offset_m: [f32; 3]) {
+        let before = if self.settings.track_energy { self.energy().total_j() } else { 0.0 };
+        let o = Vec3A::from(offset_m);
+        for x in &mut self.x[..self.model.n_free] {
+            *x -= o;
+        }
+        // Rigid links snap back at once, as part of the jump (their energy change is booked
+        // with the teleport, not with the next step).
+        solvers::project_sticks(&self.model, &mut self.x, &mut self.v);
+        if self.settings.track_energy {
+            self.budget_j += self.energy().total_j() - before;
+        }
+    }
+
+    /// Advances by `dt_s` seconds.
+    pub fn step(&mut self, dt_s: f64) -> Result<StepStats, SimError> {
+        if !(dt_s.is_finite() && dt_s > 0.0) {
+            return Err(SimError::Parameter { name: "dt_s", what: format!("{dt_s} (must be finite and positive)") });
+        }
+        let stable = match self.settings.kind {
+            SolverKind::Explicit | SolverKind::Stick => self.stable_step_s(),
+            SolverKind::Implicit | SolverKind::Reference => self.rotation_limited_step_s(),
+        };
+        let substeps = if dt_s <= stable {
+            1u64
+        } else {
+            let needed = (dt_s / stable).ceil() as u64;
+            let allowed = if self.settings.allow_substeps { self.settings.max_substeps } else { 1 };
+            if needed > allowed as u64 {
+                return Err(SimError::StepTooLarge { dt_s, stable_dt_s: stable, needed, allowed });
+            }
+            needed
+        };
+        let h = dt_s / substeps as f64;
+        let mut stats = StepStats { substeps: substeps as u32, ..Default::default() };
+        let mut work_j = 0.0;
+        for sub in 0..substeps {
+            let t = self.time_s + sub as f64 * h;
+            let fe = ForceEval::new(&self.forces, t);
+            let hf = h as f32;
+            let (x, v) = (&self.x, &self.v);
+            let (xo, vo) = (&mut self.x_next, &mut self.v_next);
+            match self.settings.kind {
+                SolverKind::Explicit => solvers::explicit_step(&self.model, &fe, hf, x, v, xo, vo),
+                SolverKind::Stick => solvers::stick_step(&self.model, &fe, hf, x, v, xo, vo),
+                SolverKind::Implicit => solvers::implicit_step(
+                    &self.model,
+                    &fe,
+                    hf,
+                    self.settings.implicit_iterations,
+                    &mut self.implicit,
+                    x,
+                    v,
+                    xo,
+                    vo,
+                ),
+                SolverKind::Reference => {
+                    let (it, rel) = solvers::reference_step(
+                        &self.model,
+                        &fe,
+                        hf,
+                        self.settings.reference_tolerance,
+                        self.settings.reference_max_iterations,
+                        &mut self.reference,
+                        x,
+                        v,
+                        xo,
+                        vo,
+                    );
+                    stats.cg_iterations += it;
+                    if rel > self.settings.reference_tolerance && rel.is_finite() {
+                        return Err(SimError::NotConverged { iterations: it, residual: rel });
+                    }
+                }
+            }
+            self.check_finite(t)?;
+            if self.settings.track_energy {
+                work_j += self.external_work(&fe);
+            }
+            std::mem::swap(&mut self.x, &mut self.x_next);
+            std::mem::swap(&mut self.v, &mut self.v_next);
+        }
+        let g = self.guard.apply(&self.model, &self.settings.guard, &self.x, &mut self.v);
+        self.time_s += dt_s;
+        self.steps += 1;
+        stats.guard_triggers = g.triggers;
+        stats.frozen_scale_vectors = g.frozen;
+        if self.settings.track_energy {
+            stats.max_displacement_m = self.max_displacement_m();
+            self.budget_j += work_j + g.kinetic_added_j;
+            stats.energy = self.energy();
+            stats.energy_budget_j = self.budget_j;
+        }
+        Ok(stats)
+    }
+
+    fn check_finite(&self, t: f64) -> Result<(), SimError> {
+        let nf = self.model.n_free;
+        let ok = |s: &[Vec3A]| {
+            if s.len() < 4 * solvers::CHUNK {
+                s.iter().all(|p| p.is_finite())
+            } else {
+                s.par_iter().with_min_len(solvers::CHUNK).all(|p| p.is_finite())
+            }
+        };
+        for (what, s) in [("position", &self.x_next[..nf]), ("velocity", &self.v_next[..nf])] {
+            if !ok(s) {
+                let k = s.iter().position(|p| !p.is_finite()).unwrap_or(0);
+                return Err(SimError::NonFinite {
+                    step: self.steps,
+                    time_s: t,
+                    what: format!("{what} of mass {} is {:?}", self.model.order[k], s[k]),
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// Work of the external and restoring forces (evaluated at the start of the substep) over
+    /// the substep.
+    fn external_work(&self, fe: &ForceEval) -> f64 {
+        let m = &self.model;
+        sum_over(m.n_free, |k| {
+            let mut f = if fe.uniform_only() {
+                fe.accel * m.mass[k]
+            } else {
+                fe.external(m.mass[k], self.x[k], self.v[k], m.rest[k])
+            };
+            let p = m.rest_parent[k];
+            if p != NONE && fe.restoring_w != 0.0 {
+                f += crate::forces::restoring_force(self.x[p as usize], self.x[k], m.rest_n[k], fe.restoring_w);
+            }
+            // Over the whole displacement, projections included (a teleport's projection is
+            // booked with the teleport itself).
+            f.dot(self.x_next[k] - self.x[k]) as f64
+        })
+    }
+
+    /// Energy of the current state.
+    pub fn energy(&self) -> Energy {
+        let m = &self.model;
+        let x = &self.x;
+        let kinetic_j = sum_over(m.n_free, |k| 0.5 * m.mass[k] as f64 * self.v[k].length_squared() as f64);
+        let spring_j = sum_over(m.springs.len(), |s| {
+            let ([a, b], rest, k) = m.springs[s];
+            let l = x[a as usize].as_dvec3().distance(x[b as usize].as_dvec3());
+            0.5 * k as f64 * (l - rest as f64).powi(2)
+        });
+        let w = self.forces.restoring_weight_n as f64;
+        let restoring_j = sum_over(m.n_free, |k| {
+            let p = m.rest_parent[k];
+            if p == NONE {
+                return 0.0;
+            }
+            let len = m.rest_len[k] as f64;
+            match (x[k] - x[p as usize]).try_normalize() {
+                Some(s) => 0.5 * w * len * (1.0 - m.rest_n[k].dot(s) as f64).powi(2),
+                None => 0.5 * w * len,
+            }
+        });
+        Energy { kinetic_j, spring_j, restoring_j }
+    }
+
+    /// Largest distance of a free mass from its rest position, metres.
+    pub fn max_displacement_m(&self) -> f32 {
+        let m = &self.model;
+        self.x[..m.n_free]
+            .par_iter()
+            .with_min_len(solvers::CHUNK)
+            .zip(&m.rest[..m.n_free])
+            .map(|(x, r)| x.distance(*r))
+            .reduce(|| 0.0, f32::max)
+    }
+
+    fn to_topology_order(&self, internal: &[Vec3A]) -> Vec<[f32; 3]> {
+        let mut out = vec![[0.0; 3]; self.model.n];
+        for (k, &i) in self.model.order.iter().enumerate() {
+            out[i as usize] = internal[k].to_array();
+        }
+        out
+    }
+
+    /// Mass positions in the mesh frame, in the topology's mass order, metres.
+    pub fn positions(&self) -> Vec<[f32; 3]> {
+        self.to_topology_order(&self.x)
+    }
+
+    /// Mass velocities in the mesh frame, in the topology's mass order, m/s.
+    pub fn velocities(&self) -> Vec<[f32; 3]> {
+        self.to_topology_order(&self.v)
+    }
+
+    /// Overwrites positions and velocities (topology order). Anchored masses keep their rest
+    /// positions and zero velocity whatever is passed for them.
+    pub fn set_state(&mut self, positions: &[[f32; 3]], velocities: &[[f32; 3]]) -> Result<(), SimError> {
+        let n = self.model.n;
+        if positions.len() != n || velocities.len() != n {
+            return Err(SimError::Parameter { name: "state", what: format!("expected {n} positions and velocities") });
+        }
+        if positions.iter().chain(velocities).flatten().any(|c| !c.is_finite()) {
+            return Err(SimError::Parameter { name: "state", what: "not finite".into() });
+        }
+        for k in 0..self.model.n_free {
+            let i = self.model.order[k] as usize;
+            self.x[k] = Vec3A::from(positions[i]);
+            self.v[k] = Vec3A::from(velocities[i]);
+        }
+        if self.settings.track_energy {
+            self.budget_j = self.energy().total_j();
+        }
+        Ok(())
+    }
+
+    /// Scale vectors (eq. 3.35) per shell vertex after the guard, as rendering uses them;
+    /// `[0, 0, 0]` for shell vertices without fur.
+    pub fn scale_vectors(&self) -> Vec<[f32; 3]> {
+        self.model
+            .shell_tip
+            .iter()
+            .map(|&s| if s == NONE { [0.0; 3] } else { self.guard.scale[s as usize].to_array() })
+            .collect()
+    }
+
+    /// Rest directions (vertex normals) per shell vertex; `[0, 0, 0]` without fur.
+    pub fn shell_normals(&self) -> Vec<[f32; 3]> {
+        self.model
+            .shell_tip
+            .iter()
+            .map(|&s| if s == NONE { [0.0; 3] } else { self.model.tips[s as usize].n.to_array() })
+            .collect()
+    }
+
+    /// Raw scale vectors straight from the masses (before the guard); `None` where a tip sits on
+    /// its root or the vertex has no fur.
+    pub fn raw_scale_vectors(&self) -> Vec<Option<[f32; 3]>> {
+        self.model
+            .shell_tip
+            .iter()
+            .map(|&s| {
+                if s == NONE {
+                    return None;
+                }
+                let t = self.model.tips[s as usize];
+                (self.x[t.tip as usize] - self.x[t.root as usize]).try_normalize().map(|v| v.to_array())
+            })
+            .collect()
+    }
+}
