@@ -41,6 +41,13 @@ pub enum Command {
     /// Vulkan driver (lavapipe) when there is none.
     #[command(after_help = EXIT_CODES)]
     Preview(PreviewArgs),
+    /// Run one topology of a pack under a scene (TOML: forces, solver, step, duration) headless
+    /// and write per-step statistics and final mass positions and velocities as JSON.
+    #[command(after_help = EXIT_CODES)]
+    Simulate(SimulateArgs),
+    /// Regenerate a measured report (`accuracy`: docs/accuracy.md and its plots).
+    #[command(after_help = EXIT_CODES)]
+    Report(ReportArgs),
     /// Write a file's atlases as PNG images and its description as JSON into a directory.
     #[command(after_help = EXIT_CODES)]
     Extract(ExtractArgs),
@@ -90,6 +97,12 @@ pub struct BakeArgs {
     /// units²), and bake their keyframe table into the pack (blades.field.density_per_m2).
     #[arg(long, value_name = "PER_M2")]
     pub blades: Option<f32>,
+    /// Also bake this mass–spring topology (fur thesis §3.4.1); repeatable.
+    #[arg(long = "topology", value_name = "KIND", value_parser = [
+        "chain", "reduced-chain", "sticks", "spring-sticks", "prisms",
+        "separable-sticks", "separable-spring-sticks", "separable-prisms",
+    ])]
+    pub topologies: Vec<String>,
     /// Also write the atlases as PNG images into this directory.
     #[arg(long, value_name = "DIR")]
     pub png_dir: Option<PathBuf>,
@@ -174,4 +187,31 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
         (Some(w), Some(h)) => Ok((w, h)),
         _ => Err(format!("{s:?}: width and height must be whole numbers from 1 to 16384")),
     }
+}
+
+/// `furbake simulate`
+#[derive(Args, Debug)]
+pub struct SimulateArgs {
+    /// The pack holding the topology and its skin mesh.
+    pub pack: std::path::PathBuf,
+    /// The scene (TOML): `dt_s`, `duration_s`, `[solver]`, `[forces]`, motion, teleports.
+    #[arg(long)]
+    pub scene: std::path::PathBuf,
+    /// Topology kind to run (default: the scene's `topology`, else the pack's first).
+    #[arg(long)]
+    pub topology: Option<String>,
+    /// Write the JSON report here instead of standard output.
+    #[arg(short, long)]
+    pub output: Option<std::path::PathBuf>,
+}
+
+/// `furbake report`
+#[derive(Args, Debug)]
+pub struct ReportArgs {
+    /// Which report: `accuracy` (error against a converged reference vs time, fur and grass).
+    #[arg(value_parser = ["accuracy"])]
+    pub which: String,
+    /// Directory to write into (`accuracy.md` and `accuracy-*.svg`).
+    #[arg(short, long, default_value = "docs")]
+    pub output: std::path::PathBuf,
 }

@@ -35,6 +35,10 @@ pub fn plan(args: &BakeArgs) -> Result<BakeSettings, Failure> {
     named("uv.repeat_m", args.repeat.map(|v| v.to_string()));
     named("volume.fin_slices", args.fin_slices.map(|v| v.to_string()));
     named("blades.field.density_per_m2", args.blades.map(|v| v.to_string()));
+    if !args.topologies.is_empty() {
+        let list = serde_json::to_string(&args.topologies).expect("strings serialise");
+        sets.push(format!("topologies={list}"));
+    }
     if args.no_undercoat {
         sets.push("volume.undercoat=null".into());
     }
@@ -110,6 +114,15 @@ pub fn run(args: BakeArgs, quiet: bool) -> Result<(), Failure> {
             baked.shells.params.resolution,
             baked.fin_edges.vertices.len(),
         );
+        for t in &baked.topologies {
+            eprintln!(
+                "  topology {}: {} masses, {} springs, {} sticks",
+                t.kind,
+                t.mass_kg.len(),
+                t.spring_ends.len(),
+                t.stick_ends.len()
+            );
+        }
         if let Some((field, _)) = &baked.blades {
             eprintln!("  {} grass blades in {} clusters", field.blade_count(), field.grid.clusters());
         }

@@ -17,6 +17,7 @@ use furbake_formats::sections::keyframe_table::KeyframeTable;
 use furbake_formats::sections::manifest::BakeManifest;
 use furbake_formats::sections::shell_atlas::ShellAtlas;
 use furbake_formats::sections::skin_mesh::SkinMesh;
+use furbake_formats::sections::spring_topology::SpringTopology;
 use furbake_formats::sections::triangle_uv_map::TriangleUvMap;
 use furbake_formats::{Pack, Section, SectionKind};
 use serde_json::{Map, Value, json};
@@ -35,6 +36,7 @@ pub struct Decoded {
     pub fin_edges: Option<FinEdges>,
     pub blade_fields: Vec<BladeField>,
     pub keyframe_tables: Vec<KeyframeTable>,
+    pub topologies: Vec<SpringTopology>,
     /// One summary per section, in table order (`None` for unknown kinds).
     pub summaries: Vec<Option<Value>>,
 }
@@ -52,6 +54,7 @@ pub fn decode_all(pack: &Pack) -> furbake_formats::Result<Decoded> {
             SectionKind::FIN_EDGES => keep(&mut d.fin_edges, pack.decode(i)?),
             SectionKind::BLADE_FIELD => push(&mut d.blade_fields, pack.decode(i)?),
             SectionKind::KEYFRAME_TABLE => push(&mut d.keyframe_tables, pack.decode(i)?),
+            SectionKind::SPRING_TOPOLOGY => push(&mut d.topologies, pack.decode(i)?),
             _ => None,
         };
         d.summaries.push(summary);
@@ -100,6 +103,20 @@ pub fn check_consistency(d: &Decoded) -> anyhow::Result<usize> {
                 if mesh.fur_mask[t as usize] == 0 {
                     return Err(anyhow!("fin edge grows from bare triangle {t}"));
                 }
+            }
+        }
+    }
+    if let Some(mesh) = &d.mesh {
+        for t in &d.topologies {
+            checks += 1;
+            let separable = t.kind.name().is_some_and(|n| n.starts_with("separable"));
+            let want = if separable { 3 * mesh.triangles.len() } else { mesh.positions.len() };
+            if t.shell_vertex_masses.len() != want {
+                return Err(anyhow!(
+                    "{} topology maps {} shell vertices, the skin mesh has {want}",
+                    t.kind,
+                    t.shell_vertex_masses.len()
+                ));
             }
         }
     }
@@ -175,6 +192,7 @@ pub fn describe(path: &Path, pack: &Pack, d: &Decoded) -> Value {
         "file_size": pack.file_size(),
         "sections": sections,
         "statistics": stats,
+        "topologies": of_kind(SectionKind::SPRING_TOPOLOGY),
         "keyframe_tables": of_kind(SectionKind::KEYFRAME_TABLE),
         "blade_fields": of_kind(SectionKind::BLADE_FIELD),
     });

@@ -10,6 +10,8 @@ mod failure;
 mod keyframes_cmd;
 mod png;
 mod preview_cmd;
+mod report_cmd;
+mod simulate_cmd;
 
 use std::process::ExitCode;
 
@@ -41,6 +43,8 @@ fn main() -> ExitCode {
         Command::Verify(a) => describe::run_verify(a, cli.quiet),
         Command::Keyframes(a) => keyframes_cmd::run(a, cli.quiet),
         Command::Preview(a) => preview_cmd::run(a, cli.quiet),
+        Command::Simulate(a) => simulate_cmd::run(a, cli.quiet),
+        Command::Report(a) => report_cmd::run(a, cli.quiet),
         Command::Extract(a) => extract_cmd::run(a, cli.quiet),
     };
     match result {

@@ -323,3 +323,86 @@ fn preview_renders_a_recognisable_fur_image() {
     assert_eq!(missing.status.code(), Some(1));
     assert!(stderr(&missing).contains("nope.fbk"));
 }
+
+const ALL_TOPOLOGIES: [&str; 8] = [
+    "chain",
+    "reduced-chain",
+    "sticks",
+    "spring-sticks",
+    "prisms",
+    "separable-sticks",
+    "separable-spring-sticks",
+    "separable-prisms",
+];
+
+/// Bakes `mesh` with every topology and returns `kind → (masses, springs, sticks)`.
+fn topology_counts(mesh: &Path, dir: &Path) -> std::collections::BTreeMap<String, (u64, u64, u64)> {
+    let pack = dir.join("topo.fbk");
+    let mut args = vec!["bake", s(mesh), "-o", s(&pack), "--resolution", "16", "-q"];
+    for k in ALL_TOPOLOGIES {
+        args.extend(["--topology", k]);
+    }
+    assert_ok(&furbake(&args), "bake with every topology");
+    assert_ok(&furbake(&["verify", s(&pack)]), "verify");
+    let json = inspect_json(&pack);
+    json["topologies"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| {
+            let n = |k: &str| t[k].as_u64().unwrap_or_else(|| panic!("{k} missing in {t}"));
+            (t["kind"].as_str().unwrap().to_owned(), (n("masses"), n("springs"), n("sticks")))
+        })
+        .collect()
+}
+
+#[test]
+fn topology_counts_follow_the_spec_on_the_grass_patch_and_the_fox() {
+    let dir = tempfile::tempdir().unwrap();
+    // SPEC.md: the thesis's grass patch V=13, F=16 (E=28) ⇒ spring–sticks 26/13, prisms 26/V+E,
+    // separable spring–sticks 6F/3F = 96/48, separable prisms 96/96.
+    let patch = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/generated/grass_patch.gltf");
+    let c = topology_counts(&patch, dir.path());
+    assert_eq!(c.len(), 8);
+    assert_eq!(c["spring-sticks"], (26, 13, 0));
+    assert_eq!(c["sticks"], (26, 0, 13));
+    assert_eq!(c["prisms"], (26, 13 + 28, 0));
+    assert_eq!(c["separable-spring-sticks"], (96, 48, 0));
+    assert_eq!(c["separable-sticks"], (96, 0, 48));
+    assert_eq!(c["separable-prisms"], (96, 96, 0));
+    assert_eq!(c["chain"].0, 13 * 16, "a mass on every one of the 16 layers");
+    // Fox.glb welds to V=290, E=864, F=576.
+    let c = topology_counts(&shared_fixture("Fox.glb"), dir.path());
+    assert_eq!(c["spring-sticks"], (580, 290, 0));
+    assert_eq!(c["prisms"], (580, 290 + 864, 0));
+    assert_eq!(c["separable-spring-sticks"], (3456, 1728, 0));
+    assert_eq!(c["separable-prisms"], (3456, 3456, 0));
+}
+
+#[test]
+fn simulate_runs_a_scene_and_writes_json() {
+    let dir = tempfile::tempdir().unwrap();
+    let patch = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/generated/grass_patch.gltf");
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/scenes/fur_wind_gust.toml");
+    let pack = dir.path().join("patch.fbk");
+    assert_ok(
+        &furbake(&["bake", s(&patch), "-o", s(&pack), "--resolution", "16", "--topology", "prisms", "-q"]),
+        "bake",
+    );
+    let json_path = dir.path().join("sim.json");
+    let out = furbake(&["simulate", s(&pack), "--scene", s(&scene), "-o", s(&json_path)]);
+    assert_ok(&out, "simulate");
+    assert!(stderr(&out).contains("µs per step"), "{}", stderr(&out));
+    let report: serde_json::Value = serde_json::from_slice(&std::fs::read(&json_path).unwrap()).unwrap();
+    assert_eq!(report["topology"], "prisms");
+    assert_eq!(report["masses"], 26);
+    let positions = report["final_positions_m"].as_array().unwrap();
+    assert_eq!(positions.len(), 26);
+    assert!(positions.iter().flat_map(|p| p.as_array().unwrap()).all(|x| x.as_f64().unwrap().is_finite()));
+    // A pack without the asked-for topology is bad input; an unknown name is a usage error.
+    let out = furbake(&["simulate", s(&pack), "--scene", s(&scene), "--topology", "sticks"]);
+    assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
+    assert!(stderr(&out).contains("--topology"), "{}", stderr(&out));
+    let out = furbake(&["simulate", s(&pack), "--scene", s(&scene), "--topology", "hairballs"]);
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+}

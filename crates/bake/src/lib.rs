@@ -35,6 +35,7 @@ use furbake_formats::sections::keyframe_table::KeyframeTable;
 use furbake_formats::sections::manifest::BakeManifest;
 use furbake_formats::sections::shell_atlas::ShellAtlas;
 use furbake_formats::sections::skin_mesh::SkinMesh;
+use furbake_formats::sections::spring_topology::{SpringTopology, TopologyKind};
 use furbake_formats::sections::triangle_uv_map::TriangleUvMap;
 use furbake_import::ImportedMesh;
 
@@ -57,6 +58,9 @@ pub enum BakeError {
     /// The grass-blade stages failed (bad blade settings, or a mesh blades cannot grow on).
     #[error(transparent)]
     Grass(#[from] furbake_grass::GrassError),
+    /// A mass–spring topology cannot be built on the mesh.
+    #[error(transparent)]
+    Topology(#[from] furbake_sim::SimError),
     /// The mesh cannot carry fur (e.g. the fur mask selects no triangle).
     #[error("{input}: {what}")]
     Mesh {
@@ -78,11 +82,13 @@ pub enum Stage {
     FinEdges,
     /// Scattering grass blades and simulating their keyframe table (only with blades).
     Blades,
+    /// Building the mass–spring topologies (only when some are asked for).
+    Topologies,
 }
 
 impl Stage {
     /// Every stage, in pipeline order.
-    pub const ALL: [Stage; 4] = [Stage::Volume, Stage::UvMap, Stage::FinEdges, Stage::Blades];
+    pub const ALL: [Stage; 5] = [Stage::Volume, Stage::UvMap, Stage::FinEdges, Stage::Blades, Stage::Topologies];
 
     /// Short human name.
     pub fn name(self) -> &'static str {
@@ -91,6 +97,7 @@ impl Stage {
             Stage::UvMap => "per-triangle UV map",
             Stage::FinEdges => "fin edges",
             Stage::Blades => "grass blades and keyframes",
+            Stage::Topologies => "mass-spring topologies",
         }
     }
 }
@@ -125,6 +132,8 @@ pub struct BakedPack {
     pub fin_edges: FinEdges,
     /// Grass blades and their keyframe table, when the settings ask for blades.
     pub blades: Option<(BladeField, KeyframeTable)>,
+    /// The mass–spring topologies asked for, in settings order.
+    pub topologies: Vec<SpringTopology>,
 }
 
 impl BakedPack {
@@ -143,6 +152,9 @@ impl BakedPack {
         );
         if let Some((field, keyframes)) = &self.blades {
             w.push_section(field).push_section(keyframes);
+        }
+        for t in &self.topologies {
+            w.push_section(t);
         }
         w
     }
@@ -186,8 +198,23 @@ pub fn bake(
         None => None,
     };
 
+    let mut topologies = Vec::with_capacity(settings.topologies.len());
+    if !settings.topologies.is_empty() {
+        progress.stage(Stage::Topologies);
+        // The physics drives the shells: same fur length, one chain mass per shell layer.
+        let params = furbake_formats::sections::spring_topology::TopologyParams {
+            fur_length_m,
+            chain_layers: settings.volume.layers,
+            ..settings.topology.clone()
+        };
+        for name in &settings.topologies {
+            let kind = TopologyKind::from_name(name).expect("validate() checked every topology name");
+            topologies.push(furbake_sim::build_topology(mesh, kind, &params)?);
+        }
+    }
+
     let manifest = record_manifest(input, input_name, settings);
-    Ok(BakedPack { manifest, mesh: mesh.clone(), shells, fins, uv_map, fin_edges, blades })
+    Ok(BakedPack { manifest, mesh: mesh.clone(), shells, fins, uv_map, fin_edges, blades, topologies })
 }
 
 /// The fur length in metres: the explicit setting, or a fraction of the bounding-box diagonal.

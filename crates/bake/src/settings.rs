@@ -3,6 +3,7 @@
 //! validated as a whole before any stage runs, and it is what the manifest records.
 
 use furbake_formats::sections::shell_atlas::VolumeParams;
+use furbake_formats::sections::spring_topology::{TopologyKind, TopologyParams};
 use furbake_grass::{BladeFieldSettings, KeyframeSettings};
 use furbake_import::ImportSettings;
 use serde::{Deserialize, Serialize};
@@ -43,6 +44,13 @@ pub struct BakeSettings {
     /// keyframe table that animates it. `None` (the default of both presets) bakes no blades;
     /// `--blades DENSITY` turns it on.
     pub blades: Option<BladeSettings>,
+    /// Mass–spring topologies to bake (fur thesis §3.4.1), by name: `chain`, `reduced-chain`,
+    /// `sticks`, `spring-sticks`, `prisms`, `separable-sticks`, `separable-spring-sticks`,
+    /// `separable-prisms`. Default none.
+    pub topologies: Vec<String>,
+    /// Masses, stiffness and damping of the topologies. Their `fur_length_m` and `chain_layers`
+    /// are taken from the shells (fur length, layer count) so the physics matches the render.
+    pub topology: TopologyParams,
 }
 
 /// Settings of the grass-blade stages.
@@ -86,6 +94,8 @@ impl BakeSettings {
             shells: ShellSettings { fur_length_m: None, auto_fur_length_fraction: fraction },
             uv: UvSettings::default(),
             blades: None,
+            topologies: Vec::new(),
+            topology: TopologyParams::default(),
         })
     }
 
@@ -120,8 +130,21 @@ impl BakeSettings {
         if let Some(r) = self.uv.repeat_m {
             positive("uv.repeat_m", r)?;
         }
+        for (i, name) in self.topologies.iter().enumerate() {
+            if TopologyKind::from_name(name).is_none() {
+                return Err(BakeError::Settings {
+                    field: format!("topologies[{i}]"),
+                    what: format!("unknown topology {name:?} (known: {})", topology_names().join(", ")),
+                });
+            }
+        }
         Ok(())
     }
+}
+
+/// The eight topology kind names, in code order.
+pub fn topology_names() -> Vec<&'static str> {
+    TopologyKind::KNOWN.iter().filter_map(|k| k.name()).collect()
 }
 
 /// Deep-merges `patch` into `base`.
