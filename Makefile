@@ -8,7 +8,7 @@ FURBAKE := target/debug/furbake
 OUT := out/demo
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-.PHONY: demo test build deps bench fmt clippy golden clean-out
+.PHONY: demo test build deps bench fmt clippy golden clean-out report
 
 # The renderer needs a Vulkan driver; on machines without a GPU that is Mesa's lavapipe.
 deps:
@@ -52,3 +52,7 @@ clean-out:
 # Regenerate the golden pack checksums and the committed v1 pack (after an intended change).
 golden:
 	FURBAKE_BLESS=1 $(CARGO) test -p furbake-cli --test cli golden
+
+# Regenerate docs/accuracy.md and its plots from measurements (release build; a few minutes).
+report:
+	$(CARGO) run --release -p furbake-cli -- report accuracy -o docs
