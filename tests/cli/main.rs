@@ -406,3 +406,73 @@ fn simulate_runs_a_scene_and_writes_json() {
     let out = furbake(&["simulate", s(&pack), "--scene", s(&scene), "--topology", "hairballs"]);
     assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
 }
+
+/// Decodes every section of `bytes` with its typed decoder (what `verify` does).
+fn decode_every_section(bytes: &[u8]) -> Result<usize, furbake_formats::FormatError> {
+    use furbake_formats::SectionKind as K;
+    use furbake_formats::sections::*;
+    let pack = furbake_formats::Pack::from_bytes(bytes)?;
+    for (i, e) in pack.sections().iter().enumerate() {
+        match e.kind {
+            K::BAKE_MANIFEST => drop(pack.decode::<manifest::BakeManifest>(i)?),
+            K::SKIN_MESH => drop(pack.decode::<skin_mesh::SkinMesh>(i)?),
+            K::SHELL_ATLAS => drop(pack.decode::<shell_atlas::ShellAtlas>(i)?),
+            K::FIN_ATLAS => drop(pack.decode::<fin_atlas::FinAtlas>(i)?),
+            K::TRIANGLE_UV_MAP => drop(pack.decode::<triangle_uv_map::TriangleUvMap>(i)?),
+            K::FIN_EDGES => drop(pack.decode::<fin_edges::FinEdges>(i)?),
+            K::SPRING_TOPOLOGY => drop(pack.decode::<spring_topology::SpringTopology>(i)?),
+            K::KEYFRAME_TABLE => drop(pack.decode::<keyframe_table::KeyframeTable>(i)?),
+            K::BLADE_FIELD => drop(pack.decode::<blade_field::BladeField>(i)?),
+            _ => {}
+        }
+    }
+    Ok(pack.sections().len())
+}
+
+#[test]
+fn every_truncation_and_byte_corruption_of_a_real_pack_is_rejected() {
+    // A real bake of the BoxVertexColors fixture with every section kind in it (blades,
+    // keyframes, a topology), kept small so the sweep is quick.
+    let dir = tempfile::tempdir().unwrap();
+    let pack = dir.path().join("box.fbk");
+    let mesh = shared_fixture("BoxVertexColors.glb");
+    let args = [
+        "bake",
+        s(&mesh),
+        "-o",
+        s(&pack),
+        "--resolution",
+        "8",
+        "--layers",
+        "4",
+        "--blades",
+        "20",
+        "--set",
+        "blades.keyframes.grid.poses=40",
+        "--topology",
+        "prisms",
+        "-q",
+    ];
+    assert_ok(&furbake(&args), "bake");
+    let bytes = std::fs::read(&pack).unwrap();
+    assert_eq!(decode_every_section(&bytes).unwrap(), 9, "the clean pack holds all nine section kinds");
+    let mut truncations = 0;
+    for len in 0..bytes.len() {
+        let r = std::panic::catch_unwind(|| decode_every_section(&bytes[..len]));
+        assert!(r.expect("no panic on truncation").is_err(), "truncation to {len} accepted");
+        truncations += 1;
+    }
+    let mut rejected = 0;
+    let mut tried = 0;
+    for at in (0..bytes.len()).step_by(3) {
+        let mut b = bytes.clone();
+        b[at] ^= 0x5a;
+        let r = std::panic::catch_unwind(|| decode_every_section(&b)).expect("no panic on corruption");
+        tried += 1;
+        rejected += r.is_err() as usize;
+    }
+    assert_eq!(truncations, bytes.len());
+    // Only the zero padding between sections and the reserved header bytes are outside every
+    // checksum; everything else must be caught.
+    assert!(rejected * 100 >= tried * 97, "{rejected} of {tried} corruptions rejected");
+}
