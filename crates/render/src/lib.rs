@@ -18,6 +18,7 @@
 //! target into an [`image::RgbaImage`].
 
 mod asset;
+pub mod blades;
 mod renderer;
 pub mod shaders;
 
@@ -27,6 +28,7 @@ use furbake_runtime::{Camera, Light, Pack, RuntimeError};
 use glam::Vec3;
 
 pub use asset::FurAsset;
+pub use blades::{BladeRenderer, BladeSettings};
 pub use renderer::{COLOR_FORMAT, DEPTH_FORMAT, FurRenderer, RenderSettings, RenderTarget, ShellBlend};
 
 /// The command that installs a software Vulkan driver on Debian/Ubuntu machines without a GPU.

@@ -1,0 +1,761 @@
+//! [`BladeRenderer`]: instanced grass blades on the GPU (grass thesis §3.2.5–3.2.6, §4.2), the
+//! twin of furbake-grass's CPU reference `KeyframeDecoder::world_positions`. Uploads a blade
+//! field (roots, yaw, height scale, cluster corner indices and bilinear weights, eq. 3.6–3.8) and
+//! a keyframe table (reference blade, vertex→stored-vector map, the displacement payload packed
+//! into u32 words in its own encoding: f32, snorm16, f16, unorm8 or snorm8); each frame the
+//! caller writes the cluster corner forces (from a `ForceField`), a compute pass (`cs_blades` in
+//! `shaders/blades.wgsl`) selects every blade's pose (eq. 3.10–3.12, nearest or linear eq. 3.13)
+//! and writes world-space vertex positions, which [`BladeRenderer::read_positions`] reads back
+//! (tests compare them with the CPU reference). The instanced draw (instance = blade) poses each
+//! vertex in the vertex shader with the same WGSL functions and shades it two-sided with Lambert
+//! diffuse into a [`RenderTarget`], over what is already there or after a clear.
+//!
+//! Not on the GPU: spherical in-betweening (eq. 3.14) and delayed-attenuation sources (fig. 4.8);
+//! the corner forces must come from a field without delayed sources for the GPU to match
+//! `ForceField::blade_force`.
+
+use furbake_formats::sections::blade_field::BladeField;
+use furbake_formats::sections::keyframe_table::{Displacements, KeyframeTable, STATIC_VERTEX};
+use furbake_grass::{ForceField, Interpolation};
+use wgpu::util::DeviceExt;
+
+use crate::renderer::{COLOR_FORMAT, DEPTH_FORMAT, RenderTarget};
+use crate::shaders::FrameUniforms;
+use crate::{RenderError, View};
+
+/// The blade shader: compute pass posing blades, instanced two-sided Lambert draw.
+pub const BLADES_WGSL: &str = include_str!("../../../shaders/blades.wgsl");
+
+/// The `BladeParams` uniform of `blades.wgsl` (binding 1).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct BladeParams {
+    /// Linear RGB blade colour (a unused).
+    pub color: [f32; 4],
+    /// Number of blades.
+    pub blade_count: u32,
+    /// Vertices per blade.
+    pub vertex_count: u32,
+    /// Stored vectors per stored pose.
+    pub stored_vectors: u32,
+    /// Stored angles per magnitude (angles / symmetry factor).
+    pub stored_angles: u32,
+    /// Magnitude samples (zero force excluded).
+    pub magnitudes: u32,
+    /// Angle samples over the full circle.
+    pub angles: u32,
+    /// 1 when the x mirror is exploited.
+    pub mirror_x: u32,
+    /// 1 when the z mirror is exploited.
+    pub mirror_z: u32,
+    /// `magnitudes / max_force`.
+    pub magnitude_per_force: f32,
+    /// `angles / 2π`.
+    pub angle_per_radian: f32,
+    /// Dequantisation scale (1 for the float encodings).
+    pub scale: f32,
+    /// 0 f32, 1 snorm16, 2 f16, 3 unorm8, 4 snorm8.
+    pub encoding: u32,
+    /// 0 nearest, 1 linear.
+    pub interpolation: u32,
+    /// 1: Lambert diffuse.
+    pub lambert: u32,
+    /// Padding to 16 bytes.
+    pub pad0: u32,
+    /// Padding to 16 bytes.
+    pub pad1: u32,
+}
+
+/// One blade instance as `blades.wgsl` reads it (`Blade`, binding 2).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct BladeGpu {
+    /// Root position in metres (xyz) and height scale in metres per blade length (w).
+    pub root: [f32; 4],
+    /// `cos yaw`, `sin yaw`, unused, unused.
+    pub yaw: [f32; 4],
+    /// The four cluster corner indices.
+    pub corners: [u32; 4],
+    /// Their bilinear weights.
+    pub weights: [f32; 4],
+}
+
+/// Compute workgroup size of `cs_blades` (one thread per blade).
+const WORKGROUP: u32 = 64;
+
+/// How blades are drawn.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BladeSettings {
+    /// Pose selection: [`Interpolation::Nearest`] (default) or [`Interpolation::Linear`];
+    /// spherical is CPU-only and refused.
+    pub interpolation: Interpolation,
+    /// Linear RGB blade colour. Default a grass green `[0.18, 0.45, 0.08]`.
+    pub color: [f32; 3],
+    /// Lambert diffuse (off: unlit colour). Default true.
+    pub lambert: bool,
+}
+
+impl Default for BladeSettings {
+    fn default() -> Self {
+        BladeSettings { interpolation: Interpolation::Nearest, color: [0.18, 0.45, 0.08], lambert: true }
+    }
+}
+
+/// One blade field with its keyframe table on the GPU.
+pub struct BladeRenderer {
+    params: BladeParams,
+    bounds: ([f32; 3], f32),
+    blade_count: u32,
+    vertex_count: u32,
+    corner_count: u32,
+    index_count: u32,
+    frame_buffer: wgpu::Buffer,
+    force_buffer: wgpu::Buffer,
+    /// Positions buffer and its compute bind group, created by the first compute pass.
+    positions: std::sync::OnceLock<(wgpu::Buffer, wgpu::BindGroup)>,
+    out_layout: wgpu::BindGroupLayout,
+    indices: wgpu::Buffer,
+    shared: wgpu::BindGroup,
+    compute_pipeline: wgpu::ComputePipeline,
+    draw_pipeline: wgpu::RenderPipeline,
+}
+
+/// The payload packed into u32 words (little-endian lanes) and its shader encoding code.
+fn pack_payload(d: &Displacements) -> (Vec<u32>, u32) {
+    fn words<T: Copy, const N: usize>(values: &[T], bits: impl Fn(T) -> u32) -> Vec<u32> {
+        let lane = 32 / N as u32;
+        values
+            .chunks(N)
+            .map(|c| c.iter().enumerate().fold(0u32, |w, (k, &v)| w | bits(v) << (lane * k as u32)))
+            .collect()
+    }
+    match d {
+        Displacements::F32(v) => (v.iter().map(|x| x.to_bits()).collect(), 0),
+        Displacements::Snorm16 { values, .. } => (words::<i16, 2>(values, |q| q as u16 as u32), 1),
+        Displacements::F16(v) => (words::<u16, 2>(v, |b| b as u32), 2),
+        Displacements::Unorm8 { values, .. } => (words::<u8, 4>(values, |q| q as u32), 3),
+        Displacements::Snorm8 { values, .. } => (words::<i8, 4>(values, |q| q as u8 as u32), 4),
+    }
+}
+
+/// A sphere holding every blade: the root box's centre, its half-diagonal plus the longest
+/// reference vertex distance from the root times the largest height scale (a pose keeps the blade
+/// within one blade length of its root up to the small stretch of the quantisation).
+fn field_bounds(field: &BladeField, table: &KeyframeTable) -> ([f32; 3], f32) {
+    let (mut lo, mut hi) = (glam::Vec3::splat(f32::INFINITY), glam::Vec3::splat(f32::NEG_INFINITY));
+    for p in &field.positions {
+        lo = lo.min(glam::Vec3::from(*p));
+        hi = hi.max(glam::Vec3::from(*p));
+    }
+    if field.positions.is_empty() || !(lo.is_finite() && hi.is_finite()) {
+        return ([0.0; 3], 1.0);
+    }
+    let reach = table.reference_positions.iter().map(|p| glam::Vec3::from(*p).length()).fold(1.0f32, f32::max);
+    let h = field.height_scale.iter().copied().filter(|h| h.is_finite()).fold(0.0f32, f32::max);
+    let center = (lo + hi) * 0.5;
+    let radius = (hi - lo).length() * 0.5 + reach * h * 1.05;
+    (center.to_array(), radius.max(1e-3))
+}
+
+fn invalid(what: String) -> RenderError {
+    RenderError::InvalidAsset { what }
+}
+
+impl BladeRenderer {
+    /// Uploads `field` and `table` and builds the compute and draw pipelines. Fails on an
+    /// inconsistent table or field (counts, symmetry, out-of-range indices), on spherical
+    /// interpolation, and when the blade instances, payload or corner forces are above the device's
+    /// storage binding limit.
+    pub fn new(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        field: &BladeField,
+        table: &KeyframeTable,
+        settings: &BladeSettings,
+    ) -> Result<BladeRenderer, RenderError> {
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let renderer = Self::build(device, queue, field, table, settings)?;
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(RenderError::Gpu { what: e.to_string() });
+        }
+        Ok(renderer)
+    }
+
+    fn build(
+        device: &wgpu::Device,
+        _queue: &wgpu::Queue,
+        field: &BladeField,
+        table: &KeyframeTable,
+        settings: &BladeSettings,
+    ) -> Result<BladeRenderer, RenderError> {
+        let interpolation = match settings.interpolation {
+            Interpolation::Nearest => 0,
+            Interpolation::Linear => 1,
+            Interpolation::Spherical => {
+                return Err(RenderError::Parameter {
+                    what: "spherical blade interpolation is CPU-only; use nearest or linear".into(),
+                });
+            }
+        };
+        if settings.color.iter().any(|c| !c.is_finite() || *c < 0.0) {
+            return Err(RenderError::Parameter { what: "blade colour must be finite and non-negative".into() });
+        }
+        // The checks of `KeyframeDecoder::new`, so a hand-built table cannot index out of range.
+        let g = table.grid;
+        let factor = table.symmetry.factor();
+        if g.magnitudes == 0
+            || g.angles == 0
+            || !g.angles.is_multiple_of(factor)
+            || g.max_force.is_nan()
+            || g.max_force <= 0.0
+        {
+            return Err(invalid(format!("pose grid {g:?} does not fit symmetry {}", table.symmetry.name())));
+        }
+        let sv = table.stored_vectors as u64;
+        let expected = table.stored_poses() * sv * 3;
+        if table.displacements.len() as u64 != expected {
+            return Err(invalid(format!("{} displacement components, expected {expected}", table.displacements.len())));
+        }
+        let vertex_count = table.vertex_count();
+        if table.vertex_map.len() != vertex_count
+            || table.vertex_map.iter().any(|&m| m != STATIC_VERTEX && m as u64 >= sv)
+        {
+            return Err(invalid("vertex_map does not fit the reference blade and stored vectors".into()));
+        }
+        if table.triangles.iter().flatten().any(|&i| i as usize >= vertex_count) {
+            return Err(invalid("a blade triangle indexes past the reference vertices".into()));
+        }
+        let n = field.blade_count();
+        let lens = [field.positions.len(), field.yaw_rad.len(), field.height_scale.len(), field.cluster.len()];
+        if lens.iter().chain([&field.weights.len()]).any(|&l| l != n) {
+            return Err(invalid(format!(
+                "blade field arrays have different lengths ({lens:?}, {} weights)",
+                field.weights.len()
+            )));
+        }
+        let corners = field.grid.corners();
+        let blades: Vec<BladeGpu> = (0..field.blade_count())
+            .map(|b| {
+                let [x, y, z] = field.positions[b];
+                let (s, c) = field.yaw_rad[b].sin_cos();
+                let cluster = field.cluster[b];
+                if cluster as usize >= field.grid.clusters() {
+                    return Err(invalid(format!("blade {b} is in cluster {cluster}, past the grid")));
+                }
+                Ok(BladeGpu {
+                    root: [x, y, z, field.height_scale[b]],
+                    yaw: [c, s, 0.0, 0.0],
+                    corners: field.grid.corner_indices(cluster),
+                    weights: field.weights[b],
+                })
+            })
+            .collect::<Result<_, _>>()?;
+
+        let limits = device.limits();
+        for (what, value) in [
+            ("blade instance bytes", blades.len() as u64 * std::mem::size_of::<BladeGpu>() as u64),
+            ("displacement payload bytes", expected * 4),
+            ("corner force bytes", corners as u64 * 8),
+        ] {
+            let limit = limits.max_storage_buffer_binding_size;
+            if value > limit {
+                return Err(RenderError::Limit { what, value, limit });
+            }
+        }
+        let groups = (blades.len() as u32).div_ceil(WORKGROUP);
+        if groups.div_ceil(limits.max_compute_workgroups_per_dimension) > limits.max_compute_workgroups_per_dimension {
+            return Err(RenderError::Limit {
+                what: "blade workgroups",
+                value: groups as u64,
+                limit: limits.max_compute_workgroups_per_dimension as u64
+                    * limits.max_compute_workgroups_per_dimension as u64,
+            });
+        }
+
+        let (payload, encoding) = pack_payload(&table.displacements);
+        let [r, gr, b] = settings.color;
+        let params = BladeParams {
+            color: [r, gr, b, 1.0],
+            blade_count: blades.len() as u32,
+            vertex_count: vertex_count as u32,
+            stored_vectors: table.stored_vectors,
+            stored_angles: g.stored_angles(table.symmetry),
+            magnitudes: g.magnitudes,
+            angles: g.angles,
+            mirror_x: table.symmetry.mirrors_x() as u32,
+            mirror_z: table.symmetry.mirrors_z() as u32,
+            // The same f32 expressions as `KeyframeDecoder::new`.
+            magnitude_per_force: g.magnitudes as f32 / g.max_force,
+            angle_per_radian: g.angles as f32 / std::f32::consts::TAU,
+            scale: table.displacements.scale(),
+            encoding,
+            interpolation,
+            lambert: settings.lambert as u32,
+            pad0: 0,
+            pad1: 0,
+        };
+        let init = |label, contents: &[u8], usage| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage })
+        };
+        // Storage bindings cannot be empty: a zero-filled placeholder stands in (never read).
+        fn nonempty<T: bytemuck::Pod + Default>(v: Vec<T>) -> Vec<T> {
+            if v.is_empty() { vec![T::default()] } else { v }
+        }
+        let storage = wgpu::BufferUsages::STORAGE;
+        let frame_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("furbake blade frame uniforms"),
+            size: std::mem::size_of::<FrameUniforms>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let params_buffer = init("furbake blade params", bytemuck::bytes_of(&params), wgpu::BufferUsages::UNIFORM);
+        let blade_buffer = init("furbake blades", bytemuck::cast_slice(&nonempty(blades)), storage);
+        let force_buffer = init(
+            "furbake corner forces",
+            bytemuck::cast_slice(&nonempty(vec![[0.0f32; 2]; corners])),
+            storage | wgpu::BufferUsages::COPY_DST,
+        );
+        let payload_buffer = init("furbake keyframe payload", bytemuck::cast_slice(&nonempty(payload)), storage);
+        let map_buffer =
+            init("furbake keyframe vertex map", bytemuck::cast_slice(&nonempty(table.vertex_map.clone())), storage);
+        let reference: Vec<[f32; 4]> = table.reference_positions.iter().map(|p| [p[0], p[1], p[2], 1.0]).collect();
+        let reference_buffer = init("furbake reference blade", bytemuck::cast_slice(&nonempty(reference)), storage);
+        let index_data: Vec<u32> = table.triangles.iter().flatten().copied().collect();
+        let indices = init(
+            "furbake blade triangles",
+            bytemuck::cast_slice(&nonempty(index_data.clone())),
+            wgpu::BufferUsages::INDEX,
+        );
+
+        let all = wgpu::ShaderStages::COMPUTE | wgpu::ShaderStages::VERTEX_FRAGMENT;
+        let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: all,
+            ty: wgpu::BindingType::Buffer { ty, has_dynamic_offset: false, min_binding_size: None },
+            count: None,
+        };
+        let ro = wgpu::BufferBindingType::Storage { read_only: true };
+        let uniform = wgpu::BufferBindingType::Uniform;
+        let shared_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("furbake blade shared layout"),
+            entries: &[
+                entry(0, uniform),
+                entry(1, uniform),
+                entry(2, ro),
+                entry(3, ro),
+                entry(4, ro),
+                entry(5, ro),
+                entry(6, ro),
+            ],
+        });
+        let out_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("furbake blade positions out layout"),
+            entries: &[wgpu::BindGroupLayoutEntry {
+                binding: 0,
+                visibility: wgpu::ShaderStages::COMPUTE,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Storage { read_only: false },
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
+                },
+                count: None,
+            }],
+        });
+        let shared = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("furbake blade shared"),
+            layout: &shared_layout,
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: frame_buffer.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 1, resource: params_buffer.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 2, resource: blade_buffer.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 3, resource: force_buffer.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 4, resource: payload_buffer.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 5, resource: map_buffer.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 6, resource: reference_buffer.as_entire_binding() },
+            ],
+        });
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("furbake blades"),
+            source: wgpu::ShaderSource::Wgsl(BLADES_WGSL.into()),
+        });
+        let compute_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("furbake blade compute layout"),
+            bind_group_layouts: &[Some(&shared_layout), Some(&out_layout)],
+            immediate_size: 0,
+        });
+        let draw_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("furbake blade draw layout"),
+            bind_group_layouts: &[Some(&shared_layout)],
+            immediate_size: 0,
+        });
+        let compute_pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("furbake blade poses"),
+            layout: Some(&compute_layout),
+            module: &module,
+            entry_point: Some("cs_blades"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        let draw_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("furbake blade draw"),
+            layout: Some(&draw_layout),
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some("vs_blade"),
+                compilation_options: Default::default(),
+                buffers: &[],
+            },
+            primitive: wgpu::PrimitiveState {
+                topology: wgpu::PrimitiveTopology::TriangleList,
+                front_face: wgpu::FrontFace::Ccw,
+                // Two-sided blades.
+                cull_mode: None,
+                ..Default::default()
+            },
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: DEPTH_FORMAT,
+                depth_write_enabled: Some(true),
+                depth_compare: Some(wgpu::CompareFunction::LessEqual),
+                stencil: Default::default(),
+                bias: Default::default(),
+            }),
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &module,
+                entry_point: Some("fs_blade"),
+                compilation_options: Default::default(),
+                targets: &[Some(wgpu::ColorTargetState {
+                    format: COLOR_FORMAT,
+                    blend: None,
+                    write_mask: wgpu::ColorWrites::ALL,
+                })],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        Ok(BladeRenderer {
+            params,
+            bounds: field_bounds(field, table),
+            blade_count: params.blade_count,
+            vertex_count: vertex_count as u32,
+            corner_count: corners as u32,
+            index_count: index_data.len() as u32,
+            frame_buffer,
+            force_buffer,
+            positions: std::sync::OnceLock::new(),
+            out_layout,
+            indices,
+            shared,
+            compute_pipeline,
+            draw_pipeline,
+        })
+    }
+
+    /// Reads the pack's first blade field and keyframe table and uploads them ([`BladeRenderer::new`]);
+    /// `Ok(None)` when the pack has no blade field. A blade field without a keyframe table is an
+    /// [`RenderError::Runtime`] (missing section).
+    pub fn from_pack(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        pack: &furbake_runtime::Pack,
+        settings: &BladeSettings,
+    ) -> Result<Option<BladeRenderer>, RenderError> {
+        let Some(field) = pack.optional_section::<BladeField>()? else { return Ok(None) };
+        let table = pack.section::<KeyframeTable>()?;
+        BladeRenderer::new(device, queue, &field, &table, settings).map(Some)
+    }
+
+    /// Centre and radius (metres) of a sphere holding every blade in any pose (roots grown by the
+    /// tallest blade's reference extent), for [`View::framing`] and the near/far planes.
+    pub fn bounding_sphere(&self) -> ([f32; 3], f32) {
+        self.bounds
+    }
+
+    /// Number of blades.
+    pub fn blade_count(&self) -> u32 {
+        self.blade_count
+    }
+
+    /// Vertices per blade.
+    pub fn vertex_count(&self) -> u32 {
+        self.vertex_count
+    }
+
+    /// The uniforms the shaders receive.
+    pub fn params(&self) -> &BladeParams {
+        &self.params
+    }
+
+    /// Writes this frame's cluster corner forces `(x, z)` (one per grid corner, force units).
+    pub fn set_corner_forces(&self, queue: &wgpu::Queue, forces: &[[f32; 2]]) -> Result<(), RenderError> {
+        if forces.len() != self.corner_count as usize {
+            return Err(RenderError::Parameter {
+                what: format!("{} corner forces for {} grid corners", forces.len(), self.corner_count),
+            });
+        }
+        if forces.iter().flatten().any(|c| !c.is_finite()) {
+            return Err(RenderError::Parameter { what: "corner forces must be finite".into() });
+        }
+        if !forces.is_empty() {
+            queue.write_buffer(&self.force_buffer, 0, bytemuck::cast_slice(forces));
+        }
+        Ok(())
+    }
+
+    /// Writes the corner forces of `field` (its `corner_forces`; delayed sources are not applied
+    /// on the GPU).
+    pub fn set_force_field(&self, queue: &wgpu::Queue, field: &ForceField) -> Result<(), RenderError> {
+        let forces: Vec<[f32; 2]> = field.corner_forces.iter().map(|f| f.to_array()).collect();
+        self.set_corner_forces(queue, &forces)
+    }
+
+    /// The positions buffer (`blades × vertices` `vec4<f32>`) and its bind group, created on first
+    /// use; fails when it is above the device's storage binding limit.
+    fn positions(&self, device: &wgpu::Device) -> Result<&(wgpu::Buffer, wgpu::BindGroup), RenderError> {
+        if let Some(p) = self.positions.get() {
+            return Ok(p);
+        }
+        let bytes = self.blade_count as u64 * self.vertex_count as u64 * 16;
+        let limit = device.limits().max_storage_buffer_binding_size;
+        if bytes > limit {
+            return Err(RenderError::Limit { what: "blade positions bytes", value: bytes, limit });
+        }
+        let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("furbake blade positions"),
+            size: bytes.max(16),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("furbake blade positions out"),
+            layout: &self.out_layout,
+            entries: &[wgpu::BindGroupEntry { binding: 0, resource: buffer.as_entire_binding() }],
+        });
+        Ok(self.positions.get_or_init(|| (buffer, group)))
+    }
+
+    /// Records the compute pass that poses every blade and writes its world-space vertices into
+    /// the positions buffer (created on first use; `blades × vertices × 16` bytes, which must fit
+    /// the device's storage binding limit — the draw does not need it).
+    pub fn encode_compute(&self, encoder: &mut wgpu::CommandEncoder, device: &wgpu::Device) -> Result<(), RenderError> {
+        let (_, out) = self.positions(device)?;
+        if self.blade_count == 0 {
+            return Ok(());
+        }
+        let groups = self.blade_count.div_ceil(WORKGROUP);
+        let max = device.limits().max_compute_workgroups_per_dimension;
+        // `new` checked that groups fit max × max.
+        let (x, y) = if groups <= max { (groups, 1) } else { (max, groups.div_ceil(max)) };
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("furbake blade poses"),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(&self.compute_pipeline);
+        pass.set_bind_group(0, &self.shared, &[]);
+        pass.set_bind_group(1, out, &[]);
+        pass.dispatch_workgroups(x, y, 1);
+        Ok(())
+    }
+
+    /// Poses every blade under the current corner forces and submits (see
+    /// [`BladeRenderer::read_positions`]).
+    pub fn compute(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<(), RenderError> {
+        let mut encoder =
+            device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("furbake blade poses") });
+        self.encode_compute(&mut encoder, device)?;
+        queue.submit([encoder.finish()]);
+        Ok(())
+    }
+
+    /// Draws every blade instanced into `target` from `view`, posed in the vertex shader under the
+    /// current corner forces (no compute pass needed). `clear`: the linear
+    /// RGBA colour to clear to first (colour and depth), or `None` to draw over what the target
+    /// holds (e.g. after [`crate::FurRenderer::render`], depth-tested against it). Submits.
+    pub fn render(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        target: &RenderTarget,
+        view: &View,
+        clear: Option<[f32; 4]>,
+    ) {
+        let frame = view.uniforms(target.aspect());
+        queue.write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&frame));
+        let color_view = target.color.create_view(&Default::default());
+        let depth_view = target.depth.create_view(&Default::default());
+        let mut encoder =
+            device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("furbake blade frame") });
+        {
+            let (color_load, depth_load) = match clear {
+                Some(c) => {
+                    let [r, g, b, a] = c.map(f64::from);
+                    (wgpu::LoadOp::Clear(wgpu::Color { r, g, b, a }), wgpu::LoadOp::Clear(1.0))
+                }
+                None => (wgpu::LoadOp::Load, wgpu::LoadOp::Load),
+            };
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("furbake blade pass"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &color_view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations { load: color_load, store: wgpu::StoreOp::Store },
+                })],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: &depth_view,
+                    depth_ops: Some(wgpu::Operations { load: depth_load, store: wgpu::StoreOp::Store }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            if self.blade_count > 0 && self.index_count > 0 {
+                pass.set_pipeline(&self.draw_pipeline);
+                pass.set_bind_group(0, &self.shared, &[]);
+                pass.set_index_buffer(self.indices.slice(..), wgpu::IndexFormat::Uint32);
+                pass.draw_indexed(0..self.index_count, 0, 0..self.blade_count);
+            }
+        }
+        queue.submit([encoder.finish()]);
+    }
+
+    /// Reads back the positions of the last compute pass: `blades × vertices` world positions in
+    /// metres, blade-major (waits for the GPU).
+    pub fn read_positions(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<Vec<[f32; 3]>, RenderError> {
+        let n = self.blade_count as u64 * self.vertex_count as u64;
+        let Some((positions, _)) = self.positions.get() else {
+            return Err(RenderError::Parameter { what: "read_positions before any compute pass".into() });
+        };
+        if n == 0 {
+            return Ok(Vec::new());
+        }
+        let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("furbake blade positions readback"),
+            size: n * 16,
+            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+            mapped_at_creation: false,
+        });
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("furbake blade positions readback"),
+        });
+        encoder.copy_buffer_to_buffer(positions, 0, &buffer, 0, n * 16);
+        queue.submit([encoder.finish()]);
+        let (tx, rx) = std::sync::mpsc::channel();
+        buffer.map_async(wgpu::MapMode::Read, .., move |r| {
+            let _ = tx.send(r);
+        });
+        device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| RenderError::Gpu { what: e.to_string() })?;
+        match rx.recv() {
+            Ok(Ok(())) => {}
+            Ok(Err(e)) => return Err(RenderError::Gpu { what: format!("blade readback mapping failed: {e}") }),
+            Err(_) => return Err(RenderError::Gpu { what: "blade readback mapping never completed".into() }),
+        }
+        let out = {
+            let view = buffer.get_mapped_range(..).map_err(|e| RenderError::Gpu { what: e.to_string() })?;
+            let words: &[[f32; 4]] = bytemuck::cast_slice(&view);
+            words.iter().map(|p| [p[0], p[1], p[2]]).collect()
+        };
+        buffer.unmap();
+        Ok(out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn module() -> naga::Module {
+        let module = naga::front::wgsl::parse_str(BLADES_WGSL)
+            .unwrap_or_else(|e| panic!("blades.wgsl: {}", e.emit_to_string(BLADES_WGSL)));
+        naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::empty())
+            .validate(&module)
+            .unwrap_or_else(|e| panic!("blades.wgsl: {}", e.emit_to_string(BLADES_WGSL)));
+        module
+    }
+
+    #[test]
+    fn the_blade_shader_parses_and_validates() {
+        let module = module();
+        let mut entry_points: Vec<(String, naga::ShaderStage)> =
+            module.entry_points.iter().map(|e| (e.name.clone(), e.stage)).collect();
+        entry_points.sort_by(|a, b| a.0.cmp(&b.0));
+        assert_eq!(
+            entry_points,
+            [
+                ("cs_blades".to_string(), naga::ShaderStage::Compute),
+                ("fs_blade".to_string(), naga::ShaderStage::Fragment),
+                ("vs_blade".to_string(), naga::ShaderStage::Vertex),
+            ]
+        );
+        let cs = module.entry_points.iter().find(|e| e.name == "cs_blades").expect("listed above");
+        assert_eq!(cs.workgroup_size, [WORKGROUP, 1, 1]);
+    }
+
+    /// Checks the WGSL struct `name`'s size (naga's layouter) and member offsets against Rust's.
+    fn check_layout(module: &naga::Module, name: &str, size: usize, rust: &[(&str, usize)]) {
+        let mut layouter = naga::proc::Layouter::default();
+        layouter.update(module.to_ctx()).expect("a validated module lays out");
+        let (handle, ty) = module
+            .types
+            .iter()
+            .find(|(_, t)| t.name.as_deref() == Some(name))
+            .unwrap_or_else(|| panic!("blades.wgsl declares {name}"));
+        let naga::TypeInner::Struct { members, span } = &ty.inner else { panic!("{name} is a struct") };
+        assert_eq!(layouter[handle].size, *span, "{name}");
+        assert_eq!(*span as usize, size, "size of {name}");
+        let got: Vec<(&str, usize)> =
+            members.iter().map(|m| (m.name.as_deref().unwrap_or(""), m.offset as usize)).collect();
+        assert_eq!(got, rust, "members of {name}");
+    }
+
+    #[test]
+    fn uniform_and_storage_structs_match_the_shader() {
+        use std::mem::{offset_of, size_of};
+        let module = module();
+        let frame = [
+            ("view_proj", offset_of!(FrameUniforms, view_proj)),
+            ("camera_pos", offset_of!(FrameUniforms, camera_pos)),
+            ("light_dir", offset_of!(FrameUniforms, light_dir)),
+            ("light_color", offset_of!(FrameUniforms, light_color)),
+        ];
+        check_layout(&module, "Frame", size_of::<FrameUniforms>(), &frame);
+        let params = [
+            ("color", offset_of!(BladeParams, color)),
+            ("blade_count", offset_of!(BladeParams, blade_count)),
+            ("vertex_count", offset_of!(BladeParams, vertex_count)),
+            ("stored_vectors", offset_of!(BladeParams, stored_vectors)),
+            ("stored_angles", offset_of!(BladeParams, stored_angles)),
+            ("magnitudes", offset_of!(BladeParams, magnitudes)),
+            ("angles", offset_of!(BladeParams, angles)),
+            ("mirror_x", offset_of!(BladeParams, mirror_x)),
+            ("mirror_z", offset_of!(BladeParams, mirror_z)),
+            ("magnitude_per_force", offset_of!(BladeParams, magnitude_per_force)),
+            ("angle_per_radian", offset_of!(BladeParams, angle_per_radian)),
+            ("scale", offset_of!(BladeParams, scale)),
+            ("encoding", offset_of!(BladeParams, encoding)),
+            ("interpolation", offset_of!(BladeParams, interpolation)),
+            ("lambert", offset_of!(BladeParams, lambert)),
+            ("pad0", offset_of!(BladeParams, pad0)),
+            ("pad1", offset_of!(BladeParams, pad1)),
+        ];
+        check_layout(&module, "BladeParams", size_of::<BladeParams>(), &params);
+        let blade = [
+            ("root", offset_of!(BladeGpu, root)),
+            ("yaw", offset_of!(BladeGpu, yaw)),
+            ("corners", offset_of!(BladeGpu, corners)),
+            ("weights", offset_of!(BladeGpu, weights)),
+        ];
+        check_layout(&module, "Blade", size_of::<BladeGpu>(), &blade);
+    }
+
+    #[test]
+    fn payload_packing_puts_the_first_value_in_the_low_lane() {
+        let (w, e) = pack_payload(&Displacements::Snorm16 { scale: 1.0, values: vec![-1, 2, 3] });
+        assert_eq!((w, e), (vec![0x0002_ffff, 0x0000_0003], 1));
+        let (w, e) = pack_payload(&Displacements::Snorm8 { scale: 1.0, values: vec![-2, 1, 0, 127, 5] });
+        assert_eq!((w, e), (vec![0x7f00_01fe, 0x0000_0005], 4));
+        let (w, e) = pack_payload(&Displacements::F32(vec![1.5]));
+        assert_eq!((w, e), (vec![1.5f32.to_bits()], 0));
+    }
+}

@@ -1,0 +1,306 @@
+// blades.wgsl — instanced grass blades (grass thesis §3.2.5–3.2.6, §4.2), the GPU twin of
+// furbake-grass's `KeyframeDecoder::world_positions`. A compute pass (`cs_blades`, one thread per
+// blade) interpolates the blade's force from its four cluster corner forces (eq. 3.6), turns it
+// into blade-local coordinates, selects the keyframe pose from its magnitude and its angle to the
+// blade normal (eq. 3.10–3.12: nearest, or linear in-betweening eq. 3.13), decodes the stored
+// displacements from packed u32 words (f32, snorm16, f16, unorm8 or snorm8) with the mirror flags
+// of fig. 3.8–3.9, and writes world-space vertex positions to a storage buffer. The draw
+// (`vs_blade` / `fs_blade`, instance = blade) poses each vertex with the same functions
+// (`blade_pose`, `vertex_position`) and shades the blade two-sided with Lambert diffuse and a
+// flat colour.
+
+struct Frame {
+    view_proj: mat4x4<f32>,
+    // xyz: eye position in metres; w unused.
+    camera_pos: vec4<f32>,
+    // xyz: unit vector from the surface towards the light; w unused.
+    light_dir: vec4<f32>,
+    // rgb: light colour × intensity; a: ambient term in [0, 1].
+    light_color: vec4<f32>,
+};
+
+struct BladeParams {
+    // Linear RGB blade colour; a unused.
+    color: vec4<f32>,
+    blade_count: u32,
+    // Vertices per blade.
+    vertex_count: u32,
+    // Stored vectors per stored pose.
+    stored_vectors: u32,
+    // Stored angles per magnitude (angles / symmetry factor).
+    stored_angles: u32,
+    // Magnitude samples (zero force excluded).
+    magnitudes: u32,
+    // Angle samples over the full circle.
+    angles: u32,
+    // 1: angles in the mirrored half are stored negated in x.
+    mirror_x: u32,
+    // 1: angles in the mirrored quarter are stored negated in z.
+    mirror_z: u32,
+    // magnitudes / max_force.
+    magnitude_per_force: f32,
+    // angles / 2π.
+    angle_per_radian: f32,
+    // Dequantisation scale of the payload (1 for the float encodings).
+    scale: f32,
+    // 0 f32, 1 snorm16, 2 f16, 3 unorm8, 4 snorm8.
+    encoding: u32,
+    // 0 nearest, 1 linear.
+    interpolation: u32,
+    // 1: Lambert diffuse; 0: unlit colour.
+    lambert: u32,
+    pad0: u32,
+    pad1: u32,
+};
+
+struct Blade {
+    // xyz: root position in metres; w: height scale (metres per blade length).
+    root: vec4<f32>,
+    // x: cos yaw, y: sin yaw; zw unused.
+    yaw: vec4<f32>,
+    // The four cluster corner indices.
+    corners: vec4<u32>,
+    // Their bilinear weights.
+    weights: vec4<f32>,
+};
+
+const STATIC_VERTEX: u32 = 0xffffffffu;
+const PI: f32 = 3.14159265358979;
+const TAU: f32 = 6.28318530717959;
+
+@group(0) @binding(0) var<uniform> frame: Frame;
+@group(0) @binding(1) var<uniform> params: BladeParams;
+@group(0) @binding(2) var<storage, read> blades: array<Blade>;
+@group(0) @binding(3) var<storage, read> corner_forces: array<vec2<f32>>;
+@group(0) @binding(4) var<storage, read> payload: array<u32>;
+@group(0) @binding(5) var<storage, read> vertex_map: array<u32>;
+@group(0) @binding(6) var<storage, read> reference: array<vec4<f32>>;
+
+// Written by the compute pass only.
+@group(1) @binding(0) var<storage, read_write> positions_out: array<vec4<f32>>;
+
+// The same minimax polynomial as furbake-grass's `fast_atan2` (to within 2e-5 rad).
+fn fast_atan2(y: f32, x: f32) -> f32 {
+    let ax = abs(x);
+    let ay = abs(y);
+    let lo = min(ax, ay);
+    let hi = max(ax, ay);
+    if hi == 0.0 {
+        return 0.0;
+    }
+    let a = lo / hi;
+    let s = a * a;
+    var r = ((((0.0208351 * s - 0.085133) * s + 0.180141) * s - 0.3302995) * s + 0.999866) * a;
+    if ay > ax {
+        r = PI * 0.5 - r;
+    }
+    if x < 0.0 {
+        r = PI - r;
+    }
+    if y < 0.0 {
+        r = -r;
+    }
+    return r;
+}
+
+// IEEE binary16 bits → f32, exactly (no shader-f16 feature or unpack builtin needed).
+fn f16_to_f32(h: u32) -> f32 {
+    let sign = (h & 0x8000u) << 16u;
+    let e = (h >> 10u) & 0x1fu;
+    let m = h & 0x3ffu;
+    if e == 0u {
+        // Zero or subnormal: m × 2^-24.
+        let v = f32(m) * 5.9604645e-8;
+        return select(v, -v, sign != 0u);
+    }
+    if e == 31u {
+        return bitcast<f32>(sign | 0x7f800000u | (m << 13u));
+    }
+    return bitcast<f32>(sign | ((e + 112u) << 23u) | (m << 13u));
+}
+
+// Stored displacement component `i` (pose-major, vector-major, xyz), dequantised.
+fn component(i: u32) -> f32 {
+    switch params.encoding {
+        case 1u: {
+            let bits = (payload[i >> 1u] >> ((i & 1u) * 16u)) & 0xffffu;
+            let q = bitcast<i32>(bits << 16u) >> 16u;
+            return f32(q) / 32767.0 * params.scale;
+        }
+        case 2u: {
+            return f16_to_f32((payload[i >> 1u] >> ((i & 1u) * 16u)) & 0xffffu);
+        }
+        case 3u: {
+            let q = (payload[i >> 2u] >> ((i & 3u) * 8u)) & 0xffu;
+            return (f32(q) * (2.0 / 255.0) - 1.0) * params.scale;
+        }
+        case 4u: {
+            let bits = (payload[i >> 2u] >> ((i & 3u) * 8u)) & 0xffu;
+            let q = bitcast<i32>(bits << 24u) >> 24u;
+            return f32(q) / 127.0 * params.scale;
+        }
+        default: {
+            return bitcast<f32>(payload[i]);
+        }
+    }
+}
+
+// Displacement of vertex `v` in the represented pose (magnitude key `m`, 0 = zero force; angle
+// sample `j` of the full circle), with the symmetry mirror of fig. 3.8.
+fn displacement(m: u32, j_full: u32, v: u32) -> vec3<f32> {
+    if m == 0u {
+        return vec3<f32>(0.0);
+    }
+    let mapped = vertex_map[v];
+    if mapped == STATIC_VERTEX {
+        return vec3<f32>(0.0);
+    }
+    let a = params.angles;
+    var j = j_full;
+    var flip_x = false;
+    var flip_z = false;
+    if params.mirror_x != 0u && j >= a / 2u {
+        j = a - 1u - j;
+        flip_x = true;
+    }
+    if params.mirror_z != 0u && j >= a / 4u {
+        j = a / 2u - 1u - j;
+        flip_z = true;
+    }
+    let pose = (m - 1u) * params.stored_angles + j;
+    let base = (pose * params.stored_vectors + mapped) * 3u;
+    var d = vec3<f32>(component(base), component(base + 1u), component(base + 2u));
+    if flip_x {
+        d.x = -d.x;
+    }
+    if flip_z {
+        d.z = -d.z;
+    }
+    return d;
+}
+
+fn wrap_angle(j: i32) -> u32 {
+    let a = i32(params.angles);
+    return u32(((j % a) + a) % a);
+}
+
+// A blade's pose for this frame: the keys and weights of the selected keyframes and the blade's
+// frame (root, height scale, width axis, normal).
+struct Pose {
+    keys_m: vec4<u32>,
+    keys_j: vec4<u32>,
+    weights: vec4<f32>,
+    // Keys used: 1 (nearest) or 4 (linear).
+    count: u32,
+    root: vec3<f32>,
+    height: f32,
+    width: vec3<f32>,
+    normal: vec3<f32>,
+};
+
+// eq. 3.6 then eq. 3.10–3.13: the blade's force from its cluster's four corner forces, in
+// blade-local coordinates, and the poses around it (as `KeyframeDecoder::select`).
+fn blade_pose(b: u32) -> Pose {
+    let blade = blades[b];
+    var f = vec2<f32>(0.0);
+    for (var k = 0u; k < 4u; k++) {
+        f += corner_forces[blade.corners[k]] * blade.weights[k];
+    }
+    let c = blade.yaw.x;
+    let s = blade.yaw.y;
+    var pose: Pose;
+    pose.width = vec3<f32>(c, 0.0, -s);
+    pose.normal = vec3<f32>(s, 0.0, c);
+    pose.root = blade.root.xyz;
+    pose.height = blade.root.w;
+    // Force along the width axis and along the normal.
+    let lx = f.x * c - f.y * s;
+    let ly = f.x * s + f.y * c;
+    let mag = length(vec2<f32>(lx, ly));
+    let mu = clamp(mag * params.magnitude_per_force, 0.0, f32(params.magnitudes));
+    var theta = fast_atan2(lx, ly);
+    if theta < 0.0 {
+        theta += TAU;
+    }
+    let alpha = theta * params.angle_per_radian - 0.5;
+    pose.keys_m = vec4<u32>(0u);
+    pose.keys_j = vec4<u32>(0u);
+    pose.weights = vec4<f32>(1.0, 0.0, 0.0, 0.0);
+    pose.count = 1u;
+    if params.interpolation == 0u {
+        // Nearest (ties round up); alpha ≥ −0.5, so truncation after + 0.5 rounds.
+        var j = u32(alpha + 0.5);
+        if j >= params.angles {
+            j -= params.angles;
+        }
+        pose.keys_m.x = min(u32(mu + 0.5), params.magnitudes);
+        pose.keys_j.x = j;
+    } else {
+        let m0 = max(min(floor(mu), f32(params.magnitudes) - 1.0), 0.0);
+        let tm = clamp(mu - m0, 0.0, 1.0);
+        let j0f = floor(alpha);
+        let ta = clamp(alpha - j0f, 0.0, 1.0);
+        let m0u = u32(m0);
+        let j0 = wrap_angle(i32(j0f));
+        let j1 = wrap_angle(i32(j0f) + 1);
+        pose.keys_m = vec4<u32>(m0u, m0u, m0u + 1u, m0u + 1u);
+        pose.keys_j = vec4<u32>(j0, j1, j0, j1);
+        pose.weights = vec4<f32>((1.0 - tm) * (1.0 - ta), (1.0 - tm) * ta, tm * (1.0 - ta), tm * ta);
+        pose.count = 4u;
+    }
+    return pose;
+}
+
+// World position of vertex `v` of a posed blade (as `KeyframeDecoder::world_positions`).
+fn vertex_position(pose: Pose, v: u32) -> vec3<f32> {
+    var d = vec3<f32>(0.0);
+    for (var k = 0u; k < pose.count; k++) {
+        d += displacement(pose.keys_m[k], pose.keys_j[k], v) * pose.weights[k];
+    }
+    let p = reference[v].xyz + d;
+    return pose.root + (pose.width * p.x + vec3<f32>(0.0, p.y, 0.0) + pose.normal * p.z) * pose.height;
+}
+
+// Poses every blade once and writes its vertices (for readback and for callers that reuse them).
+@compute @workgroup_size(64)
+fn cs_blades(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let b = gid.x + gid.y * groups.x * 64u;
+    if b >= params.blade_count {
+        return;
+    }
+    let pose = blade_pose(b);
+    let vc = params.vertex_count;
+    for (var v = 0u; v < vc; v++) {
+        positions_out[b * vc + v] = vec4<f32>(vertex_position(pose, v), 1.0);
+    }
+}
+
+struct BladeOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) world: vec3<f32>,
+};
+
+// The draw poses each vertex itself with the same functions (no positions buffer, so the blade
+// count is bounded by the instance buffer, not by blades × vertices).
+@vertex
+fn vs_blade(@builtin(vertex_index) v: u32, @builtin(instance_index) b: u32) -> BladeOut {
+    let world = vertex_position(blade_pose(b), v);
+    var out: BladeOut;
+    out.clip = frame.view_proj * vec4<f32>(world, 1.0);
+    out.world = world;
+    return out;
+}
+
+@fragment
+fn fs_blade(in: BladeOut) -> @location(0) vec4<f32> {
+    var shade = vec3<f32>(1.0);
+    if params.lambert != 0u {
+        // Flat face normal from the screen-space derivatives; blades are two-sided, so the side
+        // facing the light is lit.
+        let n = normalize(cross(dpdx(in.world), dpdy(in.world)));
+        let d = abs(dot(n, frame.light_dir.xyz));
+        let ambient = frame.light_color.a;
+        shade = frame.light_color.rgb * (ambient + (1.0 - ambient) * d);
+    }
+    return vec4<f32>(params.color.rgb * shade, 1.0);
+}
