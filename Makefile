@@ -1,6 +1,6 @@
 # furbake — the two commands of the README, plus helpers.
-# `make demo`: bake the bundled Fox (fur) and a grass patch, inspect, verify, extract PNG atlases
-#              and render preview PNGs into out/demo.
+# `make demo`: bake the bundled Fox (fur) and the thesis's grass patch (shells + 400 blades/m²),
+#              inspect, verify, extract PNG atlases and render preview PNGs into out/demo.
 # `make test`: the whole test suite (unit, integration, render tests on lavapipe, doc tests).
 
 CARGO ?= cargo
@@ -28,11 +28,11 @@ demo: deps build
 	$(FURBAKE) inspect $(OUT)/fox.fbk
 	$(FURBAKE) verify $(OUT)/fox.fbk
 	$(FURBAKE) extract $(OUT)/fox.fbk -o $(OUT)/fox-extract
-	$(FURBAKE) bake fixtures/real/BoxVertexColors.glb -o $(OUT)/grass-box.fbk --preset grass --png-dir $(OUT)/grass-png
-	$(FURBAKE) inspect --json $(OUT)/grass-box.fbk > $(OUT)/grass-box.json
+	$(FURBAKE) bake fixtures/generated/grass_patch.gltf -o $(OUT)/grass-patch.fbk --preset grass --blades 400 --topology prisms --png-dir $(OUT)/grass-png
+	$(FURBAKE) inspect --json $(OUT)/grass-patch.fbk > $(OUT)/grass-patch.json
 	$(FURBAKE) preview $(OUT)/fox.fbk -o $(OUT)/fox-preview.png --size 640x480
-	$(FURBAKE) preview $(OUT)/grass-box.fbk -o $(OUT)/grass-box-preview.png --size 640x480
-	@echo "demo done: open $(OUT)/fox-preview.png, $(OUT)/grass-box-preview.png and $(OUT)/fox-png/shells_grid.png"
+	$(FURBAKE) preview $(OUT)/grass-patch.fbk -o $(OUT)/grass-patch-preview.png --size 640x480
+	@echo "demo done: open $(OUT)/fox-preview.png, $(OUT)/grass-patch-preview.png and $(OUT)/fox-png/shells_grid.png"
 
 test: deps
 	$(CARGO) test --workspace

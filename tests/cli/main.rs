@@ -476,3 +476,26 @@ fn every_truncation_and_byte_corruption_of_a_real_pack_is_rejected() {
     // checksum; everything else must be caught.
     assert!(rejected * 100 >= tried * 97, "{rejected} of {tried} corruptions rejected");
 }
+
+#[test]
+fn preview_draws_the_grass_blades_of_a_pack() {
+    let dir = tempfile::tempdir().unwrap();
+    let patch = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/generated/grass_patch.gltf");
+    let green = |pack: &Path| {
+        let png = dir.path().join("p.png");
+        assert_ok(&furbake(&["preview", s(pack), "-o", s(&png), "--size", "160x120", "-q"]), "preview");
+        let img = image::open(&png).unwrap().to_rgba8();
+        img.pixels().filter(|p| p.0[1] as u32 > p.0[0] as u32 + 30 && p.0[1] as u32 > p.0[2] as u32 + 30).count()
+    };
+    let with = dir.path().join("with.fbk");
+    let args = ["bake", s(&patch), "-o", s(&with), "--preset", "grass", "--resolution", "16", "--blades", "200", "-q"];
+    assert_ok(&furbake(&args), "bake with blades");
+    let without = dir.path().join("without.fbk");
+    assert_ok(
+        &furbake(&["bake", s(&patch), "-o", s(&without), "--preset", "grass", "--resolution", "16", "-q"]),
+        "bake",
+    );
+    let (g_with, g_without) = (green(&with), green(&without));
+    assert!(g_with > 200, "only {g_with} green pixels with 3,200 blades");
+    assert_eq!(g_without, 0, "no blades, no green");
+}

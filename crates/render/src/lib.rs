@@ -1,6 +1,8 @@
-//! furbake-render: draws baked fur with wgpu, headless into an image — skin, shells innermost
-//! to outermost with the eq. 3.36 shearing in the vertex shader, and fins (fur thesis §3.2,
-//! §3.4.2). Nothing else: packs are opened by `furbake-runtime`, physics lives in `furbake-sim`.
+//! furbake-render: draws baked fur and grass with wgpu, headless into an image — skin, shells
+//! innermost to outermost with the eq. 3.36 shearing in the vertex shader, and fins (fur thesis
+//! §3.2, §3.4.2), and instanced grass blades that select and decode their keyframe on the GPU
+//! (grass thesis §4.2–4.4, [`blades`]). Nothing else: packs are opened by `furbake-runtime`,
+//! physics lives in `furbake-sim`, the grass CPU reference in `furbake-grass`.
 //!
 //! GPU functions take the `wgpu::Device` and `wgpu::Queue` to work on, so a game passes its own;
 //! [`HeadlessGpu`] makes one without a window (any adapter: a GPU, else a software one such as
@@ -291,8 +293,9 @@ pub fn render_image(
 }
 
 /// What `furbake preview` calls: opens the pack at `pack_path`, creates a headless device, frames
-/// the furry mesh automatically (three-quarter view) and renders it with the default settings.
-/// Reads only the skin mesh, shell atlas, UV map, fin atlas and fin edges.
+/// the furry mesh automatically (three-quarter view) and renders it with the default settings,
+/// plus its grass blades when it has a blade field. Reads only the skin mesh, shell atlas, UV
+/// map, fin atlas and fin edges (and the blade field and keyframe table when present).
 pub fn render_preview(pack_path: &Path, width: u32, height: u32) -> Result<image::RgbaImage, RenderError> {
     render_pack(pack_path, width, height, None, &RenderSettings::default())
 }
@@ -309,5 +312,13 @@ pub fn render_pack(
     let asset = FurAsset::from_pack(&pack, settings.fins)?;
     let gpu = HeadlessGpu::new()?;
     let view = view.unwrap_or_else(|| asset.auto_view(width as f32 / height.max(1) as f32));
-    render_image(&gpu, &asset, settings, &view, width, height)
+    let renderer = FurRenderer::new(&gpu.device, &gpu.queue, &asset, settings)?;
+    let target = RenderTarget::new(&gpu.device, width, height)?;
+    renderer.render(&gpu.device, &gpu.queue, &target, &view);
+    // Grass blades, when the pack has a blade field: drawn over the fur, depth-tested against it,
+    // in their rest pose (a still preview has no wind).
+    if let Some(blades) = BladeRenderer::from_pack(&gpu.device, &gpu.queue, &pack, &BladeSettings::default())? {
+        blades.render(&gpu.device, &gpu.queue, &target, &view, None);
+    }
+    read_back(&gpu.device, &gpu.queue, &target)
 }
