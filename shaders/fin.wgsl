@@ -4,36 +4,9 @@
 // (u along the edge in texture repeats, v from tip (0) to root (1)), faded by how much the
 // surface faces the viewer: fins fill the gaps between shells where the surface is seen
 // edge-on, and vanish where the shells already read well.
+// Prepended at load time: fur_common.wgsl (uniforms, switches, bindings 0–3, SurfaceIn,
+// shell_offset, lambert).
 
-struct Frame {
-    view_proj: mat4x4<f32>,
-    camera_pos: vec4<f32>,
-    light_dir: vec4<f32>,
-    light_color: vec4<f32>,
-};
-
-struct Fur {
-    tint: vec4<f32>,
-    fur_length_m: f32,
-    shear_exponent: f32,
-    alpha_threshold: f32,
-    atlas_layers: u32,
-    drawn_layers: u32,
-    // Metres of edge per fin texture repeat (the shell texture's texel density).
-    fin_repeat_m: f32,
-    pad0: u32,
-    pad1: u32,
-};
-
-override LAMBERT: bool = true;
-override SHADOW: bool = true;
-override SHEAR: bool = true;
-override ALPHA_BLEND: bool = true;
-
-@group(0) @binding(0) var<uniform> frame: Frame;
-@group(0) @binding(1) var<uniform> fur: Fur;
-@group(0) @binding(2) var<storage, read> scale_vectors: array<vec4<f32>>;
-@group(0) @binding(3) var<storage, read> shadow: array<f32>;
 @group(0) @binding(6) var fin_alpha: texture_2d<f32>;
 @group(0) @binding(7) var fin_sampler: sampler;
 
@@ -62,18 +35,6 @@ struct FinOut {
     @location(5) height: f32,
 };
 
-fn shell_offset(n: vec3<f32>, s: vec3<f32>, t: f32) -> vec3<f32> {
-    var offset = n * t;
-    if SHEAR {
-        offset = offset + pow(t, fur.shear_exponent) * (s - n);
-        // A scale vector pointing into the surface (the wrong-side-scale problem, §3.4.3) would
-        // shear the outer layers below the skin; drop the inward component so that fur lies
-        // flat instead of rendering inside the surface.
-        offset = offset - min(dot(offset, n), 0.0) * n;
-    }
-    return offset * fur.fur_length_m;
-}
-
 @vertex
 fn vs_fin(v: FinIn) -> FinOut {
     let n = normalize(v.normal);
@@ -88,15 +49,6 @@ fn vs_fin(v: FinIn) -> FinOut {
     out.face_normal = v.face_normal;
     out.height = v.height;
     return out;
-}
-
-fn lambert(n: vec3<f32>) -> vec3<f32> {
-    if !LAMBERT {
-        return vec3<f32>(1.0);
-    }
-    let d = max(dot(normalize(n), frame.light_dir.xyz), 0.0);
-    let ambient = frame.light_color.a;
-    return frame.light_color.rgb * (ambient + (1.0 - ambient) * d);
 }
 
 @fragment

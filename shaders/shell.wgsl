@@ -5,53 +5,11 @@
 // scale vectors live in a per-vertex storage buffer the physics rewrites every frame (initially
 // s = n, i.e. no shear). Fragment: alpha from the shell texture array, colour = vertex colour ×
 // tint × per-layer self-shadow factor × Lambert.
+// Prepended at load time: fur_common.wgsl (uniforms, switches, bindings 0–3, SurfaceIn,
+// shell_offset, lambert).
 
-struct Frame {
-    view_proj: mat4x4<f32>,
-    camera_pos: vec4<f32>,
-    light_dir: vec4<f32>,
-    light_color: vec4<f32>,
-};
-
-struct Fur {
-    tint: vec4<f32>,
-    fur_length_m: f32,
-    // Exponent k of eq. 3.36.
-    shear_exponent: f32,
-    // Fragments with alpha at or below this are discarded.
-    alpha_threshold: f32,
-    // Slices in the shell texture array.
-    atlas_layers: u32,
-    // Shell layers drawn (instances); slice = layer·atlas_layers/drawn_layers.
-    drawn_layers: u32,
-    fin_repeat_m: f32,
-    pad0: u32,
-    pad1: u32,
-};
-
-override LAMBERT: bool = true;
-override SHADOW: bool = true;
-// Eq. 3.36 shearing from the scale-vector buffer; off for static fur (s = n everywhere).
-override SHEAR: bool = true;
-// true: alpha-blended output; false: alpha-tested (opaque) output.
-override ALPHA_BLEND: bool = true;
-
-@group(0) @binding(0) var<uniform> frame: Frame;
-@group(0) @binding(1) var<uniform> fur: Fur;
-// Per welded vertex: xyz = unit scale vector s (eq. 3.35); w unused.
-@group(0) @binding(2) var<storage, read> scale_vectors: array<vec4<f32>>;
-@group(0) @binding(3) var<storage, read> shadow: array<f32>;
 @group(0) @binding(4) var shell_alpha: texture_2d_array<f32>;
 @group(0) @binding(5) var repeat_sampler: sampler;
-
-struct SurfaceIn {
-    @location(0) position: vec3<f32>,
-    @location(1) normal: vec3<f32>,
-    @location(2) color: vec4<f32>,
-    @location(3) uv: vec2<f32>,
-    @location(4) vertex_index: u32,
-    @location(5) flags: u32,
-};
 
 struct ShellOut {
     @builtin(position) clip: vec4<f32>,
@@ -60,21 +18,6 @@ struct ShellOut {
     @location(2) uv: vec2<f32>,
     @location(3) @interpolate(flat) slice: u32,
 };
-
-// Offset of a point at relative height t in [0, 1] above a vertex with unit normal n and scale
-// vector s: vertical displacement along n plus the horizontal shear h(t) = t^k (s − n) of
-// eq. 3.36, both in units of the fur length.
-fn shell_offset(n: vec3<f32>, s: vec3<f32>, t: f32) -> vec3<f32> {
-    var offset = n * t;
-    if SHEAR {
-        offset = offset + pow(t, fur.shear_exponent) * (s - n);
-        // A scale vector pointing into the surface (the wrong-side-scale problem, §3.4.3) would
-        // shear the outer layers below the skin; drop the inward component so that fur lies
-        // flat instead of rendering inside the surface.
-        offset = offset - min(dot(offset, n), 0.0) * n;
-    }
-    return offset * fur.fur_length_m;
-}
 
 @vertex
 fn vs_shell(v: SurfaceIn, @builtin(instance_index) layer: u32) -> ShellOut {
@@ -89,15 +32,6 @@ fn vs_shell(v: SurfaceIn, @builtin(instance_index) layer: u32) -> ShellOut {
     out.uv = v.uv;
     out.slice = min(fur.atlas_layers - 1u, (layer * fur.atlas_layers) / fur.drawn_layers);
     return out;
-}
-
-fn lambert(n: vec3<f32>) -> vec3<f32> {
-    if !LAMBERT {
-        return vec3<f32>(1.0);
-    }
-    let d = max(dot(normalize(n), frame.light_dir.xyz), 0.0);
-    let ambient = frame.light_color.a;
-    return frame.light_color.rgb * (ambient + (1.0 - ambient) * d);
 }
 
 @fragment

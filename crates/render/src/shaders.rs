@@ -3,12 +3,17 @@
 //! naga and check each `#[repr(C)]` struct's size and member offsets against naga's layout of
 //! the WGSL struct of the same name, so the two can never drift apart silently.
 
-/// Skin: Lambert-lit vertex colour (fur thesis §3.2).
-pub const SKIN_WGSL: &str = include_str!("../../../shaders/skin.wgsl");
+/// Skin: Lambert-lit vertex colour (fur thesis §3.2). Like the shell and fin shaders it is
+/// `fur_common.wgsl` (uniforms, effect switches, bindings 0–3, `shell_offset`, `lambert`)
+/// followed by its own file: WGSL has no includes, so the shared part is prepended here.
+pub const SKIN_WGSL: &str =
+    concat!(include_str!("../../../shaders/fur_common.wgsl"), include_str!("../../../shaders/skin.wgsl"));
 /// Shells: extrusion, eq. 3.36 shearing, shell alpha, self-shadow, Lambert (§3.2, §3.4.2).
-pub const SHELL_WGSL: &str = include_str!("../../../shaders/shell.wgsl");
+pub const SHELL_WGSL: &str =
+    concat!(include_str!("../../../shaders/fur_common.wgsl"), include_str!("../../../shaders/shell.wgsl"));
 /// Fins on fin edges (§3.2, fig. 3.16).
-pub const FIN_WGSL: &str = include_str!("../../../shaders/fin.wgsl");
+pub const FIN_WGSL: &str =
+    concat!(include_str!("../../../shaders/fur_common.wgsl"), include_str!("../../../shaders/fin.wgsl"));
 
 /// Per-frame uniforms (`Frame` in every shader; binding 0).
 #[repr(C)]

@@ -1,0 +1,81 @@
+// fur_common.wgsl — what the skin, shell and fin shaders share: the frame and fur uniforms (each
+// checked against its #[repr(C)] Rust twin in crates/render/src/shaders.rs), the effect switches
+// (pipeline-overridable constants, set from the scene's effects), the bindings of group 0, the
+// surface vertex layout, the eq. 3.36 shell offset and Lambert shading. The renderer prepends this
+// file to each of them (WGSL has no includes).
+
+struct Frame {
+    view_proj: mat4x4<f32>,
+    // xyz: eye position in metres; w unused.
+    camera_pos: vec4<f32>,
+    // xyz: unit vector from the surface towards the light; w unused.
+    light_dir: vec4<f32>,
+    // rgb: light colour × intensity; a: ambient term in [0, 1].
+    light_color: vec4<f32>,
+};
+
+struct Fur {
+    // rgb: colour multiplier applied to every vertex colour; a unused.
+    tint: vec4<f32>,
+    fur_length_m: f32,
+    // Exponent k of eq. 3.36.
+    shear_exponent: f32,
+    // Fragments with alpha at or below this are discarded.
+    alpha_threshold: f32,
+    // Slices in the shell texture array.
+    atlas_layers: u32,
+    // Shell layers drawn (instances); slice = layer·atlas_layers/drawn_layers.
+    drawn_layers: u32,
+    // Metres of edge per fin texture repeat (the shell texture's texel density).
+    fin_repeat_m: f32,
+    pad0: u32,
+    pad1: u32,
+};
+
+override LAMBERT: bool = true;
+override SHADOW: bool = true;
+// Eq. 3.36 shearing from the scale-vector buffer; off for static fur (s = n everywhere).
+override SHEAR: bool = true;
+// true: alpha-blended output; false: alpha-tested (opaque) output.
+override ALPHA_BLEND: bool = true;
+
+@group(0) @binding(0) var<uniform> frame: Frame;
+@group(0) @binding(1) var<uniform> fur: Fur;
+// Per welded vertex: xyz = unit scale vector s (eq. 3.35); w unused.
+@group(0) @binding(2) var<storage, read> scale_vectors: array<vec4<f32>>;
+@group(0) @binding(3) var<storage, read> shadow: array<f32>;
+
+struct SurfaceIn {
+    @location(0) position: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) color: vec4<f32>,
+    @location(3) uv: vec2<f32>,
+    @location(4) vertex_index: u32,
+    // bit 0: the triangle carries fur.
+    @location(5) flags: u32,
+};
+
+// Offset of a point at relative height t in [0, 1] above a vertex with unit normal n and scale
+// vector s: vertical displacement along n plus the horizontal shear h(t) = t^k (s − n) of
+// eq. 3.36, both in units of the fur length.
+fn shell_offset(n: vec3<f32>, s: vec3<f32>, t: f32) -> vec3<f32> {
+    var offset = n * t;
+    if SHEAR {
+        offset = offset + pow(t, fur.shear_exponent) * (s - n);
+        // A scale vector pointing into the surface (the wrong-side-scale problem, §3.4.3) would
+        // shear the outer layers below the skin; drop the inward component so that fur lies
+        // flat instead of rendering inside the surface.
+        offset = offset - min(dot(offset, n), 0.0) * n;
+    }
+    return offset * fur.fur_length_m;
+}
+
+// Lambert diffuse (fur thesis §3.2) with an ambient term.
+fn lambert(n: vec3<f32>) -> vec3<f32> {
+    if !LAMBERT {
+        return vec3<f32>(1.0);
+    }
+    let d = max(dot(normalize(n), frame.light_dir.xyz), 0.0);
+    let ambient = frame.light_color.a;
+    return frame.light_color.rgb * (ambient + (1.0 - ambient) * d);
+}
