@@ -239,7 +239,7 @@ fn print_table(doc: &Value) {
         doc["file_size"]
     );
     println!();
-    println!("{:>3}  {:<16} {:>3} {:>10} {:>10}  {}", "#", "kind", "ver", "offset", "size", "crc32");
+    println!("{:>3}  {:<16} {:>3} {:>10} {:>10}  crc32", "#", "kind", "ver", "offset", "size");
     let empty = Vec::new();
     let sections = doc["sections"].as_array().unwrap_or(&empty);
     for s in sections {

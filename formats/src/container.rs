@@ -277,7 +277,7 @@ fn parse_table(table: &[u8], header: &Header) -> Result<Vec<SectionEntry>> {
             crc32: le_u32(row, 24),
         };
         let bad = |what: String| Err(FormatError::Invalid { path: None, section: Some(i), offset: Some(at), what });
-        if e.offset % ALIGN as u64 != 0 {
+        if !e.offset.is_multiple_of(ALIGN as u64) {
             return bad(format!("section offset {} is not {ALIGN}-byte aligned", e.offset));
         }
         match e.offset.checked_add(e.length) {

@@ -54,7 +54,7 @@ pub struct BakeSettings {
 }
 
 /// Settings of the grass-blade stages.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BladeSettings {
     /// Where blades grow and how they are clustered.
@@ -63,11 +63,6 @@ pub struct BladeSettings {
     pub keyframes: KeyframeSettings,
 }
 
-impl Default for BladeSettings {
-    fn default() -> Self {
-        BladeSettings { field: BladeFieldSettings::default(), keyframes: KeyframeSettings::default() }
-    }
-}
 
 /// Names of the built-in presets.
 pub const PRESETS: [&str; 2] = ["fur", "grass"];
