@@ -7,7 +7,7 @@ use furbake_runtime::scene::{Collider, SolverChoice};
 use furbake_runtime::{Effect, Scene, SceneError};
 
 fn scenes_dir() -> &'static Path {
-    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/scenes"))
+    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/scenes"))
 }
 
 fn parse(text: &str) -> Result<Scene, SceneError> {
@@ -18,7 +18,7 @@ const MINIMAL: &str = "[[packs]]\nname = \"a\"\npath = \"a.fbk\"\n";
 
 #[test]
 fn fox_scene_declares_only_its_effects() {
-    let scene = Scene::load(scenes_dir().join("fox_in_wind.toml")).unwrap();
+    let scene = Scene::load(scenes_dir().join("runtime_fox_in_wind.toml")).unwrap();
     assert_eq!(
         scene.effects(),
         vec![Effect::Gravity, Effect::Wind, Effect::WindSources, Effect::ObjectMotion, Effect::WrongSideGuard]
@@ -38,7 +38,7 @@ fn fox_scene_declares_only_its_effects() {
 
 #[test]
 fn every_effect_parses() {
-    let scene = Scene::load(scenes_dir().join("everything.toml")).unwrap();
+    let scene = Scene::load(scenes_dir().join("runtime_everything.toml")).unwrap();
     let all = [
         Effect::Gravity,
         Effect::Wind,
