@@ -49,6 +49,8 @@ pub(crate) struct SimModel {
     /// CSR over free masses: adjacency of free mass i is `adj[adj_start[i]..adj_start[i + 1]]`.
     pub adj_start: Vec<u32>,
     pub adj: Vec<Adj>,
+    /// `adj[e].other` alone (the reference solver's matrix product reads nothing else).
+    pub adj_other: Vec<u32>,
     /// Per free mass: the rigid parent (internal index) or NONE, its length and damping.
     pub parent: Vec<u32>,
     pub parent_len: Vec<f32>,
@@ -78,6 +80,23 @@ pub(crate) struct SimModel {
     pub shell_tip: Vec<u32>,
     /// Per free mass: its shortest non-zero link length, metres (infinity when it has none).
     pub shortest_link: Vec<f32>,
+    /// Every force link of the adjacency once, struct of arrays: end `a` (a free mass, the
+    /// first to list the link), end `b`, rest length, Hooke and viscosity constants. The kernels
+    /// compute each link's force once, on end `a`; end `b` gets its negation (exact in IEEE
+    /// arithmetic, so both ends see the same magnitude bit for bit).
+    pub sp_a: Vec<u32>,
+    pub sp_b: Vec<u32>,
+    pub sp_rest: Vec<f32>,
+    pub sp_k: Vec<f32>,
+    pub sp_c: Vec<f32>,
+    /// Per link: its weight on the implicit diagonal (`adj_weight`, the same at both ends).
+    pub sp_w: Vec<f32>,
+    /// Per free mass `k`: the links whose end `a` it is are `sa_start[k]..sa_start[k + 1]`
+    /// (links are numbered in order of their end `a`); the links whose end `b` it is are
+    /// `gb_link[gb_start[k]..gb_start[k + 1]]`, in adjacency order.
+    pub sa_start: Vec<u32>,
+    pub gb_start: Vec<u32>,
+    pub gb_link: Vec<u32>,
     /// The springs that act as springs in this model, internal indices (energy).
     pub springs: Vec<([u32; 2], f32, f32)>,
     pub spring_count: usize,
@@ -241,6 +260,7 @@ impl SimModel {
         let mut adj_start = vec![0u32; n_free + 1];
         let mut adj = Vec::new();
         let mut adj_weight = Vec::new();
+        let mut adj_link: Vec<u32> = Vec::new();
         let mut tree_parent = vec![NONE; n_free];
         let mut tree_parent_adj = vec![NONE; n_free];
         let mut parent = vec![NONE; n_free];
@@ -267,9 +287,37 @@ impl SimModel {
                     }
                     adj_weight.push(if other_free && !tree { 2.0 } else { 1.0 });
                     adj.push(Adj { other: inv[j], rest: l.2, k: if l.5 { 0.0 } else { l.3 }, c: l.4 });
+                    adj_link.push(li);
                 }
             }
             adj_start[k + 1] = adj.len() as u32;
+        }
+        // Each force link once, in the order its first end lists it.
+        let mut link_slot = vec![NONE; links.len()];
+        let (mut sp_a, mut sp_b, mut sp_rest, mut sp_k, mut sp_c) =
+            (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        let mut sp_w = Vec::new();
+        let mut sa_start = vec![0u32; n_free + 1];
+        let mut gb_start = vec![0u32; n_free + 1];
+        let mut gb_link = Vec::new();
+        for k in 0..n_free {
+            for e in adj_start[k] as usize..adj_start[k + 1] as usize {
+                let li = adj_link[e] as usize;
+                if link_slot[li] == NONE {
+                    link_slot[li] = sp_a.len() as u32;
+                    let a = adj[e];
+                    sp_a.push(k as u32);
+                    sp_b.push(a.other);
+                    sp_rest.push(a.rest);
+                    sp_k.push(a.k);
+                    sp_c.push(a.c);
+                    sp_w.push(adj_weight[e]);
+                } else {
+                    gb_link.push(link_slot[li]);
+                }
+            }
+            sa_start[k + 1] = sp_a.len() as u32;
+            gb_start[k + 1] = gb_link.len() as u32;
         }
 
         // Tips (eq. 3.35): one per distinct tip mass named by the shell-vertex map.
@@ -364,6 +412,7 @@ impl SimModel {
             })
             .collect();
         let has_sticks = parent.iter().any(|&p| p != NONE);
+        let adj_other = adj.iter().map(|a| a.other).collect();
         Ok(SimModel {
             has_sticks,
             shortest_link,
@@ -389,6 +438,16 @@ impl SimModel {
             rest_len,
             tips,
             shell_tip,
+            adj_other,
+            sp_a,
+            sp_b,
+            sp_rest,
+            sp_k,
+            sp_c,
+            sp_w,
+            sa_start,
+            gb_start,
+            gb_link,
             springs,
             spring_count: lens[2],
             stick_count: lens[6],

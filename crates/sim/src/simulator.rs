@@ -289,7 +289,11 @@ impl Simulator {
                 if !reach.is_finite() {
                     return f64::INFINITY;
                 }
-                let f = fe.external(m.mass[k], self.x[k], self.v[k], m.rest[k]);
+                let f = if fe.uniform_only() {
+                    fe.accel * m.mass[k]
+                } else {
+                    fe.external(m.mass[k], self.x[k], self.v[k], m.rest[k])
+                };
                 let a = (f.length() + 4.0 * fe.restoring_w) as f64 / m.mass[k] as f64;
                 let v = self.v[k].length() as f64;
                 if a > 0.0 {
@@ -350,8 +354,8 @@ impl Simulator {
             let (x, v) = (&self.x, &self.v);
             let (xo, vo) = (&mut self.x_next, &mut self.v_next);
             match self.settings.kind {
-                SolverKind::Explicit => solvers::explicit_step(&self.model, &fe, hf, x, v, xo, vo),
-                SolverKind::Stick => solvers::stick_step(&self.model, &fe, hf, x, v, xo, vo),
+                SolverKind::Explicit => solvers::explicit_step(&self.model, &fe, hf, x, v, &mut self.implicit, xo, vo),
+                SolverKind::Stick => solvers::stick_step(&self.model, &fe, hf, x, v, &mut self.implicit, xo, vo),
                 SolverKind::Implicit => solvers::implicit_step(
                     &self.model,
                     &fe,
@@ -405,16 +409,20 @@ impl Simulator {
 
     fn check_finite(&self, t: f64) -> Result<(), SimError> {
         let nf = self.model.n_free;
-        let ok = |s: &[Vec3A]| {
-            if s.len() < 4 * solvers::CHUNK {
-                s.iter().all(|p| p.is_finite())
-            } else {
-                s.par_iter().with_min_len(solvers::CHUNK).all(|p| p.is_finite())
-            }
+        let (xs, vs) = (&self.x_next[..nf], &self.v_next[..nf]);
+        // One pass over both arrays; the slow search below only runs on failure.
+        let ok = if nf < 4 * solvers::CHUNK {
+            xs.iter().zip(vs).all(|(p, q)| (*p + *q).is_finite() || (p.is_finite() && q.is_finite()))
+        } else {
+            xs.par_chunks(solvers::CHUNK)
+                .zip(vs.par_chunks(solvers::CHUNK))
+                .all(|(a, b)| a.iter().zip(b).all(|(p, q)| (*p + *q).is_finite() || (p.is_finite() && q.is_finite())))
         };
-        for (what, s) in [("position", &self.x_next[..nf]), ("velocity", &self.v_next[..nf])] {
-            if !ok(s) {
-                let k = s.iter().position(|p| !p.is_finite()).unwrap_or(0);
+        if ok {
+            return Ok(());
+        }
+        for (what, s) in [("position", xs), ("velocity", vs)] {
+            if let Some(k) = s.iter().position(|p| !p.is_finite()) {
                 return Err(SimError::NonFinite {
                     step: self.steps,
                     time_s: t,
