@@ -63,7 +63,6 @@ pub struct BladeSettings {
     pub keyframes: KeyframeSettings,
 }
 
-
 /// Names of the built-in presets.
 pub const PRESETS: [&str; 2] = ["fur", "grass"];
 

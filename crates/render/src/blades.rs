@@ -641,16 +641,7 @@ impl BladeRenderer {
         });
         encoder.copy_buffer_to_buffer(positions, 0, &buffer, 0, n * 16);
         queue.submit([encoder.finish()]);
-        let (tx, rx) = std::sync::mpsc::channel();
-        buffer.map_async(wgpu::MapMode::Read, .., move |r| {
-            let _ = tx.send(r);
-        });
-        device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| RenderError::Gpu { what: e.to_string() })?;
-        match rx.recv() {
-            Ok(Ok(())) => {}
-            Ok(Err(e)) => return Err(RenderError::Gpu { what: format!("blade readback mapping failed: {e}") }),
-            Err(_) => return Err(RenderError::Gpu { what: "blade readback mapping never completed".into() }),
-        }
+        crate::map_for_reading(device, &buffer, "blade positions readback")?;
         let out = {
             let view = buffer.get_mapped_range(..).map_err(|e| RenderError::Gpu { what: e.to_string() })?;
             let words: &[[f32; 4]] = bytemuck::cast_slice(&view);

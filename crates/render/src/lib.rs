@@ -255,16 +255,7 @@ pub fn read_back(
         wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
     );
     queue.submit([encoder.finish()]);
-    let (tx, rx) = std::sync::mpsc::channel();
-    buffer.map_async(wgpu::MapMode::Read, .., move |r| {
-        let _ = tx.send(r);
-    });
-    device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| RenderError::Gpu { what: e.to_string() })?;
-    match rx.recv() {
-        Ok(Ok(())) => {}
-        Ok(Err(e)) => return Err(RenderError::Gpu { what: format!("readback mapping failed: {e}") }),
-        Err(_) => return Err(RenderError::Gpu { what: "readback mapping never completed".into() }),
-    }
+    map_for_reading(device, &buffer, "image readback")?;
     let mut pixels = Vec::with_capacity(row as usize * h as usize);
     {
         let view = buffer.get_mapped_range(..).map_err(|e| RenderError::Gpu { what: e.to_string() })?;
@@ -321,4 +312,19 @@ pub fn render_pack(
         blades.render(&gpu.device, &gpu.queue, &target, &view, None);
     }
     read_back(&gpu.device, &gpu.queue, &target)
+}
+
+/// Maps `buffer` (a `MAP_READ` buffer whose copy was already submitted) and waits until the map
+/// completes; `what` names the readback in errors.
+pub(crate) fn map_for_reading(device: &wgpu::Device, buffer: &wgpu::Buffer, what: &str) -> Result<(), RenderError> {
+    let (tx, rx) = std::sync::mpsc::channel();
+    buffer.map_async(wgpu::MapMode::Read, .., move |r| {
+        let _ = tx.send(r);
+    });
+    device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| RenderError::Gpu { what: e.to_string() })?;
+    match rx.recv() {
+        Ok(Ok(())) => Ok(()),
+        Ok(Err(e)) => Err(RenderError::Gpu { what: format!("{what}: mapping failed: {e}") }),
+        Err(_) => Err(RenderError::Gpu { what: format!("{what}: mapping never completed") }),
+    }
 }
