@@ -4,7 +4,7 @@
 //! each root to its tip (springs, or sticks for the stick variant) and the remaining springs join
 //! tips to grid neighbours at fixed offsets (like prism edges), so every count is exact.
 
-use furbake_formats::sections::spring_topology::{SpringTopology, TopologyKind, TopologyParams, TopologyStats};
+use furbake_formats::sections::spring_topology::{SpringTopology, TopologyKind, TopologyParams};
 
 /// (masses, springs) of the fur thesis's table 4.5.
 pub const THESIS_TABLE_4_5: [(usize, usize); 5] =
@@ -30,27 +30,18 @@ pub fn synthetic_topology(
     let w = (n as f64).sqrt().ceil() as usize;
     let cell = 0.01f32;
     let len = params.fur_length_m;
-    let mut t = SpringTopology {
-        kind: if sticks {
-            TopologyKind::STICKS
-        } else if extra > 0 {
-            TopologyKind::PRISMS
-        } else {
-            TopologyKind::SPRING_STICKS
-        },
-        params: params.clone(),
-        stats: TopologyStats::default(),
-        mass_rest_positions: Vec::with_capacity(masses),
-        mass_kg: Vec::with_capacity(masses),
-        mass_anchored: Vec::with_capacity(masses),
-        spring_ends: Vec::new(),
-        spring_rest_lengths_m: Vec::new(),
-        spring_stiffness_n_per_m: Vec::new(),
-        spring_damping_n_s_per_m: Vec::new(),
-        stick_ends: Vec::new(),
-        stick_lengths_m: Vec::new(),
-        shell_vertex_masses: Vec::with_capacity(n),
+    let kind = if sticks {
+        TopologyKind::STICKS
+    } else if extra > 0 {
+        TopologyKind::PRISMS
+    } else {
+        TopologyKind::SPRING_STICKS
     };
+    let mut t = crate::topology::empty(kind, params);
+    t.mass_rest_positions.reserve(masses);
+    t.mass_kg.reserve(masses);
+    t.mass_anchored.reserve(masses);
+    t.shell_vertex_masses.reserve(n);
     for i in 0..n {
         let (gx, gz) = ((i % w) as f32 * cell, (i / w) as f32 * cell);
         t.mass_rest_positions.push([gx, 0.0, gz]);

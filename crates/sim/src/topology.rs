@@ -177,7 +177,9 @@ pub fn build_topology(
     Ok(b.topo)
 }
 
-fn empty(kind: TopologyKind, params: &TopologyParams) -> SpringTopology {
+/// A topology of `kind` with no masses, springs or sticks yet (filled by the builders and by
+/// `synth`).
+pub(crate) fn empty(kind: TopologyKind, params: &TopologyParams) -> SpringTopology {
     SpringTopology {
         kind,
         params: params.clone(),
