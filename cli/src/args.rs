@@ -98,10 +98,7 @@ pub struct BakeArgs {
     #[arg(long, value_name = "PER_M2")]
     pub blades: Option<f32>,
     /// Also bake this mass–spring topology (fur thesis §3.4.1); repeatable.
-    #[arg(long = "topology", value_name = "KIND", value_parser = [
-        "chain", "reduced-chain", "sticks", "spring-sticks", "prisms",
-        "separable-sticks", "separable-spring-sticks", "separable-prisms",
-    ])]
+    #[arg(long = "topology", value_name = "KIND", value_parser = topology_names())]
     pub topologies: Vec<String>,
     /// Also write the atlases as PNG images into this directory.
     #[arg(long, value_name = "DIR")]
@@ -214,4 +211,10 @@ pub struct ReportArgs {
     /// Directory to write into (`accuracy.md` and `accuracy-*.svg`).
     #[arg(short, long, default_value = "docs")]
     pub output: std::path::PathBuf,
+}
+
+/// The topology kind names, from the format's own list (so the CLI never drifts from it).
+fn topology_names() -> clap::builder::PossibleValuesParser {
+    use furbake_formats::sections::spring_topology::TopologyKind;
+    clap::builder::PossibleValuesParser::new(TopologyKind::KNOWN.iter().filter_map(|k| k.name()))
 }
