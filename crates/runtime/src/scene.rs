@@ -68,7 +68,7 @@ pub struct Scene {
     /// Simulation time step in seconds. Default 1/60.
     #[serde(default = "default_time_step")]
     pub time_step_s: f32,
-    /// Solver choice; `auto` picks from the topology and stiffness. Default `auto`.
+    /// Solver choice; `auto` picks from the topology (see [`SolverChoice::Auto`]). Default `auto`.
     #[serde(default)]
     pub solver: SolverChoice,
     /// The viewpoint. Default: framed automatically from the packs' bounds (`None`).
@@ -92,7 +92,8 @@ fn default_time_step() -> f32 {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum SolverChoice {
-    /// Chosen from the topology and stiffness (implicit for prisms, stick solver for sticks, ...).
+    /// Chosen from the topology: the stick solver for sticks and separable sticks (rigid links),
+    /// implicit Euler for every spring topology (`crate::stages::choose_solver`).
     #[default]
     Auto,
     /// Explicit Euler (eq. 3.20–3.25).
@@ -176,7 +177,9 @@ pub struct ScenePack {
     /// Uniform scale, > 0. Default 1.
     #[serde(default = "one")]
     pub scale: f32,
-    /// Keyframes of a motion path (times strictly increasing); empty = static.
+    /// Keyframes of a motion path (times strictly increasing), applied on top of the placement
+    /// above (world = motion(t) · placement); empty = static. Before the first key the pack sits
+    /// at the first key, after the last at the last.
     #[serde(default)]
     pub motion: Vec<MotionKey>,
 }
@@ -239,9 +242,38 @@ impl MotionKey {
 }
 
 impl ScenePack {
-    /// The placement at time 0.
+    /// The placement (without the motion path).
     pub fn transform(&self) -> Transform {
         Transform { translation: self.translation, rotation_deg: self.rotation_deg, scale: self.scale }
+    }
+
+    /// The motion path at `time_s`: translation, rotation and scale interpolated linearly between
+    /// the surrounding keys (Euler angles component-wise), clamped to the first and last key;
+    /// the identity when the pack has no motion keys.
+    pub fn motion_at(&self, time_s: f64) -> Transform {
+        let keys = &self.motion;
+        let (Some(first), Some(last)) = (keys.first(), keys.last()) else { return Transform::default() };
+        if time_s <= first.time_s as f64 {
+            return first.transform();
+        }
+        if time_s >= last.time_s as f64 {
+            return last.transform();
+        }
+        // Keys are strictly increasing (validated), so exactly one interval holds `time_s`.
+        let i = keys.partition_point(|k| (k.time_s as f64) <= time_s);
+        let (a, b) = (&keys[i - 1], &keys[i]);
+        let u = ((time_s - a.time_s as f64) / (b.time_s as f64 - a.time_s as f64)) as f32;
+        let lerp3 = |x: [f32; 3], y: [f32; 3]| [0, 1, 2].map(|k| x[k] + (y[k] - x[k]) * u);
+        Transform {
+            translation: lerp3(a.translation, b.translation),
+            rotation_deg: lerp3(a.rotation_deg, b.rotation_deg),
+            scale: a.scale + (b.scale - a.scale) * u,
+        }
+    }
+
+    /// The model matrix at `time_s`: the motion path applied on top of the placement.
+    pub fn model_at(&self, time_s: f64) -> Mat4 {
+        self.motion_at(time_s).to_mat4() * self.transform().to_mat4()
     }
 }
 
@@ -333,10 +365,15 @@ pub struct ObjectMotion {
     pub inertia_scale: f32,
 }
 
-/// A spherical force brush controlled by the user.
+/// A spherical force brush controlled by the user: it pushes fur masses within `radius_m` of its
+/// position away from it with `strength_n · (1 − d/radius)²`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Interaction {
+    /// Where the brush starts, world metres; `None` = inactive until the application moves it
+    /// (`World::set_interaction_point`). Default `None`.
+    #[serde(default)]
+    pub position: Option<[f32; 3]>,
     /// Radius of influence in metres, > 0.
     pub radius_m: f32,
     /// Peak force in newtons, ≥ 0.
@@ -383,12 +420,26 @@ pub struct Parting {}
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct WrongSideGuard {
-    /// Weight w of the restoring force, ≥ 0. Default 1.
-    #[serde(default = "one")]
-    pub weight: f32,
-    /// Threshold angle α between normal and scale vector in degrees, in (0, 90]. Default 80.
+    /// Weight `w` of the restoring force on each tip mass, in the topology's force units (newtons
+    /// when the mesh is in metres), ≥ 0. Default 0.01 (furbake-sim's default). Without the guard
+    /// the restoring force keeps that default: it is part of the fur model.
+    #[serde(default = "default_restoring_weight")]
+    pub restoring_weight_n: f32,
+    /// Threshold angle α between normal and scale vector in degrees, in (0, 90). Default 80.
     #[serde(default = "default_alpha")]
     pub max_angle_deg: f32,
+    /// Speed added along the normal to a tip when the test fires, in the mesh's units per second,
+    /// ≥ 0. Default 0.05.
+    #[serde(default = "default_impulse")]
+    pub impulse_m_s: f32,
+}
+
+fn default_restoring_weight() -> f32 {
+    0.01
+}
+
+fn default_impulse() -> f32 {
+    0.05
 }
 
 fn default_alpha() -> f32 {
@@ -396,7 +447,8 @@ fn default_alpha() -> f32 {
 }
 
 /// One effect kind, for planning stages and for stage counters.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
+#[serde(rename_all = "snake_case")]
 pub enum Effect {
     /// [`Effects::gravity`].
     Gravity,
@@ -545,6 +597,9 @@ impl Scene {
             range(m.inertia_scale, 0.0, f32::MAX, "effects.object_motion.inertia_scale")?;
         }
         if let Some(it) = &e.interaction {
+            if let Some(p) = &it.position {
+                finite3(p, "effects.interaction.position")?;
+            }
             positive(it.radius_m, "effects.interaction.radius_m")?;
             range(it.strength_n, 0.0, f32::MAX, "effects.interaction.strength_n")?;
         }
@@ -572,8 +627,9 @@ impl Scene {
             }
         }
         if let Some(g) = &e.wrong_side_guard {
-            range(g.weight, 0.0, f32::MAX, "effects.wrong_side_guard.weight")?;
-            range(g.max_angle_deg, 1e-3, 90.0, "effects.wrong_side_guard.max_angle_deg")?;
+            range(g.restoring_weight_n, 0.0, f32::MAX, "effects.wrong_side_guard.restoring_weight_n")?;
+            range(g.max_angle_deg, 1e-3, 89.9, "effects.wrong_side_guard.max_angle_deg")?;
+            range(g.impulse_m_s, 0.0, f32::MAX, "effects.wrong_side_guard.impulse_m_s")?;
         }
         Ok(())
     }

@@ -30,7 +30,7 @@ fn fox_scene_declares_only_its_effects() {
     assert_eq!(scene.effects.gravity.unwrap().acceleration_m_s2, [0.0, -9.81, 0.0], "default gravity");
     assert_eq!(scene.effects.wind_sources[0].falloff_exponent, 2.0);
     let guard = scene.effects.wrong_side_guard.unwrap();
-    assert_eq!((guard.weight, guard.max_angle_deg), (2.0, 75.0));
+    assert_eq!((guard.restoring_weight_n, guard.max_angle_deg, guard.impulse_m_s), (0.02, 75.0, 0.05));
     // The transform places the origin at the translation and scales uniformly.
     let m = scene.packs[0].motion[1].transform().to_mat4();
     assert_eq!(m.transform_point3(glam::Vec3::ZERO), glam::Vec3::new(0.5, 0.0, 0.0));
@@ -55,6 +55,8 @@ fn every_effect_parses() {
     assert_eq!(scene.effects.collisions.len(), 2);
     assert!(matches!(scene.effects.collisions[1], Collider::Ellipsoid { radii_m: [0.3, 0.1, 0.2], .. }));
     assert_eq!(scene.effects.wind_sources[0].propagation_m_s, Some(4.0));
+    assert_eq!(scene.effects.interaction.unwrap().position, Some([0.0, 0.3, 0.0]));
+    assert_eq!(scene.effects.wrong_side_guard.unwrap().impulse_m_s, 0.1);
 }
 
 #[test]
@@ -115,6 +117,15 @@ fn out_of_range_values_name_their_key() {
             "effects.wrong_side_guard.max_angle_deg",
         ),
         (
+            // furbake-sim's guard needs α < 90°: at 90° every tangential scale vector would pass.
+            format!("{MINIMAL}[effects.wrong_side_guard]\nmax_angle_deg = 90.0\n"),
+            "effects.wrong_side_guard.max_angle_deg",
+        ),
+        (
+            format!("{MINIMAL}[effects.interaction]\nposition = [0.0, inf, 0.0]\nradius_m = 1.0\nstrength_n = 1.0\n"),
+            "effects.interaction.position",
+        ),
+        (
             format!("{MINIMAL}[[packs.motion]]\ntime_s = 1.0\n[[packs.motion]]\ntime_s = 1.0\n"),
             "packs[0].motion[1].time_s",
         ),
@@ -125,7 +136,7 @@ fn out_of_range_values_name_their_key() {
             other => panic!("expected {key} to be rejected in {text:?}, got {other:?}"),
         }
     }
-    assert_eq!(cases.len(), 13);
+    assert_eq!(cases.len(), 15);
 }
 
 #[test]
