@@ -1,6 +1,7 @@
 // blades.wgsl — instanced grass blades (grass thesis §3.2.5–3.2.6, §4.2), the GPU twin of
 // furbake-grass's `KeyframeDecoder::world_positions`. A compute pass (`cs_blades`, one thread per
-// blade) interpolates the blade's force from its four cluster corner forces (eq. 3.6), turns it
+// blade) interpolates the blade's force from its four cluster corner forces (eq. 3.6; plus the
+// wind sources with delayed attenuation, fig. 4.8, evaluated at the blade), turns it
 // into blade-local coordinates, selects the keyframe pose from its magnitude and its angle to the
 // blade normal (eq. 3.10–3.12: nearest, or linear in-betweening eq. 3.13), decodes the stored
 // displacements from packed u32 words (f32, snorm16, f16, unorm8 or snorm8) with the mirror flags
@@ -17,6 +18,9 @@ struct Frame {
     light_dir: vec4<f32>,
     // rgb: light colour × intensity; a: ambient term in [0, 1].
     light_color: vec4<f32>,
+    // Model matrix of the blade field (pack frame → world): rotation, translation, uniform scale.
+    // The compute pass writes pack-frame positions; only the draw applies it.
+    model: mat4x4<f32>,
 };
 
 struct BladeParams {
@@ -49,8 +53,18 @@ struct BladeParams {
     interpolation: u32,
     // 1: Lambert diffuse; 0: unlit colour.
     lambert: u32,
-    pad0: u32,
-    pad1: u32,
+    // Wind sources with delayed attenuation this frame (grass thesis §4.5, fig. 4.8).
+    delayed_sources: u32,
+    // Cluster grid corners (stride of `delayed_directions`).
+    corner_count: u32,
+};
+
+// A wind source with delayed attenuation (eq. 4.1 evaluated per blade).
+struct DelayedSource {
+    // xyz: position W in metres; w: emissive power ω.
+    position_power: vec4<f32>,
+    // x: concentration σ; y: lower clamp of distances in metres; zw unused.
+    params: vec4<f32>,
 };
 
 struct Blade {
@@ -75,6 +89,10 @@ const TAU: f32 = 6.28318530717959;
 @group(0) @binding(4) var<storage, read> payload: array<u32>;
 @group(0) @binding(5) var<storage, read> vertex_map: array<u32>;
 @group(0) @binding(6) var<storage, read> reference: array<vec4<f32>>;
+@group(0) @binding(7) var<storage, read> delayed: array<DelayedSource>;
+// Per delayed source, per grid corner: the source's unit horizontal direction (x, z) at the
+// corner (zero where blocked), source-major.
+@group(0) @binding(8) var<storage, read> delayed_directions: array<vec2<f32>>;
 
 // Written by the compute pass only.
 @group(1) @binding(0) var<storage, read_write> positions_out: array<vec4<f32>>;
@@ -206,6 +224,29 @@ fn blade_pose(b: u32) -> Pose {
     for (var k = 0u; k < 4u; k++) {
         f += corner_forces[blade.corners[k]] * blade.weights[k];
     }
+    // Delayed attenuation (as `ForceField::blade_force`): the interpolated direction, normalised,
+    // times the magnitude of the source's exact wind at the blade root.
+    for (var i = 0u; i < params.delayed_sources; i++) {
+        var dir = vec2<f32>(0.0);
+        for (var k = 0u; k < 4u; k++) {
+            dir += delayed_directions[i * params.corner_count + blade.corners[k]] * blade.weights[k];
+        }
+        let len = length(dir);
+        let rcp = 1.0 / len;
+        if len > 0.0 && rcp < 3.0e38 {
+            dir = dir * rcp;
+        } else {
+            dir = vec2<f32>(0.0);
+        }
+        let src = delayed[i];
+        let wp = blade.root.xyz - src.position_power.xyz;
+        let d = length(wp);
+        if d != 0.0 {
+            let unit = wp / d;
+            let strength = src.position_power.w / pow(max(d, src.params.y), src.params.x);
+            f += dir * length(unit.xz * strength);
+        }
+    }
     let c = blade.yaw.x;
     let s = blade.yaw.y;
     var pose: Pose;
@@ -284,7 +325,7 @@ struct BladeOut {
 // count is bounded by the instance buffer, not by blades × vertices).
 @vertex
 fn vs_blade(@builtin(vertex_index) v: u32, @builtin(instance_index) b: u32) -> BladeOut {
-    let world = vertex_position(blade_pose(b), v);
+    let world = (frame.model * vec4<f32>(vertex_position(blade_pose(b), v), 1.0)).xyz;
     var out: BladeOut;
     out.clip = frame.view_proj * vec4<f32>(world, 1.0);
     out.world = world;

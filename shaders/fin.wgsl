@@ -39,14 +39,14 @@ struct FinOut {
 fn vs_fin(v: FinIn) -> FinOut {
     let n = normalize(v.normal);
     let s = scale_vectors[v.vertex_index].xyz;
-    let world = v.position + shell_offset(n, s, v.height);
+    let world = to_world(v.position + shell_offset(n, s, v.height));
     var out: FinOut;
     out.clip = frame.view_proj * vec4<f32>(world, 1.0);
-    out.normal = n;
+    out.normal = normal_to_world(n);
     out.color = v.color;
     out.uv = vec2<f32>(v.along_m / fur.fin_repeat_m, 1.0 - v.height);
     out.world = world;
-    out.face_normal = v.face_normal;
+    out.face_normal = normal_to_world(v.face_normal);
     out.height = v.height;
     return out;
 }

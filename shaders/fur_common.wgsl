@@ -1,7 +1,8 @@
 // fur_common.wgsl — what the skin, shell and fin shaders share: the frame and fur uniforms (each
 // checked against its #[repr(C)] Rust twin in crates/render/src/shaders.rs), the effect switches
 // (pipeline-overridable constants, set from the scene's effects), the bindings of group 0, the
-// surface vertex layout, the eq. 3.36 shell offset and Lambert shading. The renderer prepends this
+// surface vertex layout, the eq. 3.36 shell offset, the object→world model transform and Lambert
+// shading. The renderer prepends this
 // file to each of them (WGSL has no includes).
 
 struct Frame {
@@ -12,6 +13,9 @@ struct Frame {
     light_dir: vec4<f32>,
     // rgb: light colour × intensity; a: ambient term in [0, 1].
     light_color: vec4<f32>,
+    // Model matrix of the drawn object (object/pack frame → world): rotation, translation and a
+    // uniform positive scale. Identity for a single object.
+    model: mat4x4<f32>,
 };
 
 struct Fur {
@@ -68,6 +72,16 @@ fn shell_offset(n: vec3<f32>, s: vec3<f32>, t: f32) -> vec3<f32> {
         offset = offset - min(dot(offset, n), 0.0) * n;
     }
     return offset * fur.fur_length_m;
+}
+
+// Object → world position.
+fn to_world(p: vec3<f32>) -> vec3<f32> {
+    return (frame.model * vec4<f32>(p, 1.0)).xyz;
+}
+
+// Object → world direction of a normal (exact for rotation + uniform scale).
+fn normal_to_world(n: vec3<f32>) -> vec3<f32> {
+    return normalize((frame.model * vec4<f32>(n, 0.0)).xyz);
 }
 
 // Lambert diffuse (fur thesis §3.2) with an ambient term.

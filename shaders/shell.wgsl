@@ -6,7 +6,8 @@
 // s = n, i.e. no shear). Fragment: alpha from the shell texture array, colour = vertex colour ×
 // tint × per-layer self-shadow factor × Lambert.
 // Prepended at load time: fur_common.wgsl (uniforms, switches, bindings 0–3, SurfaceIn,
-// shell_offset, lambert).
+// shell_offset, to_world, lambert). Also a compute entry point, `cs_shell_positions`, that reads
+// back `shell_vertex` for tests.
 
 @group(0) @binding(4) var shell_alpha: texture_2d_array<f32>;
 @group(0) @binding(5) var repeat_sampler: sampler;
@@ -19,15 +20,23 @@ struct ShellOut {
     @location(3) @interpolate(flat) slice: u32,
 };
 
+// Object-space position of a skin vertex (position, normal, welded index) on shell `layer`
+// (0 = innermost, t = (layer + 1)/drawn_layers): the extrusion and eq. 3.36 shear. Used by the
+// draw (`vs_shell`) and by the readback probe (`cs_shell_positions`), so tests compare exactly
+// what is drawn with the CPU reference `furbake_sim::shell_vertex_position`.
+fn shell_vertex(position: vec3<f32>, normal: vec3<f32>, vertex_index: u32, layer: u32) -> vec3<f32> {
+    let t = f32(layer + 1u) / f32(fur.drawn_layers);
+    let n = normalize(normal);
+    let s = scale_vectors[vertex_index].xyz;
+    return position + shell_offset(n, s, t);
+}
+
 @vertex
 fn vs_shell(v: SurfaceIn, @builtin(instance_index) layer: u32) -> ShellOut {
-    let t = f32(layer + 1u) / f32(fur.drawn_layers);
-    let n = normalize(v.normal);
-    let s = scale_vectors[v.vertex_index].xyz;
-    let world = v.position + shell_offset(n, s, t);
+    let world = to_world(shell_vertex(v.position, v.normal, v.vertex_index, layer));
     var out: ShellOut;
     out.clip = frame.view_proj * vec4<f32>(world, 1.0);
-    out.normal = n;
+    out.normal = normal_to_world(v.normal);
     out.color = v.color;
     out.uv = v.uv;
     out.slice = min(fur.atlas_layers - 1u, (layer * fur.atlas_layers) / fur.drawn_layers);
@@ -56,4 +65,28 @@ fn fs_shell(in: ShellOut) -> @location(0) vec4<f32> {
         return vec4<f32>(rgb, alpha);
     }
     return vec4<f32>(rgb, 1.0);
+}
+
+// Readback probe: one welded skin vertex (xyz of each; w unused).
+struct ProbeVertex {
+    position: vec4<f32>,
+    normal: vec4<f32>,
+};
+
+@group(1) @binding(0) var<storage, read> probe_vertices: array<ProbeVertex>;
+// Output, layer-major: probe_out[layer · vertices + vertex] = object-space shell position.
+@group(1) @binding(1) var<storage, read_write> probe_out: array<vec4<f32>>;
+
+// Evaluates `shell_vertex` for every (layer, vertex) pair, in object space (no model transform).
+@compute @workgroup_size(64)
+fn cs_shell_positions(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = gid.x + gid.y * groups.x * 64u;
+    let count = arrayLength(&probe_vertices);
+    if count == 0u || i >= count * fur.drawn_layers {
+        return;
+    }
+    let v = i % count;
+    let layer = i / count;
+    let p = probe_vertices[v];
+    probe_out[i] = vec4<f32>(shell_vertex(p.position.xyz, p.normal.xyz, v, layer), 1.0);
 }

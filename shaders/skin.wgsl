@@ -15,8 +15,8 @@ struct SkinOut {
 @vertex
 fn vs_skin(v: SurfaceIn) -> SkinOut {
     var out: SkinOut;
-    out.clip = frame.view_proj * vec4<f32>(v.position, 1.0);
-    out.normal = v.normal;
+    out.clip = frame.view_proj * vec4<f32>(to_world(v.position), 1.0);
+    out.normal = normal_to_world(v.normal);
     out.color = v.color;
     out.flags = v.flags;
     return out;

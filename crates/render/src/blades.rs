@@ -5,14 +5,14 @@
 //! into u32 words in its own encoding: f32, snorm16, f16, unorm8 or snorm8); each frame the
 //! caller writes the cluster corner forces (from a `ForceField`), a compute pass (`cs_blades` in
 //! `shaders/blades.wgsl`) selects every blade's pose (eq. 3.10–3.12, nearest or linear eq. 3.13)
-//! and writes world-space vertex positions, which [`BladeRenderer::read_positions`] reads back
+//! and writes pack-frame vertex positions, which [`BladeRenderer::read_positions`] reads back
 //! (tests compare them with the CPU reference). The instanced draw (instance = blade) poses each
 //! vertex in the vertex shader with the same WGSL functions and shades it two-sided with Lambert
 //! diffuse into a [`RenderTarget`], over what is already there or after a clear.
 //!
-//! Not on the GPU: spherical in-betweening (eq. 3.14) and delayed-attenuation sources (fig. 4.8);
-//! the corner forces must come from a field without delayed sources for the GPU to match
-//! `ForceField::blade_force`.
+//! Wind sources with delayed attenuation (§4.5, fig. 4.8) are evaluated per blade on the GPU when
+//! the forces come from [`BladeRenderer::set_force_scene`]. Not on the GPU: spherical
+//! in-betweening (eq. 3.14).
 
 use furbake_formats::sections::blade_field::BladeField;
 use furbake_formats::sections::keyframe_table::{Displacements, KeyframeTable, STATIC_VERTEX};
@@ -60,11 +60,27 @@ pub struct BladeParams {
     pub interpolation: u32,
     /// 1: Lambert diffuse.
     pub lambert: u32,
-    /// Padding to 16 bytes.
-    pub pad0: u32,
-    /// Padding to 16 bytes.
-    pub pad1: u32,
+    /// Wind sources with delayed attenuation in this frame (rewritten by
+    /// [`BladeRenderer::set_force_scene`]; 0 after [`BladeRenderer::set_corner_forces`]).
+    pub delayed_sources: u32,
+    /// Cluster grid corners (stride of the delayed-direction buffer).
+    pub corner_count: u32,
 }
+
+/// One wind source with delayed attenuation as `blades.wgsl` reads it (`DelayedSource`,
+/// binding 7).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct DelayedSourceGpu {
+    /// Position `W` in metres (xyz) and emissive power `ω` (w).
+    pub position_power: [f32; 4],
+    /// Concentration `σ`, lower distance clamp in metres, unused, unused.
+    pub params: [f32; 4],
+}
+
+/// Most wind sources with delayed attenuation one frame can carry on the GPU (fewer when
+/// `corners × sources × 8` bytes would pass the device's storage binding limit).
+pub const MAX_DELAYED_SOURCES: u32 = 8;
 
 /// One blade instance as `blades.wgsl` reads it (`Blade`, binding 2).
 #[repr(C)]
@@ -111,6 +127,11 @@ pub struct BladeRenderer {
     index_count: u32,
     frame_buffer: wgpu::Buffer,
     force_buffer: wgpu::Buffer,
+    params_buffer: wgpu::Buffer,
+    delayed_buffer: wgpu::Buffer,
+    directions_buffer: wgpu::Buffer,
+    delayed_capacity: u32,
+    grid: furbake_formats::sections::blade_field::ClusterGrid,
     /// Positions buffer and its compute bind group, created by the first compute pass.
     positions: std::sync::OnceLock<(wgpu::Buffer, wgpu::BindGroup)>,
     out_layout: wgpu::BindGroupLayout,
@@ -291,8 +312,8 @@ impl BladeRenderer {
             encoding,
             interpolation,
             lambert: settings.lambert as u32,
-            pad0: 0,
-            pad1: 0,
+            delayed_sources: 0,
+            corner_count: corners as u32,
         };
         let init = |label, contents: &[u8], usage| {
             device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage })
@@ -308,7 +329,26 @@ impl BladeRenderer {
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let params_buffer = init("furbake blade params", bytemuck::bytes_of(&params), wgpu::BufferUsages::UNIFORM);
+        let params_buffer = init(
+            "furbake blade params",
+            bytemuck::bytes_of(&params),
+            wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        );
+        // Room for the delayed sources' per-corner directions (at least one source's worth).
+        let per_source = corners.max(1) as u64 * 8;
+        let delayed_capacity =
+            (limits.max_storage_buffer_binding_size / per_source).clamp(1, MAX_DELAYED_SOURCES as u64) as u32;
+        let delayed_buffer = init(
+            "furbake delayed wind sources",
+            bytemuck::cast_slice(&vec![DelayedSourceGpu::default(); delayed_capacity as usize]),
+            storage | wgpu::BufferUsages::COPY_DST,
+        );
+        let directions_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("furbake delayed wind directions"),
+            size: per_source * delayed_capacity as u64,
+            usage: storage | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
         let blade_buffer = init("furbake blades", bytemuck::cast_slice(&nonempty(blades)), storage);
         let force_buffer = init(
             "furbake corner forces",
@@ -346,6 +386,8 @@ impl BladeRenderer {
                 entry(4, ro),
                 entry(5, ro),
                 entry(6, ro),
+                entry(7, ro),
+                entry(8, ro),
             ],
         });
         let out_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -372,6 +414,8 @@ impl BladeRenderer {
                 wgpu::BindGroupEntry { binding: 4, resource: payload_buffer.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 5, resource: map_buffer.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 6, resource: reference_buffer.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 7, resource: delayed_buffer.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 8, resource: directions_buffer.as_entire_binding() },
             ],
         });
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -442,6 +486,11 @@ impl BladeRenderer {
             index_count: index_data.len() as u32,
             frame_buffer,
             force_buffer,
+            params_buffer,
+            delayed_buffer,
+            directions_buffer,
+            delayed_capacity,
+            grid: field.grid,
             positions: std::sync::OnceLock::new(),
             out_layout,
             indices,
@@ -476,6 +525,11 @@ impl BladeRenderer {
         self.blade_count
     }
 
+    /// Cluster grid corners (the length [`BladeRenderer::set_corner_forces`] expects).
+    pub fn corner_count(&self) -> u32 {
+        self.corner_count
+    }
+
     /// Vertices per blade.
     pub fn vertex_count(&self) -> u32 {
         self.vertex_count
@@ -486,8 +540,89 @@ impl BladeRenderer {
         &self.params
     }
 
-    /// Writes this frame's cluster corner forces `(x, z)` (one per grid corner, force units).
+    /// Writes this frame's cluster corner forces `(x, z)` (one per grid corner, force units, in
+    /// the pack frame) and turns delayed-attenuation sources off for the frame.
     pub fn set_corner_forces(&self, queue: &wgpu::Queue, forces: &[[f32; 2]]) -> Result<(), RenderError> {
+        self.write_corner_forces(queue, forces)?;
+        self.write_delayed_count(queue, 0);
+        Ok(())
+    }
+
+    fn write_delayed_count(&self, queue: &wgpu::Queue, count: u32) {
+        let offset = std::mem::offset_of!(BladeParams, delayed_sources) as u64;
+        queue.write_buffer(&self.params_buffer, offset, bytemuck::bytes_of(&count));
+    }
+
+    /// Most delayed-attenuation sources [`BladeRenderer::set_force_scene`] accepts on this device.
+    pub fn delayed_capacity(&self) -> u32 {
+        self.delayed_capacity
+    }
+
+    /// Writes the forces of `scene` on this blade field: `field`'s corner forces (it must have
+    /// been updated from `scene` with `ForceField::update` over this renderer's grid) plus the
+    /// scene's wind sources with delayed attenuation (grass thesis §4.5, fig. 4.8), whose per-corner
+    /// directions are computed here as `ForceField::update` does (unit horizontal direction from
+    /// the source to the corner at `scene.sample_height_m`, zero inside a windless area) and whose
+    /// attenuation the shaders evaluate per blade: the GPU then matches `ForceField::blade_force`.
+    /// Fails on a grid mismatch or more delayed sources than [`BladeRenderer::delayed_capacity`].
+    pub fn set_force_scene(
+        &self,
+        queue: &wgpu::Queue,
+        field: &ForceField,
+        scene: &furbake_grass::ForceScene,
+    ) -> Result<(), RenderError> {
+        if *field.grid() != self.grid {
+            return Err(RenderError::Parameter { what: "the force field's grid is not the blade field's".into() });
+        }
+        let delayed: Vec<_> = scene.sources.iter().filter(|s| s.delayed).collect();
+        if delayed.len() > self.delayed_capacity as usize {
+            return Err(RenderError::Parameter {
+                what: format!(
+                    "{} delayed wind sources, at most {} on this device",
+                    delayed.len(),
+                    self.delayed_capacity
+                ),
+            });
+        }
+        let bad = |v: &[f32]| v.iter().any(|c| !c.is_finite());
+        if delayed.iter().any(|s| bad(&s.position_m.to_array()) || bad(&[s.power, s.concentration]))
+            || bad(&[scene.sample_height_m, scene.min_distance_m])
+        {
+            return Err(RenderError::Parameter { what: "delayed wind sources must be finite".into() });
+        }
+        let forces: Vec<[f32; 2]> = field.corner_forces.iter().map(|f| f.to_array()).collect();
+        self.write_corner_forces(queue, &forces)?;
+        let corners = self.corner_count as usize;
+        let mut directions = Vec::with_capacity(delayed.len() * corners);
+        let mut sources = Vec::with_capacity(delayed.len());
+        for s in &delayed {
+            for i in 0..corners {
+                let [x, z] = self.grid.corner_position(i as u32);
+                let p = glam::Vec3::new(x, scene.sample_height_m, z);
+                let xz = glam::Vec2::new(p.x, p.z);
+                let d = if scene.blockers.iter().any(|b| b.contains(xz)) {
+                    glam::Vec2::ZERO
+                } else {
+                    let wp = p - s.position_m;
+                    glam::Vec2::new(wp.x, wp.z).normalize_or_zero()
+                };
+                directions.push(d.to_array());
+            }
+            let w = s.position_m;
+            sources.push(DelayedSourceGpu {
+                position_power: [w.x, w.y, w.z, s.power],
+                params: [s.concentration, scene.min_distance_m, 0.0, 0.0],
+            });
+        }
+        if !sources.is_empty() {
+            queue.write_buffer(&self.delayed_buffer, 0, bytemuck::cast_slice(&sources));
+            queue.write_buffer(&self.directions_buffer, 0, bytemuck::cast_slice(&directions));
+        }
+        self.write_delayed_count(queue, sources.len() as u32);
+        Ok(())
+    }
+
+    fn write_corner_forces(&self, queue: &wgpu::Queue, forces: &[[f32; 2]]) -> Result<(), RenderError> {
         if forces.len() != self.corner_count as usize {
             return Err(RenderError::Parameter {
                 what: format!("{} corner forces for {} grid corners", forces.len(), self.corner_count),
@@ -502,8 +637,8 @@ impl BladeRenderer {
         Ok(())
     }
 
-    /// Writes the corner forces of `field` (its `corner_forces`; delayed sources are not applied
-    /// on the GPU).
+    /// Writes the corner forces of `field` (its `corner_forces`) with no delayed-attenuation
+    /// sources; a field with delayed sources needs [`BladeRenderer::set_force_scene`].
     pub fn set_force_field(&self, queue: &wgpu::Queue, field: &ForceField) -> Result<(), RenderError> {
         let forces: Vec<[f32; 2]> = field.corner_forces.iter().map(|f| f.to_array()).collect();
         self.set_corner_forces(queue, &forces)
@@ -580,44 +715,58 @@ impl BladeRenderer {
         clear: Option<[f32; 4]>,
     ) {
         let frame = view.uniforms(target.aspect());
-        queue.write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&frame));
-        let color_view = target.color.create_view(&Default::default());
-        let depth_view = target.depth.create_view(&Default::default());
         let mut encoder =
             device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("furbake blade frame") });
-        {
-            let (color_load, depth_load) = match clear {
-                Some(c) => {
-                    let [r, g, b, a] = c.map(f64::from);
-                    (wgpu::LoadOp::Clear(wgpu::Color { r, g, b, a }), wgpu::LoadOp::Clear(1.0))
-                }
-                None => (wgpu::LoadOp::Load, wgpu::LoadOp::Load),
-            };
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("furbake blade pass"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &color_view,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations { load: color_load, store: wgpu::StoreOp::Store },
-                })],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: &depth_view,
-                    depth_ops: Some(wgpu::Operations { load: depth_load, store: wgpu::StoreOp::Store }),
-                    stencil_ops: None,
-                }),
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
-            if self.blade_count > 0 && self.index_count > 0 {
-                pass.set_pipeline(&self.draw_pipeline);
-                pass.set_bind_group(0, &self.shared, &[]);
-                pass.set_index_buffer(self.indices.slice(..), wgpu::IndexFormat::Uint32);
-                pass.draw_indexed(0..self.index_count, 0, 0..self.blade_count);
-            }
-        }
+        self.encode_draw(queue, &mut encoder, target, &frame, clear);
         queue.submit([encoder.finish()]);
+    }
+
+    /// Writes `frame` (camera, light and the field's model matrix, e.g. from
+    /// [`View::uniforms_with_model`]) into this renderer's uniform buffer and records the
+    /// instanced draw into `encoder` (clearing first when `clear` is `Some`, as
+    /// [`BladeRenderer::render`]). Nothing is submitted. The model matrix moves the drawn blades
+    /// only; [`BladeRenderer::read_positions`] stays in the pack frame.
+    pub fn encode_draw(
+        &self,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+        target: &RenderTarget,
+        frame: &FrameUniforms,
+        clear: Option<[f32; 4]>,
+    ) {
+        queue.write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(frame));
+        let color_view = target.color.create_view(&Default::default());
+        let depth_view = target.depth.create_view(&Default::default());
+        let (color_load, depth_load) = match clear {
+            Some(c) => {
+                let [r, g, b, a] = c.map(f64::from);
+                (wgpu::LoadOp::Clear(wgpu::Color { r, g, b, a }), wgpu::LoadOp::Clear(1.0))
+            }
+            None => (wgpu::LoadOp::Load, wgpu::LoadOp::Load),
+        };
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("furbake blade pass"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: &color_view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations { load: color_load, store: wgpu::StoreOp::Store },
+            })],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: &depth_view,
+                depth_ops: Some(wgpu::Operations { load: depth_load, store: wgpu::StoreOp::Store }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        if self.blade_count > 0 && self.index_count > 0 {
+            pass.set_pipeline(&self.draw_pipeline);
+            pass.set_bind_group(0, &self.shared, &[]);
+            pass.set_index_buffer(self.indices.slice(..), wgpu::IndexFormat::Uint32);
+            pass.draw_indexed(0..self.index_count, 0, 0..self.blade_count);
+        }
     }
 
     /// Reads back the positions of the last compute pass: `blades × vertices` world positions in
@@ -709,6 +858,7 @@ mod tests {
             ("camera_pos", offset_of!(FrameUniforms, camera_pos)),
             ("light_dir", offset_of!(FrameUniforms, light_dir)),
             ("light_color", offset_of!(FrameUniforms, light_color)),
+            ("model", offset_of!(FrameUniforms, model)),
         ];
         check_layout(&module, "Frame", size_of::<FrameUniforms>(), &frame);
         let params = [
@@ -727,8 +877,8 @@ mod tests {
             ("encoding", offset_of!(BladeParams, encoding)),
             ("interpolation", offset_of!(BladeParams, interpolation)),
             ("lambert", offset_of!(BladeParams, lambert)),
-            ("pad0", offset_of!(BladeParams, pad0)),
-            ("pad1", offset_of!(BladeParams, pad1)),
+            ("delayed_sources", offset_of!(BladeParams, delayed_sources)),
+            ("corner_count", offset_of!(BladeParams, corner_count)),
         ];
         check_layout(&module, "BladeParams", size_of::<BladeParams>(), &params);
         let blade = [
@@ -738,6 +888,11 @@ mod tests {
             ("weights", offset_of!(BladeGpu, weights)),
         ];
         check_layout(&module, "Blade", size_of::<BladeGpu>(), &blade);
+        let delayed = [
+            ("position_power", offset_of!(DelayedSourceGpu, position_power)),
+            ("params", offset_of!(DelayedSourceGpu, params)),
+        ];
+        check_layout(&module, "DelayedSource", size_of::<DelayedSourceGpu>(), &delayed);
     }
 
     #[test]

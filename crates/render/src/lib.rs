@@ -17,11 +17,14 @@
 //! The frame: [`FurRenderer::render`] clears the [`RenderTarget`], draws the skin (Lambert ×
 //! vertex colour), the shells as one instanced draw (instance = layer, so layers rasterise
 //! innermost first), then the fins on the pack's fin edges; [`read_back`] copies the colour
-//! target into an [`image::RgbaImage`].
+//! target into an [`image::RgbaImage`]. Several packs in one frame, each with its model matrix
+//! and this frame's physics (scale vectors, blade corner forces), from a runtime scene's camera
+//! and light: [`scene`] ([`SceneRenderer`], [`SceneFrame`]).
 
 mod asset;
 pub mod blades;
 mod renderer;
+pub mod scene;
 pub mod shaders;
 
 use std::path::Path;
@@ -32,6 +35,7 @@ use glam::Vec3;
 pub use asset::FurAsset;
 pub use blades::{BladeRenderer, BladeSettings};
 pub use renderer::{COLOR_FORMAT, DEPTH_FORMAT, FurRenderer, RenderSettings, RenderTarget, ShellBlend};
+pub use scene::{BladeForces, PackInput, PackRenderers, SceneFrame, SceneObject, SceneRenderer};
 
 /// The command that installs a software Vulkan driver on Debian/Ubuntu machines without a GPU.
 pub const LAVAPIPE_HINT: &str =
@@ -207,8 +211,14 @@ impl View {
         view
     }
 
-    /// The `Frame` uniforms for a target of the given aspect ratio.
+    /// The `Frame` uniforms for a target of the given aspect ratio (identity model matrix).
     pub fn uniforms(&self, aspect: f32) -> shaders::FrameUniforms {
+        self.uniforms_with_model(aspect, glam::Mat4::IDENTITY)
+    }
+
+    /// The `Frame` uniforms for a target of the given aspect ratio and an object placed by
+    /// `model` (object/pack frame → world; rotation, translation, uniform positive scale).
+    pub fn uniforms_with_model(&self, aspect: f32, model: glam::Mat4) -> shaders::FrameUniforms {
         let c = &self.camera;
         let (eye, target, up) = (Vec3::from(c.eye), Vec3::from(c.target), Vec3::from(c.up));
         let vp =
@@ -220,6 +230,7 @@ impl View {
             camera_pos: [eye.x, eye.y, eye.z, 1.0],
             light_dir: [to_light.x, to_light.y, to_light.z, 0.0],
             light_color: [r, g, b, self.light.ambient],
+            model: model.to_cols_array_2d(),
         }
     }
 }

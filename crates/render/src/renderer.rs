@@ -153,7 +153,9 @@ impl RenderTarget {
 /// One asset's GPU resources and pipelines.
 pub struct FurRenderer {
     settings: RenderSettings,
+    bounds: ([f32; 3], f32),
     frame_buffer: wgpu::Buffer,
+    fur_buffer: wgpu::Buffer,
     scale_buffer: wgpu::Buffer,
     vertex_count: u32,
     bind_group: wgpu::BindGroup,
@@ -306,7 +308,9 @@ impl FurRenderer {
         });
         Ok(FurRenderer {
             settings: *settings,
+            bounds: asset.bounding_sphere(),
             frame_buffer,
+            fur_buffer,
             scale_buffer,
             vertex_count: vertex_count as u32,
             bind_group,
@@ -345,54 +349,201 @@ impl FurRenderer {
         self.drawn_layers
     }
 
+    /// Welded skin vertices (= scale vectors expected by [`FurRenderer::set_scale_vectors`]).
+    pub fn vertex_count(&self) -> u32 {
+        self.vertex_count
+    }
+
+    /// The settings the pipelines were built with.
+    pub fn settings(&self) -> &RenderSettings {
+        &self.settings
+    }
+
+    /// Centre and radius (metres, object frame) of a sphere holding the skin and its fur
+    /// ([`FurAsset::bounding_sphere`]).
+    pub fn bounding_sphere(&self) -> ([f32; 3], f32) {
+        self.bounds
+    }
+
     /// Records and submits one frame into `target`: clear, skin, shells innermost to outermost,
     /// fins. Returns once the work is submitted (not finished; see [`crate::read_back`]).
     pub fn render(&self, device: &wgpu::Device, queue: &wgpu::Queue, target: &RenderTarget, view: &View) {
         let frame = view.uniforms(target.aspect());
-        queue.write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&frame));
-        let color_view = target.color.create_view(&Default::default());
-        let depth_view = target.depth.create_view(&Default::default());
         let mut encoder =
             device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("furbake frame") });
-        {
-            let [r, g, b, a] = self.settings.background.map(f64::from);
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("furbake fur pass"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &color_view,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color { r, g, b, a }),
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: &depth_view,
-                    depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Store }),
-                    stencil_ops: None,
-                }),
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
-            pass.set_bind_group(0, &self.bind_group, &[]);
-            if self.surface_corners > 0 {
-                pass.set_pipeline(&self.skin_pipeline);
-                pass.set_vertex_buffer(0, self.surface.slice(..));
-                pass.draw(0..self.surface_corners, 0..1);
-            }
-            if self.furry_corners > 0 && self.drawn_layers > 0 {
-                pass.set_pipeline(&self.shell_pipeline);
-                pass.draw(0..self.furry_corners, 0..self.drawn_layers);
-            }
-            if let Some((buffer, count)) = self.fins.as_ref().filter(|_| self.drawn_layers > 0) {
-                pass.set_pipeline(&self.fin_pipeline);
-                pass.set_vertex_buffer(0, buffer.slice(..));
-                pass.draw(0..*count, 0..1);
-            }
-        }
+        self.encode(queue, &mut encoder, target, &frame, Some(self.settings.background));
         queue.submit([encoder.finish()]);
+    }
+
+    /// Writes `frame` (camera, light and this object's model matrix, e.g. from
+    /// [`View::uniforms_with_model`]) into this renderer's uniform buffer and records its pass into
+    /// `encoder`: skin, shells, fins, after clearing colour (to the linear RGBA `clear`) and depth,
+    /// or over what the target holds when `clear` is `None`. Nothing is submitted; the uniform
+    /// write lands before the encoder's commands when they are submitted on the same queue, so
+    /// each renderer can be encoded once per submission.
+    pub fn encode(
+        &self,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+        target: &RenderTarget,
+        frame: &crate::shaders::FrameUniforms,
+        clear: Option<[f32; 4]>,
+    ) {
+        queue.write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(frame));
+        let color_view = target.color.create_view(&Default::default());
+        let depth_view = target.depth.create_view(&Default::default());
+        let (color_load, depth_load) = match clear {
+            Some(c) => {
+                let [r, g, b, a] = c.map(f64::from);
+                (wgpu::LoadOp::Clear(wgpu::Color { r, g, b, a }), wgpu::LoadOp::Clear(1.0))
+            }
+            None => (wgpu::LoadOp::Load, wgpu::LoadOp::Load),
+        };
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("furbake fur pass"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: &color_view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations { load: color_load, store: wgpu::StoreOp::Store },
+            })],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: &depth_view,
+                depth_ops: Some(wgpu::Operations { load: depth_load, store: wgpu::StoreOp::Store }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_bind_group(0, &self.bind_group, &[]);
+        if self.surface_corners > 0 {
+            pass.set_pipeline(&self.skin_pipeline);
+            pass.set_vertex_buffer(0, self.surface.slice(..));
+            pass.draw(0..self.surface_corners, 0..1);
+        }
+        if self.furry_corners > 0 && self.drawn_layers > 0 {
+            pass.set_pipeline(&self.shell_pipeline);
+            pass.draw(0..self.furry_corners, 0..self.drawn_layers);
+        }
+        if let Some((buffer, count)) = self.fins.as_ref().filter(|_| self.drawn_layers > 0) {
+            pass.set_pipeline(&self.fin_pipeline);
+            pass.set_vertex_buffer(0, buffer.slice(..));
+            pass.draw(0..*count, 0..1);
+        }
+    }
+
+    /// Reads back the sheared shell positions the shell vertex shader draws, computed on the GPU
+    /// by the same WGSL function (`shell_vertex` in `shell.wgsl`, via its compute entry point
+    /// `cs_shell_positions`) with this renderer's uniforms, override constants and current scale
+    /// vectors: `drawn_layers × vertices` object-frame positions in metres, layer-major
+    /// (`[layer · vertices + vertex]`, layer 0 = innermost shell at t = 1/drawn_layers). `asset`
+    /// must be the one this renderer was built from (its skin positions and normals are the
+    /// input). For tests against `furbake_sim::shell_vertex_position`; waits for the GPU.
+    pub fn shell_positions(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        asset: &FurAsset,
+    ) -> Result<Vec<[f32; 3]>, RenderError> {
+        let mesh = asset.mesh();
+        if mesh.positions.len() != self.vertex_count as usize {
+            return Err(RenderError::Parameter {
+                what: format!("asset has {} vertices, the renderer {}", mesh.positions.len(), self.vertex_count),
+            });
+        }
+        let count = self.vertex_count as u64 * self.drawn_layers as u64;
+        if count == 0 {
+            return Ok(Vec::new());
+        }
+        let limit = device.limits().max_storage_buffer_binding_size;
+        if count * 16 > limit {
+            return Err(RenderError::Limit { what: "shell probe bytes", value: count * 16, limit });
+        }
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let probe: Vec<[[f32; 4]; 2]> = mesh
+            .positions
+            .iter()
+            .zip(&mesh.normals)
+            .map(|(p, n)| [[p[0], p[1], p[2], 1.0], [n[0], n[1], n[2], 0.0]])
+            .collect();
+        let input = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("furbake shell probe vertices"),
+            contents: bytemuck::cast_slice(&probe),
+            usage: wgpu::BufferUsages::STORAGE,
+        });
+        let output = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("furbake shell probe output"),
+            size: count * 16,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let readback = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("furbake shell probe readback"),
+            size: count * 16,
+            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+            mapped_at_creation: false,
+        });
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("furbake shell probe"),
+            source: wgpu::ShaderSource::Wgsl(SHELL_WGSL.into()),
+        });
+        let constants: &[(&str, f64)] = &[("SHEAR", if self.settings.shearing { 1.0 } else { 0.0 })];
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("furbake shell probe"),
+            layout: None,
+            module: &module,
+            entry_point: Some("cs_shell_positions"),
+            compilation_options: wgpu::PipelineCompilationOptions {
+                constants,
+                zero_initialize_workgroup_memory: false,
+            },
+            cache: None,
+        });
+        let shared = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("furbake shell probe uniforms"),
+            layout: &pipeline.get_bind_group_layout(0),
+            entries: &[
+                wgpu::BindGroupEntry { binding: 1, resource: self.fur_buffer.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 2, resource: self.scale_buffer.as_entire_binding() },
+            ],
+        });
+        let io = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("furbake shell probe io"),
+            layout: &pipeline.get_bind_group_layout(1),
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: input.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 1, resource: output.as_entire_binding() },
+            ],
+        });
+        let groups = (count as u32).div_ceil(64);
+        let max = device.limits().max_compute_workgroups_per_dimension;
+        let (x, y) = if groups <= max { (groups, 1) } else { (max, groups.div_ceil(max)) };
+        let mut encoder =
+            device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("furbake shell probe") });
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("furbake shell probe"),
+                timestamp_writes: None,
+            });
+            pass.set_pipeline(&pipeline);
+            pass.set_bind_group(0, &shared, &[]);
+            pass.set_bind_group(1, &io, &[]);
+            pass.dispatch_workgroups(x, y, 1);
+        }
+        encoder.copy_buffer_to_buffer(&output, 0, &readback, 0, count * 16);
+        queue.submit([encoder.finish()]);
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(RenderError::Gpu { what: e.to_string() });
+        }
+        crate::map_for_reading(device, &readback, "shell probe readback")?;
+        let out = {
+            let view = readback.get_mapped_range(..).map_err(|e| RenderError::Gpu { what: e.to_string() })?;
+            let words: &[[f32; 4]] = bytemuck::cast_slice(&view);
+            words.iter().map(|p| [p[0], p[1], p[2]]).collect()
+        };
+        readback.unmap();
+        Ok(out)
     }
 }
 

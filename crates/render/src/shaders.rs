@@ -8,7 +8,9 @@
 /// followed by its own file: WGSL has no includes, so the shared part is prepended here.
 pub const SKIN_WGSL: &str =
     concat!(include_str!("../../../shaders/fur_common.wgsl"), include_str!("../../../shaders/skin.wgsl"));
-/// Shells: extrusion, eq. 3.36 shearing, shell alpha, self-shadow, Lambert (§3.2, §3.4.2).
+/// Shells: extrusion, eq. 3.36 shearing, shell alpha, self-shadow, Lambert (§3.2, §3.4.2); also
+/// the `cs_shell_positions` compute entry point that reads back the sheared shell positions
+/// ([`crate::FurRenderer::shell_positions`]).
 pub const SHELL_WGSL: &str =
     concat!(include_str!("../../../shaders/fur_common.wgsl"), include_str!("../../../shaders/shell.wgsl"));
 /// Fins on fin edges (§3.2, fig. 3.16).
@@ -27,6 +29,10 @@ pub struct FrameUniforms {
     pub light_dir: [f32; 4],
     /// Light colour × intensity (rgb) and ambient term (a, in [0, 1]).
     pub light_color: [f32; 4],
+    /// Column-major model matrix of the drawn object (object/pack frame → world): rotation,
+    /// translation and a uniform positive scale (normals are transformed by it too). Identity
+    /// for a single object.
+    pub model: [[f32; 4]; 4],
 }
 
 /// Per-asset fur uniforms (`Fur` in every shader; binding 1).
@@ -114,6 +120,15 @@ mod tests {
         (module, info)
     }
 
+    /// The probe vertex of `cs_shell_positions` (two `vec4<f32>`).
+    #[test]
+    fn the_shell_probe_vertex_matches_the_shader() {
+        let (module, _) = validated("shell.wgsl", SHELL_WGSL);
+        let (span, members) = wgsl_struct(&module, "ProbeVertex").expect("shell.wgsl declares ProbeVertex");
+        assert_eq!(span as usize, std::mem::size_of::<[[f32; 4]; 2]>());
+        assert_eq!(members, [("position".to_string(), 0), ("normal".to_string(), 16)]);
+    }
+
     const SHADERS: [(&str, &str); 3] = [("skin.wgsl", SKIN_WGSL), ("shell.wgsl", SHELL_WGSL), ("fin.wgsl", FIN_WGSL)];
 
     #[test]
@@ -124,7 +139,10 @@ mod tests {
             entry_points.extend(module.entry_points.iter().map(|e| e.name.clone()));
         }
         entry_points.sort();
-        assert_eq!(entry_points, ["fs_fin", "fs_shell", "fs_skin", "vs_fin", "vs_shell", "vs_skin"]);
+        assert_eq!(
+            entry_points,
+            ["cs_shell_positions", "fs_fin", "fs_shell", "fs_skin", "vs_fin", "vs_shell", "vs_skin"]
+        );
     }
 
     /// (size, member names and offsets) of the WGSL struct `name`, from naga's layout.
@@ -163,6 +181,7 @@ mod tests {
             ("camera_pos", offset_of!(FrameUniforms, camera_pos)),
             ("light_dir", offset_of!(FrameUniforms, light_dir)),
             ("light_color", offset_of!(FrameUniforms, light_color)),
+            ("model", offset_of!(FrameUniforms, model)),
         ];
         assert_eq!(check_layout("Frame", size_of::<FrameUniforms>(), &frame), 3, "Frame is in all three shaders");
         let fur = [

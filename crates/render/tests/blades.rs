@@ -1,7 +1,9 @@
 //! GPU grass blades (`BladeRenderer`, `shaders/blades.wgsl`) against furbake-grass's CPU reference
 //! (grass thesis §3.2.5–3.2.6, §4.2): the compute pass's world-space vertex positions are read
-//! back and compared with `KeyframeDecoder::world_positions` for a few hundred blades under a
-//! nonuniform force field (global wind + a point source, eq. 4.1), for every displacement encoding,
+//! back and compared with `KeyframeDecoder::world_positions` at `ForceField::blade_force` for a
+//! few hundred blades under nonuniform force fields (global wind + one point source; global wind +
+//! three point sources, eq. 4.1; the same with two delayed-attenuation sources, fig. 4.8, and a
+//! windless area, uploaded with `set_force_scene`), for every displacement encoding,
 //! every symmetry and both GPU interpolation modes; and a rendered grass patch is green and bends
 //! downwind. Runs on whatever adapter the machine has (lavapipe without a GPU) and never skips:
 //! without an adapter the tests fail with the command that installs lavapipe.
@@ -67,13 +69,67 @@ fn gusty_scene() -> ForceScene {
 /// rounding boundary (where a 1-ulp difference in the force may legitimately pick the neighbour).
 const BOUNDARY: f32 = 1e-4;
 
+/// Global wind plus three point sources of different power and concentration (eq. 4.1), one
+/// inside the patch, one at its edge and one far away: the per-blade force (four cluster corner
+/// forces × bilinear weights, eq. 3.6) varies in size and direction across every cluster.
+fn three_source_scene() -> ForceScene {
+    let source = |x, z, power, concentration| WindSource {
+        position_m: Vec3::new(x, 0.2, z),
+        power,
+        concentration,
+        delayed: false,
+    };
+    ForceScene {
+        global_wind: Vec2::new(0.3, -0.5),
+        sources: vec![source(0.3, -0.2, 0.6, 1.5), source(-1.1, 0.9, 1.5, 1.0), source(-6.0, 4.0, 20.0, 1.2)],
+        ..ForceScene::default()
+    }
+}
+
 #[test]
 fn gpu_blade_positions_match_the_cpu_reference() {
+    compare_with_cpu(&gusty_scene(), "gusty", false);
+}
+
+#[test]
+fn gpu_blade_forces_match_the_cpu_field_with_three_wind_sources() {
+    compare_with_cpu(&three_source_scene(), "three sources", false);
+}
+
+#[test]
+fn gpu_delayed_attenuation_matches_the_cpu_field() {
+    // The same three sources, two of them with delayed attenuation (fig. 4.8), plus a windless
+    // area over a corner of the patch: the GPU evaluates the delayed sources per blade.
+    let mut scene = three_source_scene();
+    scene.sources[0].delayed = true;
+    scene.sources[1].delayed = true;
+    scene.blockers.push(furbake_grass::WindBlocker { min_m: Vec2::new(-1.5, -1.5), max_m: Vec2::new(-0.7, -0.7) });
+    compare_with_cpu(&scene, "three sources, two delayed", true);
+    // Without them (set_force_field drops delayed sources) the GPU would differ.
+    let field = patch();
+    let mut forces = ForceField::new(field.grid);
+    forces.update(&scene);
+    let differs = (0..field.blade_count())
+        .filter(|&b| {
+            let corners = field.grid.corner_indices(field.cluster[b]);
+            let undelayed: Vec2 = (0..4).map(|k| forces.corner_forces[corners[k] as usize] * field.weights[b][k]).sum();
+            let full = forces.blade_force(corners, field.weights[b], Vec3::from(field.positions[b]));
+            (full - undelayed).length() > 0.05
+        })
+        .count();
+    assert!(differs * 2 > field.blade_count(), "delayed sources change only {differs} blade forces");
+}
+
+/// Reads back every blade's GPU positions under the field of `scene` and compares them with
+/// the CPU decode at `ForceField::blade_force` for every encoding, symmetry and GPU interpolation.
+/// `with_scene`: upload through `set_force_scene` (delayed sources on the GPU), else
+/// `set_force_field`.
+fn compare_with_cpu(scene: &ForceScene, name: &str, with_scene: bool) {
     let field = patch();
     let n = field.blade_count();
     assert!((250..=400).contains(&n), "{n} blades");
     let mut forces = ForceField::new(field.grid);
-    forces.update(&gusty_scene());
+    forces.update(scene);
     let cases = [
         (Symmetry::XZ, DisplacementEncoding::Snorm16),
         (Symmetry::X, DisplacementEncoding::F16),
@@ -92,7 +148,11 @@ fn gpu_blade_positions_match_the_cpu_reference() {
             let settings = BladeSettings { interpolation, ..Default::default() };
             let blades = BladeRenderer::new(&gpu().device, &gpu().queue, &field, &table, &settings).unwrap();
             assert_eq!((blades.blade_count() as usize, blades.vertex_count() as usize), (n, vc));
-            blades.set_force_field(&gpu().queue, &forces).unwrap();
+            if with_scene {
+                blades.set_force_scene(&gpu().queue, &forces, scene).unwrap();
+            } else {
+                blades.set_force_field(&gpu().queue, &forces).unwrap();
+            }
             blades.compute(&gpu().device, &gpu().queue).unwrap();
             let got = blades.read_positions(&gpu().device, &gpu().queue).unwrap();
             assert_eq!(got.len(), n * vc);
@@ -100,7 +160,8 @@ fn gpu_blade_positions_match_the_cpu_reference() {
             let mut rest = vec![Vec3::ZERO; vc];
             for b in 0..n {
                 let root = Vec3::from(field.positions[b]);
-                let f = forces.blade_force_in_cluster(field.cluster[b], field.weights[b], root);
+                let corners = field.grid.corner_indices(field.cluster[b]);
+                let f = forces.blade_force(corners, field.weights[b], root);
                 let (yaw, h) = (field.yaw_rad[b], field.height_scale[b]);
                 decoder.world_positions(root, yaw, h, f.extend(0.0).xzy(), interpolation, &mut cpu);
                 decoder.world_positions(root, yaw, h, Vec3::ZERO, interpolation, &mut rest);
@@ -112,7 +173,10 @@ fn gpu_blade_positions_match_the_cpu_reference() {
                 let (mu, alpha) = decoder.grid_coordinates(local);
                 poses_seen.insert((mu.round() as u32, alpha.round() as i32));
                 let err = (0..vc).map(|v| Vec3::from(got[b * vc + v]).distance(cpu[v])).fold(0.0f32, f32::max);
+                // A zero force (all four corners in a windless area) is no boundary: magnitude 0
+                // selects the rest pose whatever the angle.
                 let on_boundary = interpolation == Interpolation::Nearest
+                    && f != Vec2::ZERO
                     && [mu + 0.5, alpha + 0.5].iter().any(|x| {
                         let fr = x - x.floor();
                         !(BOUNDARY..=1.0 - BOUNDARY).contains(&fr)
@@ -136,7 +200,10 @@ fn gpu_blade_positions_match_the_cpu_reference() {
             }
         }
     }
-    println!("compared {compared} blade poses, {boundary_blades} on a rounding boundary, max error {worst:e} m");
+    println!(
+        "{name}: compared {compared} blade poses, {boundary_blades} on a rounding boundary, max error {worst:e} m, {} grid cells",
+        poses_seen.len()
+    );
     // Everything but a handful of boundary cases was compared, and the field really posed blades.
     assert!(boundary_blades <= 5, "{boundary_blades} blades on a nearest-pose boundary");
     assert!(compared >= 10 * n - 5, "{compared} comparisons");

@@ -1,0 +1,332 @@
+//! Scene frames: several furry packs and grass blade fields drawn into one [`RenderTarget`] per
+//! frame, each placed by its own model matrix, seen from the camera and lit by the light of a
+//! `furbake_runtime::Scene` (fur thesis §3.2 for the fur passes, grass thesis §4.2 for the blades).
+//! Physics is an input: per fur pack the frame's scale vectors (eq. 3.35, in the pack's mesh
+//! frame), per grass pack the frame's cluster corner forces (eq. 3.6, `(x, z)` in the pack frame)
+//! or a `ForceField`.
+//!
+//! Two levels:
+//! - [`SceneFrame::render`] draws borrowed [`SceneObject`]s (a [`FurRenderer`] or a
+//!   [`BladeRenderer`] with a model matrix and optional per-frame physics input) in one
+//!   submission: the first object clears colour and depth, the others draw over it depth-tested.
+//! - [`SceneRenderer`] owns the renderers of every pack of a `Scene` (opened from the pack files,
+//!   shader features from the scene's effects) and renders a frame from per-pack [`PackInput`]s;
+//!   what `furbake preview <scene> --frames N` calls once per step.
+
+use std::path::PathBuf;
+
+use furbake_formats::SectionKind;
+use furbake_grass::{ForceField, ForceScene};
+use furbake_runtime::{Camera, Light, Pack, Scene};
+use glam::{Mat4, Vec3};
+
+use crate::{BladeRenderer, BladeSettings, FurAsset, FurRenderer, RenderError, RenderSettings, RenderTarget, View};
+
+/// One grass field's forces for this frame.
+#[derive(Clone, Copy, Debug)]
+pub enum BladeForces<'a> {
+    /// Cluster corner forces `(x, z)`, one per grid corner ([`BladeRenderer::set_corner_forces`]).
+    Corners(&'a [[f32; 2]]),
+    /// A CPU force field over the blade field's grid ([`BladeRenderer::set_force_field`]; its
+    /// delayed-attenuation sources are dropped: use [`BladeForces::Scene`] for those).
+    Field(&'a ForceField),
+    /// A force field updated from `scene` plus the scene's delayed-attenuation sources, evaluated
+    /// per blade on the GPU ([`BladeRenderer::set_force_scene`]).
+    Scene {
+        /// The field (`ForceField::update(scene)` already called).
+        field: &'a ForceField,
+        /// The scene it was updated from.
+        scene: &'a ForceScene,
+    },
+}
+
+/// One object of a scene frame.
+pub enum SceneObject<'a> {
+    /// A furry pack.
+    Fur {
+        /// Its renderer.
+        renderer: &'a FurRenderer,
+        /// Object (mesh) frame → world: rotation, translation, uniform positive scale.
+        model: Mat4,
+        /// This frame's scale vectors (one per welded vertex, mesh frame), or `None` to keep the
+        /// last ones written (initially the rest pose s = n).
+        scale_vectors: Option<&'a [[f32; 3]]>,
+    },
+    /// A grass blade field.
+    Blades {
+        /// Its renderer.
+        renderer: &'a BladeRenderer,
+        /// Pack frame → world: rotation, translation, uniform positive scale.
+        model: Mat4,
+        /// This frame's forces, or `None` to keep the last ones written (initially zero).
+        forces: Option<BladeForces<'a>>,
+    },
+}
+
+impl SceneObject<'_> {
+    fn model(&self) -> Mat4 {
+        match self {
+            SceneObject::Fur { model, .. } | SceneObject::Blades { model, .. } => *model,
+        }
+    }
+
+    /// The object's bounding sphere in world space (centre moved by the model matrix, radius
+    /// grown by its largest axis scale).
+    fn world_bounds(&self) -> (Vec3, f32) {
+        let (center, radius) = match self {
+            SceneObject::Fur { renderer, .. } => renderer.bounding_sphere(),
+            SceneObject::Blades { renderer, .. } => renderer.bounding_sphere(),
+        };
+        let m = self.model();
+        let scale = m.x_axis.truncate().length().max(m.y_axis.truncate().length()).max(m.z_axis.truncate().length());
+        (m.transform_point3(Vec3::from(center)), radius * scale)
+    }
+}
+
+/// Checks that `m` is finite and places an object (non-zero scale).
+fn check_model(m: &Mat4) -> Result<(), RenderError> {
+    if !m.is_finite() || m.determinant().abs() < 1e-12 {
+        return Err(RenderError::Parameter { what: format!("model matrix {m} is not finite and invertible") });
+    }
+    Ok(())
+}
+
+/// The smallest sphere around two spheres.
+fn merge(a: (Vec3, f32), b: (Vec3, f32)) -> (Vec3, f32) {
+    let d = a.0.distance(b.0);
+    if d + b.1 <= a.1 {
+        return a;
+    }
+    if d + a.1 <= b.1 {
+        return b;
+    }
+    let radius = (d + a.1 + b.1) * 0.5;
+    let center = if d > 0.0 { a.0 + (b.0 - a.0) * ((radius - a.1) / d) } else { a.0 };
+    (center, radius)
+}
+
+/// Camera, light and clear colour of a scene frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SceneFrame {
+    /// The camera; `None` frames every object automatically ([`View::framing`] of their union).
+    pub camera: Option<Camera>,
+    /// The directional light.
+    pub light: Light,
+    /// Linear RGBA clear colour. Default [`RenderSettings::default`]'s background.
+    pub background: [f32; 4],
+}
+
+impl SceneFrame {
+    /// The scene's camera and light, the default background.
+    pub fn from_scene(scene: &Scene) -> SceneFrame {
+        SceneFrame { camera: scene.camera, light: scene.light, background: RenderSettings::default().background }
+    }
+
+    /// The view of this frame for `objects`: the near and far planes fit the union of the
+    /// objects' world bounding spheres; without a camera, the three-quarter framing
+    /// ([`View::framing`]) of that union.
+    pub fn view(&self, objects: &[SceneObject<'_>]) -> View {
+        let bounds = objects.iter().map(SceneObject::world_bounds).reduce(merge).unwrap_or((Vec3::ZERO, 1.0));
+        let mut view = View::framing(bounds.0.to_array(), bounds.1);
+        view.light = self.light;
+        if let Some(camera) = self.camera {
+            view.camera = camera;
+        }
+        view
+    }
+
+    /// Uploads each object's physics input, then draws every object into `target` in one
+    /// submission (the first clears to [`SceneFrame::background`]; with no objects the target
+    /// is just cleared). Returns the view used. Fails before drawing anything on a bad input
+    /// (a renderer listed twice, a degenerate model matrix); a wrong scale-vector or corner-force
+    /// count or non-finite values fail before anything is drawn, though earlier objects' inputs
+    /// may already be uploaded.
+    pub fn render(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        target: &RenderTarget,
+        objects: &[SceneObject<'_>],
+    ) -> Result<View, RenderError> {
+        // Each renderer owns one uniform buffer, written once per submission: an object drawn
+        // twice in one frame would be drawn twice with the last model matrix.
+        let mut seen = std::collections::HashSet::new();
+        for object in objects {
+            let key = match object {
+                SceneObject::Fur { renderer, .. } => *renderer as *const FurRenderer as usize,
+                SceneObject::Blades { renderer, .. } => *renderer as *const BladeRenderer as usize,
+            };
+            if !seen.insert(key) {
+                return Err(RenderError::Parameter {
+                    what: "a renderer appears twice in one scene frame (one model matrix per renderer per frame)"
+                        .into(),
+                });
+            }
+        }
+        for object in objects {
+            check_model(&object.model())?;
+            match object {
+                SceneObject::Fur { renderer, scale_vectors: Some(s), .. } => renderer.set_scale_vectors(queue, s)?,
+                SceneObject::Blades { renderer, forces: Some(BladeForces::Corners(f)), .. } => {
+                    renderer.set_corner_forces(queue, f)?
+                }
+                SceneObject::Blades { renderer, forces: Some(BladeForces::Field(f)), .. } => {
+                    renderer.set_force_field(queue, f)?
+                }
+                SceneObject::Blades { renderer, forces: Some(BladeForces::Scene { field, scene }), .. } => {
+                    renderer.set_force_scene(queue, field, scene)?
+                }
+                _ => {}
+            }
+        }
+        let view = self.view(objects);
+        let mut encoder =
+            device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("furbake scene frame") });
+        if objects.is_empty() {
+            clear_pass(&mut encoder, target, self.background);
+        }
+        for (i, object) in objects.iter().enumerate() {
+            let clear = (i == 0).then_some(self.background);
+            let frame = view.uniforms_with_model(target.aspect(), object.model());
+            match object {
+                SceneObject::Fur { renderer, .. } => renderer.encode(queue, &mut encoder, target, &frame, clear),
+                SceneObject::Blades { renderer, .. } => {
+                    renderer.encode_draw(queue, &mut encoder, target, &frame, clear)
+                }
+            }
+        }
+        queue.submit([encoder.finish()]);
+        Ok(view)
+    }
+}
+
+fn clear_pass(encoder: &mut wgpu::CommandEncoder, target: &RenderTarget, background: [f32; 4]) {
+    let [r, g, b, a] = background.map(f64::from);
+    let color_view = target.color.create_view(&Default::default());
+    let depth_view = target.depth.create_view(&Default::default());
+    encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some("furbake scene clear"),
+        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+            view: &color_view,
+            depth_slice: None,
+            resolve_target: None,
+            ops: wgpu::Operations {
+                load: wgpu::LoadOp::Clear(wgpu::Color { r, g, b, a }),
+                store: wgpu::StoreOp::Store,
+            },
+        })],
+        depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+            view: &depth_view,
+            depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Store }),
+            stencil_ops: None,
+        }),
+        timestamp_writes: None,
+        occlusion_query_set: None,
+        multiview_mask: None,
+    });
+}
+
+/// The renderers of one scene pack.
+pub struct PackRenderers {
+    /// The pack's name in the scene.
+    pub name: String,
+    /// The pack file.
+    pub path: PathBuf,
+    /// Its fur (when the pack has a skin mesh and a shell atlas).
+    pub fur: Option<FurRenderer>,
+    /// Its grass blades (when the pack has a blade field).
+    pub blades: Option<BladeRenderer>,
+    /// Its placement at time 0 (`ScenePack::transform`), used when a [`PackInput`] gives none.
+    pub model: Mat4,
+}
+
+/// One pack's inputs for a frame (all optional: `PackInput::default()` redraws the last state).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PackInput<'a> {
+    /// Placement this frame (e.g. along the pack's motion path); `None`: the time-0 placement.
+    pub model: Option<Mat4>,
+    /// Fur scale vectors, one per welded skin vertex (`furbake_sim::Simulator::scale_vectors`
+    /// of a non-separable topology), mesh frame.
+    pub scale_vectors: Option<&'a [[f32; 3]]>,
+    /// Grass forces.
+    pub blade_forces: Option<BladeForces<'a>>,
+}
+
+/// Every pack of a scene on the GPU, drawn together frame by frame.
+pub struct SceneRenderer {
+    /// Camera, light and background.
+    pub frame: SceneFrame,
+    /// One entry per `scene.packs`, in order.
+    pub packs: Vec<PackRenderers>,
+}
+
+impl SceneRenderer {
+    /// Opens every pack of `scene` (paths as the scene holds them: `Scene::load` resolves them
+    /// against the scene file), uploads its fur (skin mesh + shell atlas + UV map, fins when
+    /// present) and its blade field, with the shader features the scene's effects need
+    /// ([`RenderSettings::for_scene`]). A pack with neither fur nor blades is an
+    /// [`RenderError::InvalidAsset`].
+    pub fn new(device: &wgpu::Device, queue: &wgpu::Queue, scene: &Scene) -> Result<SceneRenderer, RenderError> {
+        let settings = RenderSettings::for_scene(scene);
+        let mut packs = Vec::with_capacity(scene.packs.len());
+        for p in &scene.packs {
+            let pack = Pack::open(&p.path)?;
+            let fur = if pack.has(SectionKind::SKIN_MESH) && pack.has(SectionKind::SHELL_ATLAS) {
+                let asset = FurAsset::from_pack(&pack, settings.fins)?;
+                Some(FurRenderer::new(device, queue, &asset, &settings)?)
+            } else {
+                None
+            };
+            let blades = BladeRenderer::from_pack(device, queue, &pack, &BladeSettings::default())?;
+            if fur.is_none() && blades.is_none() {
+                return Err(RenderError::InvalidAsset {
+                    what: format!("scene pack {:?} ({}) has neither fur nor grass blades", p.name, p.path.display()),
+                });
+            }
+            packs.push(PackRenderers {
+                name: p.name.clone(),
+                path: p.path.clone(),
+                fur,
+                blades,
+                model: p.transform().to_mat4(),
+            });
+        }
+        Ok(SceneRenderer { frame: SceneFrame::from_scene(scene), packs })
+    }
+
+    /// Draws one frame: `inputs[i]` belongs to `packs[i]` (fewer inputs than packs: the rest
+    /// redraw their last state). Fur before blades within a pack. Returns the view used.
+    pub fn render_frame(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        target: &RenderTarget,
+        inputs: &[PackInput<'_>],
+    ) -> Result<View, RenderError> {
+        if inputs.len() > self.packs.len() {
+            return Err(RenderError::Parameter {
+                what: format!("{} pack inputs for {} scene packs", inputs.len(), self.packs.len()),
+            });
+        }
+        let mut objects = Vec::with_capacity(self.packs.len() * 2);
+        for (i, pack) in self.packs.iter().enumerate() {
+            let input = inputs.get(i).copied().unwrap_or_default();
+            let model = input.model.unwrap_or(pack.model);
+            if let Some(renderer) = &pack.fur {
+                objects.push(SceneObject::Fur { renderer, model, scale_vectors: input.scale_vectors });
+            } else if input.scale_vectors.is_some() {
+                return Err(RenderError::Parameter {
+                    what: format!("scale vectors for pack {:?} without fur", pack.name),
+                });
+            }
+            if let Some(renderer) = &pack.blades {
+                objects.push(SceneObject::Blades { renderer, model, forces: input.blade_forces });
+            } else if input.blade_forces.is_some() {
+                return Err(RenderError::Parameter {
+                    what: format!("blade forces for pack {:?} without blades", pack.name),
+                });
+            }
+        }
+        self.frame.render(device, queue, target, &objects)
+    }
+}

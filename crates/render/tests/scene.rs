@@ -1,0 +1,280 @@
+//! Scene frames (`SceneRenderer`, `SceneFrame`): several packs — a furry sphere and a grass patch
+//! — drawn into one target from a runtime `Scene`'s camera and light, each placed by its model
+//! matrix, with per-frame physics inputs (scale vectors, blade corner forces). Checked as
+//! properties: each object lands where its model matrix puts it (centroid shift against the
+//! pinhole projection), objects do not disturb one another, per-frame forces bend the grass
+//! downwind in world space, and bad inputs are refused before drawing. Runs on whatever adapter
+//! the machine has (lavapipe without a GPU) and never skips.
+
+use std::path::Path;
+use std::sync::OnceLock;
+
+use furbake_bake::{BakeSettings, NoProgress, bake};
+use furbake_formats::sections::keyframe_table::{CompressionStages, DisplacementEncoding, Symmetry};
+use furbake_grass::keyframes::PoseGridSettings;
+use furbake_grass::{
+    BladeFieldSettings, BladeMaterial, BladeShape, build_reference_blade, compress_poses, ground_grid_mesh,
+    scatter_blades, simulate_poses,
+};
+use furbake_import::{ImportSettings, import_gltf_slice, testmesh};
+use furbake_render::{
+    BladeForces, HeadlessGpu, PackInput, RenderTarget, SceneFrame, SceneObject, SceneRenderer, read_back,
+};
+use furbake_runtime::Scene;
+use glam::{Mat4, Vec3};
+use image::RgbaImage;
+
+const SIZE: u32 = 160;
+const FOV_DEG: f32 = 40.0;
+const EYE_Z: f32 = 6.0;
+
+fn gpu() -> &'static HeadlessGpu {
+    static GPU: OnceLock<HeadlessGpu> = OnceLock::new();
+    GPU.get_or_init(|| {
+        HeadlessGpu::new().unwrap_or_else(|e| panic!("scene tests need a wgpu adapter and found none: {e}"))
+    })
+}
+
+/// A scene with two packs written to a temporary folder: `fur` (a unit sphere, 16 layers, 0.12 m
+/// fur) at x = −1.3 m and `grass` (a 1 m patch) at x = +1.3 m, y = −0.4 m, seen from +Z.
+fn scene() -> &'static (tempfile::TempDir, Scene) {
+    static SCENE: OnceLock<(tempfile::TempDir, Scene)> = OnceLock::new();
+    SCENE.get_or_init(|| {
+        let dir = tempfile::tempdir().unwrap();
+        let gltf = testmesh::uv_sphere(16, 24, 1.0).gltf;
+        let imported = import_gltf_slice(&gltf, "sphere.gltf", None, &ImportSettings::default()).unwrap();
+        let mut settings = BakeSettings::preset("fur").unwrap();
+        settings.volume.layers = 16;
+        settings.volume.resolution = 64;
+        settings.shells.fur_length_m = Some(0.12);
+        let baked = bake(&imported, "sphere", &settings, &mut NoProgress).unwrap();
+        baked.to_writer().write_atomic(&dir.path().join("fur.fbk")).unwrap();
+
+        let grid = PoseGridSettings { poses: 400, ..Default::default() }.resolve(Symmetry::XZ).unwrap();
+        let blade = build_reference_blade(&BladeShape::default()).unwrap();
+        let poses = simulate_poses(&blade, &BladeMaterial::default(), grid).unwrap();
+        let stages = CompressionStages { drop_static_vertices: true, rigid_segment_pairs: true };
+        let table = compress_poses(&poses, Symmetry::XZ, stages, DisplacementEncoding::Snorm16).unwrap();
+        let field_settings = BladeFieldSettings { density_per_m2: 150.0, cluster_size_m: 0.5, ..Default::default() };
+        let field = scatter_blades(&ground_grid_mesh([1.0, 1.0], [2, 2]), &field_settings).unwrap();
+        furbake_formats::PackWriter::new()
+            .push_section(&field)
+            .push_section(&table)
+            .write_atomic(&dir.path().join("grass.fbk"))
+            .unwrap();
+
+        let toml = format!(
+            r#"
+[camera]
+eye = [0.0, 0.0, {EYE_Z}]
+target = [0.0, 0.0, 0.0]
+up = [0.0, 1.0, 0.0]
+fov_y_deg = {FOV_DEG}
+
+[[packs]]
+name = "fur"
+path = "fur.fbk"
+translation = [-1.3, 0.0, 0.0]
+
+[[packs]]
+name = "grass"
+path = "grass.fbk"
+translation = [1.3, -0.4, 0.0]
+scale = 1.5
+
+[effects.wind]
+velocity_m_s = [1.0, 0.0, 0.0]
+"#
+        );
+        let scene = Scene::from_toml_str(&toml, Path::new("test.toml"), dir.path()).unwrap();
+        (dir, scene)
+    })
+}
+
+fn is_green(p: &image::Rgba<u8>) -> bool {
+    p[1] > p[0] + 10 && p[1] > p[2] + 10
+}
+
+/// Count and mean x of pixels that differ from `background` and satisfy `keep`.
+fn centroid(image: &RgbaImage, background: [u8; 4], keep: impl Fn(&image::Rgba<u8>) -> bool) -> (usize, f64) {
+    let (mut n, mut sx) = (0usize, 0.0f64);
+    for (x, _, p) in image.enumerate_pixels() {
+        if p.0 != background && keep(p) {
+            n += 1;
+            sx += x as f64;
+        }
+    }
+    (n, sx / n.max(1) as f64)
+}
+
+fn background_rgba(image: &RgbaImage) -> [u8; 4] {
+    image.get_pixel(0, 0).0
+}
+
+#[test]
+fn every_pack_is_drawn_where_its_model_matrix_puts_it() {
+    let (_, scene) = scene();
+    let g = gpu();
+    let renderer = SceneRenderer::new(&g.device, &g.queue, scene).unwrap();
+    assert_eq!(renderer.packs.len(), 2);
+    assert!(renderer.packs[0].fur.is_some() && renderer.packs[0].blades.is_none());
+    assert!(renderer.packs[1].fur.is_none() && renderer.packs[1].blades.is_some());
+    // The scene declares wind, so shearing is compiled in.
+    assert!(renderer.packs[0].fur.as_ref().unwrap().settings().shearing);
+    let target = RenderTarget::new(&g.device, SIZE, SIZE).unwrap();
+    let view = renderer.render_frame(&g.device, &g.queue, &target, &[]).unwrap();
+    assert_eq!(view.camera, scene.camera.unwrap());
+    let both = read_back(&g.device, &g.queue, &target).unwrap();
+    let dir = std::env::temp_dir().join("furbake-render-tests");
+    std::fs::create_dir_all(&dir).unwrap();
+    both.save(dir.join("scene_fur_and_grass.png")).unwrap();
+    let bg = background_rgba(&both);
+    let (n_fur, x_fur) = centroid(&both, bg, |p| !is_green(p));
+    let (n_grass, x_grass) = centroid(&both, bg, is_green);
+    println!("fur {n_fur} px at mean x {x_fur:.1}; grass {n_grass} px at mean x {x_grass:.1}");
+    // Pinhole projection of the translations: x_px = W/2 + x/(z_eye − z) · (H/2)/tan(fov/2).
+    let focal = SIZE as f64 * 0.5 / (FOV_DEG as f64 * 0.5).to_radians().tan();
+    let expect_fur = SIZE as f64 * 0.5 - 1.3 / EYE_Z as f64 * focal;
+    assert!(n_fur > 2000, "{n_fur} fur pixels");
+    assert!((x_fur - expect_fur).abs() < 3.0, "fur centroid {x_fur:.1}, expected ≈ {expect_fur:.1}");
+    assert!(n_grass > 300, "{n_grass} grass pixels");
+    assert!(x_grass > SIZE as f64 * 0.5 + 0.6 / EYE_Z as f64 * focal, "grass centroid {x_grass:.1}");
+
+    // The same fur object alone (one SceneObject, same camera): the left half of the frame is
+    // unchanged by the grass pass.
+    let fur = renderer.packs[0].fur.as_ref().unwrap();
+    let alone = SceneFrame::from_scene(scene);
+    let model = Mat4::from_translation(Vec3::new(-1.3, 0.0, 0.0));
+    alone
+        .render(&g.device, &g.queue, &target, &[SceneObject::Fur { renderer: fur, model, scale_vectors: None }])
+        .unwrap();
+    let fur_only = read_back(&g.device, &g.queue, &target).unwrap();
+    let (mut same, mut total) = (0usize, 0usize);
+    for (x, y, p) in both.enumerate_pixels().filter(|(x, _, _)| *x < SIZE / 2) {
+        total += 1;
+        same += (fur_only.get_pixel(x, y) == p) as usize;
+    }
+    assert_eq!(same, total, "{} of {total} left-half pixels changed by the grass pack", total - same);
+}
+
+#[test]
+fn model_matrices_translate_and_scale_a_furry_object() {
+    let (_, scene) = scene();
+    let g = gpu();
+    let renderer = SceneRenderer::new(&g.device, &g.queue, scene).unwrap();
+    let fur = renderer.packs[0].fur.as_ref().unwrap();
+    let frame = SceneFrame::from_scene(scene);
+    let target = RenderTarget::new(&g.device, SIZE, SIZE).unwrap();
+    let render = |model: Mat4| {
+        frame
+            .render(&g.device, &g.queue, &target, &[SceneObject::Fur { renderer: fur, model, scale_vectors: None }])
+            .unwrap();
+        let image = read_back(&g.device, &g.queue, &target).unwrap();
+        centroid(&image, background_rgba(&image), |_| true)
+    };
+    let (n0, x0) = render(Mat4::IDENTITY);
+    let (n1, x1) = render(Mat4::from_translation(Vec3::new(0.8, 0.0, 0.0)));
+    let (n2, _) = render(Mat4::from_scale(Vec3::splat(0.5)));
+    let (n3, x3) = render(Mat4::from_rotation_y(1.0) * Mat4::from_translation(Vec3::new(0.0, 0.0, 0.0)));
+    let focal = SIZE as f64 * 0.5 / (FOV_DEG as f64 * 0.5).to_radians().tan();
+    let expected_shift = 0.8 / EYE_Z as f64 * focal;
+    println!(
+        "identity {n0} px at {x0:.1}; +0.8 m x: {n1} px at {x1:.1} (expected +{expected_shift:.1}); half scale {n2} px"
+    );
+    assert!(((x1 - x0) - expected_shift).abs() < 1.5, "shift {:.1} px, expected {expected_shift:.1}", x1 - x0);
+    assert!(n1.abs_diff(n0) * 20 < n0, "translation changed the covered area: {n0} → {n1}");
+    // Half the size: a quarter of the area (fur ring and perspective make it not exact).
+    let ratio = n2 as f64 / n0 as f64;
+    assert!((0.18..0.32).contains(&ratio), "half scale covers {ratio:.2} of the full size");
+    // A sphere rotated about Y keeps its silhouette (normals rotate with it; lighting changes).
+    assert!(n3.abs_diff(n0) * 50 < n0 && (x3 - x0).abs() < 1.0, "rotation moved the sphere: {n3} px at {x3:.1}");
+}
+
+#[test]
+fn per_frame_corner_forces_bend_the_grass_in_world_space() {
+    let (_, scene) = scene();
+    let g = gpu();
+    let mut renderer = SceneRenderer::new(&g.device, &g.queue, scene).unwrap();
+    // Seen from above and in front of the patch (edge-on, bending mostly lowers the tips).
+    renderer.frame.camera = Some(furbake_runtime::Camera {
+        eye: [1.3, 1.8, 2.2],
+        target: [1.3, -0.3, 0.0],
+        up: [0.0, 1.0, 0.0],
+        fov_y_deg: 30.0,
+    });
+    let renderer = renderer;
+    let blades = renderer.packs[1].blades.as_ref().unwrap();
+    let corners = blades.corner_count() as usize;
+    let target = RenderTarget::new(&g.device, SIZE, SIZE).unwrap();
+    let calm = vec![[0.0f32; 2]; corners];
+    let windy = vec![[4.0f32, 0.0]; corners];
+    let grass_x = |forces: &[[f32; 2]], model: Option<Mat4>| {
+        let inputs = [
+            PackInput::default(),
+            PackInput { model, blade_forces: Some(BladeForces::Corners(forces)), ..Default::default() },
+        ];
+        renderer.render_frame(&g.device, &g.queue, &target, &inputs).unwrap();
+        let image = read_back(&g.device, &g.queue, &target).unwrap();
+        let name = format!("scene_grass_{}_{}.png", forces[0][0], model.is_some());
+        image.save(std::env::temp_dir().join("furbake-render-tests").join(name)).unwrap();
+        image
+    };
+    // Mean x of the green pixels above `row` (the upper half of the calm blades, where the
+    // displacement is largest: near the roots, bending barely moves anything).
+    let upper = |image: &RgbaImage, row: u32| {
+        let xs: Vec<f64> =
+            image.enumerate_pixels().filter(|(_, y, p)| *y < row && is_green(p)).map(|(x, _, _)| x as f64).collect();
+        xs.iter().sum::<f64>() / xs.len().max(1) as f64
+    };
+    let median_row = |image: &RgbaImage| {
+        let rows: Vec<u32> = image.enumerate_pixels().filter(|(_, _, p)| is_green(p)).map(|(_, y, _)| y).collect();
+        rows[rows.len() / 2]
+    };
+    let (calm_image, windy_image) = (grass_x(&calm, None), grass_x(&windy, None));
+    let row = median_row(&calm_image);
+    let (x_calm, x_windy) = (upper(&calm_image, row), upper(&windy_image, row));
+    // The same field turned 180° about Y: pack-frame wind +X blows towards world −X.
+    let turned = Mat4::from_translation(Vec3::new(1.3, -0.4, 0.0))
+        * Mat4::from_rotation_y(std::f32::consts::PI)
+        * Mat4::from_scale(Vec3::splat(1.5));
+    let (calm_image, windy_image) = (grass_x(&calm, Some(turned)), grass_x(&windy, Some(turned)));
+    let row = median_row(&calm_image);
+    let (x_turned_calm, x_turned_windy) = (upper(&calm_image, row), upper(&windy_image, row));
+    println!(
+        "grass mean x: calm {x_calm:.1}, wind {x_windy:.1}; turned calm {x_turned_calm:.1}, wind {x_turned_windy:.1}"
+    );
+    assert!(x_windy > x_calm + 1.0, "wind +X: {x_calm:.1} → {x_windy:.1}");
+    assert!(x_turned_windy < x_turned_calm - 1.0, "turned field: {x_turned_calm:.1} → {x_turned_windy:.1}");
+}
+
+#[test]
+fn bad_frame_inputs_are_refused() {
+    let (_, scene) = scene();
+    let g = gpu();
+    let renderer = SceneRenderer::new(&g.device, &g.queue, scene).unwrap();
+    let target = RenderTarget::new(&g.device, 32, 32).unwrap();
+    let short = vec![[0.0f32, 1.0, 0.0]; 3];
+    let forces = vec![[0.0f32; 2]; renderer.packs[1].blades.as_ref().unwrap().corner_count() as usize];
+    let cases = [
+        vec![PackInput { scale_vectors: Some(&short), ..Default::default() }],
+        vec![PackInput::default(), PackInput { scale_vectors: Some(&short), ..Default::default() }],
+        vec![PackInput { blade_forces: Some(BladeForces::Corners(&forces)), ..Default::default() }],
+        vec![PackInput { model: Some(Mat4::ZERO), ..Default::default() }],
+        vec![PackInput { model: Some(Mat4::from_scale(Vec3::splat(f32::NAN))), ..Default::default() }],
+        vec![PackInput::default(); 3],
+    ];
+    let mut refused = 0;
+    for inputs in &cases {
+        assert!(renderer.render_frame(&g.device, &g.queue, &target, inputs).is_err(), "{inputs:?} was accepted");
+        refused += 1;
+    }
+    assert_eq!(refused, cases.len());
+    // One renderer twice in one frame (one uniform buffer, one model matrix per frame).
+    let fur = renderer.packs[0].fur.as_ref().unwrap();
+    let twice = [
+        SceneObject::Fur { renderer: fur, model: Mat4::IDENTITY, scale_vectors: None },
+        SceneObject::Fur { renderer: fur, model: Mat4::from_translation(Vec3::X), scale_vectors: None },
+    ];
+    assert!(renderer.frame.render(&g.device, &g.queue, &target, &twice).is_err());
+    assert!(renderer.render_frame(&g.device, &g.queue, &target, &[PackInput::default(); 2]).is_ok());
+}
