@@ -189,15 +189,27 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
 /// `furbake simulate`
 #[derive(Args, Debug)]
 pub struct SimulateArgs {
-    /// The pack holding the topology and its skin mesh.
-    pub pack: std::path::PathBuf,
-    /// The scene (TOML): `dt_s`, `duration_s`, `[solver]`, `[forces]`, motion, teleports.
+    /// A runtime scene (TOML: `[[packs]]`, `[effects]`, `time_step_s`) to run headless with
+    /// per-stage timings — or, with `--scene`, the pack whose topology a simulation scene runs.
+    #[arg(value_name = "SCENE_OR_PACK")]
+    pub input: std::path::PathBuf,
+    /// Run one topology of the pack given as SCENE_OR_PACK under this simulation scene (TOML:
+    /// `dt_s`, `duration_s`, `[solver]`, `[forces]`, motion, teleports) and write per-step
+    /// statistics and the final state as JSON.
     #[arg(long)]
-    pub scene: std::path::PathBuf,
-    /// Topology kind to run (default: the scene's `topology`, else the pack's first).
+    pub scene: Option<std::path::PathBuf>,
+    /// With `--scene`: topology kind to run (default: the scene's `topology`, else the pack's
+    /// first).
     #[arg(long)]
     pub topology: Option<String>,
-    /// Write the JSON report here instead of standard output.
+    /// Runtime scene: time steps to run (default: 2 s of scene time).
+    #[arg(long)]
+    pub frames: Option<u64>,
+    /// Runtime scene: print the per-stage timings as JSON instead of a table.
+    #[arg(long)]
+    pub json: bool,
+    /// Write the JSON report here (runtime scene: the timings; `--scene`: the per-step report,
+    /// instead of standard output).
     #[arg(short, long)]
     pub output: Option<std::path::PathBuf>,
 }

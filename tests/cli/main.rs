@@ -6,6 +6,7 @@ use std::path::Path;
 
 mod common;
 mod golden;
+mod simulate_scene;
 use common::*;
 
 #[test]

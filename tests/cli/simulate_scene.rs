@@ -1,0 +1,157 @@
+//! `furbake simulate SCENE.toml`: a runtime scene runs headless and prints its per-stage timings;
+//! only the stages its effects call for appear; `--json` / `-o` give the same as JSON; the
+//! example fox scene runs on a real bake; a pack given without `--scene` is a usage error.
+
+use std::path::{Path, PathBuf};
+
+use super::common::*;
+
+/// Bakes the thesis's grass patch with a prisms topology and 200 blades into `dir/patch.fbk`.
+fn bake_patch(dir: &Path) -> PathBuf {
+    let patch = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/generated/grass_patch.gltf");
+    let pack = dir.join("patch.fbk");
+    let args = [
+        "bake",
+        s(&patch),
+        "-o",
+        s(&pack),
+        "--preset",
+        "grass",
+        "--resolution",
+        "16",
+        "--blades",
+        "50",
+        "--set",
+        "blades.keyframes.grid.poses=40",
+        "--topology",
+        "prisms",
+        "-q",
+    ];
+    assert_ok(&furbake(&args), "bake patch");
+    pack
+}
+
+fn write_scene(dir: &Path, name: &str, effects: &str) -> PathBuf {
+    let path = dir.join(name);
+    std::fs::write(&path, format!("time_step_s = 0.05\n[[packs]]\nname = \"patch\"\npath = \"patch.fbk\"\n{effects}"))
+        .unwrap();
+    path
+}
+
+fn json_of(out: &std::process::Output) -> serde_json::Value {
+    serde_json::from_slice(&out.stdout)
+        .unwrap_or_else(|e| panic!("not JSON ({e}): {}", String::from_utf8_lossy(&out.stdout)))
+}
+
+fn stage_names(report: &serde_json::Value) -> Vec<String> {
+    report["stages"].as_array().unwrap().iter().map(|s| s["name"].as_str().unwrap().to_owned()).collect()
+}
+
+#[test]
+fn simulate_scene_prints_only_the_stages_its_effects_need() {
+    let dir = tempfile::tempdir().unwrap();
+    bake_patch(dir.path());
+    let windy = write_scene(
+        dir.path(),
+        "windy.toml",
+        "[effects.gravity]\n[effects.wind]\nvelocity_m_s = [2.0, 0.0, 0.0]\ngust_amplitude = 0.3\n",
+    );
+    let out = furbake(&["simulate", s(&windy), "--frames", "12"]);
+    assert_ok(&out, "simulate windy");
+    let table = String::from_utf8_lossy(&out.stdout).into_owned();
+    let mut rows = 0;
+    for name in ["fur_gravity", "fur_wind", "fur_solver", "fur_scale_vectors", "grass_forces"] {
+        let line = table.lines().find(|l| l.starts_with(name)).unwrap_or_else(|| panic!("no {name} row in\n{table}"));
+        let cols: Vec<&str> = line.split_whitespace().collect();
+        assert_eq!(cols.len(), 5, "{line}");
+        assert_eq!((cols[1], cols[2]), ("patch", "12"), "{line}");
+        assert!(cols[3].parse::<f64>().unwrap() >= 0.0 && cols[4].parse::<f64>().unwrap() >= 0.0, "{line}");
+        rows += 1;
+    }
+    assert_eq!(rows, 5);
+    assert!(table.lines().next().unwrap().contains("mean µs"), "{table}");
+    assert!(stderr(&out).contains("12 steps"), "{}", stderr(&out));
+
+    // Gravity alone: no wind and no grass stage, and the blade sections stay unread.
+    let still = write_scene(dir.path(), "still.toml", "[effects.gravity]\n");
+    let json_path = dir.path().join("still.json");
+    let out = furbake(&["simulate", s(&still), "--frames", "7", "--json", "-o", s(&json_path), "-q"]);
+    assert_ok(&out, "simulate still");
+    let report = json_of(&out);
+    let from_file: serde_json::Value = serde_json::from_slice(&std::fs::read(&json_path).unwrap()).unwrap();
+    assert_eq!(stage_names(&from_file), stage_names(&report), "-o writes the same report");
+    assert_eq!(stage_names(&report), ["fur_gravity", "fur_solver", "fur_scale_vectors"]);
+    assert_eq!(report["frames"], 7);
+    for stage in report["stages"].as_array().unwrap() {
+        assert_eq!(stage["runs"], 7, "{stage}");
+        assert!(stage["total_ms"].as_f64().unwrap() > 0.0 && stage["mean_us"].as_f64().unwrap() > 0.0, "{stage}");
+    }
+    let pack = &report["packs"][0];
+    assert_eq!((pack["topology"].as_str(), pack["solver"].as_str()), (Some("prisms"), Some("implicit")));
+    assert!(pack["grass_corners"].is_null());
+    let read: Vec<&str> = pack["sections_read"].as_array().unwrap().iter().map(|k| k.as_str().unwrap()).collect();
+    assert_eq!(read, ["skin_mesh", "spring_topology"]);
+    assert!(stderr(&out).is_empty(), "-q prints nothing: {}", stderr(&out));
+
+    // Without --frames: 2 s of scene time at 0.05 s per step.
+    let out = furbake(&["simulate", s(&still), "--json", "-q"]);
+    assert_ok(&out, "simulate default frames");
+    assert_eq!(json_of(&out)["frames"], 40);
+}
+
+#[test]
+fn simulate_runs_the_example_fox_scene() {
+    let dir = tempfile::tempdir().unwrap();
+    let pack = dir.path().join("fox.fbk");
+    let fox = shared_fixture("Fox.glb");
+    let bake = ["bake", s(&fox), "-o", s(&pack), "--resolution", "16", "--topology", "prisms", "-q"];
+    assert_ok(&furbake(&bake), "bake fox");
+    let scene = dir.path().join("runtime_fox_in_wind.toml");
+    let example = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/scenes/runtime_fox_in_wind.toml");
+    std::fs::copy(example, &scene).unwrap();
+    let out = furbake(&["simulate", s(&scene), "--frames", "30", "--json", "-q"]);
+    assert_ok(&out, "simulate fox");
+    let report = json_of(&out);
+    assert_eq!(
+        stage_names(&report),
+        ["fur_object_motion", "fur_gravity", "fur_wind", "fur_solver", "fur_scale_vectors"],
+        "the fox walks, falls and feels the wind; it has no blades, so no grass stage"
+    );
+    assert_eq!(report["packs"][0]["shell_vertices"], 290, "Fox.glb welds to 290 vertices");
+}
+
+#[test]
+fn simulate_scene_errors_name_their_cause() {
+    let dir = tempfile::tempdir().unwrap();
+    let pack = bake_patch(dir.path());
+    let mut checked = 0;
+    // A pack without --scene is a usage error that says what to do.
+    let out = furbake(&["simulate", s(&pack)]);
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    assert!(stderr(&out).contains("--scene"), "{}", stderr(&out));
+    checked += 1;
+    // A scene whose pack is missing, or whose effects need a topology the pack lacks: bad input.
+    let missing = dir.path().join("missing.toml");
+    std::fs::write(&missing, "[[packs]]\nname = \"x\"\npath = \"nope.fbk\"\n").unwrap();
+    let sep = write_scene(dir.path(), "parting.toml", "[effects.gravity]\n[effects.parting]\n");
+    for (scene, needle) in [(&missing, "nope.fbk"), (&sep, "--topology separable-prisms")] {
+        let out = furbake(&["simulate", s(scene), "--frames", "2"]);
+        assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
+        let err = stderr(&out);
+        assert_eq!(err.trim_end().lines().count(), 1, "one line: {err}");
+        assert!(err.contains(needle), "{err}");
+        checked += 1;
+    }
+    // Runtime-scene flags with --scene, and --topology without it, are usage errors.
+    let sim_scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/scenes/fur_wind_gust.toml");
+    let still = write_scene(dir.path(), "still.toml", "[effects.gravity]\n");
+    for args in [
+        vec!["simulate", s(&pack), "--scene", s(&sim_scene), "--frames", "3"],
+        vec!["simulate", s(&still), "--topology", "prisms"],
+    ] {
+        let out = furbake(&args);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {}", stderr(&out));
+        checked += 1;
+    }
+    assert_eq!(checked, 5);
+}
