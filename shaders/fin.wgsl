@@ -23,6 +23,8 @@ struct FinIn {
     // 0 at the root, 1 at the tip.
     @location(5) height: f32,
     @location(6) vertex_index: u32,
+    // 3·triangle + corner of this edge end in the furry triangle the fin grows from.
+    @location(7) corner_index: u32,
 };
 
 struct FinOut {
@@ -38,7 +40,7 @@ struct FinOut {
 @vertex
 fn vs_fin(v: FinIn) -> FinOut {
     let n = normalize(v.normal);
-    let s = scale_vectors[v.vertex_index].xyz;
+    let s = scale_vectors[scale_index(v.vertex_index, v.corner_index)].xyz;
     let world = to_world(v.position + shell_offset(n, s, v.height));
     var out: FinOut;
     out.clip = frame.view_proj * vec4<f32>(world, 1.0);

@@ -32,7 +32,9 @@ struct Fur {
     drawn_layers: u32,
     // Metres of edge per fin texture repeat (the shell texture's texel density).
     fin_repeat_m: f32,
-    pad0: u32,
+    // How scale_vectors is indexed: 0 = per welded vertex (vertex_index), 1 = per triangle
+    // corner, 3·triangle + corner (corner_index; separable topologies, where fur parts).
+    scale_layout: u32,
     pad1: u32,
 };
 
@@ -45,7 +47,8 @@ override ALPHA_BLEND: bool = true;
 
 @group(0) @binding(0) var<uniform> frame: Frame;
 @group(0) @binding(1) var<uniform> fur: Fur;
-// Per welded vertex: xyz = unit scale vector s (eq. 3.35); w unused.
+// Per shell vertex (welded vertex or triangle corner, see Fur.scale_layout): xyz = unit scale
+// vector s (eq. 3.35); w unused.
 @group(0) @binding(2) var<storage, read> scale_vectors: array<vec4<f32>>;
 @group(0) @binding(3) var<storage, read> shadow: array<f32>;
 
@@ -57,7 +60,15 @@ struct SurfaceIn {
     @location(4) vertex_index: u32,
     // bit 0: the triangle carries fur.
     @location(5) flags: u32,
+    // 3·triangle + corner in the skin mesh's triangle order.
+    @location(6) corner_index: u32,
 };
+
+// Index into scale_vectors of a corner with welded vertex `vertex_index` and triangle-corner id
+// `corner_index`, for the buffer's current layout (Fur.scale_layout).
+fn scale_index(vertex_index: u32, corner_index: u32) -> u32 {
+    return select(vertex_index, corner_index, fur.scale_layout == 1u);
+}
 
 // Offset of a point at relative height t in [0, 1] above a vertex with unit normal n and scale
 // vector s: vertical displacement along n plus the horizontal shear h(t) = t^k (s − n) of

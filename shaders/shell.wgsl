@@ -2,8 +2,9 @@
 // layer, innermost first (instances rasterise in order, so blending is back-to-front along each
 // hair). Each corner is extruded along its normal by t·fur_length (t = (layer+1)/layers) and
 // sheared towards its scale vector s by t^k·(s − n)·fur_length (eq. 3.35–3.36, §3.4.2); the
-// scale vectors live in a per-vertex storage buffer the physics rewrites every frame (initially
-// s = n, i.e. no shear). Fragment: alpha from the shell texture array, colour = vertex colour ×
+// scale vectors live in a storage buffer the physics rewrites every frame (initially s = n, i.e.
+// no shear), one per welded vertex or — separable topologies, parted fur (§3.4.1) — one per
+// triangle corner, so two triangles sharing a vertex can shear apart. Fragment: alpha from the shell texture array, colour = vertex colour ×
 // tint × per-layer self-shadow factor × Lambert.
 // Prepended at load time: fur_common.wgsl (uniforms, switches, bindings 0–3, SurfaceIn,
 // shell_offset, to_world, lambert). Also a compute entry point, `cs_shell_positions`, that reads
@@ -20,20 +21,21 @@ struct ShellOut {
     @location(3) @interpolate(flat) slice: u32,
 };
 
-// Object-space position of a skin vertex (position, normal, welded index) on shell `layer`
+// Object-space position of a skin vertex (position, normal, scale-vector index) on shell `layer`
 // (0 = innermost, t = (layer + 1)/drawn_layers): the extrusion and eq. 3.36 shear. Used by the
 // draw (`vs_shell`) and by the readback probe (`cs_shell_positions`), so tests compare exactly
 // what is drawn with the CPU reference `furbake_sim::shell_vertex_position`.
-fn shell_vertex(position: vec3<f32>, normal: vec3<f32>, vertex_index: u32, layer: u32) -> vec3<f32> {
+fn shell_vertex(position: vec3<f32>, normal: vec3<f32>, scale_at: u32, layer: u32) -> vec3<f32> {
     let t = f32(layer + 1u) / f32(fur.drawn_layers);
     let n = normalize(normal);
-    let s = scale_vectors[vertex_index].xyz;
+    let s = scale_vectors[scale_at].xyz;
     return position + shell_offset(n, s, t);
 }
 
 @vertex
 fn vs_shell(v: SurfaceIn, @builtin(instance_index) layer: u32) -> ShellOut {
-    let world = to_world(shell_vertex(v.position, v.normal, v.vertex_index, layer));
+    let scale_at = scale_index(v.vertex_index, v.corner_index);
+    let world = to_world(shell_vertex(v.position, v.normal, scale_at, layer));
     var out: ShellOut;
     out.clip = frame.view_proj * vec4<f32>(world, 1.0);
     out.normal = normal_to_world(v.normal);
@@ -67,7 +69,8 @@ fn fs_shell(in: ShellOut) -> @location(0) vec4<f32> {
     return vec4<f32>(rgb, 1.0);
 }
 
-// Readback probe: one welded skin vertex (xyz of each; w unused).
+// Readback probe: one shell vertex (xyz of each; w unused), in the scale-vector buffer's order
+// (welded vertices, or triangle corners when Fur.scale_layout = 1).
 struct ProbeVertex {
     position: vec4<f32>,
     normal: vec4<f32>,

@@ -1,31 +1,288 @@
-//! `furbake preview`: render a pack headless into a PNG (framed automatically, three-quarter view).
+//! `furbake preview`: render headless into PNGs, in two forms:
+//!
+//! - `furbake preview PACK -o out.png [--size WxH]`: one pack, framed automatically
+//!   (three-quarter view): skin, shells, fins (fur thesis §3.2) and its grass blades.
+//! - `furbake preview SCENE.toml (-o out.png | --frames N --out-dir DIR) [--size WxH]
+//!   [--settle SECONDS]`: a runtime scene. A `furbake_runtime::World` runs the stages the scene's
+//!   effects call for, and a `furbake_render::SceneRenderer` draws every pack from the world's
+//!   state: model matrices (motion paths), fur scale vectors (eq. 3.35–3.36; per triangle corner
+//!   when `parting` simulates a separable topology, §3.4.1) and grass cluster-corner forces
+//!   (grass thesis eq. 3.6). A still is the world after `--settle` seconds (default 0.5); an
+//!   animation steps the world once (`time_step_s`) before each frame.
+//!
+//! Arguments become a validated [`PreviewPlan`] before any work starts. Every PNG is written
+//! atomically (temporary file + rename); a failed animation removes the frames it had written, so
+//! a failure never leaves a partial sequence behind.
 
-use anyhow::Context;
-use furbake_render::{RenderError, render_preview};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{Context, anyhow};
+use furbake_render::{
+    BladeForces, HeadlessGpu, PackInput, RenderError, RenderTarget, SceneRenderer, ShellVertexLayout, read_back,
+    render_preview,
+};
+use furbake_runtime::{RuntimeError, Scene, World};
 
 use crate::args::PreviewArgs;
 use crate::failure::{Classify, Failure};
 
+/// Scene time simulated before a still image when `--settle` is not given, seconds.
+const DEFAULT_STILL_SETTLE_S: f64 = 0.5;
+/// Longest `--settle`, seconds of scene time (a typo guard: an hour is ~200k steps at 60 Hz).
+const MAX_SETTLE_S: f64 = 3600.0;
+
+/// What `furbake preview` will do, validated.
+#[derive(Debug)]
+enum PreviewPlan {
+    /// One still image of a pack.
+    Pack { pack: PathBuf, output: PathBuf, size: (u32, u32) },
+    /// A runtime scene, as a still or as numbered frames.
+    Scene { scene: PathBuf, output: SceneOutput, size: (u32, u32), settle_s: f64 },
+}
+
+/// Where a scene's images go.
+#[derive(Debug)]
+enum SceneOutput {
+    Still(PathBuf),
+    Frames { dir: PathBuf, count: u32 },
+}
+
+/// What the positional argument is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum InputKind {
+    Pack,
+    Scene,
+}
+
 /// Runs `furbake preview`.
 pub fn run(args: PreviewArgs, quiet: bool) -> Result<(), Failure> {
-    let (w, h) = args.size;
-    let image = match render_preview(&args.pack, w, h) {
+    match plan(args)? {
+        PreviewPlan::Pack { pack, output, size } => run_pack(&pack, &output, size, quiet),
+        PreviewPlan::Scene { scene, output, size, settle_s } => run_scene(&scene, &output, size, settle_s, quiet),
+    }
+}
+
+/// Stage two of argument parsing: which form, and whether its flags fit it.
+fn plan(args: PreviewArgs) -> Result<PreviewPlan, Failure> {
+    let kind = input_kind(&args.input)?;
+    match kind {
+        InputKind::Pack => {
+            if args.frames.is_some() || args.settle.is_some() {
+                return Err(Failure::Usage(anyhow!(
+                    "{}: --frames and --settle animate a runtime scene (.toml); a pack renders one still with -o",
+                    args.input.display()
+                )));
+            }
+            let output = args.output.ok_or_else(|| Failure::Usage(anyhow!("a pack preview needs -o OUT.png")))?;
+            Ok(PreviewPlan::Pack { pack: args.input, output, size: args.size })
+        }
+        InputKind::Scene => {
+            let output = match (args.output, args.frames, args.out_dir) {
+                (Some(png), None, None) => SceneOutput::Still(png),
+                (None, Some(count), Some(dir)) => SceneOutput::Frames { dir, count },
+                // clap enforces the pairs; this is the message should that ever change.
+                _ => return Err(Failure::Usage(anyhow!("give either -o OUT.png or --frames N --out-dir DIR"))),
+            };
+            let default = if matches!(output, SceneOutput::Still(_)) { DEFAULT_STILL_SETTLE_S } else { 0.0 };
+            let settle_s = args.settle.unwrap_or(default);
+            if !(settle_s.is_finite() && (0.0..=MAX_SETTLE_S).contains(&settle_s)) {
+                return Err(Failure::Usage(anyhow!("--settle {settle_s}: seconds in 0..={MAX_SETTLE_S}")));
+            }
+            Ok(PreviewPlan::Scene { scene: args.input, output, size: args.size, settle_s })
+        }
+    }
+}
+
+/// `.toml` is a scene and `.fbk` a pack; anything else by its content: the container magic is a
+/// pack, TOML with a `packs` array a scene. A missing file with another extension is treated as
+/// a pack (so the error names it as one); a readable file that is neither is a usage error.
+fn input_kind(path: &Path) -> Result<InputKind, Failure> {
+    let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+    match ext.as_deref() {
+        Some("toml") => return Ok(InputKind::Scene),
+        Some("fbk") => return Ok(InputKind::Pack),
+        _ => {}
+    }
+    let Ok(bytes) = std::fs::read(path) else { return Ok(InputKind::Pack) };
+    if bytes.starts_with(&furbake_formats::MAGIC) {
+        return Ok(InputKind::Pack);
+    }
+    let is_scene = std::str::from_utf8(&bytes)
+        .ok()
+        .and_then(|text| toml::from_str::<toml::Table>(text).ok())
+        .is_some_and(|table| table.get("packs").is_some_and(|p| p.is_array()));
+    if is_scene {
+        return Ok(InputKind::Scene);
+    }
+    Err(Failure::Usage(anyhow!(
+        "{}: neither a pack (no furbake container magic) nor a runtime scene (TOML with [[packs]]); \
+         preview takes PACK.fbk or SCENE.toml",
+        path.display()
+    )))
+}
+
+fn run_pack(pack: &Path, output: &Path, (w, h): (u32, u32), quiet: bool) -> Result<(), Failure> {
+    let image = match render_preview(pack, w, h) {
         Ok(img) => img,
         Err(e @ RenderError::Parameter { .. }) => return Err(Failure::Usage(e.into())),
         Err(e) => {
-            return Err(Failure::Input(
-                anyhow::Error::new(e).context(format!("{}: cannot render", args.pack.display())),
-            ));
+            return Err(Failure::Input(anyhow::Error::new(e).context(format!("{}: cannot render", pack.display()))));
         }
     };
+    write_png(output, &image)?;
+    if !quiet {
+        eprintln!("rendered {} → {} ({w}×{h})", pack.display(), output.display());
+    }
+    Ok(())
+}
+
+fn run_scene(path: &Path, output: &SceneOutput, (w, h): (u32, u32), settle_s: f64, quiet: bool) -> Result<(), Failure> {
+    let started = Instant::now();
+    // A scene that cannot be read or does not validate is bad input, like a bad pack.
+    let scene = Scene::load(path).input()?;
+    let step_s = scene.time_step_s;
+    let dt = step_s as f64;
+    let settle_steps = (settle_s / dt - 1e-9).ceil().max(0.0) as u64;
+    let mut world = World::new(scene).map_err(|e| runtime_failure(e, path))?;
+    let gpu = HeadlessGpu::new().map_err(|e| render_failure(e, path))?;
+    let renderer = SceneRenderer::new(&gpu.device, &gpu.queue, world.scene()).map_err(|e| render_failure(e, path))?;
+    let target = RenderTarget::new(&gpu.device, w, h).map_err(|e| render_failure(e, path))?;
+    for _ in 0..settle_steps {
+        world.step().map_err(|e| runtime_failure(e, path))?;
+    }
+    let start_time_s = world.time_s();
+    match output {
+        SceneOutput::Still(png) => {
+            let image = render_world(&world, &renderer, &gpu, &target).map_err(|e| render_failure(e, path))?;
+            write_png(png, &image)?;
+            if !quiet {
+                eprintln!(
+                    "rendered {} at {:.3} s scene time → {} ({w}×{h}, {:.2} s wall)",
+                    path.display(),
+                    start_time_s,
+                    png.display(),
+                    started.elapsed().as_secs_f64()
+                );
+            }
+        }
+        SceneOutput::Frames { dir, count } => {
+            std::fs::create_dir_all(dir)
+                .with_context(|| format!("{}: cannot create directory", dir.display()))
+                .input()?;
+            let mut written = Vec::with_capacity(*count as usize);
+            let result = render_frames(&mut world, &renderer, &gpu, &target, path, dir, *count, &mut written);
+            if let Err(e) = result {
+                // Nothing of a failed animation stays behind (each file was whole, but the
+                // sequence is not).
+                for file in &written {
+                    let _ = std::fs::remove_file(file);
+                }
+                return Err(e);
+            }
+            if !quiet {
+                eprintln!(
+                    "rendered {} for {count} frames of {step_s} s ({start_time_s:.3}–{:.3} s scene time) \
+                     → {}/{} … ({w}×{h}, {:.2} s wall)",
+                    path.display(),
+                    world.time_s(),
+                    dir.display(),
+                    frame_name(0, *count),
+                    started.elapsed().as_secs_f64()
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Steps and renders `count` frames into `dir`, pushing each file written onto `written`.
+#[allow(clippy::too_many_arguments)]
+fn render_frames(
+    world: &mut World,
+    renderer: &SceneRenderer,
+    gpu: &HeadlessGpu,
+    target: &RenderTarget,
+    scene_path: &Path,
+    dir: &Path,
+    count: u32,
+    written: &mut Vec<PathBuf>,
+) -> Result<(), Failure> {
+    for i in 0..count {
+        world.step().map_err(|e| runtime_failure(e, scene_path))?;
+        let image = render_world(world, renderer, gpu, target).map_err(|e| render_failure(e, scene_path))?;
+        let file = dir.join(frame_name(i, count));
+        write_png(&file, &image)?;
+        written.push(file);
+    }
+    Ok(())
+}
+
+/// `frame_0007.png`: zero-padded to the digits of the last index, at least four.
+fn frame_name(index: u32, count: u32) -> String {
+    let width = count.saturating_sub(1).to_string().len().max(4);
+    format!("frame_{index:0width$}.png")
+}
+
+/// Draws the world's current state: every pack at its model matrix, with its fur scale vectors
+/// (in the world's layout) and its grass corner forces, where the renderer has fur or blades.
+fn render_world(
+    world: &World,
+    renderer: &SceneRenderer,
+    gpu: &HeadlessGpu,
+    target: &RenderTarget,
+) -> Result<image::RgbaImage, RenderError> {
+    let inputs: Vec<PackInput<'_>> = renderer
+        .packs
+        .iter()
+        .enumerate()
+        .map(|(i, drawn)| {
+            let fur = world.fur(i).filter(|_| drawn.fur.is_some());
+            let grass = world.grass(i).filter(|_| drawn.blades.is_some());
+            PackInput {
+                model: Some(world.model_matrix(i)),
+                scale_vectors: fur.map(|f| f.scale_vectors),
+                scale_layout: fur.map_or(ShellVertexLayout::PerVertex, |f| f.layout),
+                blade_forces: grass.map(|g| BladeForces::Corners(g.corner_forces)),
+            }
+        })
+        .collect();
+    renderer.render_frame(&gpu.device, &gpu.queue, target, &inputs)?;
+    read_back(&gpu.device, &gpu.queue, target)
+}
+
+fn write_png(path: &Path, image: &image::RgbaImage) -> Result<(), Failure> {
     let mut bytes = Vec::new();
     image
         .write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png)
-        .with_context(|| format!("{}: cannot encode PNG", args.output.display()))
+        .with_context(|| format!("{}: cannot encode PNG", path.display()))
         .input()?;
-    furbake_formats::write_file_atomic(&args.output, &bytes).input()?;
-    if !quiet {
-        eprintln!("rendered {} → {} ({w}×{h})", args.pack.display(), args.output.display());
+    furbake_formats::write_file_atomic(path, &bytes).input()
+}
+
+fn runtime_failure(e: RuntimeError, scene: &Path) -> Failure {
+    // Every runtime error blames a file (the scene, a pack, a bake without the topology the
+    // scene needs) or the simulation of one: bad input.
+    Failure::Input(anyhow::Error::new(e).context(scene.display().to_string()))
+}
+
+fn render_failure(e: RenderError, scene: &Path) -> Failure {
+    match e {
+        // The only caller-side parameter here is --size (checked against the device's limit).
+        RenderError::Parameter { .. } => Failure::Usage(e.into()),
+        e => Failure::Input(anyhow::Error::new(e).context(format!("{}: cannot render", scene.display()))),
     }
-    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn frame_names_pad_to_the_last_index() {
+        assert_eq!(frame_name(0, 3), "frame_0000.png");
+        assert_eq!(frame_name(9999, 10_000), "frame_9999.png");
+        assert_eq!(frame_name(12, 10_001), "frame_00012.png");
+        assert_eq!(frame_name(0, 1), "frame_0000.png");
+    }
 }

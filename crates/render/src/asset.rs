@@ -1,8 +1,9 @@
 //! [`FurAsset`]: the sections of one pack the renderer draws, checked against one another once
 //! (UV map and fin edges match the skin), and the CPU-side geometry built from them: triangle
 //! corners de-indexed (the shell UV map is per triangle corner, fur thesis §3.2, fig. 3.18–3.19),
-//! fin quads on the fin edges (§3.2, fig. 3.16), and the box-filtered mip chain of the shell and
-//! fin atlases.
+//! fin quads on the fin edges (§3.2, fig. 3.16), the shell vertices in either scale-vector
+//! layout (per welded vertex, or per triangle corner for parted fur, §3.4.1), and the
+//! box-filtered mip chain of the shell and fin atlases.
 
 use std::sync::Arc;
 
@@ -11,7 +12,7 @@ use furbake_formats::sections::fin_edges::FinEdges;
 use furbake_formats::sections::shell_atlas::ShellAtlas;
 use furbake_formats::sections::skin_mesh::SkinMesh;
 use furbake_formats::sections::triangle_uv_map::TriangleUvMap;
-use furbake_runtime::Pack;
+use furbake_runtime::{Pack, ShellVertexLayout};
 use glam::Vec3;
 
 use crate::RenderError;
@@ -69,6 +70,9 @@ impl FurAsset {
         if shells.alpha.len() != shells.layers() * shells.layer_texels() || shells.shadow.len() != shells.layers() {
             return bad("the shell atlas arrays do not match its layer count".into());
         }
+        if 3 * f > u32::MAX as usize / 2 {
+            return bad(format!("{f} triangles exceed the renderer's corner index range"));
+        }
         if let Some((atlas, edges)) = &fins {
             if atlas.alpha.len() != atlas.width as usize * atlas.height as usize {
                 return bad("the fin atlas size does not match its texel count".into());
@@ -80,6 +84,13 @@ impl FurAsset {
                 || edges.triangles.iter().any(|&t| t as usize >= f)
             {
                 return bad(format!("a fin edge refers to a vertex or triangle outside the skin ({v} / {f})"));
+            }
+            if let Some(((a, b), t)) =
+                edges.vertices.iter().map(|e| (e[0], e[1])).zip(&edges.triangles).find(|((a, b), t)| {
+                    !(mesh.triangles[**t as usize].contains(a) && mesh.triangles[**t as usize].contains(b))
+                })
+            {
+                return bad(format!("fin edge {a}–{b} is not an edge of its triangle {t}"));
             }
         }
         Ok(FurAsset { mesh, shells, uv_map, fins })
@@ -139,6 +150,7 @@ impl FurAsset {
                     uv: self.uv_map.corners[t][c],
                     vertex_index: vi,
                     flags: u32::from(m.fur_mask[t] != 0),
+                    corner_index: (3 * t + c) as u32,
                 });
             }
         }
@@ -155,6 +167,12 @@ impl FurAsset {
             let face_normal = (j - i).cross(k - i).normalize_or_zero().to_array();
             let (pa, pb) = (Vec3::from(m.positions[a as usize]), Vec3::from(m.positions[b as usize]));
             let length = pa.distance(pb);
+            // The edge ends' corners in triangle t (an edge of t: both ends are among its corners,
+            // checked in `FurAsset::new`).
+            let corner_of = |v: u32| {
+                let c = m.triangles[t as usize].iter().position(|&x| x == v).unwrap_or(0);
+                3 * t + c as u32
+            };
             let corner = |v: u32, along_m: f32, height: f32| FinVertex {
                 position: m.positions[v as usize],
                 normal: m.normals[v as usize],
@@ -163,6 +181,7 @@ impl FurAsset {
                 along_m,
                 height,
                 vertex_index: v,
+                corner_index: corner_of(v),
             };
             let (a0, b0, a1, b1) =
                 (corner(a, 0.0, 0.0), corner(b, length, 0.0), corner(a, 0.0, 1.0), corner(b, length, 1.0));
@@ -174,6 +193,27 @@ impl FurAsset {
     /// The initial scale vectors (eq. 3.35 at rest: s = n), one `[x, y, z, 0]` per vertex.
     pub fn rest_scale_vectors(&self) -> Vec<[f32; 4]> {
         self.mesh.normals.iter().map(|n| [n[0], n[1], n[2], 0.0]).collect()
+    }
+
+    /// Shell vertices, i.e. scale vectors the renderer takes, in `layout`: the welded vertex
+    /// count, or 3 × the triangle count for [`ShellVertexLayout::PerCorner`].
+    pub fn shell_vertex_count(&self, layout: ShellVertexLayout) -> usize {
+        match layout {
+            ShellVertexLayout::PerVertex => self.mesh.positions.len(),
+            ShellVertexLayout::PerCorner => self.mesh.triangles.len() * 3,
+        }
+    }
+
+    /// Root position and normal of every shell vertex in `layout` order: the welded vertices, or
+    /// every triangle's three corners (`3 × triangle + corner`).
+    pub fn shell_vertices(&self, layout: ShellVertexLayout) -> Vec<([f32; 3], [f32; 3])> {
+        let m = &*self.mesh;
+        match layout {
+            ShellVertexLayout::PerVertex => m.positions.iter().copied().zip(m.normals.iter().copied()).collect(),
+            ShellVertexLayout::PerCorner => {
+                m.triangles.iter().flatten().map(|&i| (m.positions[i as usize], m.normals[i as usize])).collect()
+            }
+        }
     }
 }
 

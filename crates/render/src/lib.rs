@@ -34,6 +34,8 @@ use glam::Vec3;
 
 pub use asset::FurAsset;
 pub use blades::{BladeRenderer, BladeSettings};
+/// How scale vectors are indexed (re-exported from `furbake_runtime`, which produces them).
+pub use furbake_runtime::ShellVertexLayout;
 pub use renderer::{COLOR_FORMAT, DEPTH_FORMAT, FurRenderer, RenderSettings, RenderTarget, ShellBlend};
 pub use scene::{BladeForces, PackInput, PackRenderers, SceneFrame, SceneObject, SceneRenderer};
 

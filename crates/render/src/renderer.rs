@@ -1,11 +1,16 @@
 //! [`FurRenderer`]: the GPU side of one furry asset (fur thesis §3.2): uploads the skin corners,
 //! the shell atlas (R8 texture array with a box-filtered mip chain, repeat sampler), the
-//! per-layer shadow table, the fin atlas and fin quads, and a per-vertex scale-vector buffer
-//! (eq. 3.35; the physics rewrites it through [`FurRenderer::set_scale_vectors`]); then draws
+//! per-layer shadow table, the fin atlas and fin quads, and a scale-vector buffer (eq. 3.35; the
+//! physics rewrites it through [`FurRenderer::set_scale_vectors`], one vector per welded vertex,
+//! or through [`FurRenderer::set_shell_scale_vectors`] one per triangle corner when a separable
+//! topology lets the fur part, §3.4.1 — the shaders pick the index by a uniform); then draws
 //! skin, shells innermost to outermost (one instanced draw, instance = layer) and fins into a
 //! [`RenderTarget`]. Effects are switched with WGSL `override` constants at pipeline creation.
 //! Every function takes the `wgpu::Device` and `wgpu::Queue` it works on.
 
+use std::sync::atomic::{AtomicU32, Ordering};
+
+use furbake_runtime::ShellVertexLayout;
 use glam::{Mat4, Vec3};
 use wgpu::util::DeviceExt;
 
@@ -158,6 +163,11 @@ pub struct FurRenderer {
     fur_buffer: wgpu::Buffer,
     scale_buffer: wgpu::Buffer,
     vertex_count: u32,
+    triangle_count: u32,
+    /// The fur uniforms as uploaded (rewritten when the scale layout changes).
+    fur_uniforms: FurUniforms,
+    /// `FurUniforms::scale_layout` of the buffer's current contents (0 per vertex, 1 per corner).
+    scale_layout: AtomicU32,
     bind_group: wgpu::BindGroup,
     surface: wgpu::Buffer,
     surface_corners: u32,
@@ -202,7 +212,10 @@ impl FurRenderer {
         check("skin vertex buffer bytes", std::mem::size_of_val(corners.as_slice()), limits.max_buffer_size)?;
         check("fin vertex buffer bytes", std::mem::size_of_val(fin_vertices.as_slice()), limits.max_buffer_size)?;
         let vertex_count = asset.mesh().positions.len();
-        check("scale vector bytes", vertex_count.max(1) * 16, limits.max_storage_buffer_binding_size)?;
+        let triangle_count = asset.mesh().triangles.len();
+        // Room for either layout: one vector per welded vertex or per triangle corner.
+        let scale_capacity = vertex_count.max(3 * triangle_count).max(1);
+        check("scale vector bytes", scale_capacity * 16, limits.max_storage_buffer_binding_size)?;
         let res = shells.params.resolution;
         check("shell resolution", res as usize, limits.max_texture_dimension_2d as u64)?;
         check("shell layers", shells.layers(), limits.max_texture_array_layers as u64)?;
@@ -222,17 +235,21 @@ impl FurRenderer {
             atlas_layers: shells.params.layers,
             drawn_layers: drawn_layers.max(1),
             fin_repeat_m: asset.uv_map().repeat_m,
-            pad0: 0,
+            scale_layout: 0,
             pad1: 0,
         };
         let init = |label, contents: &[u8], usage| {
             device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage })
         };
-        let fur_buffer = init("furbake fur uniforms", bytemuck::bytes_of(&fur), wgpu::BufferUsages::UNIFORM);
+        let fur_buffer = init(
+            "furbake fur uniforms",
+            bytemuck::bytes_of(&fur),
+            wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        );
+        // Rest pose s = n per welded vertex; the tail (room for per-corner vectors) is unused
+        // until a per-corner upload overwrites the whole prefix it reads.
         let mut rest = asset.rest_scale_vectors();
-        if rest.is_empty() {
-            rest.push([0.0; 4]); // storage bindings cannot be empty
-        }
+        rest.resize(scale_capacity, [0.0; 4]); // also: storage bindings cannot be empty
         let scale_buffer = init(
             "furbake scale vectors",
             bytemuck::cast_slice(&rest),
@@ -313,6 +330,9 @@ impl FurRenderer {
             fur_buffer,
             scale_buffer,
             vertex_count: vertex_count as u32,
+            triangle_count: triangle_count as u32,
+            fur_uniforms: fur,
+            scale_layout: AtomicU32::new(0),
             bind_group,
             surface,
             surface_corners: corners.len() as u32,
@@ -328,13 +348,37 @@ impl FurRenderer {
     /// Replaces the per-vertex scale vectors (eq. 3.35, one unit vector per skin vertex), e.g.
     /// with the physics solver's result for this frame. Vectors are used as given.
     pub fn set_scale_vectors(&self, queue: &wgpu::Queue, scale_vectors: &[[f32; 3]]) -> Result<(), RenderError> {
-        if scale_vectors.len() != self.vertex_count as usize {
+        self.set_shell_scale_vectors(queue, scale_vectors, ShellVertexLayout::PerVertex)
+    }
+
+    /// Replaces the scale vectors (eq. 3.35) in either layout: one per welded skin vertex, or —
+    /// [`ShellVertexLayout::PerCorner`], what `furbake_runtime::World` gives for a separable
+    /// topology (§3.4.1) — one per triangle corner, `3 × triangle + corner` in the skin mesh's
+    /// triangle order, so that triangles sharing a vertex can shear apart and the fur parts.
+    /// Shells and fins read the layout last written. Vectors are used as given; a wrong count or
+    /// a non-finite value is an error and changes nothing.
+    pub fn set_shell_scale_vectors(
+        &self,
+        queue: &wgpu::Queue,
+        scale_vectors: &[[f32; 3]],
+        layout: ShellVertexLayout,
+    ) -> Result<(), RenderError> {
+        let (expected, what) = match layout {
+            ShellVertexLayout::PerVertex => (self.vertex_count as usize, "vertices"),
+            ShellVertexLayout::PerCorner => (3 * self.triangle_count as usize, "triangle corners"),
+        };
+        if scale_vectors.len() != expected {
             return Err(RenderError::Parameter {
-                what: format!("{} scale vectors for {} vertices", scale_vectors.len(), self.vertex_count),
+                what: format!("{} scale vectors for {expected} {what}", scale_vectors.len()),
             });
         }
         if scale_vectors.iter().flatten().any(|c| !c.is_finite()) {
             return Err(RenderError::Parameter { what: "scale vectors must be finite".into() });
+        }
+        let code = layout_code(layout);
+        if self.scale_layout.swap(code, Ordering::Relaxed) != code {
+            let fur = FurUniforms { scale_layout: code, ..self.fur_uniforms };
+            queue.write_buffer(&self.fur_buffer, 0, bytemuck::bytes_of(&fur));
         }
         if scale_vectors.is_empty() {
             return Ok(());
@@ -342,6 +386,16 @@ impl FurRenderer {
         let padded: Vec<[f32; 4]> = scale_vectors.iter().map(|s| [s[0], s[1], s[2], 0.0]).collect();
         queue.write_buffer(&self.scale_buffer, 0, bytemuck::cast_slice(&padded));
         Ok(())
+    }
+
+    /// The layout of the scale vectors last written (initially [`ShellVertexLayout::PerVertex`],
+    /// the rest pose).
+    pub fn scale_layout(&self) -> ShellVertexLayout {
+        if self.scale_layout.load(Ordering::Relaxed) == 1 {
+            ShellVertexLayout::PerCorner
+        } else {
+            ShellVertexLayout::PerVertex
+        }
     }
 
     /// Shell layers drawn per frame.
@@ -352,6 +406,12 @@ impl FurRenderer {
     /// Welded skin vertices (= scale vectors expected by [`FurRenderer::set_scale_vectors`]).
     pub fn vertex_count(&self) -> u32 {
         self.vertex_count
+    }
+
+    /// Skin triangles (3 × this = per-corner scale vectors expected by
+    /// [`FurRenderer::set_shell_scale_vectors`] with [`ShellVertexLayout::PerCorner`]).
+    pub fn triangle_count(&self) -> u32 {
+        self.triangle_count
     }
 
     /// The settings the pipelines were built with.
@@ -437,7 +497,9 @@ impl FurRenderer {
     /// by the same WGSL function (`shell_vertex` in `shell.wgsl`, via its compute entry point
     /// `cs_shell_positions`) with this renderer's uniforms, override constants and current scale
     /// vectors: `drawn_layers × vertices` object-frame positions in metres, layer-major
-    /// (`[layer · vertices + vertex]`, layer 0 = innermost shell at t = 1/drawn_layers). `asset`
+    /// (`[layer · vertices + vertex]`, layer 0 = innermost shell at t = 1/drawn_layers), where
+    /// the vertices are those of the current [`FurRenderer::scale_layout`]
+    /// ([`FurAsset::shell_vertices`]: welded vertices, or `3 × triangle + corner`). `asset`
     /// must be the one this renderer was built from (its skin positions and normals are the
     /// input). For tests against `furbake_sim::shell_vertex_position`; waits for the GPU.
     pub fn shell_positions(
@@ -447,12 +509,19 @@ impl FurRenderer {
         asset: &FurAsset,
     ) -> Result<Vec<[f32; 3]>, RenderError> {
         let mesh = asset.mesh();
-        if mesh.positions.len() != self.vertex_count as usize {
+        if mesh.positions.len() != self.vertex_count as usize || mesh.triangles.len() != self.triangle_count as usize {
             return Err(RenderError::Parameter {
-                what: format!("asset has {} vertices, the renderer {}", mesh.positions.len(), self.vertex_count),
+                what: format!(
+                    "asset has {} vertices / {} triangles, the renderer {} / {}",
+                    mesh.positions.len(),
+                    mesh.triangles.len(),
+                    self.vertex_count,
+                    self.triangle_count
+                ),
             });
         }
-        let count = self.vertex_count as u64 * self.drawn_layers as u64;
+        let vertices = asset.shell_vertices(self.scale_layout());
+        let count = vertices.len() as u64 * self.drawn_layers as u64;
         if count == 0 {
             return Ok(Vec::new());
         }
@@ -461,12 +530,8 @@ impl FurRenderer {
             return Err(RenderError::Limit { what: "shell probe bytes", value: count * 16, limit });
         }
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let probe: Vec<[[f32; 4]; 2]> = mesh
-            .positions
-            .iter()
-            .zip(&mesh.normals)
-            .map(|(p, n)| [[p[0], p[1], p[2], 1.0], [n[0], n[1], n[2], 0.0]])
-            .collect();
+        let probe: Vec<[[f32; 4]; 2]> =
+            vertices.iter().map(|(p, n)| [[p[0], p[1], p[2], 1.0], [n[0], n[1], n[2], 0.0]]).collect();
         let input = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("furbake shell probe vertices"),
             contents: bytemuck::cast_slice(&probe),
@@ -544,6 +609,14 @@ impl FurRenderer {
         };
         readback.unmap();
         Ok(out)
+    }
+}
+
+/// `FurUniforms::scale_layout` of a layout.
+fn layout_code(layout: ShellVertexLayout) -> u32 {
+    match layout {
+        ShellVertexLayout::PerVertex => 0,
+        ShellVertexLayout::PerCorner => 1,
     }
 }
 

@@ -2,7 +2,9 @@
 //! frame, each placed by its own model matrix, seen from the camera and lit by the light of a
 //! `furbake_runtime::Scene` (fur thesis §3.2 for the fur passes, grass thesis §4.2 for the blades).
 //! Physics is an input: per fur pack the frame's scale vectors (eq. 3.35, in the pack's mesh
-//! frame), per grass pack the frame's cluster corner forces (eq. 3.6, `(x, z)` in the pack frame)
+//! frame; per welded vertex, or per triangle corner when a separable topology parts the fur,
+//! §3.4.1 — `furbake_runtime::ShellVertexLayout`),
+//! per grass pack the frame's cluster corner forces (eq. 3.6, `(x, z)` in the pack frame)
 //! or a `ForceField`.
 //!
 //! Two levels:
@@ -17,7 +19,7 @@ use std::path::PathBuf;
 
 use furbake_formats::SectionKind;
 use furbake_grass::{ForceField, ForceScene};
-use furbake_runtime::{Camera, Light, Pack, Scene};
+use furbake_runtime::{Camera, Light, Pack, Scene, ShellVertexLayout};
 use glam::{Mat4, Vec3};
 
 use crate::{BladeRenderer, BladeSettings, FurAsset, FurRenderer, RenderError, RenderSettings, RenderTarget, View};
@@ -48,9 +50,12 @@ pub enum SceneObject<'a> {
         renderer: &'a FurRenderer,
         /// Object (mesh) frame → world: rotation, translation, uniform positive scale.
         model: Mat4,
-        /// This frame's scale vectors (one per welded vertex, mesh frame), or `None` to keep the
-        /// last ones written (initially the rest pose s = n).
+        /// This frame's scale vectors (mesh frame, indexed as `scale_layout` says), or `None` to
+        /// keep the last ones written (initially the rest pose s = n).
         scale_vectors: Option<&'a [[f32; 3]]>,
+        /// How `scale_vectors` is indexed: one per welded vertex, or one per triangle corner
+        /// (`3 × triangle + corner`, separable topologies). Ignored when `scale_vectors` is `None`.
+        scale_layout: ShellVertexLayout,
     },
     /// A grass blade field.
     Blades {
@@ -166,7 +171,9 @@ impl SceneFrame {
         for object in objects {
             check_model(&object.model())?;
             match object {
-                SceneObject::Fur { renderer, scale_vectors: Some(s), .. } => renderer.set_scale_vectors(queue, s)?,
+                SceneObject::Fur { renderer, scale_vectors: Some(s), scale_layout, .. } => {
+                    renderer.set_shell_scale_vectors(queue, s, *scale_layout)?
+                }
                 SceneObject::Blades { renderer, forces: Some(BladeForces::Corners(f)), .. } => {
                     renderer.set_corner_forces(queue, f)?
                 }
@@ -241,15 +248,25 @@ pub struct PackRenderers {
 }
 
 /// One pack's inputs for a frame (all optional: `PackInput::default()` redraws the last state).
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug)]
 pub struct PackInput<'a> {
     /// Placement this frame (e.g. along the pack's motion path); `None`: the time-0 placement.
     pub model: Option<Mat4>,
-    /// Fur scale vectors, one per welded skin vertex (`furbake_sim::Simulator::scale_vectors`
-    /// of a non-separable topology), mesh frame.
+    /// Fur scale vectors, mesh frame (`furbake_runtime::FurFrame::scale_vectors`), indexed as
+    /// `scale_layout` says.
     pub scale_vectors: Option<&'a [[f32; 3]]>,
+    /// How `scale_vectors` is indexed (`furbake_runtime::FurFrame::layout`): one per welded
+    /// skin vertex, or one per triangle corner for a separable topology (parted fur). Default
+    /// per vertex.
+    pub scale_layout: ShellVertexLayout,
     /// Grass forces.
     pub blade_forces: Option<BladeForces<'a>>,
+}
+
+impl Default for PackInput<'_> {
+    fn default() -> Self {
+        PackInput { model: None, scale_vectors: None, scale_layout: ShellVertexLayout::PerVertex, blade_forces: None }
+    }
 }
 
 /// Every pack of a scene on the GPU, drawn together frame by frame.
@@ -313,7 +330,12 @@ impl SceneRenderer {
             let input = inputs.get(i).copied().unwrap_or_default();
             let model = input.model.unwrap_or(pack.model);
             if let Some(renderer) = &pack.fur {
-                objects.push(SceneObject::Fur { renderer, model, scale_vectors: input.scale_vectors });
+                objects.push(SceneObject::Fur {
+                    renderer,
+                    model,
+                    scale_vectors: input.scale_vectors,
+                    scale_layout: input.scale_layout,
+                });
             } else if input.scale_vectors.is_some() {
                 return Err(RenderError::Parameter {
                     what: format!("scale vectors for pack {:?} without fur", pack.name),

@@ -53,8 +53,10 @@ pub struct FurUniforms {
     pub drawn_layers: u32,
     /// Metres of edge per fin texture repeat.
     pub fin_repeat_m: f32,
-    /// Padding to 16 bytes.
-    pub pad0: u32,
+    /// How the scale-vector buffer is indexed: 0 = one per welded skin vertex (`vertex_index`),
+    /// 1 = one per triangle corner, `3 × triangle + corner` (`corner_index`; separable
+    /// topologies, where fur parts along triangle edges, fur thesis §3.4.1).
+    pub scale_layout: u32,
     /// Padding to 16 bytes.
     pub pad1: u32,
 }
@@ -71,10 +73,13 @@ pub struct SurfaceVertex {
     pub color: [f32; 4],
     /// Per-triangle shell UV of this corner, in texture repeats.
     pub uv: [f32; 2],
-    /// Welded vertex index (into the scale-vector buffer).
+    /// Welded vertex index (into the scale-vector buffer when it holds one vector per vertex).
     pub vertex_index: u32,
     /// Bit 0: the triangle carries fur.
     pub flags: u32,
+    /// `3 × triangle + corner` in the skin mesh's triangle order (into the scale-vector buffer
+    /// when it holds one vector per triangle corner).
+    pub corner_index: u32,
 }
 
 /// One corner of a fin quad (vertex buffer 0 of the fin pipeline).
@@ -93,18 +98,22 @@ pub struct FinVertex {
     pub along_m: f32,
     /// 0 at the root, 1 at the tip.
     pub height: f32,
-    /// Welded vertex index (into the scale-vector buffer).
+    /// Welded vertex index (into the scale-vector buffer when it holds one vector per vertex).
     pub vertex_index: u32,
+    /// `3 × triangle + corner` of this edge end in the furry triangle the fin grows from (into
+    /// the scale-vector buffer when it holds one vector per triangle corner).
+    pub corner_index: u32,
 }
 
-/// Vertex attributes of [`SurfaceVertex`], locations 0–5 as in `skin.wgsl` / `shell.wgsl`.
-pub const SURFACE_ATTRIBUTES: [wgpu::VertexAttribute; 6] = wgpu::vertex_attr_array![
-    0 => Float32x3, 1 => Float32x3, 2 => Float32x4, 3 => Float32x2, 4 => Uint32, 5 => Uint32
+/// Vertex attributes of [`SurfaceVertex`], locations 0–6 as in `skin.wgsl` / `shell.wgsl`.
+pub const SURFACE_ATTRIBUTES: [wgpu::VertexAttribute; 7] = wgpu::vertex_attr_array![
+    0 => Float32x3, 1 => Float32x3, 2 => Float32x4, 3 => Float32x2, 4 => Uint32, 5 => Uint32, 6 => Uint32
 ];
 
-/// Vertex attributes of [`FinVertex`], locations 0–6 as in `fin.wgsl`.
-pub const FIN_ATTRIBUTES: [wgpu::VertexAttribute; 7] = wgpu::vertex_attr_array![
-    0 => Float32x3, 1 => Float32x3, 2 => Float32x3, 3 => Float32x4, 4 => Float32, 5 => Float32, 6 => Uint32
+/// Vertex attributes of [`FinVertex`], locations 0–7 as in `fin.wgsl`.
+pub const FIN_ATTRIBUTES: [wgpu::VertexAttribute; 8] = wgpu::vertex_attr_array![
+    0 => Float32x3, 1 => Float32x3, 2 => Float32x3, 3 => Float32x4, 4 => Float32, 5 => Float32, 6 => Uint32,
+    7 => Uint32
 ];
 
 #[cfg(test)]
@@ -192,7 +201,7 @@ mod tests {
             ("atlas_layers", offset_of!(FurUniforms, atlas_layers)),
             ("drawn_layers", offset_of!(FurUniforms, drawn_layers)),
             ("fin_repeat_m", offset_of!(FurUniforms, fin_repeat_m)),
-            ("pad0", offset_of!(FurUniforms, pad0)),
+            ("scale_layout", offset_of!(FurUniforms, scale_layout)),
             ("pad1", offset_of!(FurUniforms, pad1)),
         ];
         assert_eq!(check_layout("Fur", size_of::<FurUniforms>(), &fur), 3, "Fur is in all three shaders");
@@ -210,10 +219,11 @@ mod tests {
             offset_of!(SurfaceVertex, uv),
             offset_of!(SurfaceVertex, vertex_index),
             offset_of!(SurfaceVertex, flags),
+            offset_of!(SurfaceVertex, corner_index),
         ];
         let got: Vec<usize> = SURFACE_ATTRIBUTES.iter().map(|a| a.offset as usize).collect();
         assert_eq!(got, surface);
-        assert_eq!(SURFACE_ATTRIBUTES[5].offset as usize + 4, size_of::<SurfaceVertex>());
+        assert_eq!(SURFACE_ATTRIBUTES[6].offset as usize + 4, size_of::<SurfaceVertex>());
         let fin = [
             offset_of!(FinVertex, position),
             offset_of!(FinVertex, normal),
@@ -222,9 +232,10 @@ mod tests {
             offset_of!(FinVertex, along_m),
             offset_of!(FinVertex, height),
             offset_of!(FinVertex, vertex_index),
+            offset_of!(FinVertex, corner_index),
         ];
         let got: Vec<usize> = FIN_ATTRIBUTES.iter().map(|a| a.offset as usize).collect();
         assert_eq!(got, fin);
-        assert_eq!(FIN_ATTRIBUTES[6].offset as usize + 4, size_of::<FinVertex>());
+        assert_eq!(FIN_ATTRIBUTES[7].offset as usize + 4, size_of::<FinVertex>());
     }
 }

@@ -179,7 +179,8 @@ fn gpu_guard_drops_the_inward_part_of_wrong_side_scale_vectors() {
     // from the normal towards a tangent — the cases the simulator's guard would freeze, handed
     // to the renderer anyway.
     let tangent = |n: Vec3| n.cross(Vec3::Z).try_normalize().unwrap_or(Vec3::X);
-    let cases: [(&str, Box<dyn Fn(Vec3) -> Vec3>); 3] = [
+    type ScaleOf = Box<dyn Fn(Vec3) -> Vec3>;
+    let cases: [(&str, ScaleOf); 3] = [
         ("s = −n", Box::new(|n: Vec3| -n)),
         (
             "100° from n",

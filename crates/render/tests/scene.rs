@@ -20,7 +20,7 @@ use furbake_import::{ImportSettings, import_gltf_slice, testmesh};
 use furbake_render::{
     BladeForces, HeadlessGpu, PackInput, RenderTarget, SceneFrame, SceneObject, SceneRenderer, read_back,
 };
-use furbake_runtime::Scene;
+use furbake_runtime::{Scene, ShellVertexLayout};
 use glam::{Mat4, Vec3};
 use image::RgbaImage;
 
@@ -146,7 +146,17 @@ fn every_pack_is_drawn_where_its_model_matrix_puts_it() {
     let alone = SceneFrame::from_scene(scene);
     let model = Mat4::from_translation(Vec3::new(-1.3, 0.0, 0.0));
     alone
-        .render(&g.device, &g.queue, &target, &[SceneObject::Fur { renderer: fur, model, scale_vectors: None }])
+        .render(
+            &g.device,
+            &g.queue,
+            &target,
+            &[SceneObject::Fur {
+                renderer: fur,
+                model,
+                scale_vectors: None,
+                scale_layout: ShellVertexLayout::PerVertex,
+            }],
+        )
         .unwrap();
     let fur_only = read_back(&g.device, &g.queue, &target).unwrap();
     let (mut same, mut total) = (0usize, 0usize);
@@ -167,7 +177,17 @@ fn model_matrices_translate_and_scale_a_furry_object() {
     let target = RenderTarget::new(&g.device, SIZE, SIZE).unwrap();
     let render = |model: Mat4| {
         frame
-            .render(&g.device, &g.queue, &target, &[SceneObject::Fur { renderer: fur, model, scale_vectors: None }])
+            .render(
+                &g.device,
+                &g.queue,
+                &target,
+                &[SceneObject::Fur {
+                    renderer: fur,
+                    model,
+                    scale_vectors: None,
+                    scale_layout: ShellVertexLayout::PerVertex,
+                }],
+            )
             .unwrap();
         let image = read_back(&g.device, &g.queue, &target).unwrap();
         centroid(&image, background_rgba(&image), |_| true)
@@ -272,8 +292,18 @@ fn bad_frame_inputs_are_refused() {
     // One renderer twice in one frame (one uniform buffer, one model matrix per frame).
     let fur = renderer.packs[0].fur.as_ref().unwrap();
     let twice = [
-        SceneObject::Fur { renderer: fur, model: Mat4::IDENTITY, scale_vectors: None },
-        SceneObject::Fur { renderer: fur, model: Mat4::from_translation(Vec3::X), scale_vectors: None },
+        SceneObject::Fur {
+            renderer: fur,
+            model: Mat4::IDENTITY,
+            scale_vectors: None,
+            scale_layout: ShellVertexLayout::PerVertex,
+        },
+        SceneObject::Fur {
+            renderer: fur,
+            model: Mat4::from_translation(Vec3::X),
+            scale_vectors: None,
+            scale_layout: ShellVertexLayout::PerVertex,
+        },
     ];
     assert!(renderer.frame.render(&g.device, &g.queue, &target, &twice).is_err());
     assert!(renderer.render_frame(&g.device, &g.queue, &target, &[PackInput::default(); 2]).is_ok());
