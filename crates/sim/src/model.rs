@@ -1,8 +1,10 @@
 //! The solver-ready form of a [`SpringTopology`]: masses reordered so that the free masses come
 //! first (sorted by depth from the skin, so stick projection can run level by level) and anchored
 //! ones last; per free mass a compressed adjacency of its force links (springs, and the damping of
-//! sticks), its rigid parent link if any, and its restoring-force data (eq. 3.37). Every solver
-//! gathers forces per mass from this adjacency, so results never depend on the thread count.
+//! sticks), its rigid parent link if any, and its restoring-force data (eq. 3.37); and the same
+//! adjacency in lane groups of eight masses ([`GroupData`]) for the vectorised kernels. Every
+//! solver gathers forces per mass from this adjacency, so results never depend on the thread
+//! count.
 //!
 //! The topology was validated when it was decoded or built; [`SimModel::new`] re-checks the few
 //! structural assumptions the solvers make and reports violations as [`SimError::InvalidInput`].
@@ -28,6 +30,50 @@ pub(crate) struct Adj {
     pub c: f32,
 }
 
+/// Free masses per lane group of the per-mass kernels (one AVX register of `f32`).
+pub(crate) const GROUP: usize = 8;
+
+/// One adjacency slot of a lane group: for each of the group's eight free masses, one of its force
+/// links (the other end, rest length, Hooke and viscosity constants), in adjacency order; masses
+/// with fewer links than the group's widest get a padding link to themselves with zero constants
+/// (zero length, zero force, zero block). 128 bytes: two cache lines serve eight links.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(32))]
+pub(crate) struct Slot {
+    pub other: [u32; GROUP],
+    pub rest: [f32; GROUP],
+    pub k: [f32; GROUP],
+    pub c: [f32; GROUP],
+}
+
+/// Per-mass data of the lane groups, padded to whole groups (a padding lane repeats the last free
+/// mass's index and carries no restoring link, no parent and zero constants).
+#[derive(Debug, Default)]
+pub(crate) struct GroupData {
+    /// Slots of group `g`: `slots[start[g]..start[g + 1]]`.
+    pub start: Vec<u32>,
+    pub slots: Vec<Slot>,
+    /// Per slot entry: the link's weight on the implicit diagonal (`adj_weight`; 0 for padding).
+    pub slot_w: Vec<[f32; GROUP]>,
+    /// Per lane: the free mass it computes (padding lanes: the last free mass).
+    pub lane: Vec<u32>,
+    pub mass: Vec<f32>,
+    pub inv_mass: Vec<f32>,
+    pub rest_parent: Vec<u32>,
+    /// Rest direction of the restoring link, by component.
+    pub rest_n: [Vec<f32>; 3],
+    pub rest_len: Vec<f32>,
+    pub parent: Vec<u32>,
+    pub parent_len: Vec<f32>,
+    pub parent_c: Vec<f32>,
+    /// Shortest link per lane (infinity for padding lanes: no rotation limit).
+    pub shortest_link: Vec<f32>,
+    /// Per lane: the root of the tip this mass is (NONE when it is none), and the tip's rest
+    /// direction by component (the wrong-side guard, run in the same pass).
+    pub tip_root: Vec<u32>,
+    pub tip_n: [Vec<f32>; 3],
+}
+
 /// One tip: the mass whose direction from its root gives a scale vector (eq. 3.35).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Tip {
@@ -45,12 +91,18 @@ pub(crate) struct SimModel {
     pub order: Vec<u32>,
     pub rest: Vec<Vec3A>,
     pub mass: Vec<f32>,
-    pub inv_mass: Vec<f32>,
     /// CSR over free masses: adjacency of free mass i is `adj[adj_start[i]..adj_start[i + 1]]`.
     pub adj_start: Vec<u32>,
     pub adj: Vec<Adj>,
     /// `adj[e].other` alone (the reference solver's matrix product reads nothing else).
     pub adj_other: Vec<u32>,
+    /// Per adjacency entry of a link between two free masses: the link's slot among those links
+    /// (numbered in the order their first end lists them; NONE for links to anchored masses),
+    /// and whether this entry is that first listing. Per free mass `k`: the first slot it lists
+    /// first (`ref_first[k]..ref_first[k + 1]`). The reference solver stores one block per slot.
+    pub ref_slot: Vec<u32>,
+    pub ref_owner: Vec<bool>,
+    pub ref_first: Vec<u32>,
     /// Per free mass: the rigid parent (internal index) or NONE, its length and damping.
     pub parent: Vec<u32>,
     pub parent_len: Vec<f32>,
@@ -75,32 +127,86 @@ pub(crate) struct SimModel {
     pub rest_parent: Vec<u32>,
     pub rest_n: Vec<Vec3A>,
     pub rest_len: Vec<f32>,
-    /// Distinct tips, and per shell vertex its tip slot (NONE for bare vertices).
+    /// Distinct tips in the order of their tip masses, and per shell vertex its tip slot (NONE
+    /// for bare vertices).
     pub tips: Vec<Tip>,
+    /// Per free mass `k`: the tips whose tip mass comes before `k` (so masses `a..b` own tips
+    /// `tip_first[a]..tip_first[b]`).
+    pub tip_first: Vec<u32>,
+    /// True when every tip's root is anchored: the guard can test a tip as soon as it has moved.
+    pub guard_fusable: bool,
     pub shell_tip: Vec<u32>,
     /// Per free mass: its shortest non-zero link length, metres (infinity when it has none).
     pub shortest_link: Vec<f32>,
-    /// Every force link of the adjacency once, struct of arrays: end `a` (a free mass, the
-    /// first to list the link), end `b`, rest length, Hooke and viscosity constants. The kernels
-    /// compute each link's force once, on end `a`; end `b` gets its negation (exact in IEEE
-    /// arithmetic, so both ends see the same magnitude bit for bit).
-    pub sp_a: Vec<u32>,
-    pub sp_b: Vec<u32>,
-    pub sp_rest: Vec<f32>,
-    pub sp_k: Vec<f32>,
-    pub sp_c: Vec<f32>,
-    /// Per link: its weight on the implicit diagonal (`adj_weight`, the same at both ends).
-    pub sp_w: Vec<f32>,
-    /// Per free mass `k`: the links whose end `a` it is are `sa_start[k]..sa_start[k + 1]`
-    /// (links are numbered in order of their end `a`); the links whose end `b` it is are
-    /// `gb_link[gb_start[k]..gb_start[k + 1]]`, in adjacency order.
-    pub sa_start: Vec<u32>,
-    pub gb_start: Vec<u32>,
-    pub gb_link: Vec<u32>,
+    /// The per-mass lane-group layout of the explicit, stick and one-sweep implicit kernels.
+    pub groups: GroupData,
+    /// True when every rigid parent link ends at an anchored mass, so a mass can be projected on
+    /// its stick as soon as it has moved (no level-by-level pass).
+    pub sticks_to_anchors: bool,
     /// The springs that act as springs in this model, internal indices (energy).
     pub springs: Vec<([u32; 2], f32, f32)>,
     pub spring_count: usize,
     pub stick_count: usize,
+}
+
+/// Builds the lane-group layout of the free masses (see [`GroupData`]).
+#[allow(clippy::too_many_arguments)]
+fn build_groups(
+    n_free: usize,
+    adj_start: &[u32],
+    adj: &[Adj],
+    adj_weight: &[f32],
+    mass: &[f32],
+    rest_parent: &[u32],
+    rest_n: &[Vec3A],
+    rest_len: &[f32],
+    parent: &[u32],
+    parent_len: &[f32],
+    parent_c: &[f32],
+) -> GroupData {
+    let mut g = GroupData::default();
+    if n_free == 0 {
+        g.start.push(0);
+        return g;
+    }
+    let ng = n_free.div_ceil(GROUP);
+    let np = ng * GROUP;
+    g.start.reserve(ng + 1);
+    g.start.push(0);
+    for gi in 0..ng {
+        let lanes: [usize; GROUP] = std::array::from_fn(|l| (gi * GROUP + l).min(n_free - 1));
+        let real = |l: usize| gi * GROUP + l < n_free;
+        let deg = |l: usize| if real(l) { (adj_start[lanes[l] + 1] - adj_start[lanes[l]]) as usize } else { 0 };
+        let width = (0..GROUP).map(deg).max().unwrap_or(0);
+        for s in 0..width {
+            let mut slot = Slot { other: [0; GROUP], rest: [0.0; GROUP], k: [0.0; GROUP], c: [0.0; GROUP] };
+            let mut w = [0.0; GROUP];
+            for l in 0..GROUP {
+                if s < deg(l) {
+                    let e = adj_start[lanes[l]] as usize + s;
+                    let a = adj[e];
+                    (slot.other[l], slot.rest[l], slot.k[l], slot.c[l], w[l]) =
+                        (a.other, a.rest, a.k, a.c, adj_weight[e]);
+                } else {
+                    slot.other[l] = lanes[l] as u32;
+                }
+            }
+            g.slots.push(slot);
+            g.slot_w.push(w);
+        }
+        g.start.push(g.slots.len() as u32);
+    }
+    let real = |k: usize| k < n_free;
+    g.lane = (0..np).map(|k| k.min(n_free - 1) as u32).collect();
+    g.mass = (0..np).map(|k| if real(k) { mass[k] } else { 1.0 }).collect();
+    g.inv_mass = (0..np).map(|k| if real(k) { 1.0 / mass[k] } else { 0.0 }).collect();
+    g.rest_parent = (0..np).map(|k| if real(k) { rest_parent[k] } else { NONE }).collect();
+    g.rest_n = std::array::from_fn(|a| (0..np).map(|k| if real(k) { rest_n[k][a] } else { 0.0 }).collect());
+    g.rest_len = (0..np).map(|k| if real(k) { rest_len[k] } else { 0.0 }).collect();
+    g.parent = (0..np).map(|k| if real(k) { parent[k] } else { NONE }).collect();
+    g.parent_len = (0..np).map(|k| if real(k) { parent_len[k] } else { 0.0 }).collect();
+    g.parent_c = (0..np).map(|k| if real(k) { parent_c[k] } else { 0.0 }).collect();
+    g
 }
 
 impl SimModel {
@@ -292,32 +398,26 @@ impl SimModel {
             }
             adj_start[k + 1] = adj.len() as u32;
         }
-        // Each force link once, in the order its first end lists it.
-        let mut link_slot = vec![NONE; links.len()];
-        let (mut sp_a, mut sp_b, mut sp_rest, mut sp_k, mut sp_c) =
-            (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
-        let mut sp_w = Vec::new();
-        let mut sa_start = vec![0u32; n_free + 1];
-        let mut gb_start = vec![0u32; n_free + 1];
-        let mut gb_link = Vec::new();
+        // Links between free masses, numbered in the order their first end lists them.
+        let mut ref_slot = vec![NONE; adj.len()];
+        let mut ref_owner = vec![false; adj.len()];
+        let mut ref_first = vec![0u32; n_free + 1];
+        let mut slot_of_link = vec![NONE; links.len()];
+        let mut slots = 0u32;
         for k in 0..n_free {
             for e in adj_start[k] as usize..adj_start[k + 1] as usize {
-                let li = adj_link[e] as usize;
-                if link_slot[li] == NONE {
-                    link_slot[li] = sp_a.len() as u32;
-                    let a = adj[e];
-                    sp_a.push(k as u32);
-                    sp_b.push(a.other);
-                    sp_rest.push(a.rest);
-                    sp_k.push(a.k);
-                    sp_c.push(a.c);
-                    sp_w.push(adj_weight[e]);
-                } else {
-                    gb_link.push(link_slot[li]);
+                if adj[e].other as usize >= n_free {
+                    continue;
                 }
+                let li = adj_link[e] as usize;
+                if slot_of_link[li] == NONE {
+                    slot_of_link[li] = slots;
+                    slots += 1;
+                    ref_owner[e] = true;
+                }
+                ref_slot[e] = slot_of_link[li];
             }
-            sa_start[k + 1] = sp_a.len() as u32;
-            gb_start[k + 1] = gb_link.len() as u32;
+            ref_first[k + 1] = slots;
         }
 
         // Tips (eq. 3.35): one per distinct tip mass named by the shell-vertex map.
@@ -383,9 +483,30 @@ impl SimModel {
             rest_len[k] = pi.distance(pj);
         }
 
+        // Tips in the order of their tip masses, so a range of free masses owns a range of tips.
+        let mut by_mass: Vec<u32> = (0..tips.len() as u32).collect();
+        by_mass.sort_by_key(|&t| tips[t as usize].tip);
+        let mut new_slot = vec![0u32; tips.len()];
+        for (ns, &old) in by_mass.iter().enumerate() {
+            new_slot[old as usize] = ns as u32;
+        }
+        let tips: Vec<Tip> = by_mass.iter().map(|&t| tips[t as usize]).collect();
+        for s in &mut shell_tip {
+            if *s != NONE {
+                *s = new_slot[*s as usize];
+            }
+        }
+        let mut tip_first = vec![0u32; n_free + 1];
+        for t in &tips {
+            tip_first[t.tip as usize + 1] += 1;
+        }
+        for k in 0..n_free {
+            tip_first[k + 1] += tip_first[k];
+        }
+        let guard_fusable = tips.iter().all(|t| t.root as usize >= n_free);
+
         let rest: Vec<Vec3A> = order.iter().map(|&i| Vec3A::from(t.mass_rest_positions[i as usize])).collect();
         let mass: Vec<f32> = order.iter().map(|&i| t.mass_kg[i as usize]).collect();
-        let inv_mass = (0..n).map(|k| if k < n_free { 1.0 / mass[k] } else { 0.0 }).collect();
         // Springs that the stick solver made rigid hold no energy there.
         let rigid_spring = |s: usize| {
             springs_as_sticks && {
@@ -401,7 +522,7 @@ impl SimModel {
                 ([inv[a as usize], inv[b as usize]], t.spring_rest_lengths_m[s], t.spring_stiffness_n_per_m[s])
             })
             .collect();
-        let shortest_link = (0..n_free)
+        let shortest_link: Vec<f32> = (0..n_free)
             .map(|k| {
                 let adj_min = adj[adj_start[k] as usize..adj_start[k + 1] as usize]
                     .iter()
@@ -412,6 +533,30 @@ impl SimModel {
             })
             .collect();
         let has_sticks = parent.iter().any(|&p| p != NONE);
+        let sticks_to_anchors = parent.iter().all(|&p| p == NONE || p as usize >= n_free);
+        let mut groups = build_groups(
+            n_free,
+            &adj_start,
+            &adj,
+            &adj_weight,
+            &mass,
+            &rest_parent,
+            &rest_n,
+            &rest_len,
+            &parent,
+            &parent_len,
+            &parent_c,
+        );
+        let np = groups.lane.len();
+        groups.shortest_link = (0..np).map(|k| if k < n_free { shortest_link[k] } else { f32::INFINITY }).collect();
+        groups.tip_root = vec![NONE; np];
+        groups.tip_n = std::array::from_fn(|_| vec![0.0; np]);
+        for t in &tips {
+            groups.tip_root[t.tip as usize] = t.root;
+            for a in 0..3 {
+                groups.tip_n[a][t.tip as usize] = t.n[a];
+            }
+        }
         let adj_other = adj.iter().map(|a| a.other).collect();
         Ok(SimModel {
             has_sticks,
@@ -421,7 +566,6 @@ impl SimModel {
             order,
             rest,
             mass,
-            inv_mass,
             adj_start,
             adj,
             adj_weight,
@@ -437,17 +581,15 @@ impl SimModel {
             rest_n,
             rest_len,
             tips,
+            tip_first,
+            guard_fusable,
             shell_tip,
             adj_other,
-            sp_a,
-            sp_b,
-            sp_rest,
-            sp_k,
-            sp_c,
-            sp_w,
-            sa_start,
-            gb_start,
-            gb_link,
+            ref_slot,
+            ref_owner,
+            ref_first,
+            groups,
+            sticks_to_anchors,
             springs,
             spring_count: lens[2],
             stick_count: lens[6],

@@ -71,6 +71,10 @@ pub(crate) struct GuardOutcome {
 pub(crate) struct GuardState {
     pub scale: Vec<Vec3A>,
     pub frozen: Vec<bool>,
+    /// The next state, written by a solver pass that runs the guard itself and made current by
+    /// [`GuardState::commit`] once the step is accepted (a rejected step leaves the guard as it was).
+    pub scale_next: Vec<Vec3A>,
+    pub frozen_next: Vec<bool>,
     kick: Vec<bool>,
 }
 
@@ -79,8 +83,16 @@ impl GuardState {
         GuardState {
             scale: model.tips.iter().map(|t| t.n).collect(),
             frozen: vec![false; model.tips.len()],
+            scale_next: model.tips.iter().map(|t| t.n).collect(),
+            frozen_next: vec![false; model.tips.len()],
             kick: vec![false; model.tips.len()],
         }
+    }
+
+    /// Makes the state a solver pass wrote into `scale_next`, `frozen_next` current.
+    pub fn commit(&mut self) {
+        std::mem::swap(&mut self.scale, &mut self.scale_next);
+        std::mem::swap(&mut self.frozen, &mut self.frozen_next);
     }
 
     /// Tests every tip against `cos α`; updates scale vectors; applies impulses to `v`.

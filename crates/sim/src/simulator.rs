@@ -188,6 +188,9 @@ pub struct Simulator {
     implicit: ImplicitScratch,
     reference: ReferenceScratch,
     stable_dt: Option<(f32, f64)>,
+    /// The rotation-limited step of the current state, when the last step's kernel computed it
+    /// (cleared by anything that changes the state or the forces).
+    rotation_next: Option<f64>,
     time_s: f64,
     steps: u64,
     budget_j: f64,
@@ -213,6 +216,7 @@ impl Simulator {
             implicit: ImplicitScratch::default(),
             reference: ReferenceScratch::default(),
             stable_dt: None,
+            rotation_next: None,
             time_s: 0.0,
             steps: 0,
             budget_j: 0.0,
@@ -225,6 +229,7 @@ impl Simulator {
     pub fn set_forces(&mut self, forces: ForceSet) -> Result<(), SimError> {
         forces.validate()?;
         self.forces = forces;
+        self.rotation_next = None;
         Ok(())
     }
 
@@ -279,32 +284,8 @@ impl Simulator {
         if theta == 0.0 {
             return f64::INFINITY;
         }
-        let m = &self.model;
         let fe = ForceEval::new(&self.forces, self.time_s);
-        (0..m.n_free)
-            .into_par_iter()
-            .with_min_len(solvers::CHUNK)
-            .map(|k| {
-                let reach = theta * m.shortest_link[k] as f64;
-                if !reach.is_finite() {
-                    return f64::INFINITY;
-                }
-                let f = if fe.uniform_only() {
-                    fe.accel * m.mass[k]
-                } else {
-                    fe.external(m.mass[k], self.x[k], self.v[k], m.rest[k])
-                };
-                let a = (f.length() + 4.0 * fe.restoring_w) as f64 / m.mass[k] as f64;
-                let v = self.v[k].length() as f64;
-                if a > 0.0 {
-                    2.0 * reach / (v + (v * v + 4.0 * a * reach).sqrt())
-                } else if v > 0.0 {
-                    reach / v
-                } else {
-                    f64::INFINITY
-                }
-            })
-            .reduce(|| f64::INFINITY, f64::min)
+        solvers::rotation_limit(&self.model, &fe, theta, &self.x, &self.v)
     }
 
     /// Moves the mesh frame by `offset_m` in one instant: free masses stay where they were in the
@@ -313,6 +294,7 @@ impl Simulator {
     /// added to the energy budget.
     pub fn teleport(&mut self, offset_m: [f32; 3]) {
         let before = if self.settings.track_energy { self.energy().total_j() } else { 0.0 };
+        self.rotation_next = None;
         let o = Vec3A::from(offset_m);
         for x in &mut self.x[..self.model.n_free] {
             *x -= o;
@@ -332,7 +314,10 @@ impl Simulator {
         }
         let stable = match self.settings.kind {
             SolverKind::Explicit | SolverKind::Stick => self.stable_step_s(),
-            SolverKind::Implicit | SolverKind::Reference => self.rotation_limited_step_s(),
+            SolverKind::Implicit | SolverKind::Reference => match self.rotation_next.take() {
+                Some(h) => h,
+                None => self.rotation_limited_step_s(),
+            },
         };
         let substeps = if dt_s <= stable {
             1u64
@@ -347,15 +332,19 @@ impl Simulator {
         let h = dt_s / substeps as f64;
         let mut stats = StepStats { substeps: substeps as u32, ..Default::default() };
         let mut work_j = 0.0;
+        let mut fused_guard = None;
+        let mut rotation_next = None;
         for sub in 0..substeps {
             let t = self.time_s + sub as f64 * h;
             let fe = ForceEval::new(&self.forces, t);
             let hf = h as f32;
             let (x, v) = (&self.x, &self.v);
             let (xo, vo) = (&mut self.x_next, &mut self.v_next);
-            match self.settings.kind {
-                SolverKind::Explicit => solvers::explicit_step(&self.model, &fe, hf, x, v, &mut self.implicit, xo, vo),
-                SolverKind::Stick => solvers::stick_step(&self.model, &fe, hf, x, v, &mut self.implicit, xo, vo),
+            // The mass–spring kernels run the guard in their pass on the last substep, if they can.
+            let guard = (sub + 1 == substeps).then_some((&self.settings.guard, &mut self.guard));
+            let out = match self.settings.kind {
+                SolverKind::Explicit => solvers::explicit_step(&self.model, &fe, hf, x, v, xo, vo, guard),
+                SolverKind::Stick => solvers::stick_step(&self.model, &fe, hf, x, v, xo, vo, guard),
                 SolverKind::Implicit => solvers::implicit_step(
                     &self.model,
                     &fe,
@@ -366,9 +355,11 @@ impl Simulator {
                     v,
                     xo,
                     vo,
+                    guard,
+                    Some(self.settings.max_link_rotation_rad as f64),
                 ),
                 SolverKind::Reference => {
-                    let (it, rel) = solvers::reference_step(
+                    let (it, rel, out) = solvers::reference_step(
                         &self.model,
                         &fe,
                         hf,
@@ -379,23 +370,35 @@ impl Simulator {
                         v,
                         xo,
                         vo,
+                        guard,
+                        Some(self.settings.max_link_rotation_rad as f64),
                     );
                     stats.cg_iterations += it;
                     if rel > self.settings.reference_tolerance && rel.is_finite() {
                         return Err(SimError::NotConverged { iterations: it, residual: rel });
                     }
+                    out
                 }
+            };
+            // The lane-group kernels check their output as they write it; the rest is checked here.
+            if !out.finite {
+                self.check_finite(t)?;
             }
-            self.check_finite(t)?;
+            fused_guard = out.guard;
+            rotation_next = out.rotation;
             if self.settings.track_energy {
                 work_j += self.external_work(&fe);
             }
             std::mem::swap(&mut self.x, &mut self.x_next);
             std::mem::swap(&mut self.v, &mut self.v_next);
         }
-        let g = self.guard.apply(&self.model, &self.settings.guard, &self.x, &mut self.v);
+        let g = match fused_guard {
+            Some(g) => g,
+            None => self.guard.apply(&self.model, &self.settings.guard, &self.x, &mut self.v),
+        };
         self.time_s += dt_s;
         self.steps += 1;
+        self.rotation_next = rotation_next;
         stats.guard_triggers = g.triggers;
         stats.frozen_scale_vectors = g.frozen;
         if self.settings.track_energy {
@@ -517,6 +520,7 @@ impl Simulator {
         if positions.iter().chain(velocities).flatten().any(|c| !c.is_finite()) {
             return Err(SimError::Parameter { name: "state", what: "not finite".into() });
         }
+        self.rotation_next = None;
         for k in 0..self.model.n_free {
             let i = self.model.order[k] as usize;
             self.x[k] = Vec3A::from(positions[i]);
