@@ -28,6 +28,7 @@
 //! every sum uses fixed-size chunks, so results are bit-identical for any rayon thread count.
 
 pub mod accuracy;
+mod clusters;
 mod error;
 pub mod forces;
 pub mod meshes;

@@ -10,6 +10,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::SimError;
+use crate::clusters::Clusters;
 use crate::forces::{ForceEval, ForceSet};
 use crate::model::{NONE, SimModel};
 use crate::shell::{GuardParams, GuardState};
@@ -186,6 +187,8 @@ pub struct Simulator {
     v_next: Vec<Vec3A>,
     guard: GuardState,
     implicit: ImplicitScratch,
+    /// Small independent clusters of free masses the implicit solver solves exactly.
+    clusters: Option<Clusters>,
     reference: ReferenceScratch,
     stable_dt: Option<(f32, f64)>,
     /// The rotation-limited step of the current state, when the last step's kernel computed it
@@ -204,6 +207,7 @@ impl Simulator {
         let x = model.rest.clone();
         let n = model.n;
         let guard = GuardState::new(&model);
+        let clusters = if settings.kind == SolverKind::Implicit { Clusters::find(&model) } else { None };
         let mut sim = Simulator {
             x_next: x.clone(),
             x,
@@ -214,6 +218,7 @@ impl Simulator {
             forces: ForceSet::default(),
             guard,
             implicit: ImplicitScratch::default(),
+            clusters,
             reference: ReferenceScratch::default(),
             stable_dt: None,
             rotation_next: None,
@@ -350,6 +355,7 @@ impl Simulator {
                     &fe,
                     hf,
                     self.settings.implicit_iterations,
+                    self.clusters.as_ref(),
                     &mut self.implicit,
                     x,
                     v,

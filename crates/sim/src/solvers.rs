@@ -11,7 +11,10 @@
 //!   transverse term clamped at zero under compression, and the mass's own Jacobian blocks are
 //!   moved to the left-hand side (eq. 3.34 as printed keeps only `M` there and diverges once
 //!   `h²k/m > 1`) — a link between two free masses counts twice on the diagonal, which makes the
-//!   diagonal dominate the system matrix so every sweep count is stable.
+//!   diagonal dominate the system matrix so every sweep count is stable. Where the free masses
+//!   fall into small independent clusters (separable prisms: three tips each) the system is
+//!   solved exactly per cluster instead (`clusters.rs`): truncated sweeps there pump energy into
+//!   a spinning stiff cluster.
 //! - **Stick** (§3.4.1, "orientation only"): every link from an anchored root is a rigid stick;
 //!   external and remaining spring forces move the mass explicitly, the parent link's damping is
 //!   implicit, then the mass is put back at the stick's length from its parent (level by level
@@ -45,6 +48,7 @@ use std::ops::{Add, Div, Mul, Sub};
 use glam::{DMat3, DVec3, Vec3A};
 use rayon::prelude::*;
 
+use crate::clusters::{Clusters, MAX_CLUSTER, solve_cluster};
 use crate::forces::{ForceEval, restoring_force};
 use crate::model::{GROUP, NONE, SimModel};
 use crate::shell::{GuardOutcome, GuardParams, GuardState};
@@ -402,6 +406,7 @@ pub(crate) fn implicit_step(
     fe: &ForceEval,
     h: f32,
     iterations: u32,
+    clusters: Option<&Clusters>,
     scratch: &mut ImplicitScratch,
     x: &[Vec3A],
     v: &[Vec3A],
@@ -441,7 +446,7 @@ pub(crate) fn implicit_step(
         }
         ((f + kv * h) * h, diag)
     };
-    if iterations <= 1 && !model.has_tree() {
+    if iterations <= 1 && !model.has_tree() && clusters.is_none() {
         // One sweep without trees: per mass its links' forces and blocks, one 3×3 solve.
         return group_step(model, fe, h, x, v, Mode::Implicit, x_out, v_out, guard, rotation, &[]);
     }
@@ -476,6 +481,27 @@ pub(crate) fn implicit_step(
                 .with_min_len(CHUNK)
                 .for_each(work);
         }
+    }
+    if let Some(cl) = clusters {
+        // Small independent clusters: the exact solve (see `clusters`), whatever the sweep count.
+        let mut out = vec![[Vec3A::ZERO; MAX_CLUSTER]; cl.len()];
+        let (blocks, b) = (&s.blocks, &s.b);
+        let solve =
+            |(c, o): (usize, &mut [Vec3A; MAX_CLUSTER])| solve_cluster(model, cl, c, h, fe.restoring_w, blocks, b, o);
+        if nf < PARALLEL_MIN {
+            out.iter_mut().enumerate().for_each(solve);
+        } else {
+            out.par_iter_mut().enumerate().with_min_len(CHUNK / 4).for_each(solve);
+        }
+        for k in 0..nf {
+            s.dv[k] = out[cl.index_of(k)][cl.slot[k] as usize];
+        }
+        let dv = &s.dv;
+        for_free(nf, x_out, v_out, |k| {
+            let vn = v[k] + dv[k];
+            (x[k] + vn * h, vn)
+        });
+        return finish_step(model, fe, x_out, v_out, guard, rotation);
     }
     let tree = model.has_tree();
     if tree {
