@@ -4,7 +4,7 @@
 //! and (1) the sheared shell positions the shell vertex shader draws — read back through the
 //! same WGSL function (`shell_vertex`, compute entry `cs_shell_positions`) — match
 //! `furbake_sim::shell_vertex_position`, also for scale vectors pointing into the surface, where
-//! the shader's guard must drop exactly the inward component; (2) rendered, the fur bends towards
+//! both drop exactly the inward component; (2) rendered, the fur bends towards
 //! the wind and never appears below the surface. Runs on whatever adapter the machine has
 //! (lavapipe without a GPU) and never skips.
 
@@ -14,7 +14,9 @@ use furbake_bake::{BakeSettings, NoProgress, bake};
 use furbake_import::{ImportSettings, import_gltf_slice, testmesh};
 use furbake_render::{FurAsset, FurRenderer, HeadlessGpu, RenderSettings, RenderTarget, View, read_back};
 use furbake_runtime::{Camera, Light};
-use furbake_sim::{ForceSet, Simulator, SolverKind, SolverSettings, SpringTopology, Wind, shell_vertex_position};
+use furbake_sim::{
+    ForceSet, Simulator, SolverKind, SolverSettings, SpringTopology, Wind, shell_offset, shell_vertex_position,
+};
 use glam::Vec3;
 use image::RgbaImage;
 
@@ -64,13 +66,11 @@ fn simulated_scale_vectors(topology: &SpringTopology, wind_n: f32, steps: u32) -
     sim.scale_vectors()
 }
 
-/// The shader's wrong-side guard applied to a CPU reference position: the offset from the skin
-/// loses its component along −n (fur lies flat instead of entering the surface, §3.4.3).
-/// Returns the guarded position and whether the guard changed anything.
-fn guarded(skin: Vec3, n: Vec3, reference: Vec3) -> (Vec3, bool) {
-    let d = reference - skin;
-    let inward = d.dot(n).min(0.0);
-    (skin + d - inward * n, inward < 0.0)
+/// Whether the wrong-side guard (§3.4.3) has work to do at a shell position: the unguarded
+/// eq. 3.36 offset (normal step plus shear) points below the skin's tangent plane.
+fn guard_fires(n: Vec3, s: Vec3, layer: u32, layers: u32, k: f32) -> bool {
+    let t = layer as f32 / layers as f32;
+    (n * t + shell_offset(layer, layers, k, s, n)).dot(n) < 0.0
 }
 
 /// What one probe comparison saw.
@@ -102,8 +102,9 @@ fn compare_shell_positions(asset: &FurAsset, settings: &RenderSettings, scale_ve
             let n = Vec3::from(mesh.normals[v]).normalize();
             let s = Vec3::from(scale_vectors[v]);
             // Shell instance `layer` sits at t = (layer + 1)/layers: CPU layer index layer + 1.
-            let reference = shell_vertex_position(skin, n, s, layer + 1, layers, length, k);
-            let (expected, fired) = guarded(skin, n, reference);
+            // The reference includes the guard: the inward part of the offset is dropped.
+            let expected = shell_vertex_position(skin, n, s, layer + 1, layers, length, k);
+            let fired = guard_fires(n, s, layer + 1, layers, k);
             let got = Vec3::from(gpu_positions[layer as usize * vertices + v]);
             // Tolerance: the GPU evaluates the same f32 formula in another order
             // (`(n t + t^k (s − n)) L + p` against `p + n (L t) + t^k (s − n) L`), with a driver
@@ -116,7 +117,7 @@ fn compare_shell_positions(asset: &FurAsset, settings: &RenderSettings, scale_ve
             let err = got.distance(expected);
             assert!(
                 err <= tolerance,
-                "k = {k}, layer {layer}, vertex {v}: GPU {got} vs CPU {expected} (unguarded {reference}), error {err:e} m > {tolerance:e} m"
+                "k = {k}, layer {layer}, vertex {v}: GPU {got} vs CPU {expected}, error {err:e} m > {tolerance:e} m"
             );
             out.positions += 1;
             out.guarded += fired as usize;
@@ -199,9 +200,9 @@ fn gpu_guard_drops_the_inward_part_of_wrong_side_scale_vectors() {
             let settings = RenderSettings { shell_layers: Some(16), shear_exponent: k, ..Default::default() };
             let c = compare_shell_positions(asset, &settings, &scale_vectors);
             println!("{name}, k = {k}: {c:?}");
-            // The unguarded CPU reference enters the surface for the outer layers (for s = −n
-            // with k = 2, every layer with t^2·2 > t, i.e. t > 1/2); the GPU never does, and
-            // equals the reference with the inward part removed.
+            // Unguarded, eq. 3.36 enters the surface for the outer layers (for s = −n with k = 2,
+            // every layer with t^2·2 > t, i.e. t > 1/2); the guard fires there, and the GPU
+            // equals the CPU reference, which drops the inward part the same way.
             assert!(c.guarded >= mesh.positions.len(), "{name}, k = {k}: only {} guarded positions", c.guarded);
             assert_eq!(c.below_surface, 0, "{name}, k = {k}: shell vertices below the skin");
             checked += c.positions;

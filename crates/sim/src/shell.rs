@@ -36,7 +36,11 @@ pub fn shell_vertex_position(
     exponent_k: f32,
 ) -> Vec3 {
     let t = if layers == 0 { 0.0 } else { layer as f32 / layers as f32 };
-    skin + n * (fur_length_m * t) + shell_offset(layer, layers, exponent_k, s, n) * fur_length_m
+    let offset = n * t + shell_offset(layer, layers, exponent_k, s, n);
+    // A scale vector pointing into the surface (§3.4.3) would put outer layers below the skin:
+    // the inward component is dropped so fur lies flat instead (the shader does the same).
+    let offset = offset - offset.dot(n).min(0.0) * n;
+    skin + offset * fur_length_m
 }
 
 /// Parameters of the wrong-side-scale guard (§3.4.3).

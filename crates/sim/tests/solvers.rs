@@ -131,6 +131,19 @@ fn shell_shearing_matches_eq_3_36() {
     // The outermost shell vertex ends at skin + s · fur length.
     let top = shell_vertex_position(Vec3::ONE, n, s, 16, 16, 0.02, 2.0);
     assert!((top - (Vec3::ONE + s * 0.02)).length() < 1e-6);
+    // A scale vector into the surface (§3.4.3): no layer goes below the skin's tangent plane;
+    // the outer layers lie flat (s = −n: every layer on the skin), tangential shear kept.
+    let mut below = 0;
+    for s in [-n, Vec3::new(0.6, -0.8, 0.0), Vec3::new(-0.8, -0.6, 0.0)] {
+        for layer in 0..=16 {
+            let p = shell_vertex_position(Vec3::ONE, n, s, layer, 16, 0.02, 2.0);
+            below += usize::from((p - Vec3::ONE).dot(n) < -1e-7);
+        }
+        let top = shell_vertex_position(Vec3::ONE, n, s, 16, 16, 0.02, 2.0);
+        let tangential = (s - s.dot(n) * n) * 0.02;
+        assert!((top - Vec3::ONE - tangential).length() < 1e-6, "{s}: outer layer {top}");
+    }
+    assert_eq!(below, 0);
 }
 
 #[test]
