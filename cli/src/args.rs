@@ -42,8 +42,9 @@ pub enum Command {
     /// driver (lavapipe) when there is none.
     #[command(after_help = PREVIEW_HELP)]
     Preview(PreviewArgs),
-    /// Run one topology of a pack under a scene (TOML: forces, solver, step, duration) headless
-    /// and write per-step statistics and final mass positions and velocities as JSON.
+    /// Run a runtime scene headless and print per-stage timings (`simulate SCENE.toml`), or one
+    /// topology of a pack under a simulation scene with per-step statistics and the final mass
+    /// positions and velocities as JSON (`simulate PACK --scene SIM.toml`).
     #[command(after_help = EXIT_CODES)]
     Simulate(SimulateArgs),
     /// Regenerate a measured report (`accuracy`: docs/accuracy.md and its plots).
