@@ -194,6 +194,15 @@ pub struct Simulator {
     /// The rotation-limited step of the current state, when the last step's kernel computed it
     /// (cleared by anything that changes the state or the forces).
     rotation_next: Option<f64>,
+    /// Per free mass `2 L sqrt(ε m / k)` (see [`Simulator::stretch_limited_step_s`]).
+    stretch_reach: Vec<f32>,
+    /// Largest stiffest-link `k / m` over the free masses, 1/s².
+    stiff_k_over_m: f64,
+    /// The state was just set (start, teleport, `set_state`): no velocity history to estimate
+    /// accelerations from.
+    fresh: bool,
+    /// The last substep's length, seconds.
+    last_h: f64,
     time_s: f64,
     steps: u64,
     budget_j: f64,
@@ -207,6 +216,7 @@ impl Simulator {
         let x = model.rest.clone();
         let n = model.n;
         let guard = GuardState::new(&model);
+        let (stretch_reach, stiff_k_over_m) = stretch_reach(&model);
         let clusters = if settings.kind == SolverKind::Implicit { Clusters::find(&model) } else { None };
         let mut sim = Simulator {
             x_next: x.clone(),
@@ -222,6 +232,10 @@ impl Simulator {
             reference: ReferenceScratch::default(),
             stable_dt: None,
             rotation_next: None,
+            stretch_reach,
+            stiff_k_over_m,
+            fresh: true,
+            last_h: 0.0,
             time_s: 0.0,
             steps: 0,
             budget_j: 0.0,
@@ -235,6 +249,7 @@ impl Simulator {
         forces.validate()?;
         self.forces = forces;
         self.rotation_next = None;
+        self.fresh = true;
         Ok(())
     }
 
@@ -293,6 +308,55 @@ impl Simulator {
         solvers::rotation_limit(&self.model, &fe, theta, &self.x, &self.v)
     }
 
+    /// The implicit solvers' second step limit (on top of `max_link_rotation_rad`, off with it):
+    /// turning a link of length `L` and stiffness `k` by `θ = d/L` (`d = |v| h + |a| h²`, the
+    /// step's displacement) makes linearised backward Euler stretch it by `L θ²/2`, a spurious
+    /// energy `k L² θ⁴/8`, while the motion carries `½ m (d/h)²`. Their ratio
+    /// `k h² d²/(4 m L²)` stays below [`STRETCH_ENERGY_RATIO`] when `h d ≤ 2 L sqrt(ε m/k)`
+    /// (stiffest link, shortest length, per mass; each of the two terms within half). `a` is the
+    /// net acceleration: from the last substep's velocity change, or — right after the state was
+    /// set (start, teleport, `set_state`) — from one evaluation of every force on the mass.
+    /// Skipped (infinite) when the rotation limit alone already keeps the ratio below `ε`, i.e.
+    /// `dt² k/m ≤ 16 ε/θ²` for every mass: soft fur never pays for this scan.
+    fn stretch_limited_step_s(&self, dt_s: f64) -> f64 {
+        let theta = self.settings.max_link_rotation_rad as f64;
+        if theta == 0.0 || dt_s * dt_s * self.stiff_k_over_m <= 16.0 * STRETCH_ENERGY_RATIO / (theta * theta) {
+            return f64::INFINITY;
+        }
+        let m = &self.model;
+        let fe = ForceEval::new(&self.forces, self.time_s);
+        let (x, v, v_prev) = (&self.x, &self.v, &self.v_next);
+        (0..m.n_free)
+            .into_par_iter()
+            .with_min_len(solvers::CHUNK)
+            .map(|k| {
+                let c = self.stretch_reach[k] as f64;
+                if !c.is_finite() {
+                    return f64::INFINITY;
+                }
+                let a = if self.fresh || self.last_h <= 0.0 {
+                    let mut f = fe.external(m.mass[k], x[k], v[k], m.rest[k]);
+                    for l in m.adj_of(k) {
+                        let j = l.other as usize;
+                        let d = x[j] - x[k];
+                        let len = d.length();
+                        if len > 0.0 {
+                            f += d * (l.k * (1.0 - l.rest / len));
+                        }
+                        f += (v[j] - v[k]) * l.c;
+                    }
+                    (f.length() / m.mass[k]) as f64
+                } else {
+                    ((v[k] - v_prev[k]).length() as f64) / self.last_h
+                };
+                let speed = v[k].length() as f64;
+                let by_v = if speed > 0.0 { (0.5 * c / speed).sqrt() } else { f64::INFINITY };
+                let by_a = if a > 0.0 { (0.5 * c / a).cbrt() } else { f64::INFINITY };
+                by_v.min(by_a)
+            })
+            .reduce(|| f64::INFINITY, f64::min)
+    }
+
     /// Moves the mesh frame by `offset_m` in one instant: free masses stay where they were in the
     /// world, so in the mesh frame they jump by `−offset_m`; rigid links are re-projected at once
     /// (removing velocity along them); otherwise velocities are unchanged. The change in energy is
@@ -300,6 +364,7 @@ impl Simulator {
     pub fn teleport(&mut self, offset_m: [f32; 3]) {
         let before = if self.settings.track_energy { self.energy().total_j() } else { 0.0 };
         self.rotation_next = None;
+        self.fresh = true;
         let o = Vec3A::from(offset_m);
         for x in &mut self.x[..self.model.n_free] {
             *x -= o;
@@ -322,7 +387,8 @@ impl Simulator {
             SolverKind::Implicit | SolverKind::Reference => match self.rotation_next.take() {
                 Some(h) => h,
                 None => self.rotation_limited_step_s(),
-            },
+            }
+            .min(self.stretch_limited_step_s(dt_s)),
         };
         let substeps = if dt_s <= stable {
             1u64
@@ -405,6 +471,8 @@ impl Simulator {
         self.time_s += dt_s;
         self.steps += 1;
         self.rotation_next = rotation_next;
+        self.fresh = false;
+        self.last_h = h;
         stats.guard_triggers = g.triggers;
         stats.frozen_scale_vectors = g.frozen;
         if self.settings.track_energy {
@@ -527,6 +595,7 @@ impl Simulator {
             return Err(SimError::Parameter { name: "state", what: "not finite".into() });
         }
         self.rotation_next = None;
+        self.fresh = true;
         for k in 0..self.model.n_free {
             let i = self.model.order[k] as usize;
             self.x[k] = Vec3A::from(positions[i]);
@@ -572,4 +641,28 @@ impl Simulator {
             })
             .collect()
     }
+}
+
+/// Largest ratio of the linearisation's spurious stretch energy to the kinetic energy of a step's
+/// motion that the implicit and reference solvers accept before substepping (see
+/// `Simulator::stretch_limited_step_s`).
+pub(crate) const STRETCH_ENERGY_RATIO: f64 = 0.05;
+
+/// Per free mass `2 L sqrt(ε m / k)` (`L` its shortest link, `k` its stiffest, `ε` =
+/// [`STRETCH_ENERGY_RATIO`]; infinite without links), and the largest `k / m`.
+fn stretch_reach(model: &SimModel) -> (Vec<f32>, f64) {
+    let mut stiff = 0.0f64;
+    let reach = (0..model.n_free)
+        .map(|k| {
+            let stiffest = model.adj_of(k).iter().map(|a| a.k).fold(0.0f32, f32::max) as f64;
+            let l = model.shortest_link[k] as f64;
+            stiff = stiff.max(stiffest / model.mass[k] as f64);
+            if stiffest > 0.0 && l.is_finite() {
+                (2.0 * l * (STRETCH_ENERGY_RATIO * model.mass[k] as f64 / stiffest).sqrt()) as f32
+            } else {
+                f32::INFINITY
+            }
+        })
+        .collect();
+    (reach, stiff)
 }
