@@ -735,32 +735,7 @@ impl BladeRenderer {
         clear: Option<[f32; 4]>,
     ) {
         queue.write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(frame));
-        let color_view = target.color.create_view(&Default::default());
-        let depth_view = target.depth.create_view(&Default::default());
-        let (color_load, depth_load) = match clear {
-            Some(c) => {
-                let [r, g, b, a] = c.map(f64::from);
-                (wgpu::LoadOp::Clear(wgpu::Color { r, g, b, a }), wgpu::LoadOp::Clear(1.0))
-            }
-            None => (wgpu::LoadOp::Load, wgpu::LoadOp::Load),
-        };
-        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("furbake blade pass"),
-            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                view: &color_view,
-                depth_slice: None,
-                resolve_target: None,
-                ops: wgpu::Operations { load: color_load, store: wgpu::StoreOp::Store },
-            })],
-            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                view: &depth_view,
-                depth_ops: Some(wgpu::Operations { load: depth_load, store: wgpu::StoreOp::Store }),
-                stencil_ops: None,
-            }),
-            timestamp_writes: None,
-            occlusion_query_set: None,
-            multiview_mask: None,
-        });
+        let mut pass = crate::renderer::begin_target_pass(encoder, target, "furbake blade pass", clear);
         if self.blade_count > 0 && self.index_count > 0 {
             pass.set_pipeline(&self.draw_pipeline);
             pass.set_bind_group(0, &self.shared, &[]);

@@ -450,32 +450,7 @@ impl FurRenderer {
         clear: Option<[f32; 4]>,
     ) {
         queue.write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(frame));
-        let color_view = target.color.create_view(&Default::default());
-        let depth_view = target.depth.create_view(&Default::default());
-        let (color_load, depth_load) = match clear {
-            Some(c) => {
-                let [r, g, b, a] = c.map(f64::from);
-                (wgpu::LoadOp::Clear(wgpu::Color { r, g, b, a }), wgpu::LoadOp::Clear(1.0))
-            }
-            None => (wgpu::LoadOp::Load, wgpu::LoadOp::Load),
-        };
-        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("furbake fur pass"),
-            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                view: &color_view,
-                depth_slice: None,
-                resolve_target: None,
-                ops: wgpu::Operations { load: color_load, store: wgpu::StoreOp::Store },
-            })],
-            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                view: &depth_view,
-                depth_ops: Some(wgpu::Operations { load: depth_load, store: wgpu::StoreOp::Store }),
-                stencil_ops: None,
-            }),
-            timestamp_writes: None,
-            occlusion_query_set: None,
-            multiview_mask: None,
-        });
+        let mut pass = crate::renderer::begin_target_pass(encoder, target, "furbake fur pass", clear);
         pass.set_bind_group(0, &self.bind_group, &[]);
         if self.surface_corners > 0 {
             pass.set_pipeline(&self.skin_pipeline);
@@ -818,4 +793,40 @@ pub(crate) fn view_proj(
     let far = (dist + radius * 1.5).max(1e-3);
     let near = (dist - radius * 1.5).max(far * 1e-4);
     Mat4::perspective_rh(fov_y_deg.to_radians(), aspect, near, far) * view
+}
+
+/// Begins a render pass into `target`'s colour and depth textures: cleared to `clear` (depth to
+/// 1) or, with `None`, drawing over what earlier passes left (the scene renderer's later objects).
+pub(crate) fn begin_target_pass<'e>(
+    encoder: &'e mut wgpu::CommandEncoder,
+    target: &RenderTarget,
+    label: &str,
+    clear: Option<[f32; 4]>,
+) -> wgpu::RenderPass<'e> {
+    let color_view = target.color.create_view(&Default::default());
+    let depth_view = target.depth.create_view(&Default::default());
+    let (color_load, depth_load) = match clear {
+        Some(c) => {
+            let [r, g, b, a] = c.map(f64::from);
+            (wgpu::LoadOp::Clear(wgpu::Color { r, g, b, a }), wgpu::LoadOp::Clear(1.0))
+        }
+        None => (wgpu::LoadOp::Load, wgpu::LoadOp::Load),
+    };
+    encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some(label),
+        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+            view: &color_view,
+            depth_slice: None,
+            resolve_target: None,
+            ops: wgpu::Operations { load: color_load, store: wgpu::StoreOp::Store },
+        })],
+        depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+            view: &depth_view,
+            depth_ops: Some(wgpu::Operations { load: depth_load, store: wgpu::StoreOp::Store }),
+            stencil_ops: None,
+        }),
+        timestamp_writes: None,
+        occlusion_query_set: None,
+        multiview_mask: None,
+    })
 }
