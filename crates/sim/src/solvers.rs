@@ -1709,9 +1709,12 @@ fn run_groups(
         .zip(tip_chunks.into_par_iter())
         .enumerate()
         .map(|(i, ((xc, vc), (sc, fc)))| groups_dispatch(c, i * GROUP_CHUNK / GROUP, xc, vc, sc, fc))
-        .reduce(
-            || ChunkOutcome { finite: true, guard: GuardOutcome::default(), rotation: f64::INFINITY },
-            |a, b| ChunkOutcome {
+        .collect::<Vec<_>>()
+        .into_iter()
+        // Combined in chunk order (rayon's `reduce` groups by how the work was split, which
+        // would make the guard's f64 energy sum depend on the thread count).
+        .fold(ChunkOutcome { finite: true, guard: GuardOutcome::default(), rotation: f64::INFINITY }, |a, b| {
+            ChunkOutcome {
                 finite: a.finite && b.finite,
                 rotation: a.rotation.min(b.rotation),
                 guard: GuardOutcome {
@@ -1719,8 +1722,8 @@ fn run_groups(
                     frozen: a.guard.frozen + b.guard.frozen,
                     kinetic_added_j: a.guard.kinetic_added_j + b.guard.kinetic_added_j,
                 },
-            },
-        )
+            }
+        })
 }
 
 /// One free mass's rotation-limited step (see `Simulator::rotation_limited_step_s`): the `h` with
