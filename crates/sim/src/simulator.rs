@@ -379,6 +379,17 @@ impl Simulator {
 
     /// Advances by `dt_s` seconds.
     pub fn step(&mut self, dt_s: f64) -> Result<StepStats, SimError> {
+        if self.model.n_free >= solvers::PARALLEL_MIN && rayon::current_thread_index().is_none() {
+            // Called from outside the thread pool: hand the whole step to the pool once, so its
+            // parallel passes start from a worker instead of each waking the pool and putting
+            // the caller to sleep (measured: up to 30 % of an 18,152-mass explicit step).
+            rayon::scope(|_| self.step_in_pool(dt_s))
+        } else {
+            self.step_in_pool(dt_s)
+        }
+    }
+
+    fn step_in_pool(&mut self, dt_s: f64) -> Result<StepStats, SimError> {
         if !(dt_s.is_finite() && dt_s > 0.0) {
             return Err(SimError::Parameter { name: "dt_s", what: format!("{dt_s} (must be finite and positive)") });
         }

@@ -56,7 +56,7 @@ use crate::shell::{GuardOutcome, GuardParams, GuardState};
 /// Masses per parallel work item; also the fixed chunk of deterministic sums.
 pub(crate) const CHUNK: usize = 1024;
 /// Below this many free masses the kernels run on the calling thread.
-const PARALLEL_MIN: usize = 4096;
+pub(crate) const PARALLEL_MIN: usize = 4096;
 
 /// Runs `f(k)` for every free mass `k`, writing the returned `(x, v)` to `x_out[k]`, `v_out[k]`.
 fn for_free<F>(n_free: usize, x_out: &mut [Vec3A], v_out: &mut [Vec3A], f: F)
