@@ -385,6 +385,8 @@ pub(crate) struct ImplicitScratch {
     dinv: Vec<DMat3>,
     rp: Vec<DVec3>,
     z: Vec<DVec3>,
+    /// Per small cluster, its masses' `Δv` by slot (see `clusters`).
+    cluster_dv: Vec<[Vec3A; MAX_CLUSTER]>,
 }
 
 fn sym_to_dmat(m: &Sym3) -> DMat3 {
@@ -484,8 +486,8 @@ pub(crate) fn implicit_step(
     }
     if let Some(cl) = clusters {
         // Small independent clusters: the exact solve (see `clusters`), whatever the sweep count.
-        let mut out = vec![[Vec3A::ZERO; MAX_CLUSTER]; cl.len()];
-        let (blocks, b) = (&s.blocks, &s.b);
+        s.cluster_dv.resize(cl.len(), [Vec3A::ZERO; MAX_CLUSTER]);
+        let (out, blocks, b) = (&mut s.cluster_dv, &s.blocks, &s.b);
         let solve =
             |(c, o): (usize, &mut [Vec3A; MAX_CLUSTER])| solve_cluster(model, cl, c, h, fe.restoring_w, blocks, b, o);
         if nf < PARALLEL_MIN {
