@@ -42,9 +42,8 @@ pub enum Command {
     /// driver (lavapipe) when there is none.
     #[command(after_help = PREVIEW_HELP)]
     Preview(PreviewArgs),
-    /// Run a runtime scene headless and print per-stage timings (`simulate SCENE.toml`), or one
-    /// topology of a pack under a simulation scene with per-step statistics and the final mass
-    /// positions and velocities as JSON (`simulate PACK --scene SIM.toml`).
+    /// Run a runtime scene headless: per-stage timings, per-step statistics (`--json`) and the
+    /// final state in world space (`--state-out`).
     #[command(after_help = EXIT_CODES)]
     Simulate(SimulateArgs),
     /// Regenerate a measured report (`accuracy`: docs/accuracy.md and its plots).
@@ -214,29 +213,33 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
 /// `furbake simulate`
 #[derive(Args, Debug)]
 pub struct SimulateArgs {
-    /// A runtime scene (TOML: `[[packs]]`, `[effects]`, `time_step_s`) to run headless with
-    /// per-stage timings — or, with `--scene`, the pack whose topology a simulation scene runs.
-    #[arg(value_name = "SCENE_OR_PACK")]
+    /// A runtime scene (TOML: `time_step_s`, `duration_s`, `[solver]`, `[[packs]]`, `[effects]`,
+    /// `[[events]]`) to run headless.
+    #[arg(value_name = "SCENE")]
     pub input: std::path::PathBuf,
-    /// Run one topology of the pack given as SCENE_OR_PACK under this simulation scene (TOML:
-    /// `dt_s`, `duration_s`, `[solver]`, `[forces]`, motion, teleports) and write per-step
-    /// statistics and the final state as JSON.
-    #[arg(long)]
-    pub scene: Option<std::path::PathBuf>,
-    /// With `--scene`: topology kind to run (default: the scene's `topology`, else the pack's
-    /// first).
-    #[arg(long)]
-    pub topology: Option<String>,
-    /// Runtime scene: time steps to run (default: 2 s of scene time).
+    /// Time steps to run (default: the scene's `duration_s`, else 2 s of scene time).
     #[arg(long)]
     pub frames: Option<u64>,
-    /// Runtime scene: print the per-stage timings as JSON instead of a table.
+    /// Print the report as JSON (stage timings and per-step statistics) instead of the table.
     #[arg(long)]
     pub json: bool,
-    /// Write the JSON report here (runtime scene: the timings; `--scene`: the per-step report,
-    /// instead of standard output).
+    /// Write the JSON report here.
     #[arg(short, long)]
     pub output: Option<std::path::PathBuf>,
+    /// Write every pack's final state in world space as JSON here (skin vertices, mass positions
+    /// and velocities, scale vectors; metres and m/s).
+    #[arg(long, value_name = "FILE")]
+    pub state_out: Option<std::path::PathBuf>,
+    /// Record per-step statistics every N steps (default 1, or fewer records on runs above
+    /// 100,000 steps; the last step is always recorded).
+    #[arg(long, value_name = "N")]
+    pub record_every: Option<u64>,
+    /// Retired (`simulate PACK --scene SIM.toml`): exits 2 saying how to write a runtime scene.
+    #[arg(long, hide = true)]
+    pub scene: Option<std::path::PathBuf>,
+    /// Retired with `--scene`.
+    #[arg(long, hide = true)]
+    pub topology: Option<String>,
 }
 
 /// `furbake report`

@@ -9,7 +9,6 @@
 
 use std::path::Path;
 
-use anyhow::{Context, anyhow};
 use furbake_formats::sections::blade_field::BladeField;
 use furbake_formats::sections::fin_atlas::FinAtlas;
 use furbake_formats::sections::fin_edges::FinEdges;
@@ -19,7 +18,7 @@ use furbake_formats::sections::shell_atlas::ShellAtlas;
 use furbake_formats::sections::skin_mesh::SkinMesh;
 use furbake_formats::sections::spring_topology::SpringTopology;
 use furbake_formats::sections::triangle_uv_map::TriangleUvMap;
-use furbake_formats::{Pack, Section, SectionKind};
+use furbake_formats::{Pack, PackSections, Section, SectionKind};
 use serde_json::{Map, Value, json};
 
 use crate::args::{InspectArgs, VerifyArgs};
@@ -76,64 +75,31 @@ fn push<S: Section>(list: &mut Vec<S>, value: S) -> Option<Value> {
     Some(s)
 }
 
-/// Cross-section checks: every artifact agrees with the skin mesh it was baked from.
+/// Cross-section checks (`furbake_formats::check_consistency`, the one place they live): every
+/// artifact agrees with the skin mesh it was baked from, a blade field has its keyframe table.
 /// Returns the number of checks made.
-pub fn check_consistency(d: &Decoded) -> anyhow::Result<usize> {
-    let mut checks = 0;
-    if let Some(mesh) = &d.mesh {
-        let (v, f) = (mesh.positions.len(), mesh.triangles.len());
-        if let Some(uv) = &d.uv_map {
-            checks += 1;
-            if uv.corners.len() != f {
-                return Err(anyhow!("triangle UV map has {} triangles, the skin mesh {f}", uv.corners.len()));
-            }
-        }
-        if let Some(fe) = &d.fin_edges {
-            checks += 1;
-            if let Some(bad) = fe.vertices.iter().flatten().find(|&&i| i as usize >= v) {
-                return Err(anyhow!("fin edge vertex {bad} is outside the skin mesh's {v} vertices"));
-            }
-            checks += 1;
-            for (edge, &t) in fe.vertices.iter().zip(&fe.triangles) {
-                let tri =
-                    mesh.triangles.get(t as usize).ok_or_else(|| anyhow!("fin edge triangle {t} does not exist"))?;
-                if !(tri.contains(&edge[0]) && tri.contains(&edge[1])) {
-                    return Err(anyhow!("fin edge {edge:?} is not an edge of triangle {t}"));
-                }
-                if mesh.fur_mask[t as usize] == 0 {
-                    return Err(anyhow!("fin edge grows from bare triangle {t}"));
-                }
-            }
-        }
-    }
-    if let Some(mesh) = &d.mesh {
-        for t in &d.topologies {
-            checks += 1;
-            let separable = t.kind.name().is_some_and(|n| n.starts_with("separable"));
-            let want = if separable { 3 * mesh.triangles.len() } else { mesh.positions.len() };
-            if t.shell_vertex_masses.len() != want {
-                return Err(anyhow!(
-                    "{} topology maps {} shell vertices, the skin mesh has {want}",
-                    t.kind,
-                    t.shell_vertex_masses.len()
-                ));
-            }
-        }
-    }
-    if let (Some(s), Some(f)) = (&d.shells, &d.fins) {
-        checks += 1;
-        if s.params.resolution != f.width {
-            return Err(anyhow!("fin atlas is {} wide but the shells are {}", f.width, s.params.resolution));
-        }
-    }
-    Ok(checks)
+pub fn check_consistency(pack: &Pack, d: &Decoded) -> furbake_formats::Result<usize> {
+    let topologies: Vec<&SpringTopology> = d.topologies.iter().collect();
+    let blade_fields: Vec<&BladeField> = d.blade_fields.iter().collect();
+    let keyframe_tables: Vec<&KeyframeTable> = d.keyframe_tables.iter().collect();
+    let sections = PackSections {
+        mesh: d.mesh.as_ref(),
+        shells: d.shells.as_ref(),
+        fins: d.fins.as_ref(),
+        uv_map: d.uv_map.as_ref(),
+        fin_edges: d.fin_edges.as_ref(),
+        topologies: &topologies,
+        blade_fields: &blade_fields,
+        keyframe_tables: &keyframe_tables,
+    };
+    furbake_formats::check_consistency(pack.sections(), &sections)
 }
 
 /// Reads, validates and decodes `path`.
 pub fn load(path: &Path) -> Result<(Pack, Decoded), Failure> {
     let pack = Pack::read(path).input()?;
     let decoded = decode_all(&pack).map_err(|e| e.with_path(path)).input()?;
-    check_consistency(&decoded).with_context(|| format!("{}: inconsistent pack", path.display())).input()?;
+    check_consistency(&pack, &decoded).map_err(|e| e.with_path(path)).input()?;
     Ok((pack, decoded))
 }
 
@@ -289,7 +255,7 @@ fn compact(v: &Value) -> String {
 /// Runs `furbake verify`.
 pub fn run_verify(args: VerifyArgs, quiet: bool) -> Result<(), Failure> {
     let (pack, decoded) = load(&args.file)?;
-    let checks = check_consistency(&decoded).input()?;
+    let checks = check_consistency(&pack, &decoded).map_err(|e| e.with_path(&args.file)).input()?;
     if !quiet {
         println!(
             "{}: ok ({} sections decoded and checksummed, {checks} cross-section checks)",

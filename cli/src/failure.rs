@@ -57,3 +57,21 @@ impl<T, E: Into<anyhow::Error>> Classify<T> for Result<T, E> {
         self.map_err(|e| Failure::Usage(e.into()))
     }
 }
+
+/// A scene in a retired form is a usage error (2); any other bad scene is bad input (1).
+pub fn scene(e: furbake_runtime::SceneError) -> Failure {
+    match e {
+        e @ furbake_runtime::SceneError::Outdated { .. } => Failure::Usage(e.into()),
+        e => Failure::Input(e.into()),
+    }
+}
+
+/// Classifies a runtime error of the scene at `scene_path`.
+pub fn runtime(e: furbake_runtime::RuntimeError, scene_path: &std::path::Path) -> Failure {
+    match e {
+        furbake_runtime::RuntimeError::Scene(e) => scene(e),
+        // Every other runtime error blames a file (a pack, a bake without the topology the
+        // scene needs) or the simulation of one: bad input.
+        e => Failure::Input(anyhow::Error::new(e).context(scene_path.display().to_string())),
+    }
+}

@@ -4,10 +4,9 @@
 //!   (three-quarter view): skin, shells, fins (fur thesis §3.2) and its grass blades.
 //! - `furbake preview SCENE.toml (-o out.png | --frames N --out-dir DIR) [--size WxH]
 //!   [--settle SECONDS]`: a runtime scene. A `furbake_runtime::World` runs the stages the scene's
-//!   effects call for, and a `furbake_render::SceneRenderer` draws every pack from the world's
-//!   state: model matrices (motion paths), fur scale vectors (eq. 3.35–3.36; per triangle corner
-//!   when `parting` simulates a separable topology, §3.4.1) and grass cluster-corner forces
-//!   (grass thesis eq. 3.6). A still is the world after `--settle` seconds (default 0.5); an
+//!   effects call for, and a `furbake_render::SceneRenderer` built from that world draws its
+//!   state (`SceneRenderer::render_world`: model matrices, fur scale vectors, grass forces with
+//!   delayed-attenuation sources per blade) — the same library call any host makes. A still is the world after `--settle` seconds (default 0.5); an
 //!   animation steps the world once (`time_step_s`) before each frame.
 //!
 //! Arguments become a validated [`PreviewPlan`] before any work starts. Every PNG is written
@@ -18,14 +17,11 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{Context, anyhow};
-use furbake_render::{
-    BladeForces, HeadlessGpu, PackInput, RenderError, RenderTarget, SceneRenderer, ShellVertexLayout, read_back,
-    render_preview,
-};
-use furbake_runtime::{RuntimeError, Scene, World};
+use furbake_render::{HeadlessGpu, RenderError, RenderTarget, SceneRenderer, read_back, render_preview};
+use furbake_runtime::{Scene, World};
 
 use crate::args::PreviewArgs;
-use crate::failure::{Classify, Failure};
+use crate::failure::{self, Classify, Failure};
 
 /// Scene time simulated before a still image when `--settle` is not given, seconds.
 const DEFAULT_STILL_SETTLE_S: f64 = 0.5;
@@ -137,25 +133,78 @@ fn run_pack(pack: &Path, output: &Path, (w, h): (u32, u32), quiet: bool) -> Resu
     Ok(())
 }
 
+/// What rendering a scene frame needs: the scene file (for messages), its running world, and the
+/// headless host that draws it.
+struct SceneRun {
+    path: PathBuf,
+    world: World,
+    gpu: HeadlessGpu,
+    renderer: SceneRenderer,
+    target: RenderTarget,
+}
+
+impl SceneRun {
+    /// Loads the scene, builds its world and a renderer that shares the world's packs.
+    fn start(path: &Path, (w, h): (u32, u32)) -> Result<SceneRun, Failure> {
+        let scene = Scene::load(path).map_err(failure::scene)?;
+        let world = World::new(scene).map_err(|e| failure::runtime(e, path))?;
+        let gpu = HeadlessGpu::new().map_err(|e| render_failure(e, path))?;
+        let renderer = SceneRenderer::new(&gpu.device, &gpu.queue, &world).map_err(|e| render_failure(e, path))?;
+        let target = RenderTarget::new(&gpu.device, w, h).map_err(|e| render_failure(e, path))?;
+        Ok(SceneRun { path: path.to_path_buf(), world, gpu, renderer, target })
+    }
+
+    /// Advances the world one step.
+    fn step(&mut self) -> Result<(), Failure> {
+        self.world.step().map_err(|e| failure::runtime(e, &self.path))
+    }
+
+    /// Draws the world's current state (`SceneRenderer::render_world`) and writes it as a PNG.
+    fn render_to(&self, png: &Path) -> Result<(), Failure> {
+        let g = &self.gpu;
+        let image = self
+            .renderer
+            .render_world(&g.device, &g.queue, &self.target, &self.world)
+            .and_then(|_| read_back(&g.device, &g.queue, &self.target))
+            .map_err(|e| render_failure(e, &self.path))?;
+        write_png(png, &image)
+    }
+
+    /// Steps and renders `count` frames into `dir`. On failure the frames already written are
+    /// removed: each file was whole, but the sequence is not.
+    fn render_frames(&mut self, dir: &Path, count: u32) -> Result<(), Failure> {
+        let mut written: Vec<PathBuf> = Vec::with_capacity(count as usize);
+        let mut frames = || -> Result<(), Failure> {
+            for i in 0..count {
+                self.step()?;
+                let file = dir.join(frame_name(i, count));
+                self.render_to(&file)?;
+                written.push(file);
+            }
+            Ok(())
+        };
+        let result = frames();
+        if result.is_err() {
+            for file in &written {
+                let _ = std::fs::remove_file(file);
+            }
+        }
+        result
+    }
+}
+
 fn run_scene(path: &Path, output: &SceneOutput, (w, h): (u32, u32), settle_s: f64, quiet: bool) -> Result<(), Failure> {
     let started = Instant::now();
-    // A scene that cannot be read or does not validate is bad input, like a bad pack.
-    let scene = Scene::load(path).input()?;
-    let step_s = scene.time_step_s;
-    let dt = step_s as f64;
-    let settle_steps = (settle_s / dt - 1e-9).ceil().max(0.0) as u64;
-    let mut world = World::new(scene).map_err(|e| runtime_failure(e, path))?;
-    let gpu = HeadlessGpu::new().map_err(|e| render_failure(e, path))?;
-    let renderer = SceneRenderer::new(&gpu.device, &gpu.queue, world.scene()).map_err(|e| render_failure(e, path))?;
-    let target = RenderTarget::new(&gpu.device, w, h).map_err(|e| render_failure(e, path))?;
+    let mut run = SceneRun::start(path, (w, h))?;
+    let step_s = run.world.scene().time_step_s;
+    let settle_steps = (settle_s / step_s as f64 - 1e-9).ceil().max(0.0) as u64;
     for _ in 0..settle_steps {
-        world.step().map_err(|e| runtime_failure(e, path))?;
+        run.step()?;
     }
-    let start_time_s = world.time_s();
+    let start_time_s = run.world.time_s();
     match output {
         SceneOutput::Still(png) => {
-            let image = render_world(&world, &renderer, &gpu, &target).map_err(|e| render_failure(e, path))?;
-            write_png(png, &image)?;
+            run.render_to(png)?;
             if !quiet {
                 eprintln!(
                     "rendered {} at {:.3} s scene time → {} ({w}×{h}, {:.2} s wall)",
@@ -170,22 +219,13 @@ fn run_scene(path: &Path, output: &SceneOutput, (w, h): (u32, u32), settle_s: f6
             std::fs::create_dir_all(dir)
                 .with_context(|| format!("{}: cannot create directory", dir.display()))
                 .input()?;
-            let mut written = Vec::with_capacity(*count as usize);
-            let result = render_frames(&mut world, &renderer, &gpu, &target, path, dir, *count, &mut written);
-            if let Err(e) = result {
-                // Nothing of a failed animation stays behind (each file was whole, but the
-                // sequence is not).
-                for file in &written {
-                    let _ = std::fs::remove_file(file);
-                }
-                return Err(e);
-            }
+            run.render_frames(dir, *count)?;
             if !quiet {
                 eprintln!(
                     "rendered {} for {count} frames of {step_s} s ({start_time_s:.3}–{:.3} s scene time) \
                      → {}/{} … ({w}×{h}, {:.2} s wall)",
                     path.display(),
-                    world.time_s(),
+                    run.world.time_s(),
                     dir.display(),
                     frame_name(0, *count),
                     started.elapsed().as_secs_f64()
@@ -196,59 +236,10 @@ fn run_scene(path: &Path, output: &SceneOutput, (w, h): (u32, u32), settle_s: f6
     Ok(())
 }
 
-/// Steps and renders `count` frames into `dir`, pushing each file written onto `written`.
-#[allow(clippy::too_many_arguments)]
-fn render_frames(
-    world: &mut World,
-    renderer: &SceneRenderer,
-    gpu: &HeadlessGpu,
-    target: &RenderTarget,
-    scene_path: &Path,
-    dir: &Path,
-    count: u32,
-    written: &mut Vec<PathBuf>,
-) -> Result<(), Failure> {
-    for i in 0..count {
-        world.step().map_err(|e| runtime_failure(e, scene_path))?;
-        let image = render_world(world, renderer, gpu, target).map_err(|e| render_failure(e, scene_path))?;
-        let file = dir.join(frame_name(i, count));
-        write_png(&file, &image)?;
-        written.push(file);
-    }
-    Ok(())
-}
-
 /// `frame_0007.png`: zero-padded to the digits of the last index, at least four.
 fn frame_name(index: u32, count: u32) -> String {
     let width = count.saturating_sub(1).to_string().len().max(4);
     format!("frame_{index:0width$}.png")
-}
-
-/// Draws the world's current state: every pack at its model matrix, with its fur scale vectors
-/// (in the world's layout) and its grass corner forces, where the renderer has fur or blades.
-fn render_world(
-    world: &World,
-    renderer: &SceneRenderer,
-    gpu: &HeadlessGpu,
-    target: &RenderTarget,
-) -> Result<image::RgbaImage, RenderError> {
-    let inputs: Vec<PackInput<'_>> = renderer
-        .packs
-        .iter()
-        .enumerate()
-        .map(|(i, drawn)| {
-            let fur = world.fur(i).filter(|_| drawn.fur.is_some());
-            let grass = world.grass(i).filter(|_| drawn.blades.is_some());
-            PackInput {
-                model: Some(world.model_matrix(i)),
-                scale_vectors: fur.map(|f| f.scale_vectors),
-                scale_layout: fur.map_or(ShellVertexLayout::PerVertex, |f| f.layout),
-                blade_forces: grass.map(|g| BladeForces::Corners(g.corner_forces)),
-            }
-        })
-        .collect();
-    renderer.render_frame(&gpu.device, &gpu.queue, target, &inputs)?;
-    read_back(&gpu.device, &gpu.queue, target)
 }
 
 fn write_png(path: &Path, image: &image::RgbaImage) -> Result<(), Failure> {
@@ -258,12 +249,6 @@ fn write_png(path: &Path, image: &image::RgbaImage) -> Result<(), Failure> {
         .with_context(|| format!("{}: cannot encode PNG", path.display()))
         .input()?;
     furbake_formats::write_file_atomic(path, &bytes).input()
-}
-
-fn runtime_failure(e: RuntimeError, scene: &Path) -> Failure {
-    // Every runtime error blames a file (the scene, a pack, a bake without the topology the
-    // scene needs) or the simulation of one: bad input.
-    Failure::Input(anyhow::Error::new(e).context(scene.display().to_string()))
 }
 
 fn render_failure(e: RenderError, scene: &Path) -> Failure {

@@ -1,116 +1,97 @@
-//! `furbake simulate`, two forms:
+//! `furbake simulate SCENE.toml [--frames N] [--json] [-o FILE] [--state-out FILE] [--record-every N]`:
+//! a runtime scene (`furbake_runtime::Scene`) runs headless in a `furbake_runtime::World` — only
+//! the stages its effects call for (docs/design.md "Runtime: scenes and stages"), with its timed events (teleports,
+//! forces switched off and on) — and the per-stage timings (name, pack, runs, total ms, mean µs)
+//! are printed as a table. `--json` prints, and `-o` writes, the whole report as JSON: the
+//! timings plus per-step statistics of every simulated pack (energy and its budget, largest
+//! displacement, substeps, CG iterations, guard triggers). `--state-out` writes the final state
+//! of every pack in world space (README "`simulate --state-out`").
 //!
-//! - `furbake simulate SCENE.toml [--frames N] [--json] [-o FILE]`: a runtime scene
-//!   (`furbake_runtime::Scene`) runs headless in a `furbake_runtime::World` — only the stages its
-//!   effects call for (SPEC "Runtime: Scenes") — and the per-stage timings (name, pack, runs,
-//!   total ms, mean µs) are printed as a table, or as JSON with `--json` / `-o`.
-//! - `furbake simulate PACK --scene SIM.toml [--topology KIND] [-o FILE]`: one topology of a pack
-//!   under a furbake-sim scene, with per-step statistics and the final state as JSON (for
-//!   checking results from outside).
-//!
-//! The form is chosen by `--scene`: with it the positional argument is a pack, without it a
-//! runtime scene (a pack given alone is a usage error that says so).
+//! The former `simulate PACK --scene SIM.toml` form is retired: it and a furbake-sim scene file
+//! exit 2 with a one-line message saying how to write the scene now.
 
 use std::path::Path;
 use std::time::Instant;
 
-use anyhow::{Context, anyhow};
-use furbake_formats::sections::skin_mesh::SkinMesh;
-use furbake_formats::sections::spring_topology::{SpringTopology, TopologyKind};
-use furbake_formats::{Pack, SectionKind};
-use furbake_runtime::{RuntimeError, Scene, World};
-use furbake_sim::{SimError, SimScene, run_scene};
+use anyhow::anyhow;
+use furbake_runtime::{PackState, Scene, World, WorldOptions};
 use serde::Serialize;
 
 use crate::args::SimulateArgs;
-use crate::failure::{Classify, Failure};
+use crate::failure::{self, Classify, Failure};
 
-/// Scene time a runtime scene runs for when `--frames` is not given, seconds.
+/// Scene time a scene without `duration_s` runs for when `--frames` is not given, seconds.
 const DEFAULT_SCENE_TIME_S: f64 = 2.0;
 /// Most frames one run may take (a typo guard: 10⁷ steps is hours of scene time).
 const MAX_FRAMES: u64 = 10_000_000;
+/// Most step records a report keeps per pack; longer runs record every k-th step (the report's
+/// `record_every`), so memory stays bounded whatever `--frames` is.
+const MAX_STEP_RECORDS: u64 = 100_000;
 
 /// Runs `furbake simulate`.
 pub fn run(args: SimulateArgs, quiet: bool) -> Result<(), Failure> {
-    match args.scene.clone() {
-        Some(scene) => {
-            if args.frames.is_some() || args.json {
-                return Err(Failure::Usage(anyhow!("--frames and --json apply to runtime scenes, not to --scene")));
-            }
-            run_topology(&args.input, &scene, args.topology.as_deref(), args.output.as_deref(), quiet)
-        }
-        None => run_runtime_scene(args, quiet),
+    if args.scene.is_some() || args.topology.is_some() {
+        return Err(Failure::Usage(anyhow!(
+            "`simulate PACK --scene SIM.toml [--topology KIND]` is retired: write a runtime scene that names \
+             the pack (`[[packs]] name, path`), its effects and `[[events]]`, and run `furbake simulate \
+             SCENE.toml --json` (see README \"Scenes\")"
+        )));
     }
-}
-
-/// One stage's timings in the report.
-#[derive(Serialize)]
-struct StageRow {
-    name: &'static str,
-    pack: String,
-    runs: u64,
-    total_ms: f64,
-    mean_us: f64,
-}
-
-/// What one pack of a runtime scene did.
-#[derive(Serialize)]
-struct PackRow {
-    name: String,
-    path: String,
-    /// Simulated topology and solver; absent when the fur stays at rest or the pack has none.
-    topology: Option<String>,
-    solver: Option<String>,
-    shell_vertices: Option<usize>,
-    grass_corners: Option<usize>,
-    sections_read: Vec<String>,
-}
-
-/// The JSON report of a runtime scene.
-#[derive(Serialize)]
-struct SceneReport {
-    scene: String,
-    frames: u64,
-    time_step_s: f32,
-    scene_time_s: f64,
-    wall_s: f64,
-    packs: Vec<PackRow>,
-    stages: Vec<StageRow>,
-}
-
-fn run_runtime_scene(args: SimulateArgs, quiet: bool) -> Result<(), Failure> {
     let path = &args.input;
-    if args.topology.is_some() {
-        return Err(Failure::Usage(anyhow!("--topology applies to `simulate PACK --scene SIM.toml`")));
-    }
     if looks_like_a_pack(path) {
         return Err(Failure::Usage(anyhow!(
-            "{}: a pack needs --scene SIM.toml; to run a runtime scene, pass the scene file",
+            "{}: this is a pack; simulate takes a runtime scene (.toml) whose [[packs]] names it",
             path.display()
         )));
     }
-    // A scene that cannot be read or does not validate is bad input, like a bad pack.
-    let scene = Scene::load(path).input()?;
+    let scene = Scene::load(path).map_err(failure::scene)?;
     let dt = scene.time_step_s;
     let frames = match args.frames {
         Some(n) if n > MAX_FRAMES => return Err(Failure::Usage(anyhow!("--frames {n} is above {MAX_FRAMES}"))),
         Some(n) => n,
-        None => (DEFAULT_SCENE_TIME_S / dt as f64 - 1e-9).ceil().max(1.0) as u64,
+        None => (scene.duration_s.unwrap_or(DEFAULT_SCENE_TIME_S) / dt as f64 - 1e-9).ceil().max(1.0) as u64,
     };
-    let mut world = World::new(scene).map_err(|e| runtime_failure(e, path))?;
+    let record_every = match args.record_every {
+        Some(0) => return Err(Failure::Usage(anyhow!("--record-every must be at least 1"))),
+        Some(k) => k,
+        None => frames.div_ceil(MAX_STEP_RECORDS).max(1),
+    };
+    let wants_report = args.json || args.output.is_some();
+    let options = WorldOptions { step_statistics: wants_report };
+    let mut world = World::with_options(scene, options).map_err(|e| failure::runtime(e, path))?;
+    let simulated: Vec<usize> =
+        (0..world.pack_count()).filter(|&i| world.fur(i).is_some_and(|f| f.simulation.is_some())).collect();
+    let mut steps = Vec::new();
     let started = Instant::now();
-    for _ in 0..frames {
-        world.step().map_err(|e| runtime_failure(e, path))?;
+    for step in 0..frames {
+        world.step().map_err(|e| failure::runtime(e, path))?;
+        if wants_report && (step % record_every == 0 || step + 1 == frames) {
+            for &i in &simulated {
+                steps.push(StepRecord::of(&world, i, step));
+            }
+        }
     }
     let wall_s = started.elapsed().as_secs_f64();
-    let report = build_report(&world, path, frames, wall_s);
-    let json = serde_json::to_string_pretty(&report).expect("the report is plain serde data");
-    if let Some(out) = &args.output {
+    if let Some(out) = &args.state_out {
+        let packs = (0..world.pack_count())
+            .map(|i| world.pack_state(i))
+            .collect::<Result<Vec<PackState>, _>>()
+            .map_err(|e| failure::runtime(e, path))?;
+        let state = StateFile { scene: path.display().to_string(), time_s: world.time_s(), steps: frames, packs };
+        let json = serde_json::to_string_pretty(&state).expect("the state is plain serde data");
         furbake_formats::write_file_atomic(out, format!("{json}\n").as_bytes()).input()?;
     }
-    if args.json {
-        println!("{json}");
-    } else {
+    let report = build_report(&world, path, frames, wall_s, record_every, steps);
+    if wants_report {
+        let json = serde_json::to_string_pretty(&report).expect("the report is plain serde data");
+        if let Some(out) = &args.output {
+            furbake_formats::write_file_atomic(out, format!("{json}\n").as_bytes()).input()?;
+        }
+        if args.json {
+            println!("{json}");
+        }
+    }
+    if !args.json {
         print!("{}", stage_table(&report));
     }
     if !quiet {
@@ -123,6 +104,99 @@ fn run_runtime_scene(args: SimulateArgs, quiet: bool) -> Result<(), Failure> {
     Ok(())
 }
 
+/// One stage's timings in the report.
+#[derive(Serialize)]
+struct StageRow {
+    name: &'static str,
+    pack: String,
+    runs: u64,
+    total_ms: f64,
+    mean_us: f64,
+}
+
+/// What one pack of the scene did.
+#[derive(Serialize)]
+struct PackRow {
+    name: String,
+    path: String,
+    /// Simulated topology and solver; absent when the fur stays at rest or the pack has none.
+    topology: Option<String>,
+    solver: Option<String>,
+    shell_vertices: Option<usize>,
+    grass_corners: Option<usize>,
+    sections_read: Vec<String>,
+}
+
+/// Statistics of one simulated pack after one recorded step.
+#[derive(Serialize)]
+struct StepRecord {
+    /// Step index (0-based).
+    step: u64,
+    /// Scene time at the end of the step, seconds.
+    time_s: f64,
+    /// The pack's scene name.
+    pack: String,
+    /// Kinetic + spring energy, joules (mesh units: metres when the mesh is in metres).
+    energy_j: f64,
+    kinetic_j: f64,
+    spring_j: f64,
+    restoring_j: f64,
+    /// Initial energy plus external work, guard impulses and teleports so far, joules.
+    energy_budget_j: f64,
+    /// Largest distance of a free mass from its rest position, mesh units.
+    max_displacement_m: f32,
+    substeps: u32,
+    cg_iterations: u32,
+    guard_triggers: u32,
+    frozen_scale_vectors: u32,
+}
+
+impl StepRecord {
+    fn of(world: &World, pack: usize, step: u64) -> StepRecord {
+        let s = world.fur(pack).map(|f| f.last_step).unwrap_or_default();
+        StepRecord {
+            step,
+            time_s: world.time_s(),
+            pack: world.scene().packs[pack].name.clone(),
+            energy_j: s.energy.total_j(),
+            kinetic_j: s.energy.kinetic_j,
+            spring_j: s.energy.spring_j,
+            restoring_j: s.energy.restoring_j,
+            energy_budget_j: s.energy_budget_j,
+            max_displacement_m: s.max_displacement_m,
+            substeps: s.substeps,
+            cg_iterations: s.cg_iterations,
+            guard_triggers: s.guard_triggers,
+            frozen_scale_vectors: s.frozen_scale_vectors,
+        }
+    }
+}
+
+/// The JSON report of a scene run.
+#[derive(Serialize)]
+struct SceneReport {
+    scene: String,
+    frames: u64,
+    time_step_s: f32,
+    scene_time_s: f64,
+    wall_s: f64,
+    packs: Vec<PackRow>,
+    stages: Vec<StageRow>,
+    /// Steps between two step records (the last step is always recorded).
+    record_every: u64,
+    /// One record per simulated pack per recorded step, in step order.
+    steps: Vec<StepRecord>,
+}
+
+/// What `--state-out` writes.
+#[derive(Serialize)]
+struct StateFile {
+    scene: String,
+    time_s: f64,
+    steps: u64,
+    packs: Vec<PackState>,
+}
+
 /// True when `path` starts with the container's magic (a pack passed where a scene belongs).
 fn looks_like_a_pack(path: &Path) -> bool {
     use std::io::Read;
@@ -130,13 +204,14 @@ fn looks_like_a_pack(path: &Path) -> bool {
     std::fs::File::open(path).and_then(|mut f| f.read_exact(&mut magic)).is_ok() && magic == furbake_formats::MAGIC
 }
 
-fn runtime_failure(e: RuntimeError, scene: &Path) -> Failure {
-    // Every runtime error blames a file (the scene, a pack, a bake without the topology the
-    // scene needs) or the simulation of one: bad input.
-    Failure::Input(anyhow::Error::new(e).context(scene.display().to_string()))
-}
-
-fn build_report(world: &World, path: &Path, frames: u64, wall_s: f64) -> SceneReport {
+fn build_report(
+    world: &World,
+    path: &Path,
+    frames: u64,
+    wall_s: f64,
+    record_every: u64,
+    steps: Vec<StepRecord>,
+) -> SceneReport {
     let packs = (0..world.pack_count())
         .map(|i| {
             let sp = &world.scene().packs[i];
@@ -172,6 +247,8 @@ fn build_report(world: &World, path: &Path, frames: u64, wall_s: f64) -> SceneRe
         wall_s,
         packs,
         stages,
+        record_every,
+        steps,
     }
 }
 
@@ -201,73 +278,4 @@ fn stage_table(r: &SceneReport) -> String {
         if r.frames > 0 { total_ms * 1e3 / r.frames as f64 } else { 0.0 }
     ));
     out
-}
-
-/// The `--scene` form: one topology of a pack under a furbake-sim scene.
-fn run_topology(
-    pack_path: &Path,
-    scene_path: &Path,
-    topology: Option<&str>,
-    output: Option<&Path>,
-    quiet: bool,
-) -> Result<(), Failure> {
-    let text = std::fs::read_to_string(scene_path)
-        .with_context(|| format!("{}: cannot read scene", scene_path.display()))
-        .input()?;
-    let scene: SimScene =
-        toml::from_str(&text).with_context(|| format!("{}: invalid scene", scene_path.display())).input()?;
-    let pack = Pack::read(pack_path).input()?;
-    let mesh: SkinMesh = pack.decode_first().map_err(|e| e.with_path(pack_path)).input()?;
-    let wanted = topology.map(str::to_owned).or_else(|| scene.topology.clone());
-    if let Some(name) = &wanted {
-        if TopologyKind::from_name(name).is_none() {
-            return Err(Failure::Usage(anyhow!("unknown topology {name:?}")));
-        }
-    }
-    let mut chosen: Option<SpringTopology> = None;
-    let mut available = Vec::new();
-    for i in pack.find(SectionKind::SPRING_TOPOLOGY).collect::<Vec<_>>() {
-        let t: SpringTopology = pack.decode(i).map_err(|e| e.with_path(pack_path)).input()?;
-        let name = t.kind.to_string();
-        available.push(name.clone());
-        if chosen.is_none() && wanted.as_deref().is_none_or(|w| w == name) {
-            chosen = Some(t);
-        }
-    }
-    let topology = chosen.ok_or_else(|| {
-        Failure::Input(anyhow!(
-            "{}: no {} topology in the pack (it has: {}); bake with --topology KIND",
-            pack_path.display(),
-            wanted.as_deref().unwrap_or("spring"),
-            if available.is_empty() { "none".to_string() } else { available.join(", ") }
-        ))
-    })?;
-    let started = Instant::now();
-    let report = match run_scene(&topology, &mesh, &scene) {
-        Ok(r) => r,
-        Err(e @ SimError::Parameter { .. }) => {
-            return Err(Failure::Usage(anyhow::Error::new(e).context(scene_path.display().to_string())));
-        }
-        Err(e) => return Err(Failure::Input(anyhow::Error::new(e).context(pack_path.display().to_string()))),
-    };
-    let seconds = started.elapsed().as_secs_f64();
-    let json = serde_json::to_string_pretty(&report).expect("the report is plain serde data");
-    match output {
-        Some(path) => furbake_formats::write_file_atomic(path, json.as_bytes()).input()?,
-        None => println!("{json}"),
-    }
-    if !quiet {
-        let steps = (scene.duration_s / scene.dt_s).ceil().max(0.0);
-        eprintln!(
-            "simulated {} ({} masses, {} springs, {} sticks) for {} s in {steps} steps: {:.3} s wall, {:.1} µs per step",
-            topology.kind,
-            topology.mass_kg.len(),
-            topology.spring_ends.len(),
-            topology.stick_ends.len(),
-            scene.duration_s,
-            seconds,
-            if steps > 0.0 { seconds * 1e6 / steps } else { 0.0 },
-        );
-    }
-    Ok(())
 }

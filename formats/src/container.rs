@@ -1,14 +1,13 @@
 //! The container: a 64-byte header, a section table, and 16-byte-aligned sections, all
 //! little-endian (layout in `docs/format.md`). [`PackWriter`] assembles one and writes it
-//! atomically (temporary file + rename); [`Pack`] validates a whole file held in memory;
-//! [`PackFile`] validates the header and table of a file on disk and reads sections lazily.
+//! atomically (temporary file + rename); the header and table parsers here are the only code that
+//! reads the container's layout, and [`crate::Pack`] (the one reader) builds on them.
 //!
-//! Validation happens here, once, with checked arithmetic: after `Pack::from_bytes` or
-//! `PackFile::read_section` returns, every section offset and length is inside the file and its
-//! CRC-32 matched, so section decoders can trust the bounds of the bytes they are handed.
+//! Validation happens here, once, with checked arithmetic: after the table parses, every section
+//! offset and length is inside the file; the reader checks a section's CRC-32 before handing its
+//! bytes to a decoder, so section decoders can trust the bounds of the bytes they are handed.
 
-use std::fs::File;
-use std::io::{Read, Seek, SeekFrom, Write};
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use crate::SectionKind;
@@ -199,15 +198,15 @@ fn le_u64(b: &[u8], at: usize) -> u64 {
 
 /// The validated header fields that readers need.
 #[derive(Clone, Copy, Debug)]
-struct Header {
-    minor: u16,
-    section_count: u32,
-    table_offset: u64,
+pub(crate) struct Header {
+    pub(crate) minor: u16,
+    pub(crate) section_count: u32,
+    pub(crate) table_offset: u64,
     file_size: u64,
     table_crc: u32,
 }
 
-fn parse_header(h: &[u8], actual_len: u64) -> Result<Header> {
+pub(crate) fn parse_header(h: &[u8], actual_len: u64) -> Result<Header> {
     if h.len() < HEADER_SIZE {
         return Err(FormatError::invalid(format!(
             "file is {} bytes, shorter than the {HEADER_SIZE}-byte header",
@@ -260,7 +259,7 @@ fn parse_header(h: &[u8], actual_len: u64) -> Result<Header> {
     Ok(Header { minor, section_count, table_offset, file_size, table_crc: le_u32(h, 40) })
 }
 
-fn parse_table(table: &[u8], header: &Header) -> Result<Vec<SectionEntry>> {
+pub(crate) fn parse_table(table: &[u8], header: &Header) -> Result<Vec<SectionEntry>> {
     if crc32fast::hash(table) != header.table_crc {
         return Err(FormatError::invalid_at(header.table_offset, "section table checksum mismatch"));
     }
@@ -304,7 +303,7 @@ fn parse_table(table: &[u8], header: &Header) -> Result<Vec<SectionEntry>> {
     Ok(entries)
 }
 
-fn check_section_crc(index: usize, e: &SectionEntry, payload: &[u8]) -> Result<()> {
+pub(crate) fn check_section_crc(index: usize, e: &SectionEntry, payload: &[u8]) -> Result<()> {
     if crc32fast::hash(payload) != e.crc32 {
         return Err(FormatError::Invalid {
             path: None,
@@ -314,134 +313,4 @@ fn check_section_crc(index: usize, e: &SectionEntry, payload: &[u8]) -> Result<(
         });
     }
     Ok(())
-}
-
-/// A whole container held in memory, fully validated (header, table, bounds, every checksum).
-#[derive(Debug)]
-pub struct Pack {
-    bytes: AlignedBytes,
-    minor: u16,
-    entries: Vec<SectionEntry>,
-}
-
-impl Pack {
-    /// Validates `bytes` as a container (copying them once into an aligned buffer).
-    pub fn from_bytes(bytes: &[u8]) -> Result<Pack> {
-        let header = parse_header(bytes, bytes.len() as u64)?;
-        let t0 = header.table_offset as usize;
-        let t1 = t0 + header.section_count as usize * TABLE_ENTRY_SIZE;
-        let entries = parse_table(&bytes[t0..t1], &header)?;
-        for (i, e) in entries.iter().enumerate() {
-            check_section_crc(i, e, &bytes[e.offset as usize..(e.offset + e.length) as usize])?;
-        }
-        Ok(Pack { bytes: AlignedBytes::copy_from(bytes), minor: header.minor, entries })
-    }
-
-    /// Reads and validates the container at `path`; errors carry the path.
-    pub fn read(path: &Path) -> Result<Pack> {
-        let bytes = std::fs::read(path).map_err(|source| FormatError::Io { path: path.to_path_buf(), source })?;
-        Pack::from_bytes(&bytes).map_err(|e| e.with_path(path))
-    }
-
-    /// Minor format version stored in the file.
-    pub fn minor_version(&self) -> u16 {
-        self.minor
-    }
-
-    /// The section table.
-    pub fn sections(&self) -> &[SectionEntry] {
-        &self.entries
-    }
-
-    /// Payload of section `index` (16-byte aligned). Panics if `index` is out of range, like
-    /// slice indexing.
-    pub fn payload(&self, index: usize) -> &[u8] {
-        let e = &self.entries[index];
-        &self.bytes[e.offset as usize..(e.offset + e.length) as usize]
-    }
-
-    /// Indices of the sections of `kind`, in table order.
-    pub fn find(&self, kind: SectionKind) -> impl Iterator<Item = usize> + '_ {
-        self.entries.iter().enumerate().filter(move |(_, e)| e.kind == kind).map(|(i, _)| i)
-    }
-
-    /// Total size of the file in bytes.
-    pub fn file_size(&self) -> usize {
-        self.bytes.len()
-    }
-}
-
-/// A container on disk whose header and section table were validated at open; sections are read
-/// (and their checksums checked) only when asked for, so a runtime loads only what it uses.
-#[derive(Debug)]
-pub struct PackFile {
-    path: PathBuf,
-    file: File,
-    minor: u16,
-    entries: Vec<SectionEntry>,
-}
-
-impl PackFile {
-    /// Opens `path`, reading and validating only the header and the section table.
-    pub fn open(path: &Path) -> Result<PackFile> {
-        let io = |source| FormatError::Io { path: path.to_path_buf(), source };
-        let mut file = File::open(path).map_err(io)?;
-        let len = file.metadata().map_err(io)?.len();
-        let mut h = [0u8; HEADER_SIZE];
-        let got = read_up_to(&mut file, &mut h).map_err(io)?;
-        let header = parse_header(&h[..got], len).map_err(|e| e.with_path(path))?;
-        // Bounded by the real file length (checked in parse_header), so no lying-header allocation.
-        let mut table = vec![0u8; header.section_count as usize * TABLE_ENTRY_SIZE];
-        file.seek(SeekFrom::Start(header.table_offset)).map_err(io)?;
-        file.read_exact(&mut table).map_err(io)?;
-        let entries = parse_table(&table, &header).map_err(|e| e.with_path(path))?;
-        Ok(PackFile { path: path.to_path_buf(), file, minor: header.minor, entries })
-    }
-
-    /// The file's path.
-    pub fn path(&self) -> &Path {
-        &self.path
-    }
-
-    /// Minor format version stored in the file.
-    pub fn minor_version(&self) -> u16 {
-        self.minor
-    }
-
-    /// The section table.
-    pub fn sections(&self) -> &[SectionEntry] {
-        &self.entries
-    }
-
-    /// Indices of the sections of `kind`, in table order.
-    pub fn find(&self, kind: SectionKind) -> impl Iterator<Item = usize> + '_ {
-        self.entries.iter().enumerate().filter(move |(_, e)| e.kind == kind).map(|(i, _)| i)
-    }
-
-    /// Reads section `index` from disk and checks its checksum.
-    pub fn read_section(&mut self, index: usize) -> Result<AlignedBytes> {
-        let Some(e) = self.entries.get(index).copied() else {
-            return Err(FormatError::Parameter {
-                path: Some(self.path.clone()),
-                what: format!("no section {index} (the file has {})", self.entries.len()),
-            });
-        };
-        let io = |source| FormatError::Io { path: self.path.clone(), source };
-        let mut buf = AlignedBytes::zeroed(e.length as usize);
-        self.file.seek(SeekFrom::Start(e.offset)).map_err(io)?;
-        self.file.read_exact(buf.as_mut_slice()).map_err(io)?;
-        check_section_crc(index, &e, &buf).map_err(|err| err.with_path(&self.path))?;
-        Ok(buf)
-    }
-}
-
-fn read_up_to(r: &mut impl Read, buf: &mut [u8]) -> std::io::Result<usize> {
-    let mut n = 0;
-    while n < buf.len() {
-        match r.read(&mut buf[n..])? {
-            0 => break,
-            k => n += k,
-        }
-    }
-    Ok(n)
 }

@@ -57,6 +57,15 @@ pub enum FormatError {
         /// Human description of the problem.
         what: String,
     },
+    /// The pack has no section of a kind the caller needs (e.g. rendering a pack baked without
+    /// shells). Blame: the file, for the use it is put to.
+    #[error("{path}: the pack has no {kind} section", path = display_path(path))]
+    MissingSection {
+        /// File concerned, when known.
+        path: Option<PathBuf>,
+        /// The kind asked for.
+        kind: SectionKind,
+    },
     /// A count or size in the file exceeds the limits this reader accepts.
     #[error("{path}: {what} is {value}, above the limit of {limit}", path = display_path(path))]
     Limit {
@@ -114,6 +123,7 @@ impl FormatError {
             | FormatError::UnsupportedVersion { path, .. }
             | FormatError::UnsupportedSectionVersion { path, .. }
             | FormatError::Parameter { path, .. }
+            | FormatError::MissingSection { path, .. }
             | FormatError::Limit { path, .. } => {
                 if path.is_none() {
                     *path = Some(p.to_path_buf());

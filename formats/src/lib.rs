@@ -22,18 +22,22 @@
 //! # Ok::<(), furbake_formats::FormatError>(())
 //! ```
 
+mod consistency;
 mod container;
 mod error;
 mod kind;
+mod pack;
 pub mod record;
 pub mod sections;
 
+pub use consistency::{PackSections, check_consistency};
 pub use container::{
-    ALIGN, AlignedBytes, HEADER_SIZE, MAGIC, MAX_SECTIONS, Pack, PackFile, PackWriter, SectionEntry, TABLE_ENTRY_SIZE,
-    VERSION_MAJOR, VERSION_MINOR, write_file_atomic,
+    ALIGN, AlignedBytes, HEADER_SIZE, MAGIC, MAX_SECTIONS, PackWriter, SectionEntry, TABLE_ENTRY_SIZE, VERSION_MAJOR,
+    VERSION_MINOR, write_file_atomic,
 };
 pub use error::{FormatError, Result};
 pub use kind::SectionKind;
+pub use pack::{Pack, Payload};
 pub use sections::Section;
 
 /// Decodes a payload as section type `S` after checking the entry's kind and layout version.
@@ -54,42 +58,6 @@ pub fn decode_section<S: Section>(index: usize, entry: &SectionEntry, payload: &
         });
     }
     S::decode(payload).map_err(|e| e.in_section(index, entry.offset))
-}
-
-impl Pack {
-    /// Decodes section `index` as `S`.
-    pub fn decode<S: Section>(&self, index: usize) -> Result<S> {
-        let entry = self.sections().get(index).ok_or_else(|| FormatError::Parameter {
-            path: None,
-            what: format!("no section {index} (the pack has {})", self.sections().len()),
-        })?;
-        decode_section(index, entry, self.payload(index))
-    }
-
-    /// Decodes the first section of `S`'s kind, or fails with a `Parameter` error naming the kind.
-    pub fn decode_first<S: Section>(&self) -> Result<S> {
-        match self.find(S::KIND).next() {
-            Some(i) => self.decode(i),
-            None => Err(FormatError::Parameter { path: None, what: format!("the pack has no {} section", S::KIND) }),
-        }
-    }
-
-    /// Decodes every section of `S`'s kind, in table order.
-    pub fn decode_all<S: Section>(&self) -> Result<Vec<S>> {
-        self.find(S::KIND).collect::<Vec<_>>().into_iter().map(|i| self.decode(i)).collect()
-    }
-}
-
-impl PackFile {
-    /// Reads (lazily, from disk) and decodes section `index` as `S`.
-    pub fn decode<S: Section>(&mut self, index: usize) -> Result<S> {
-        let entry = *self.sections().get(index).ok_or_else(|| FormatError::Parameter {
-            path: Some(self.path().to_path_buf()),
-            what: format!("no section {index} (the file has {})", self.sections().len()),
-        })?;
-        let bytes = self.read_section(index)?;
-        decode_section(index, &entry, &bytes).map_err(|e| e.with_path(self.path()))
-    }
 }
 
 impl PackWriter {

@@ -147,6 +147,23 @@ struct ArrayRef {
     count: usize,
 }
 
+/// Where a record's metadata lies, from the record's 8-byte head alone (`meta_len: u32`,
+/// `array_count: u32`): `(offset from the payload start, length)`. Fails when the array table and
+/// the metadata do not fit in a payload of `payload_len` bytes. [`Record::parse`] reads the same
+/// head; this is for readers that peek at a section's first metadata field without reading it.
+pub fn meta_span(head: [u8; 8], payload_len: u64) -> Result<(u64, u64)> {
+    let meta_len = u32::from_le_bytes([head[0], head[1], head[2], head[3]]) as u64;
+    let array_count = u32::from_le_bytes([head[4], head[5], head[6], head[7]]) as u64;
+    let meta_at = 8 + array_count * ARRAY_ENTRY as u64;
+    match meta_at.checked_add(meta_len) {
+        Some(end) if end <= payload_len => Ok((meta_at, meta_len)),
+        _ => Err(FormatError::invalid_at(
+            0,
+            format!("metadata of {meta_len} bytes after {array_count} arrays does not fit in {payload_len} bytes"),
+        )),
+    }
+}
+
 /// A validated view of one record payload.
 pub struct Record<'a> {
     bytes: &'a [u8],

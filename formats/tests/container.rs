@@ -8,7 +8,7 @@ use furbake_formats::sections::manifest::BakeManifest;
 use furbake_formats::sections::shell_atlas::{HairCoat, ShellAtlas, VolumeParams};
 use furbake_formats::sections::skin_mesh::{SkinMesh, SkinMeshStats};
 use furbake_formats::sections::triangle_uv_map::TriangleUvMap;
-use furbake_formats::{FormatError, HEADER_SIZE, Pack, PackFile, PackWriter, Section, SectionKind};
+use furbake_formats::{FormatError, HEADER_SIZE, Pack, PackWriter, Section, SectionKind};
 
 fn coat() -> HairCoat {
     HairCoat {
@@ -115,7 +115,7 @@ fn sections_are_aligned_and_encoding_is_deterministic() {
     for e in pack.sections() {
         assert_eq!(e.offset % 16, 0);
     }
-    assert_eq!(pack.payload(1).as_ptr() as usize % 16, 0, "payloads are 16-byte aligned in memory");
+    assert_eq!(pack.payload(1).unwrap().as_ptr() as usize % 16, 0, "payloads are 16-byte aligned in memory");
 }
 
 #[test]
@@ -215,7 +215,7 @@ fn lying_record_counts_are_rejected() {
 }
 
 #[test]
-fn pack_file_reads_sections_lazily_and_writes_atomically() {
+fn an_opened_pack_reads_sections_lazily_and_writes_atomically() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("sample.fbk");
     let mut w = PackWriter::new();
@@ -224,8 +224,13 @@ fn pack_file_reads_sections_lazily_and_writes_atomically() {
     w.write_atomic(&path).unwrap();
     let leftovers: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
     assert_eq!(leftovers.len(), 1, "no temporary file left: {leftovers:?}");
-    let mut f = PackFile::open(&path).unwrap();
+    let f = Pack::open(&path).unwrap();
     assert_eq!(f.sections().len(), 2);
+    assert_eq!(
+        f.read_counts(),
+        vec![(SectionKind::SKIN_MESH, 0), (SectionKind::FIN_ATLAS, 0)],
+        "open reads no section"
+    );
     let fins: FinAtlas = f.decode(1).unwrap();
     assert_eq!(fins.alpha, vec![5, 6]);
     // Corrupt the mesh payload on disk: opening still works (lazy), reading that section fails
@@ -234,7 +239,7 @@ fn pack_file_reads_sections_lazily_and_writes_atomically() {
     let off = f.sections()[0].offset as usize + 20;
     bytes[off] ^= 0x55;
     std::fs::write(&path, &bytes).unwrap();
-    let mut f = PackFile::open(&path).unwrap();
+    let f = Pack::open(&path).unwrap();
     let err = f.decode::<SkinMesh>(0).unwrap_err();
     assert!(err.to_string().contains("sample.fbk") && err.to_string().contains("checksum"), "{err}");
     assert!(f.decode::<FinAtlas>(1).is_ok());

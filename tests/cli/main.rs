@@ -361,7 +361,7 @@ fn topology_counts(mesh: &Path, dir: &Path) -> std::collections::BTreeMap<String
 #[test]
 fn topology_counts_follow_the_spec_on_the_grass_patch_and_the_fox() {
     let dir = tempfile::tempdir().unwrap();
-    // SPEC.md: the thesis's grass patch V=13, F=16 (E=28) ⇒ spring–sticks 26/13, prisms 26/V+E,
+    // docs/design.md "Topology counts": the thesis's grass patch V=13, F=16 (E=28) ⇒ spring–sticks 26/13, prisms 26/V+E,
     // separable spring–sticks 6F/3F = 96/48, separable prisms 96/96.
     let patch = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/generated/grass_patch.gltf");
     let c = topology_counts(&patch, dir.path());
@@ -382,31 +382,64 @@ fn topology_counts_follow_the_spec_on_the_grass_patch_and_the_fox() {
 }
 
 #[test]
-fn simulate_runs_a_scene_and_writes_json() {
+fn simulate_runs_the_wind_gust_scene_with_its_events_statistics_and_state() {
+    // The former furbake-sim scenario (jolt, teleport, forces off), now a runtime scene.
     let dir = tempfile::tempdir().unwrap();
     let patch = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/generated/grass_patch.gltf");
-    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/scenes/fur_wind_gust.toml");
+    let example = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/scenes/fur_wind_gust.toml");
+    let scene = dir.path().join("fur_wind_gust.toml");
+    std::fs::copy(example, &scene).unwrap();
     let pack = dir.path().join("patch.fbk");
     assert_ok(
         &furbake(&["bake", s(&patch), "-o", s(&pack), "--resolution", "16", "--topology", "prisms", "-q"]),
         "bake",
     );
-    let json_path = dir.path().join("sim.json");
-    let out = furbake(&["simulate", s(&pack), "--scene", s(&scene), "-o", s(&json_path)]);
+    let (json_path, state_path) = (dir.path().join("sim.json"), dir.path().join("state.json"));
+    let out = furbake(&["simulate", s(&scene), "-o", s(&json_path), "--state-out", s(&state_path)]);
     assert_ok(&out, "simulate");
-    assert!(stderr(&out).contains("µs per step"), "{}", stderr(&out));
+    assert!(stdout(&out).contains("fur_solver"), "the stage table: {}", stdout(&out));
     let report: serde_json::Value = serde_json::from_slice(&std::fs::read(&json_path).unwrap()).unwrap();
-    assert_eq!(report["topology"], "prisms");
-    assert_eq!(report["masses"], 26);
-    let positions = report["final_positions_m"].as_array().unwrap();
-    assert_eq!(positions.len(), 26);
-    assert!(positions.iter().flat_map(|p| p.as_array().unwrap()).all(|x| x.as_f64().unwrap().is_finite()));
-    // A pack without the asked-for topology is bad input; an unknown name is a usage error.
-    let out = furbake(&["simulate", s(&pack), "--scene", s(&scene), "--topology", "sticks"]);
-    assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
-    assert!(stderr(&out).contains("--topology"), "{}", stderr(&out));
-    let out = furbake(&["simulate", s(&pack), "--scene", s(&scene), "--topology", "hairballs"]);
-    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    let frames = report["frames"].as_u64().unwrap();
+    assert_eq!(frames, (3.0f64 / 0.016666 - 1e-9).ceil() as u64, "the scene's duration_s");
+    assert_eq!(report["packs"][0]["topology"], "prisms");
+    assert_eq!(report["packs"][0]["solver"], "implicit");
+    let steps = report["steps"].as_array().unwrap();
+    assert_eq!(steps.len() as u64, frames, "one record per step of the one simulated pack");
+    let at = |t: f64| steps.iter().find(|r| r["time_s"].as_f64().unwrap() >= t).unwrap();
+    let field = |r: &serde_json::Value, k: &str| r[k].as_f64().unwrap();
+    // The teleport at 0.5 s reaches the simulator (its energy is booked in the budget); after the
+    // forces stop at 1 s the fur comes back to rest.
+    // Times are step ends: the event is applied before the first step starting at or after 0.5 s.
+    let (before, after) = (field(at(0.48), "energy_budget_j"), field(at(0.52), "energy_budget_j"));
+    assert!(field(at(0.52), "max_displacement_m") > 0.05, "the fur was left behind: {}", at(0.52));
+    assert!(after > before * 1.5, "teleport energy booked: budget {before} → {after}");
+    let (loaded, last) = (at(0.98), steps.last().unwrap());
+    assert!(field(loaded, "max_displacement_m") > 1e-4, "gravity and wind bend the fur: {loaded}");
+    // Without forces the fur calms down: its motion dies out, and only the weak restoring force
+    // of eq. 3.37 turns it back, so it does not stray further.
+    assert!(field(last, "kinetic_j") < field(loaded, "kinetic_j") * 0.1, "{loaded} → {last}");
+    assert!(field(last, "max_displacement_m") <= field(loaded, "max_displacement_m"), "{loaded} → {last}");
+    for r in steps {
+        assert!(
+            field(r, "energy_j").is_finite() && field(r, "energy_j") <= field(r, "energy_budget_j") * 1.001 + 1e-9,
+            "{r}"
+        );
+    }
+    let state: serde_json::Value = serde_json::from_slice(&std::fs::read(&state_path).unwrap()).unwrap();
+    let p = &state["packs"][0];
+    assert_eq!(p["name"], "patch");
+    assert_eq!(p["skin_positions_m"].as_array().unwrap().len(), 13, "the patch welds to 13 vertices");
+    assert_eq!(p["mass_positions_m"].as_array().unwrap().len(), 26);
+    assert_eq!(p["mass_velocities_m_per_s"].as_array().unwrap().len(), 26);
+    assert_eq!(p["scale_vectors"].as_array().unwrap().len(), 13);
+    // The pack was jolted 8 cm and teleported 10 cm along +x: its skin is there now.
+    let xs: Vec<f64> = p["skin_positions_m"].as_array().unwrap().iter().map(|v| v[0].as_f64().unwrap()).collect();
+    let mean_x = xs.iter().sum::<f64>() / xs.len() as f64;
+    assert!((mean_x - 0.18).abs() < 1e-3, "mean skin x {mean_x}");
+    // Same inputs, same bytes.
+    let again = dir.path().join("state2.json");
+    assert_ok(&furbake(&["simulate", s(&scene), "--state-out", s(&again), "-q"]), "simulate again");
+    assert_eq!(std::fs::read(&state_path).unwrap(), std::fs::read(&again).unwrap());
 }
 
 /// Decodes every section of `bytes` with its typed decoder (what `verify` does).

@@ -83,7 +83,7 @@ scale = 0.5
     path
 }
 
-const WIND: &str = "[effects.gravity]\n[effects.wind]\nvelocity_m_s = [2.0, 0.0, 0.5]\ngust_amplitude = 0.5\n";
+const WIND: &str = "[effects.gravity]\n[effects.wind]\nvelocity_m_per_s = [2.0, 0.0, 0.5]\ngust_amplitude = 0.5\n";
 
 /// Orange-brown fox fur: red well above green and blue.
 fn is_fur(p: &image::Rgba<u8>) -> bool {

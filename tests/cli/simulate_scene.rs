@@ -1,6 +1,7 @@
 //! `furbake simulate SCENE.toml`: a runtime scene runs headless and prints its per-stage timings;
 //! only the stages its effects call for appear; `--json` / `-o` give the same as JSON; the
-//! example fox scene runs on a real bake; a pack given without `--scene` is a usage error.
+//! example fox scene runs on a real bake; a pack, the retired `--scene` form and a furbake-sim
+//! scene file are usage errors that say how to write a runtime scene.
 
 use std::path::{Path, PathBuf};
 
@@ -54,7 +55,7 @@ fn simulate_scene_prints_only_the_stages_its_effects_need() {
     let windy = write_scene(
         dir.path(),
         "windy.toml",
-        "[effects.gravity]\n[effects.wind]\nvelocity_m_s = [2.0, 0.0, 0.0]\ngust_amplitude = 0.3\n",
+        "[effects.gravity]\n[effects.wind]\nvelocity_m_per_s = [2.0, 0.0, 0.0]\ngust_amplitude = 0.3\n",
     );
     let out = furbake(&["simulate", s(&windy), "--frames", "12"]);
     assert_ok(&out, "simulate windy");
@@ -125,10 +126,10 @@ fn simulate_scene_errors_name_their_cause() {
     let dir = tempfile::tempdir().unwrap();
     let pack = bake_patch(dir.path());
     let mut checked = 0;
-    // A pack without --scene is a usage error that says what to do.
+    // A pack given as the scene is a usage error that says what to do.
     let out = furbake(&["simulate", s(&pack)]);
     assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
-    assert!(stderr(&out).contains("--scene"), "{}", stderr(&out));
+    assert!(stderr(&out).contains("runtime scene"), "{}", stderr(&out));
     checked += 1;
     // A scene whose pack is missing, or whose effects need a topology the pack lacks: bad input.
     let missing = dir.path().join("missing.toml");
@@ -142,16 +143,29 @@ fn simulate_scene_errors_name_their_cause() {
         assert!(err.contains(needle), "{err}");
         checked += 1;
     }
-    // Runtime-scene flags with --scene, and --topology without it, are usage errors.
-    let sim_scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/scenes/fur_wind_gust.toml");
+    // The retired `simulate PACK --scene SIM.toml` form, and a furbake-sim scene file or a retired
+    // key given as the scene: exit 2 with one line that says how to write it now.
+    let old_scene = dir.path().join("old_sim.toml");
+    std::fs::write(
+        &old_scene,
+        "topology = \"prisms\"\ndt_s = 0.016666\nduration_s = 1.0\n[forces]\nrestoring_weight_n = 0.01\n",
+    )
+    .unwrap();
+    let renamed = write_scene(dir.path(), "renamed.toml", "[effects.wind]\nvelocity_m_s = [1.0, 0.0, 0.0]\n");
     let still = write_scene(dir.path(), "still.toml", "[effects.gravity]\n");
-    for args in [
-        vec!["simulate", s(&pack), "--scene", s(&sim_scene), "--frames", "3"],
-        vec!["simulate", s(&still), "--topology", "prisms"],
+    for (args, needle) in [
+        (vec!["simulate", s(&pack), "--scene", s(&old_scene)], "runtime scene"),
+        (vec!["simulate", s(&still), "--topology", "prisms"], "retired"),
+        (vec!["simulate", s(&old_scene)], "runtime scene"),
+        (vec!["preview", s(&old_scene), "-o", "never.png"], "runtime scene"),
+        (vec!["simulate", s(&renamed)], "velocity_m_per_s"),
     ] {
         let out = furbake(&args);
         assert_eq!(out.status.code(), Some(2), "{args:?}: {}", stderr(&out));
+        let err = stderr(&out);
+        assert_eq!(err.trim_end().lines().count(), 1, "one line: {err}");
+        assert!(err.contains(needle), "{args:?}: {err}");
         checked += 1;
     }
-    assert_eq!(checked, 5);
+    assert_eq!(checked, 8);
 }

@@ -49,7 +49,7 @@ pub fn find_fin_edges(mesh: &SkinMesh) -> FinEdges {
     out
 }
 
-/// Number of distinct undirected edges of `mesh` (E in the topology counts of SPEC.md).
+/// Number of distinct undirected edges of `mesh` (E in the topology counts of docs/design.md).
 pub fn count_edges(mesh: &SkinMesh) -> usize {
     let mut set = std::collections::HashSet::with_capacity(mesh.triangles.len() * 3 / 2);
     for tri in &mesh.triangles {

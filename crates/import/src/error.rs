@@ -1,6 +1,6 @@
 //! Typed import errors. Every variant names the input file; errors about mesh data also name the
 //! mesh (index and name) and the primitive, so a user can find the bad data in a DCC tool.
-//! Split by blame as STYLE.md asks: I/O, not-glTF, unsupported glTF, bad mesh data, limits and
+//! Split by blame (docs/design.md "Determinism and errors"): I/O, not-glTF, unsupported glTF, bad mesh data, limits and
 //! caller mistakes (settings).
 
 use std::fmt;

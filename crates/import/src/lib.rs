@@ -1,5 +1,5 @@
 //! furbake-import: turns a glTF 2.0 file (`.glb`, or `.gltf` with embedded or external buffers)
-//! into the [`SkinMesh`] furbake grows fur from — nothing else (SPEC "Bake stages: Import").
+//! into the [`SkinMesh`] furbake grows fur from — nothing else (docs/design.md "Import").
 //!
 //! The pipeline, one verb per stage:
 //! 1. `source` — read the bytes, split the GLB container, refuse unsupported

@@ -1,4 +1,4 @@
-//! Size limits that keep a lying or hostile file from exhausting memory (SPEC "Import": absurd
+//! Size limits that keep a lying or hostile file from exhausting memory (docs/design.md "Import", "Determinism and errors": absurd
 //! sizes get a clear error). Far above any fur skin (the thesis's dog has 1872 vertices).
 
 /// Largest main file or buffer accepted, in bytes (2 GiB).

@@ -4,7 +4,7 @@
 //! mirroring transform. Triangle strips and fans are triangulated; points and lines are skipped
 //! with a warning. Skins, joints and morph targets are ignored: a skinned mesh is imported in its
 //! bind pose, i.e. its own POSITIONs under its node's world transform. The output is an unwelded
-//! triangle soup with the per-triangle fur mask already decided (SPEC "Import").
+//! triangle soup with the per-triangle fur mask already decided (docs/design.md "Import").
 
 use std::collections::BTreeSet;
 use std::path::Path;

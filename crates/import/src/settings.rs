@@ -1,4 +1,4 @@
-//! Import settings: which triangles carry fur (SPEC "Import": "which triangles carry fur from a
+//! Import settings: which triangles carry fur (docs/design.md "Import": "which triangles carry fur from a
 //! vertex attribute/colour or material name (default: all)") and how close two positions must be
 //! to be welded into one skin vertex. Serde-readable (TOML/JSON) with unknown fields rejected, so
 //! the CLI can read them from a config file and store them verbatim in the bake manifest.

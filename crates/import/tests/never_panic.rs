@@ -1,4 +1,4 @@
-//! Never-panic checks (SPEC "Import": no input makes the importer panic): every truncation of
+//! Never-panic checks (docs/design.md "Determinism and errors": no input makes the importer panic): every truncation of
 //! small real files, strided truncations of a large one, single-byte corruptions of the GLB JSON
 //! chunk and of the binary chunk. Each import must return `Ok` or `Err`; a panic (in our code or
 //! in the `gltf` crate underneath) is caught with `catch_unwind` and fails the test with the

@@ -64,34 +64,32 @@ impl FurAsset {
         if let Some(t) = mesh.triangles.iter().flatten().find(|&&i| i as usize >= v) {
             return bad(format!("triangle index {t} is out of range ({v} vertices)"));
         }
-        if uv_map.corners.len() != f {
-            return bad(format!("the UV map has {} triangles, the skin {f}", uv_map.corners.len()));
-        }
         if shells.alpha.len() != shells.layers() * shells.layer_texels() || shells.shadow.len() != shells.layers() {
             return bad("the shell atlas arrays do not match its layer count".into());
         }
         if 3 * f > u32::MAX as usize / 2 {
             return bad(format!("{f} triangles exceed the renderer's corner index range"));
         }
-        if let Some((atlas, edges)) = &fins {
+        if let Some((atlas, _)) = &fins {
             if atlas.alpha.len() != atlas.width as usize * atlas.height as usize {
                 return bad("the fin atlas size does not match its texel count".into());
             }
-            if edges.triangles.len() != edges.vertices.len() {
-                return bad("fin edge arrays disagree".into());
-            }
-            if edges.vertices.iter().flatten().any(|&i| i as usize >= v)
-                || edges.triangles.iter().any(|&t| t as usize >= f)
-            {
-                return bad(format!("a fin edge refers to a vertex or triangle outside the skin ({v} / {f})"));
-            }
-            if let Some(((a, b), t)) =
-                edges.vertices.iter().map(|e| (e[0], e[1])).zip(&edges.triangles).find(|((a, b), t)| {
-                    !(mesh.triangles[**t as usize].contains(a) && mesh.triangles[**t as usize].contains(b))
-                })
-            {
-                return bad(format!("fin edge {a}–{b} is not an edge of its triangle {t}"));
-            }
+        }
+        // The cross-section checks (formats' one function): UV map and fin edges belong to this
+        // skin. After them the geometry builders index the mesh in range.
+        let sections = furbake_formats::PackSections {
+            mesh: Some(&mesh),
+            shells: Some(&shells),
+            uv_map: Some(&uv_map),
+            fins: fins.as_ref().map(|(atlas, _)| &**atlas),
+            fin_edges: fins.as_ref().map(|(_, edges)| &**edges),
+            ..Default::default()
+        };
+        if let Err(e) = furbake_formats::check_consistency(&[], &sections) {
+            return bad(match e {
+                furbake_formats::FormatError::Invalid { what, .. } => what,
+                e => e.to_string(),
+            });
         }
         Ok(FurAsset { mesh, shells, uv_map, fins })
     }

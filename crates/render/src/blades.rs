@@ -506,11 +506,15 @@ impl BladeRenderer {
     pub fn from_pack(
         device: &wgpu::Device,
         queue: &wgpu::Queue,
-        pack: &furbake_runtime::Pack,
+        pack: &furbake_formats::Pack,
         settings: &BladeSettings,
     ) -> Result<Option<BladeRenderer>, RenderError> {
         let Some(field) = pack.optional_section::<BladeField>()? else { return Ok(None) };
         let table = pack.section::<KeyframeTable>()?;
+        let sections =
+            furbake_formats::PackSections { blade_fields: &[&field], keyframe_tables: &[&table], ..Default::default() };
+        furbake_formats::check_consistency(pack.sections(), &sections)
+            .map_err(|e| e.with_path(&pack.display_path()))?;
         BladeRenderer::new(device, queue, &field, &table, settings).map(Some)
     }
 

@@ -60,6 +60,9 @@ pub enum RenderError {
     /// The pack could not be read.
     #[error(transparent)]
     Runtime(#[from] RuntimeError),
+    /// A pack is unreadable, lacks a section, or its sections disagree.
+    #[error(transparent)]
+    Format(#[from] furbake_formats::FormatError),
     /// The pack's sections do not belong together. Blame: the file.
     #[error("invalid fur asset: {what}")]
     InvalidAsset {

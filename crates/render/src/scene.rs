@@ -11,15 +11,19 @@
 //! - [`SceneFrame::render`] draws borrowed [`SceneObject`]s (a [`FurRenderer`] or a
 //!   [`BladeRenderer`] with a model matrix and optional per-frame physics input) in one
 //!   submission: the first object clears colour and depth, the others draw over it depth-tested.
-//! - [`SceneRenderer`] owns the renderers of every pack of a `Scene` (opened from the pack files,
-//!   shader features from the scene's effects) and renders a frame from per-pack [`PackInput`]s;
-//!   what `furbake preview <scene> --frames N` calls once per step.
+//! - [`SceneRenderer`] owns the renderers of every pack of a running `furbake_runtime::World`,
+//!   built from the world's own opened packs (their decoded sections are shared, nothing is read
+//!   twice) with the shader features the scene's effects need. [`SceneRenderer::render_world`]
+//!   draws the world's current state — model matrices, fur scale vectors in the world's layout,
+//!   grass corner forces plus the per-blade wind of delayed-attenuation sources (grass thesis
+//!   §4.2) — which is all a program that links the crates needs for the frame `furbake preview`
+//!   draws; [`SceneRenderer::render_frame`] takes explicit per-pack [`PackInput`]s instead.
 
 use std::path::PathBuf;
 
 use furbake_formats::SectionKind;
 use furbake_grass::{ForceField, ForceScene};
-use furbake_runtime::{Camera, Light, Pack, Scene, ShellVertexLayout};
+use furbake_runtime::{Camera, Light, Scene, ShellVertexLayout, World};
 use glam::{Mat4, Vec3};
 
 use crate::{BladeRenderer, BladeSettings, FurAsset, FurRenderer, RenderError, RenderSettings, RenderTarget, View};
@@ -278,23 +282,24 @@ pub struct SceneRenderer {
 }
 
 impl SceneRenderer {
-    /// Opens every pack of `scene` (paths as the scene holds them: `Scene::load` resolves them
-    /// against the scene file), uploads its fur (skin mesh + shell atlas + UV map, fins when
-    /// present) and its blade field, with the shader features the scene's effects need
-    /// ([`RenderSettings::for_scene`]). A pack with neither fur nor blades is an
-    /// [`RenderError::InvalidAsset`].
-    pub fn new(device: &wgpu::Device, queue: &wgpu::Queue, scene: &Scene) -> Result<SceneRenderer, RenderError> {
+    /// Uploads every pack of `world`'s scene from the packs the world opened (decoded sections are
+    /// shared through the packs' caches, so nothing the world read is read again): its fur (skin
+    /// mesh + shell atlas + UV map, fins when present) and its blade field, with the shader
+    /// features the scene's effects need ([`RenderSettings::for_scene`]). A pack with neither fur
+    /// nor blades is an [`RenderError::InvalidAsset`].
+    pub fn new(device: &wgpu::Device, queue: &wgpu::Queue, world: &World) -> Result<SceneRenderer, RenderError> {
+        let scene = world.scene();
         let settings = RenderSettings::for_scene(scene);
         let mut packs = Vec::with_capacity(scene.packs.len());
-        for p in &scene.packs {
-            let pack = Pack::open(&p.path)?;
+        for (i, p) in scene.packs.iter().enumerate() {
+            let pack = world.pack(i);
             let fur = if pack.has(SectionKind::SKIN_MESH) && pack.has(SectionKind::SHELL_ATLAS) {
-                let asset = FurAsset::from_pack(&pack, settings.fins)?;
+                let asset = FurAsset::from_pack(pack, settings.fins)?;
                 Some(FurRenderer::new(device, queue, &asset, &settings)?)
             } else {
                 None
             };
-            let blades = BladeRenderer::from_pack(device, queue, &pack, &BladeSettings::default())?;
+            let blades = BladeRenderer::from_pack(device, queue, pack, &BladeSettings::default())?;
             if fur.is_none() && blades.is_none() {
                 return Err(RenderError::InvalidAsset {
                     what: format!("scene pack {:?} ({}) has neither fur nor grass blades", p.name, p.path.display()),
@@ -309,6 +314,46 @@ impl SceneRenderer {
             });
         }
         Ok(SceneRenderer { frame: SceneFrame::from_scene(scene), packs })
+    }
+
+    /// Draws `world`'s current state (see the module doc): every pack at its model matrix, its
+    /// fur with the world's scale vectors, its blades with the world's corner forces — and, when
+    /// a wind source with delayed attenuation acts, that source evaluated per blade on the GPU.
+    /// `world` must be the one this renderer was built from (same packs, same order).
+    pub fn render_world(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        target: &RenderTarget,
+        world: &World,
+    ) -> Result<View, RenderError> {
+        if world.pack_count() != self.packs.len() {
+            return Err(RenderError::Parameter {
+                what: format!("a world of {} packs for a renderer of {}", world.pack_count(), self.packs.len()),
+            });
+        }
+        let inputs: Vec<PackInput<'_>> = self
+            .packs
+            .iter()
+            .enumerate()
+            .map(|(i, drawn)| {
+                let fur = world.fur(i).filter(|_| drawn.fur.is_some());
+                let grass = world.grass(i).filter(|_| drawn.blades.is_some());
+                PackInput {
+                    model: Some(world.model_matrix(i)),
+                    scale_vectors: fur.map(|f| f.scale_vectors),
+                    scale_layout: fur.map_or(ShellVertexLayout::PerVertex, |f| f.layout),
+                    blade_forces: grass.map(|g| {
+                        if g.has_delayed_sources() {
+                            BladeForces::Scene { field: g.field, scene: g.scene }
+                        } else {
+                            BladeForces::Corners(g.corner_forces)
+                        }
+                    }),
+                }
+            })
+            .collect();
+        self.render_frame(device, queue, target, &inputs)
     }
 
     /// Draws one frame: `inputs[i]` belongs to `packs[i]` (fewer inputs than packs: the rest

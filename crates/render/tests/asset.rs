@@ -62,7 +62,7 @@ fn inconsistent_sections_are_rejected() {
     bad_edges.kinds.push(furbake_formats::sections::fin_edges::FinEdgeKind::Border);
     let fins = Some((pack.fin_atlas().unwrap(), Arc::new(bad_edges)));
     let err = FurAsset::new(mesh, shells, uv, fins).unwrap_err();
-    assert!(err.to_string().contains("fin edge"), "{err}");
+    assert!(err.to_string().contains("fin_edges: vertex"), "{err}");
 }
 
 fn gpu() -> HeadlessGpu {
@@ -127,5 +127,5 @@ fn shearing_is_compiled_in_only_for_scenes_with_physics() {
     };
     assert!(!RenderSettings::for_scene(&parse("")).shearing, "a static scene has no shear");
     assert!(RenderSettings::for_scene(&parse("[effects.gravity]\n")).shearing);
-    assert!(RenderSettings::for_scene(&parse("[effects.wind]\nvelocity_m_s = [1.0, 0.0, 0.0]\n")).shearing);
+    assert!(RenderSettings::for_scene(&parse("[effects.wind]\nvelocity_m_per_s = [1.0, 0.0, 0.0]\n")).shearing);
 }

@@ -15,8 +15,8 @@ use std::sync::{Arc, OnceLock};
 use furbake_bake::{BakeSettings, NoProgress, bake};
 use furbake_import::{ImportSettings, import_gltf_slice, testmesh};
 use furbake_render::{
-    FurAsset, FurRenderer, HeadlessGpu, PackInput, RenderSettings, RenderTarget, SceneObject, SceneRenderer,
-    ShellVertexLayout, read_back,
+    FurAsset, FurRenderer, HeadlessGpu, RenderSettings, RenderTarget, SceneObject, SceneRenderer, ShellVertexLayout,
+    read_back,
 };
 use furbake_runtime::{Scene, World};
 use furbake_sim::shell_vertex_position;
@@ -164,7 +164,7 @@ path = "sphere.fbk"
 [effects.gravity]
 
 [effects.wind]
-velocity_m_s = [3.0, 0.0, 0.0]
+velocity_m_per_s = [3.0, 0.0, 0.0]
 gust_amplitude = 0.3
 
 [effects.parting]
@@ -190,15 +190,9 @@ gust_amplitude = 0.3
     }
     println!("{disagreeing} corners differ from their vertex's first corner after 10 windy steps");
 
-    let renderer = SceneRenderer::new(&g.device, &g.queue, &scene).unwrap();
+    let renderer = SceneRenderer::new(&g.device, &g.queue, &world).unwrap();
     let target = RenderTarget::new(&g.device, 128, 128).unwrap();
-    let input = PackInput {
-        model: Some(world.model_matrix(0)),
-        scale_vectors: Some(fur.scale_vectors),
-        scale_layout: fur.layout,
-        ..Default::default()
-    };
-    renderer.render_frame(&g.device, &g.queue, &target, &[input]).unwrap();
+    renderer.render_world(&g.device, &g.queue, &target, &world).unwrap();
     assert_eq!(renderer.packs[0].fur.as_ref().unwrap().scale_layout(), ShellVertexLayout::PerCorner);
     let parted = read_back(&g.device, &g.queue, &target).unwrap();
     let out = std::env::temp_dir().join("furbake-render-tests");

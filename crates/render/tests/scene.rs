@@ -3,7 +3,8 @@
 //! matrix, with per-frame physics inputs (scale vectors, blade corner forces). Checked as
 //! properties: each object lands where its model matrix puts it (centroid shift against the
 //! pinhole projection), objects do not disturb one another, per-frame forces bend the grass
-//! downwind in world space, and bad inputs are refused before drawing. Runs on whatever adapter
+//! downwind in world space, a wind source with delayed attenuation reaches the rendered blades as
+//! the CPU reference computes it, and bad inputs are refused before drawing. Runs on whatever adapter
 //! the machine has (lavapipe without a GPU) and never skips.
 
 use std::path::Path;
@@ -20,7 +21,7 @@ use furbake_import::{ImportSettings, import_gltf_slice, testmesh};
 use furbake_render::{
     BladeForces, HeadlessGpu, PackInput, RenderTarget, SceneFrame, SceneObject, SceneRenderer, read_back,
 };
-use furbake_runtime::{Scene, ShellVertexLayout};
+use furbake_runtime::{Scene, ShellVertexLayout, World};
 use glam::{Mat4, Vec3};
 use image::RgbaImage;
 
@@ -47,6 +48,8 @@ fn scene() -> &'static (tempfile::TempDir, Scene) {
         settings.volume.layers = 16;
         settings.volume.resolution = 64;
         settings.shells.fur_length_m = Some(0.12);
+        // The scene declares wind, so the world simulates the fur: it needs a topology.
+        settings.topologies = vec!["prisms".into()];
         let baked = bake(&imported, "sphere", &settings, &mut NoProgress).unwrap();
         baked.to_writer().write_atomic(&dir.path().join("fur.fbk")).unwrap();
 
@@ -83,7 +86,7 @@ translation = [1.3, -0.4, 0.0]
 scale = 1.5
 
 [effects.wind]
-velocity_m_s = [1.0, 0.0, 0.0]
+velocity_m_per_s = [1.0, 0.0, 0.0]
 "#
         );
         let scene = Scene::from_toml_str(&toml, Path::new("test.toml"), dir.path()).unwrap();
@@ -115,7 +118,7 @@ fn background_rgba(image: &RgbaImage) -> [u8; 4] {
 fn every_pack_is_drawn_where_its_model_matrix_puts_it() {
     let (_, scene) = scene();
     let g = gpu();
-    let renderer = SceneRenderer::new(&g.device, &g.queue, scene).unwrap();
+    let renderer = SceneRenderer::new(&g.device, &g.queue, &World::new(scene.clone()).unwrap()).unwrap();
     assert_eq!(renderer.packs.len(), 2);
     assert!(renderer.packs[0].fur.is_some() && renderer.packs[0].blades.is_none());
     assert!(renderer.packs[1].fur.is_none() && renderer.packs[1].blades.is_some());
@@ -171,7 +174,7 @@ fn every_pack_is_drawn_where_its_model_matrix_puts_it() {
 fn model_matrices_translate_and_scale_a_furry_object() {
     let (_, scene) = scene();
     let g = gpu();
-    let renderer = SceneRenderer::new(&g.device, &g.queue, scene).unwrap();
+    let renderer = SceneRenderer::new(&g.device, &g.queue, &World::new(scene.clone()).unwrap()).unwrap();
     let fur = renderer.packs[0].fur.as_ref().unwrap();
     let frame = SceneFrame::from_scene(scene);
     let target = RenderTarget::new(&g.device, SIZE, SIZE).unwrap();
@@ -214,7 +217,7 @@ fn model_matrices_translate_and_scale_a_furry_object() {
 fn per_frame_corner_forces_bend_the_grass_in_world_space() {
     let (_, scene) = scene();
     let g = gpu();
-    let mut renderer = SceneRenderer::new(&g.device, &g.queue, scene).unwrap();
+    let mut renderer = SceneRenderer::new(&g.device, &g.queue, &World::new(scene.clone()).unwrap()).unwrap();
     // Seen from above and in front of the patch (edge-on, bending mostly lowers the tips).
     renderer.frame.camera = Some(furbake_runtime::Camera {
         eye: [1.3, 1.8, 2.2],
@@ -271,7 +274,7 @@ fn per_frame_corner_forces_bend_the_grass_in_world_space() {
 fn bad_frame_inputs_are_refused() {
     let (_, scene) = scene();
     let g = gpu();
-    let renderer = SceneRenderer::new(&g.device, &g.queue, scene).unwrap();
+    let renderer = SceneRenderer::new(&g.device, &g.queue, &World::new(scene.clone()).unwrap()).unwrap();
     let target = RenderTarget::new(&g.device, 32, 32).unwrap();
     let short = vec![[0.0f32, 1.0, 0.0]; 3];
     let forces = vec![[0.0f32; 2]; renderer.packs[1].blades.as_ref().unwrap().corner_count() as usize];
@@ -307,4 +310,87 @@ fn bad_frame_inputs_are_refused() {
     ];
     assert!(renderer.frame.render(&g.device, &g.queue, &target, &twice).is_err());
     assert!(renderer.render_frame(&g.device, &g.queue, &target, &[PackInput::default(); 2]).is_ok());
+}
+
+/// A grass-only scene around the test patch (`grass.fbk`): a global breeze and one point wind
+/// source 0.4 m beside the patch, with or without delayed attenuation (grass thesis §4.2).
+fn source_scene(dir: &Path, delayed: bool) -> Scene {
+    let toml = format!(
+        r#"
+[[packs]]
+name = "grass"
+path = "grass.fbk"
+translation = [1.3, -0.4, 0.0]
+scale = 1.5
+
+[effects.wind]
+velocity_m_per_s = [0.5, 0.0, 0.0]
+
+[[effects.wind_sources]]
+position = [0.4, -0.3, 0.2]
+power = 3.0
+falloff_exponent = 1.0
+delayed_attenuation = {delayed}
+"#
+    );
+    Scene::from_toml_str(&toml, Path::new("sources.toml"), dir).unwrap()
+}
+
+/// Renders the world of `scene` once through `SceneRenderer::render_world` and returns the
+/// posed blade vertices the GPU computed for that frame (pack frame, blade-major), with the world.
+fn rendered_blade_positions(scene: Scene) -> (Vec<[f32; 3]>, World) {
+    let g = gpu();
+    let mut world = World::new(scene).unwrap();
+    world.step().unwrap();
+    let renderer = SceneRenderer::new(&g.device, &g.queue, &world).unwrap();
+    let target = RenderTarget::new(&g.device, 64, 64).unwrap();
+    renderer.render_world(&g.device, &g.queue, &target, &world).unwrap();
+    let blades = renderer.packs[0].blades.as_ref().unwrap();
+    blades.compute(&g.device, &g.queue).unwrap();
+    (blades.read_positions(&g.device, &g.queue).unwrap(), world)
+}
+
+#[test]
+fn a_delayed_wind_source_reaches_the_rendered_blades() {
+    // Cause of the bug this pins: `furbake preview SCENE` passed only the grass corner forces to
+    // the GPU, and those leave delayed-attenuation sources out, so a delayed source had no
+    // effect on the picture. The frame must pose every blade under `ForceField::blade_force`.
+    use furbake_formats::sections::keyframe_table::KeyframeTable;
+    use furbake_grass::{Interpolation, KeyframeDecoder};
+    use glam::Vec3Swizzles;
+    let (dir, _) = scene();
+    let (delayed, world) = rendered_blade_positions(source_scene(dir.path(), true));
+    let grass = world.grass(0).unwrap();
+    assert!(grass.has_delayed_sources());
+    let field = world.pack(0).blade_field().unwrap();
+    let table = world.pack(0).section::<KeyframeTable>().unwrap();
+    let decoder = KeyframeDecoder::new(&table).unwrap();
+    let (n, vc) = (field.blade_count(), decoder.vertex_count());
+    assert_eq!(delayed.len(), n * vc);
+    let mut cpu = vec![Vec3::ZERO; vc];
+    let (mut compared, mut worst) = (0usize, 0.0f32);
+    for b in 0..n {
+        let root = Vec3::from(field.positions[b]);
+        let corners = field.grid.corner_indices(field.cluster[b]);
+        let f = grass.field.blade_force(corners, field.weights[b], root);
+        let (yaw, h) = (field.yaw_rad[b], field.height_scale[b]);
+        decoder.world_positions(root, yaw, h, f.extend(0.0).xzy(), Interpolation::Nearest, &mut cpu);
+        let err = (0..vc).map(|v| Vec3::from(delayed[b * vc + v]).distance(cpu[v])).fold(0.0f32, f32::max);
+        // Nearest-pose selection: a force within rounding of a pose-cell boundary may pick the
+        // neighbouring pose on either side; such blades are counted, not compared.
+        if err > 1e-5 {
+            continue;
+        }
+        worst = worst.max(err);
+        compared += 1;
+    }
+    println!("delayed source: {compared} of {n} blades match the CPU reference, max error {worst:e} m");
+    assert!(compared + 3 >= n, "only {compared} of {n} blades match the CPU reference with delay");
+    // The same scene without delay poses the blades differently.
+    let (instant, _) = rendered_blade_positions(source_scene(dir.path(), false));
+    let differing = (0..n)
+        .filter(|&b| (0..vc).any(|v| Vec3::from(delayed[b * vc + v]).distance(Vec3::from(instant[b * vc + v])) > 1e-3))
+        .count();
+    println!("{differing} of {n} blades differ with and without delayed attenuation");
+    assert!(differing * 4 > n, "delay changes only {differing} of {n} blades");
 }

@@ -1,18 +1,18 @@
-//! furbake-runtime: what a game or tool links to use baked furbake packs — open a pack lazily
-//! ([`Pack`]), describe a scene ([`Scene`]: packs, camera, light, time step and the effects it
-//! wants) and run it ([`World`]): only the stages the scene's effects call for are built, and only
-//! the sections those stages use are read (SPEC "Runtime: Scenes", the user's ask 3). No CLI, no
-//! GPU code (rendering is `furbake-render`, which consumes the world's per-pack results), no
-//! baking.
+//! furbake-runtime: what a game or tool links to use baked furbake packs — describe a scene
+//! ([`Scene`]: packs, camera, light, solver, the effects it wants and timed events) and run it
+//! ([`World`]): only the stages the scene's effects call for are built, and only the sections
+//! those stages use are read (docs/design.md "Runtime: scenes and stages", the user's ask 3). No
+//! CLI, no GPU code (rendering is `furbake-render`, which draws a world's state), no baking.
 //!
-//! A pack is opened by validating its header and section table only; each section is read,
-//! checksummed and decoded the first time an accessor asks for it ([`Pack::read_counts`] shows
-//! which ones were touched). A scene is parsed from TOML and validated once; a [`World`] plans its
-//! stages from the scene's [`Effects`] ([`stages`]: no effect, no stage; without parting a
-//! non-separable topology, with parting a separable one), then each [`World::step`] advances one
-//! `time_step_s` and leaves per pack the fur scale vectors (eq. 3.35, after the wrong-side guard
-//! of §3.4.3) and the grass cluster-corner forces. [`World::stage_stats`] counts each stage's runs
-//! and wall time.
+//! Packs are opened with the one reader, [`Pack`] (re-exported from `furbake-formats`): its
+//! header and section table are validated at open; each section is read, checksummed and decoded
+//! the first time it is asked for and shared afterwards ([`Pack::read_counts`] shows which ones
+//! were touched). A scene is parsed from TOML and validated once; a [`World`] plans its stages from
+//! the scene's [`Effects`] ([`stages`]: no effect, no stage; without parting a non-separable
+//! topology, with parting a separable one), then each [`World::step`] applies the events due and
+//! advances one `time_step_s`, leaving per pack the fur scale vectors (eq. 3.35, after the
+//! wrong-side guard of §3.4.3) and the grass forces. [`World::stage_stats`] counts each stage's
+//! runs and wall time; [`World::pack_state`] reports a pack's state in world space.
 //!
 //! ```
 //! use furbake_bake::{BakeSettings, NoProgress, bake};
@@ -71,38 +71,32 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-mod pack;
+mod frame;
 pub mod scene;
 pub mod stages;
 mod world;
 
 use std::path::PathBuf;
 
-use furbake_formats::{FormatError, SectionKind};
+use furbake_formats::FormatError;
 use furbake_sim::{SimError, TopologyKind};
 
-pub use pack::Pack;
-pub use scene::{Camera, Effect, Effects, Light, Scene, SceneError, ScenePack};
-pub use stages::{PlannedStage, StageKind, StageStats};
-pub use world::{
-    FUR_GUST_WAVELENGTH_M, FUR_WIND_N_PER_M_S, FurFrame, GRASS_COLLIDER_FALLOFF, GRASS_COLLIDER_STRENGTH,
-    GRASS_FORCE_PER_M_S, GrassFrame, ShellVertexLayout, World,
+pub use frame::{
+    FUR_GUST_WAVELENGTH_M, FUR_WIND_N_PER_M_PER_S, GRASS_COLLIDER_FALLOFF, GRASS_COLLIDER_STRENGTH,
+    GRASS_FORCE_PER_M_PER_S,
 };
+pub use furbake_formats::Pack;
+pub use scene::{Camera, Effect, Effects, Event, Light, Scene, SceneError, ScenePack, Solver, SolverChoice};
+pub use stages::{PlannedStage, StageKind, StageStats};
+pub use world::{FurFrame, GrassFrame, PackState, ShellVertexLayout, World, WorldOptions};
 
 /// Why a runtime operation failed.
 #[derive(Debug, thiserror::Error)]
 pub enum RuntimeError {
-    /// The pack file is unreadable or invalid (blame: the file or the OS; see [`FormatError`]).
+    /// The pack file is unreadable or invalid, lacks a section the caller needs, or its sections
+    /// disagree with one another (blame: the file or the OS; see [`FormatError`]).
     #[error(transparent)]
     Format(#[from] FormatError),
-    /// The pack lacks a section the caller needs (e.g. rendering a pack baked without shells).
-    #[error("{path}: the pack has no {kind} section", path = path.display())]
-    MissingSection {
-        /// The pack file.
-        path: PathBuf,
-        /// The kind asked for.
-        kind: SectionKind,
-    },
     /// The scene file is unreadable or invalid.
     #[error(transparent)]
     Scene(#[from] SceneError),
@@ -125,14 +119,6 @@ pub enum RuntimeError {
         wanted: Vec<TopologyKind>,
         /// The kinds the pack holds.
         found: Vec<TopologyKind>,
-    },
-    /// The pack's sections disagree with one another (e.g. a topology built on another mesh).
-    #[error("{path}: {what}", path = path.display())]
-    InvalidPack {
-        /// The pack file.
-        path: PathBuf,
-        /// What disagrees.
-        what: String,
     },
     /// The caller passed something inconsistent (e.g. a pack list that does not match the scene).
     #[error("{what}")]

@@ -1,4 +1,4 @@
-//! Scene descriptions (SPEC "Runtime: Scenes"): which packs to load and where, the camera, the
+//! Scene descriptions (docs/design.md "Runtime: scenes and stages"): which packs to load and where, the camera, the
 //! light, the time step, and the list of effects the scene wants. Parsed from TOML, then
 //! validated once into a [`Scene`] whose values can be trusted (finite, in range, unique names);
 //! the runtime builds only the stages the declared effects need (see [`Scene::effects`]).
@@ -21,7 +21,7 @@
 //! path = "fox.fbk"
 //! [effects.gravity]
 //! [effects.wind]
-//! velocity_m_s = [2.0, 0.0, 0.0]
+//! velocity_m_per_s = [2.0, 0.0, 0.0]
 //! ```
 
 use std::path::{Path, PathBuf};
@@ -49,6 +49,17 @@ pub enum SceneError {
         /// The TOML parser's message, with line and column.
         message: String,
     },
+    /// The scene is written in a form furbake no longer reads (a retired key, or a whole
+    /// furbake-sim scene); `what` says how to write it now. Blame: the caller's usage.
+    #[error("{path}: {field}: {what}", path = path.display())]
+    Outdated {
+        /// The scene file (or `<memory>`).
+        path: PathBuf,
+        /// Dotted path of the retired key.
+        field: String,
+        /// What to write instead.
+        what: String,
+    },
     /// A value is out of range. Blame: the scene's author.
     #[error("{path}: {field}: {what}", path = path.display())]
     Invalid {
@@ -68,9 +79,15 @@ pub struct Scene {
     /// Simulation time step in seconds. Default 1/60.
     #[serde(default = "default_time_step")]
     pub time_step_s: f32,
-    /// Solver choice; `auto` picks from the topology (see [`SolverChoice::Auto`]). Default `auto`.
+    /// The fur solver: `[solver] kind = "auto" | "explicit" | "implicit" | "stick" | "reference"`
+    /// and `implicit_iterations`, or the shorthand `solver = "implicit"`. Default `auto` (picked
+    /// from the topology, see [`SolverChoice::Auto`]) with one implicit iteration.
     #[serde(default)]
-    pub solver: SolverChoice,
+    pub solver: Solver,
+    /// How long `furbake simulate` runs the scene when no `--frames` is given, seconds, in
+    /// (0, 86400]. Default `None` (2 s).
+    #[serde(default)]
+    pub duration_s: Option<f64>,
     /// The viewpoint. Default: framed automatically from the packs' bounds (`None`).
     #[serde(default)]
     pub camera: Option<Camera>,
@@ -82,6 +99,10 @@ pub struct Scene {
     /// The effects the scene asks for; anything absent is not built.
     #[serde(default)]
     pub effects: Effects,
+    /// Timed events (`[[events]]`): teleports and effects switched off or on, applied before the
+    /// first step that starts at or after their time, in file order among equal times.
+    #[serde(default)]
+    pub events: Vec<Event>,
 }
 
 fn default_time_step() -> f32 {
@@ -102,6 +123,93 @@ pub enum SolverChoice {
     Implicit,
     /// Stick solver (orientation only).
     Stick,
+    /// Linearised backward Euler converged by conjugate gradient: the accuracy reference, slow.
+    Reference,
+}
+
+/// The scene's `[solver]` table.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Solver {
+    /// Which solver. Default `auto`.
+    pub kind: SolverChoice,
+    /// Jacobi sweeps per implicit step, in [1, 1000]; 1 is the fur thesis's method. Default 1.
+    pub implicit_iterations: u32,
+}
+
+impl Default for Solver {
+    fn default() -> Self {
+        Solver { kind: SolverChoice::Auto, implicit_iterations: 1 }
+    }
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SolverTable {
+    #[serde(default)]
+    kind: SolverChoice,
+    #[serde(default = "one_u32")]
+    implicit_iterations: u32,
+}
+
+fn one_u32() -> u32 {
+    1
+}
+
+impl<'de> Deserialize<'de> for Solver {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        // A string is the kind alone; anything else must be the table.
+        let value = toml::Value::deserialize(d)?;
+        if let toml::Value::String(_) = value {
+            let kind = SolverChoice::deserialize(value).map_err(serde::de::Error::custom)?;
+            return Ok(Solver { kind, ..Solver::default() });
+        }
+        let t = SolverTable::deserialize(value).map_err(serde::de::Error::custom)?;
+        Ok(Solver { kind: t.kind, implicit_iterations: t.implicit_iterations })
+    }
+}
+
+/// A timed event of a scene.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Event {
+    /// The pack jumps by `offset_m` (world metres) and stays there; its free fur masses keep their
+    /// world positions and are pulled back by their springs — abrupt motion with no inertial
+    /// force (the sim's teleport). Object motion ignores the jump.
+    Teleport {
+        /// Scene time, seconds, ≥ 0.
+        at_s: f64,
+        /// The pack's scene name.
+        pack: String,
+        /// The jump, world metres.
+        offset_m: [f32; 3],
+    },
+    /// Switches force effects off from `at_s` on: `effects` lists them by name (`gravity`, `wind`,
+    /// `wind_sources`, `object_motion`, `interaction`, `collisions`); empty or absent = every
+    /// force. The restoring force of eq. 3.37 is part of the fur model and stays.
+    ForcesOff {
+        /// Scene time, seconds, ≥ 0.
+        at_s: f64,
+        /// The force effects switched off; empty = all.
+        #[serde(default)]
+        effects: Vec<Effect>,
+    },
+    /// Switches force effects back on (the inverse of `forces_off`).
+    ForcesOn {
+        /// Scene time, seconds, ≥ 0.
+        at_s: f64,
+        /// The force effects switched on; empty = all.
+        #[serde(default)]
+        effects: Vec<Effect>,
+    },
+}
+
+impl Event {
+    /// The event's scene time, seconds.
+    pub fn at_s(&self) -> f64 {
+        match self {
+            Event::Teleport { at_s, .. } | Event::ForcesOff { at_s, .. } | Event::ForcesOn { at_s, .. } => *at_s,
+        }
+    }
 }
 
 /// A pinhole camera.
@@ -311,7 +419,7 @@ pub struct Effects {
 pub struct Gravity {
     /// Acceleration in m/s². Default `[0, -9.81, 0]`.
     #[serde(default = "default_gravity")]
-    pub acceleration_m_s2: [f32; 3],
+    pub acceleration_m_per_s2: [f32; 3],
 }
 
 fn default_gravity() -> [f32; 3] {
@@ -323,7 +431,7 @@ fn default_gravity() -> [f32; 3] {
 #[serde(deny_unknown_fields)]
 pub struct Wind {
     /// Wind velocity in m/s.
-    pub velocity_m_s: [f32; 3],
+    pub velocity_m_per_s: [f32; 3],
     /// Relative gust amplitude in [0, 1]. Default 0.
     #[serde(default)]
     pub gust_amplitude: f32,
@@ -347,9 +455,12 @@ pub struct WindSource {
     /// Concentration σ, ≥ 0 (higher spreads the wind more locally). Default 2.
     #[serde(default = "default_sigma")]
     pub falloff_exponent: f32,
-    /// Propagation speed in m/s for the delayed per-blade attenuation; `None` = instantaneous.
+    /// Delayed attenuation (grass thesis §4.2, fig. 4.8): the source's wind reaches each blade
+    /// with the source's exact per-blade strength and a direction blended from the cluster's
+    /// corners, instead of the bilinear blend of the corner forces (which smears a near source
+    /// over a whole cluster). Evaluated per blade — on the GPU when rendering. Default false.
     #[serde(default)]
-    pub propagation_m_s: Option<f32>,
+    pub delayed_attenuation: bool,
 }
 
 fn default_sigma() -> f32 {
@@ -431,7 +542,7 @@ pub struct WrongSideGuard {
     /// Speed added along the normal to a tip when the test fires, in the mesh's units per second,
     /// ≥ 0. Default 0.05.
     #[serde(default = "default_impulse")]
-    pub impulse_m_s: f32,
+    pub impulse_m_per_s: f32,
 }
 
 fn default_restoring_weight() -> f32 {
@@ -447,7 +558,7 @@ fn default_alpha() -> f32 {
 }
 
 /// One effect kind, for planning stages and for stage counters.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Effect {
     /// [`Effects::gravity`].
@@ -499,6 +610,23 @@ impl Effects {
     }
 }
 
+impl Effect {
+    /// The effects that are forces (what `forces_off` / `forces_on` events switch).
+    pub const FORCES: [Effect; 6] = [
+        Effect::Gravity,
+        Effect::Wind,
+        Effect::WindSources,
+        Effect::ObjectMotion,
+        Effect::Interaction,
+        Effect::Collisions,
+    ];
+
+    /// True for the effects in [`Effect::FORCES`].
+    pub fn is_force(self) -> bool {
+        Effect::FORCES.contains(&self)
+    }
+}
+
 impl Scene {
     /// Reads, parses and validates the scene file at `path`; relative pack paths are resolved
     /// against its directory.
@@ -512,6 +640,9 @@ impl Scene {
     /// Parses and validates scene TOML. `name` labels errors; `base_dir` resolves relative pack
     /// paths.
     pub fn from_toml_str(text: &str, name: &Path, base_dir: &Path) -> Result<Scene, SceneError> {
+        if let Ok(table) = toml::from_str::<toml::Table>(text) {
+            check_outdated(&table).map_err(|(field, what)| SceneError::Outdated { path: name.into(), field, what })?;
+        }
         let mut scene: Scene =
             toml::from_str(text).map_err(|e| SceneError::Parse { path: name.into(), message: e.to_string() })?;
         scene.validate().map_err(|(field, what)| SceneError::Invalid { path: name.into(), field, what })?;
@@ -551,6 +682,12 @@ impl Scene {
             return bad("light.color", "must not be negative");
         }
         range(self.light.ambient, 0.0, 1.0, "light.ambient")?;
+        range(self.solver.implicit_iterations as f32, 1.0, 1000.0, "solver.implicit_iterations")?;
+        if let Some(d) = self.duration_s {
+            if !(d.is_finite() && d > 0.0 && d <= MAX_DURATION_S) {
+                return Err(("duration_s".into(), format!("{d} is not in (0, {MAX_DURATION_S}] seconds")));
+            }
+        }
         if self.packs.is_empty() {
             return bad("packs", "a scene needs at least one [[packs]] entry");
         }
@@ -575,10 +712,10 @@ impl Scene {
         }
         let e = &self.effects;
         if let Some(g) = &e.gravity {
-            finite3(&g.acceleration_m_s2, "effects.gravity.acceleration_m_s2")?;
+            finite3(&g.acceleration_m_per_s2, "effects.gravity.acceleration_m_per_s2")?;
         }
         if let Some(w) = &e.wind {
-            finite3(&w.velocity_m_s, "effects.wind.velocity_m_s")?;
+            finite3(&w.velocity_m_per_s, "effects.wind.velocity_m_per_s")?;
             range(w.gust_amplitude, 0.0, 1.0, "effects.wind.gust_amplitude")?;
             range(w.gust_frequency_hz, 0.0, 1000.0, "effects.wind.gust_frequency_hz")?;
         }
@@ -587,11 +724,6 @@ impl Scene {
             finite3(&s.position, &f("position"))?;
             range(s.power, 0.0, f32::MAX, &f("power"))?;
             range(s.falloff_exponent, 0.0, 16.0, &f("falloff_exponent"))?;
-            if let Some(v) = s.propagation_m_s {
-                if !(v.is_finite() && v > 0.0) {
-                    return Err((f("propagation_m_s"), "must be a positive speed".into()));
-                }
-            }
         }
         if let Some(m) = &e.object_motion {
             range(m.inertia_scale, 0.0, f32::MAX, "effects.object_motion.inertia_scale")?;
@@ -626,13 +758,94 @@ impl Scene {
                 return Err((f("max"), "must be ≥ min on every axis".into()));
             }
         }
+        for (i, event) in self.events.iter().enumerate() {
+            let f = |k: &str| format!("events[{i}].{k}");
+            let at = event.at_s();
+            if !(at.is_finite() && (0.0..=MAX_DURATION_S).contains(&at)) {
+                return Err((f("at_s"), format!("{at} is not in [0, {MAX_DURATION_S}] seconds")));
+            }
+            match event {
+                Event::Teleport { pack, offset_m, .. } => {
+                    if !self.packs.iter().any(|p| &p.name == pack) {
+                        return Err((f("pack"), format!("no pack is named \"{pack}\"")));
+                    }
+                    finite3(offset_m, &f("offset_m"))?;
+                }
+                Event::ForcesOff { effects, .. } | Event::ForcesOn { effects, .. } => {
+                    for effect in effects {
+                        if !effect.is_force() {
+                            return Err((f("effects"), format!("{effect:?} is not a force effect")));
+                        }
+                        if !e.has(*effect) {
+                            return Err((f("effects"), format!("{effect:?} is not declared under [effects]")));
+                        }
+                    }
+                }
+            }
+        }
         if let Some(g) = &e.wrong_side_guard {
             range(g.restoring_weight_n, 0.0, f32::MAX, "effects.wrong_side_guard.restoring_weight_n")?;
             range(g.max_angle_deg, 1e-3, 89.9, "effects.wrong_side_guard.max_angle_deg")?;
-            range(g.impulse_m_s, 0.0, f32::MAX, "effects.wrong_side_guard.impulse_m_s")?;
+            range(g.impulse_m_per_s, 0.0, f32::MAX, "effects.wrong_side_guard.impulse_m_per_s")?;
         }
         Ok(())
     }
+}
+
+/// Longest scene duration and latest event time, seconds (a day of scene time).
+const MAX_DURATION_S: f64 = 86_400.0;
+
+/// Retired keys, by the table they sit in, and what to write instead.
+const RETIRED_KEYS: [(&str, &str, &str); 7] = [
+    ("", "dt_s", "renamed to `time_step_s`"),
+    ("", "forces_stop_s", "write an event: `[[events]] kind = \"forces_off\"` with `at_s`"),
+    ("", "teleports", "write events: `[[events]] kind = \"teleport\"` with `at_s`, `pack` and `offset_m`"),
+    ("effects.gravity", "acceleration_m_s2", "renamed to `acceleration_m_per_s2`"),
+    ("effects.wind", "velocity_m_s", "renamed to `velocity_m_per_s`"),
+    ("effects.wind_sources", "propagation_m_s", "delayed attenuation is a switch: write `delayed_attenuation = true`"),
+    ("effects.wrong_side_guard", "impulse_m_s", "renamed to `impulse_m_per_s`"),
+];
+
+/// Finds a retired key (see [`RETIRED_KEYS`]) or a whole furbake-sim scene (`dt_s`, `[forces]`,
+/// no `[[packs]]`) before the scene is deserialised, so the error names what to write instead.
+fn check_outdated(table: &toml::Table) -> Result<(), (String, String)> {
+    const SIM_KEYS: [&str; 6] = ["dt_s", "forces", "forces_stop_s", "teleports", "motion", "record_every"];
+    if !table.contains_key("packs") {
+        if let Some(key) = SIM_KEYS.iter().find(|k| table.contains_key(**k)) {
+            return Err((
+                (*key).to_owned(),
+                "this is a furbake-sim scene, which furbake no longer reads; write a runtime scene: \
+                 `time_step_s`, `duration_s`, `[[packs]]` (name, path), `[effects.gravity]`, \
+                 `[effects.wind] velocity_m_per_s`, `[[events]]` (teleport, forces_off) — see README \"Scenes\""
+                    .to_owned(),
+            ));
+        }
+    }
+    for (parent, key, what) in RETIRED_KEYS {
+        let mut tables: Vec<(String, &toml::Table)> = vec![(String::new(), table)];
+        for part in parent.split('.').filter(|p| !p.is_empty()) {
+            let mut next = Vec::new();
+            for (path, t) in &tables {
+                let path = if path.is_empty() { part.to_owned() } else { format!("{path}.{part}") };
+                match t.get(part) {
+                    Some(toml::Value::Table(inner)) => next.push((path, inner)),
+                    Some(toml::Value::Array(items)) => next.extend(
+                        items
+                            .iter()
+                            .enumerate()
+                            .filter_map(|(i, v)| v.as_table().map(|inner| (format!("{path}[{i}]"), inner))),
+                    ),
+                    _ => {}
+                }
+            }
+            tables = next;
+        }
+        if let Some((path, _)) = tables.iter().find(|(_, t)| t.contains_key(key)) {
+            let field = if path.is_empty() { key.to_owned() } else { format!("{path}.{key}") };
+            return Err((field, what.to_owned()));
+        }
+    }
+    Ok(())
 }
 
 fn finite3(v: &[f32; 3], field: &str) -> Result<(), (String, String)> {

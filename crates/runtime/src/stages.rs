@@ -1,4 +1,4 @@
-//! The stage plan (SPEC "Runtime: Scenes", the user's ask 3): which per-step stages a scene
+//! The stage plan (docs/design.md "Runtime: scenes and stages", the user's ask 3): which per-step stages a scene
 //! needs, decided from its declared [`Effects`] and from each pack's section table alone — no
 //! effect, no stage — plus the rules that pick a pack's spring topology (separable only when the
 //! scene parts fur, fur thesis §3.4.1) and its solver (§3.3), and the per-stage counters.
@@ -191,6 +191,7 @@ pub fn choose_solver(kind: TopologyKind, choice: SolverChoice) -> SolverKind {
         SolverChoice::Explicit => SolverKind::Explicit,
         SolverChoice::Implicit => SolverKind::Implicit,
         SolverChoice::Stick => SolverKind::Stick,
+        SolverChoice::Reference => SolverKind::Reference,
     }
 }
 

@@ -2,59 +2,34 @@
 //! effects need ([`crate::stages`]), reads only the sections those stages use, and advances one
 //! time step per [`World::step`], leaving per pack what the renderer consumes: scale vectors per
 //! shell vertex for fur (eq. 3.35, after the wrong-side guard of §3.4.3) and the cluster-corner
-//! forces of the grass force field (grass thesis §3.2.2, eq. 3.6–3.8, 4.1, ch. 5).
+//! forces of the grass force field (grass thesis §3.2.2, eq. 3.6–3.8, 4.1, ch. 5), plus the force
+//! scene for wind sources with delayed attenuation (§4.2), which are evaluated per blade.
 //!
-//! Frames and units. The fur simulation runs in each pack's mesh frame, in the mesh's own units
-//! (the topology was baked in them). Scene quantities are in world metres and are brought into
-//! that frame with the pack's model matrix at the current time (`world = motion(t) · placement`,
-//! rotation `R`, uniform scale `s`): directions are rotated by `R⁻¹`, lengths and accelerations
-//! divided by `s`, forces divided by `s` (`F = m·a` with lengths in mesh units). Object motion is
-//! the motion path differentiated over one time step `h`: linear acceleration
-//! `(p(t+h) − 2p(t) + p(t−h))/h²`, angular velocity from `q(t+h)·q(t−h)⁻¹` over `2h` and angular
-//! acceleration from the angular velocities at `t ± h` — a key's velocity change arrives as one
-//! step of acceleration, as it would from a game's transform updates. Wind on fur is furbake-sim's
-//! single travelling-gust wind: the scene's global wind plus every point wind source evaluated at
-//! the pack's origin (eq. 4.1; the simulator has no per-mass source term).
-//!
-//! The grass force field is computed over the blade field's grid in the mesh frame: wind sources,
-//! colliders and windless areas are moved into that frame (positions by the inverse model matrix,
-//! radii by `1/s`, a source's power by `s^−σ` so eq. 4.1 gives the same force at the same world
-//! distance), the global wind is rotated. Forces stay horizontal `(x, z)`; rotations about axes
-//! other than +y are not meaningful for grass and windless boxes are bounded conservatively.
+//! This file steps: it applies the scene's timed events (teleports, forces switched off or on),
+//! runs the planned stages in order and counts them. Bringing scene quantities into each pack's
+//! mesh frame is [`crate::frame`]'s job. [`World::pack_state`] reports a pack's state in world
+//! space (skin, masses, velocities, scale vectors) for `furbake simulate --state-out`.
 
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use furbake_formats::SectionKind;
 use furbake_formats::sections::blade_field::ClusterGrid;
 use furbake_formats::sections::spring_topology::NO_MASS;
+use furbake_formats::{PackSections, SectionKind, check_consistency};
 use furbake_grass::{ForceField, ForceScene};
 use furbake_sim::{
-    ForceSet, FrameMotion, GuardParams, LocalForce, SimError, Simulator, SolverKind, SolverSettings, StepStats,
-    TopologyKind, Wind,
+    ForceSet, FrameMotion, GuardParams, SimError, Simulator, SolverKind, SolverSettings, StepStats, TopologyKind,
 };
-use glam::{Mat4, Quat, Vec2, Vec3};
+use glam::{Mat4, Vec3};
+use serde::Serialize;
 
-use crate::scene::{Collider, Scene, ScenePack};
+use crate::frame::{self, ForcesOn, MeshFrame};
+use crate::scene::{Effect, Event, Scene, ScenePack};
 use crate::stages::{
     NON_SEPARABLE_PREFERENCE, PackRole, PlannedStage, SEPARABLE_PREFERENCE, StageKind, StageStats, choose_solver,
     choose_topology, plan_stages,
 };
 use crate::{Pack, RuntimeError};
-
-/// Mean wind force on one free fur mass per m/s of wind speed, newtons (world units). With the
-/// default hair (1e-4 kg per hair) a 2 m/s breeze pushes a tip with 1e-4 N, furbake-sim's default
-/// wind. Point wind sources count their eq. 4.1 strength as m/s of wind speed.
-pub const FUR_WIND_N_PER_M_S: f32 = 5e-5;
-/// Wavelength of the fur wind's travelling gust along the wind, world metres.
-pub const FUR_GUST_WAVELENGTH_M: f32 = 4.0;
-/// Grass force units per m/s of global wind (the keyframe tables are indexed by force magnitude).
-pub const GRASS_FORCE_PER_M_S: f32 = 1.0;
-/// Push of a collider on grass at and inside its surface, force units.
-pub const GRASS_COLLIDER_STRENGTH: f32 = 2.0;
-/// Distance beyond a collider's surface over which its push fades out, as a fraction of its
-/// (smallest) radius.
-pub const GRASS_COLLIDER_FALLOFF: f32 = 0.5;
 
 /// How a fur pack's scale vectors are indexed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
@@ -64,6 +39,15 @@ pub enum ShellVertexLayout {
     PerVertex,
     /// One per triangle corner, `3 × triangle + corner` (separable topologies: fur can part).
     PerCorner,
+}
+
+/// Choices a host makes when it builds a [`World`] (the scene says what happens; these say what
+/// to measure).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct WorldOptions {
+    /// Compute energy, its budget and the largest displacement every solver step (the statistics
+    /// in [`FurFrame::last_step`]; costs a pass over the masses per step). Default false.
+    pub step_statistics: bool,
 }
 
 /// The fur state of one pack after the latest step.
@@ -76,7 +60,8 @@ pub struct FurFrame<'a> {
     pub layout: ShellVertexLayout,
     /// The simulated topology and its solver; `None` when no stage moves this pack's fur.
     pub simulation: Option<(TopologyKind, SolverKind)>,
-    /// Statistics of the latest solver step (default before the first step or without one).
+    /// Statistics of the latest solver step (default before the first step or without one;
+    /// energies only with [`WorldOptions::step_statistics`]).
     pub last_step: StepStats,
 }
 
@@ -84,12 +69,42 @@ pub struct FurFrame<'a> {
 #[derive(Clone, Copy, Debug)]
 pub struct GrassFrame<'a> {
     /// Force `(x, z)` at every cluster-grid corner, mesh frame (what
-    /// `BladeRenderer::set_corner_forces` takes).
+    /// `BladeRenderer::set_corner_forces` takes); delayed-attenuation sources are not in it.
     pub corner_forces: &'a [[f32; 2]],
     /// The grid the corners belong to.
     pub grid: ClusterGrid,
-    /// The full field (delayed wind sources included, for CPU posing).
+    /// The full field (delayed wind sources included, for CPU posing: `ForceField::blade_force`).
     pub field: &'a ForceField,
+    /// The force scene the field was updated from, mesh frame (a renderer evaluates its delayed
+    /// sources per blade from it).
+    pub scene: &'a ForceScene,
+}
+
+impl GrassFrame<'_> {
+    /// True when a wind source with delayed attenuation acts this step (the corner forces alone
+    /// do not describe the blades' forces then).
+    pub fn has_delayed_sources(&self) -> bool {
+        self.scene.sources.iter().any(|s| s.delayed)
+    }
+}
+
+/// One pack's state in world space (metres, seconds), as `furbake simulate --state-out` writes it.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct PackState {
+    /// The pack's scene name.
+    pub name: String,
+    /// Skin-mesh vertex positions (the welded mesh's order), world metres.
+    pub skin_positions_m: Vec<[f32; 3]>,
+    /// The simulated topology (`None`: the fur is not simulated, the lists below are empty).
+    pub topology: Option<String>,
+    /// Mass positions in the topology's mass order (anchored masses included), world metres.
+    pub mass_positions_m: Vec<[f32; 3]>,
+    /// Mass velocities in world space (the frame's own motion included), m/s.
+    pub mass_velocities_m_per_s: Vec<[f32; 3]>,
+    /// Unit scale vectors per shell vertex in world space, laid out as `scale_layout` says.
+    pub scale_vectors: Vec<[f32; 3]>,
+    /// How `scale_vectors` is indexed.
+    pub scale_layout: ShellVertexLayout,
 }
 
 struct FurSim {
@@ -108,14 +123,24 @@ struct FurState {
 
 struct GrassState {
     field: ForceField,
+    scene: ForceScene,
     corner_forces: Vec<[f32; 2]>,
 }
 
 struct WorldPack {
     scene: ScenePack,
     pack: Arc<Pack>,
+    /// Sum of the teleports applied so far, world metres (on top of the motion path).
+    teleported_m: Vec3,
     fur: Option<FurState>,
     grass: Option<GrassState>,
+}
+
+impl WorldPack {
+    /// Model matrix at `t`: teleports on top of the motion path on top of the placement.
+    fn model_at(&self, t: f64) -> Mat4 {
+        Mat4::from_translation(self.teleported_m) * self.scene.model_at(t)
+    }
 }
 
 /// A running scene: its packs, its planned stages and their counters.
@@ -124,6 +149,11 @@ pub struct World {
     packs: Vec<WorldPack>,
     stages: Vec<PlannedStage>,
     stats: Vec<(u64, Duration)>,
+    /// The scene's events in time order (stable among equal times); `next_event` is the first
+    /// not yet applied.
+    events: Vec<Event>,
+    next_event: usize,
+    forces_on: ForcesOn,
     interaction_point_m: Option<Vec3>,
     time_s: f64,
     steps: u64,
@@ -145,18 +175,23 @@ impl World {
     /// field per grass pack with a force stage; the skin mesh of a fur pack at rest for its
     /// normals). Nothing else is read.
     pub fn new(scene: Scene) -> Result<World, RuntimeError> {
+        World::with_options(scene, WorldOptions::default())
+    }
+
+    /// As [`World::new`], with `options`.
+    pub fn with_options(scene: Scene, options: WorldOptions) -> Result<World, RuntimeError> {
         let mut opened = Vec::with_capacity(scene.packs.len());
         for sp in &scene.packs {
             opened.push(Arc::new(Pack::open(&sp.path)?));
         }
-        World::with_packs(scene, opened)
+        World::with_packs(scene, opened, options)
     }
 
-    /// As [`World::new`] with the scene's packs opened by the caller (one per `scene.packs`
-    /// entry, same order), e.g. to share them with a renderer or to inspect their read counters.
-    /// The grass force field at time 0 is computed here, outside the stage counters, so a
-    /// renderer has forces before the first step.
-    pub fn with_packs(scene: Scene, opened: Vec<Arc<Pack>>) -> Result<World, RuntimeError> {
+    /// As [`World::with_options`] with the scene's packs opened by the caller (one per
+    /// `scene.packs` entry, same order), e.g. to inspect their read counters. The grass force
+    /// field at time 0 is computed here, outside the stage counters, so a renderer has forces
+    /// before the first step.
+    pub fn with_packs(scene: Scene, opened: Vec<Arc<Pack>>, options: WorldOptions) -> Result<World, RuntimeError> {
         if opened.len() != scene.packs.len() {
             return Err(RuntimeError::Parameter {
                 what: format!("{} packs opened for a scene of {}", opened.len(), scene.packs.len()),
@@ -176,19 +211,41 @@ impl World {
         let mut world_packs = Vec::with_capacity(packs.len());
         for (i, (sp, pack)) in packs.into_iter().enumerate() {
             let planned = |k: StageKind| stages.iter().any(|s| s.pack == i && s.kind == k);
-            let fur = if roles[i].fur { Some(build_fur(&scene, &pack, planned(StageKind::FurSolver))?) } else { None };
-            let grass = if planned(StageKind::GrassForces) {
-                let field = pack.blade_field()?;
-                let corners = field.grid.corners();
-                Some(GrassState { field: ForceField::new(field.grid), corner_forces: vec![[0.0; 2]; corners] })
+            let fur = if roles[i].fur {
+                Some(build_fur(&scene, &pack, planned(StageKind::FurSolver), options)?)
             } else {
                 None
             };
-            world_packs.push(WorldPack { scene: sp, pack, fur, grass });
+            let grass = if planned(StageKind::GrassForces) {
+                let field = pack.blade_field()?;
+                let corners = field.grid.corners();
+                Some(GrassState {
+                    field: ForceField::new(field.grid),
+                    scene: ForceScene::default(),
+                    corner_forces: vec![[0.0; 2]; corners],
+                })
+            } else {
+                None
+            };
+            world_packs.push(WorldPack { scene: sp, pack, teleported_m: Vec3::ZERO, fur, grass });
         }
         let interaction_point_m = scene.effects.interaction.and_then(|i| i.position).map(Vec3::from);
         let stats = vec![(0, Duration::ZERO); stages.len()];
-        let mut world = World { scene, packs: world_packs, stages, stats, interaction_point_m, time_s: 0.0, steps: 0 };
+        let mut events = scene.events.clone();
+        events.sort_by(|a, b| a.at_s().total_cmp(&b.at_s()));
+        let mut world = World {
+            scene,
+            packs: world_packs,
+            stages,
+            stats,
+            events,
+            next_event: 0,
+            forces_on: ForcesOn::ALL,
+            interaction_point_m,
+            time_s: 0.0,
+            steps: 0,
+        };
+        world.apply_events(0.0)?;
         for i in 0..world.packs.len() {
             world.update_grass(i, 0.0);
         }
@@ -244,14 +301,31 @@ impl World {
         self.packs.iter().position(|p| p.scene.name == name)
     }
 
-    /// The opened pack `index` (its read counters show what the world touched).
+    /// The opened pack `index` (its read counters show what the world touched; a renderer
+    /// shares its decoded sections instead of opening the file again).
     pub fn pack(&self, index: usize) -> &Arc<Pack> {
         &self.packs[index].pack
     }
 
-    /// Model matrix of pack `index` at the current time (motion path on top of the placement).
+    /// Model matrix of pack `index` at the current time (teleports, then the motion path, on top
+    /// of the placement).
     pub fn model_matrix(&self, index: usize) -> Mat4 {
-        self.packs[index].scene.model_at(self.time_s)
+        self.packs[index].model_at(self.time_s)
+    }
+
+    /// True when force `effect` is declared and not switched off by an event.
+    pub fn force_is_on(&self, effect: Effect) -> bool {
+        let on = self.forces_on;
+        self.scene.effects.has(effect)
+            && match effect {
+                Effect::Gravity => on.gravity,
+                Effect::Wind => on.wind,
+                Effect::WindSources => on.wind_sources,
+                Effect::ObjectMotion => on.object_motion,
+                Effect::Interaction => on.interaction,
+                Effect::Collisions => on.collisions,
+                _ => false,
+            }
     }
 
     /// The fur state of pack `index`; `None` when the pack has no fur.
@@ -269,7 +343,45 @@ impl World {
     /// them (they stay in their rest pose: zero corner forces).
     pub fn grass(&self, index: usize) -> Option<GrassFrame<'_>> {
         let g = self.packs[index].grass.as_ref()?;
-        Some(GrassFrame { corner_forces: &g.corner_forces, grid: *g.field.grid(), field: &g.field })
+        Some(GrassFrame { corner_forces: &g.corner_forces, grid: *g.field.grid(), field: &g.field, scene: &g.scene })
+    }
+
+    /// Pack `index`'s state in world space (see [`PackState`]); reads the skin mesh if no stage
+    /// has. Allocates: meant for reports, not for every frame.
+    pub fn pack_state(&self, index: usize) -> Result<PackState, RuntimeError> {
+        let p = &self.packs[index];
+        let model = p.model_at(self.time_s);
+        let (scale, rotation, origin) = model.to_scale_rotation_translation();
+        let mesh = p.pack.skin_mesh()?;
+        let skin_positions_m =
+            mesh.positions.iter().map(|&x| model.transform_point3(Vec3::from(x)).to_array()).collect();
+        let mut state = PackState {
+            name: p.scene.name.clone(),
+            skin_positions_m,
+            topology: None,
+            mass_positions_m: Vec::new(),
+            mass_velocities_m_per_s: Vec::new(),
+            scale_vectors: Vec::new(),
+            scale_layout: ShellVertexLayout::PerVertex,
+        };
+        let Some(fur) = &p.fur else { return Ok(state) };
+        state.scale_layout = fur.layout;
+        state.scale_vectors =
+            fur.scale_vectors.iter().map(|&s| (rotation * Vec3::from(s)).normalize_or_zero().to_array()).collect();
+        let Some(sim) = &fur.sim else { return Ok(state) };
+        state.topology = Some(sim.topology.to_string());
+        // World velocity of a mass: the frame's own velocity at that point plus the mass's
+        // velocity relative to the frame, rotated and scaled into world units.
+        let motion = frame::path_motion(|t| p.scene.model_at(t), self.time_s, self.scene.time_step_s as f64);
+        let positions = sim.simulator.positions();
+        let velocities = sim.simulator.velocities();
+        for (x, v) in positions.iter().zip(&velocities) {
+            let xw = model.transform_point3(Vec3::from(*x));
+            let vw = motion.velocity + motion.angular_velocity.cross(xw - origin) + rotation * Vec3::from(*v) * scale.x;
+            state.mass_positions_m.push(xw.to_array());
+            state.mass_velocities_m_per_s.push(vw.to_array());
+        }
+        Ok(state)
     }
 
     /// Moves the interaction brush to `point_m` (world metres), or lifts it (`None`). Has an
@@ -278,12 +390,13 @@ impl World {
         self.interaction_point_m = point_m.map(Vec3::from);
     }
 
-    /// Advances the scene by one `time_step_s`, running every planned stage once. After an
-    /// error (a simulation that refuses its step or turns non-finite) the world is left
-    /// mid-step and should be dropped.
+    /// Advances the scene by one `time_step_s`: applies the events due at the step's start,
+    /// then runs every planned stage once. After an error (a simulation that refuses its step or
+    /// turns non-finite) the world is left mid-step and should be dropped.
     pub fn step(&mut self) -> Result<(), RuntimeError> {
         let dt = self.scene.time_step_s as f64;
         let t = self.time_s;
+        self.apply_events(t)?;
         for k in 0..self.stages.len() {
             let (kind, pack) = (self.stages[k].kind, self.stages[k].pack);
             let started = Instant::now();
@@ -297,52 +410,66 @@ impl World {
         Ok(())
     }
 
+    /// Applies every event due at `t`: at or before it, within a thousandth of a step (scene
+    /// times are multiples of an `f32` step, so an event at 0.05 s is due at the step that starts
+    /// at 5 × 0.01f32 = 0.0499999989 s).
+    fn apply_events(&mut self, t: f64) -> Result<(), RuntimeError> {
+        let due = t + 1e-3 * self.scene.time_step_s as f64;
+        while let Some(event) = self.events.get(self.next_event).filter(|e| e.at_s() <= due) {
+            match event {
+                Event::Teleport { pack, offset_m, .. } => {
+                    let i = self.pack_index(pack).ok_or_else(|| RuntimeError::Parameter {
+                        what: format!("a teleport names pack {pack:?}, which the scene does not have"),
+                    })?;
+                    let p = &mut self.packs[i];
+                    let offset = Vec3::from(*offset_m);
+                    let frame = MeshFrame::of(p.model_at(t));
+                    p.teleported_m += offset;
+                    if let Some(sim) = p.fur.as_mut().and_then(|f| f.sim.as_mut()) {
+                        sim.simulator.teleport(frame.vector(offset).to_array());
+                    }
+                }
+                Event::ForcesOff { effects, .. } => set_forces(&mut self.forces_on, effects, false),
+                Event::ForcesOn { effects, .. } => set_forces(&mut self.forces_on, effects, true),
+            }
+            self.next_event += 1;
+        }
+        Ok(())
+    }
+
     fn run_stage(&mut self, kind: StageKind, index: usize, t: f64, dt: f64) -> Result<(), RuntimeError> {
         if kind == StageKind::GrassForces {
             self.update_grass(index, t + dt);
             return Ok(());
         }
-        let effects = &self.scene.effects;
+        let (effects, on) = (&self.scene.effects, self.forces_on);
         let p = &mut self.packs[index];
-        let frame = || MeshFrame::at(&p.scene, t);
+        let model = p.model_at(t);
         // Only fur stages remain; the planner builds them only for packs with a simulation.
-        let Some(sim) = p.fur.as_mut().and_then(|f| f.sim.as_mut()) else { return Ok(()) };
+        let Some(fur) = p.fur.as_mut() else { return Ok(()) };
+        let Some(sim) = fur.sim.as_mut() else { return Ok(()) };
         match kind {
             StageKind::FurObjectMotion => {
-                let scale = effects.object_motion.map_or(1.0, |m| m.inertia_scale);
-                sim.forces.motion = frame_motion(&p.scene, t, dt, scale);
+                sim.forces.motion = match (effects.object_motion, on.object_motion) {
+                    (Some(m), true) => {
+                        let motion = frame::path_motion(|t| p.scene.model_at(t), t, dt);
+                        frame::frame_motion(&motion, &MeshFrame::of(model), m.inertia_scale)
+                    }
+                    _ => FrameMotion::default(),
+                };
             }
             StageKind::FurGravity => {
-                let g = effects.gravity.map_or([0.0; 3], |g| g.acceleration_m_s2);
-                sim.forces.gravity_m_per_s2 = frame().vector(Vec3::from(g)).to_array();
+                let g = effects.gravity.filter(|_| on.gravity).map_or([0.0; 3], |g| g.acceleration_m_per_s2);
+                sim.forces.gravity_m_per_s2 = MeshFrame::of(model).vector(Vec3::from(g)).to_array();
             }
             StageKind::FurWind => {
-                let frame = frame();
-                // Global wind plus every point source evaluated at the pack's origin (eq. 4.1 in
-                // 3D): furbake-sim has one wind per simulation, so sources act on fur uniformly.
-                let origin = p.scene.model_at(t).transform_point3(Vec3::ZERO);
-                let mut v = effects.wind.map_or(Vec3::ZERO, |w| Vec3::from(w.velocity_m_s));
-                for s in &effects.wind_sources {
-                    v += point_source_wind(s, origin);
-                }
-                let (amp, hz) = effects.wind.map_or((0.0, 0.0), |w| (w.gust_amplitude, w.gust_frequency_hz));
-                sim.forces.wind = Some(Wind {
-                    direction: (frame.rotation.inverse() * v).normalize_or_zero().to_array(),
-                    force_n: FUR_WIND_N_PER_M_S * v.length() / frame.scale,
-                    gust_amplitude: amp,
-                    gust_frequency_hz: hz,
-                    gust_wavelength_m: FUR_GUST_WAVELENGTH_M / frame.scale,
-                });
+                let origin = model.transform_point3(Vec3::ZERO);
+                sim.forces.wind = Some(frame::fur_wind(effects, on, origin, &MeshFrame::of(model)));
             }
             StageKind::FurInteraction => {
                 sim.forces.local.clear();
-                if let (Some(it), Some(point)) = (effects.interaction, self.interaction_point_m) {
-                    let frame = frame();
-                    sim.forces.local.push(LocalForce {
-                        point_m: frame.point(point).to_array(),
-                        radius_m: it.radius_m / frame.scale,
-                        strength_n: it.strength_n / frame.scale,
-                    });
+                if let (Some(it), Some(point), true) = (effects.interaction, self.interaction_point_m, on.interaction) {
+                    sim.forces.local.push(frame::interaction_force(&it, point, &MeshFrame::of(model)));
                 }
             }
             StageKind::FurSolver => {
@@ -352,9 +479,9 @@ impl World {
                 sim.last = sim.simulator.step(dt).map_err(err)?;
             }
             StageKind::FurScaleVectors => {
-                let fur = p.fur.as_mut().expect("a simulation lives in a fur state");
-                let sim = fur.sim.as_ref().expect("checked above");
-                fur.scale_vectors = sim.simulator.scale_vectors();
+                let path = &p.scene.path;
+                let err = |source: SimError| RuntimeError::Simulation { path: path.clone(), source };
+                sim.simulator.write_scale_vectors(&mut fur.scale_vectors).map_err(err)?;
                 for (s, n) in fur.scale_vectors.iter_mut().zip(&fur.rest) {
                     if *s == [0.0; 3] {
                         *s = *n;
@@ -368,69 +495,39 @@ impl World {
 
     /// Recomputes the grass field of pack `index` for time `t` (no-op without a grass stage).
     fn update_grass(&mut self, index: usize, t: f64) {
-        let effects = &self.scene.effects;
+        let (effects, on) = (&self.scene.effects, self.forces_on);
         let p = &mut self.packs[index];
+        let model = p.model_at(t);
         let Some(g) = p.grass.as_mut() else { return };
-        let frame = MeshFrame::at(&p.scene, t);
-        let mut scene = ForceScene::default();
-        if let Some(w) = effects.wind {
-            let gust = 1.0 + w.gust_amplitude * (std::f64::consts::TAU * w.gust_frequency_hz as f64 * t).sin() as f32;
-            let v = frame.rotation.inverse() * Vec3::from(w.velocity_m_s);
-            scene.global_wind = Vec2::new(v.x, v.z) * (GRASS_FORCE_PER_M_S * gust);
-        }
-        for s in &effects.wind_sources {
-            scene.sources.push(furbake_grass::WindSource {
-                position_m: frame.point(Vec3::from(s.position)),
-                power: s.power * frame.scale.powf(-s.falloff_exponent),
-                concentration: s.falloff_exponent,
-                delayed: s.propagation_m_s.is_some(),
-            });
-        }
-        for c in &effects.collisions {
-            scene.colliders.push(match *c {
-                Collider::Sphere { center, radius_m } => furbake_grass::Collider::Sphere {
-                    center_m: frame.point(Vec3::from(center)),
-                    radius_m: radius_m / frame.scale,
-                    strength: GRASS_COLLIDER_STRENGTH,
-                    falloff_m: GRASS_COLLIDER_FALLOFF * radius_m / frame.scale,
-                },
-                Collider::Ellipsoid { center, radii_m } => {
-                    let r = Vec3::from(radii_m) / frame.scale;
-                    furbake_grass::Collider::Ellipsoid {
-                        center_m: frame.point(Vec3::from(center)),
-                        radii_m: r,
-                        strength: GRASS_COLLIDER_STRENGTH,
-                        falloff_m: GRASS_COLLIDER_FALLOFF * r.min_element(),
-                    }
-                }
-            });
-        }
-        for a in &effects.windless_areas {
-            // The box's eight corners in the mesh frame, bounded in xz.
-            let (lo, hi) = (Vec3::from(a.min), Vec3::from(a.max));
-            let (mut min, mut max) = (Vec2::splat(f32::INFINITY), Vec2::splat(f32::NEG_INFINITY));
-            for k in 0..8 {
-                let c = Vec3::new(
-                    if k & 1 == 0 { lo.x } else { hi.x },
-                    if k & 2 == 0 { lo.y } else { hi.y },
-                    if k & 4 == 0 { lo.z } else { hi.z },
-                );
-                let m = frame.point(c);
-                min = min.min(Vec2::new(m.x, m.z));
-                max = max.max(Vec2::new(m.x, m.z));
-            }
-            scene.blockers.push(furbake_grass::WindBlocker { min_m: min, max_m: max });
-        }
-        g.field.update(&scene);
+        frame::grass_force_scene(effects, on, t, &MeshFrame::of(model), &mut g.scene);
+        g.field.update(&g.scene);
         for (out, f) in g.corner_forces.iter_mut().zip(&g.field.corner_forces) {
             *out = f.to_array();
         }
     }
 }
 
+/// Switches `effects` (all forces when empty) on or off.
+fn set_forces(on: &mut ForcesOn, effects: &[Effect], value: bool) {
+    let all = effects.is_empty();
+    let pick = |e: Effect| all || effects.contains(&e);
+    for (flag, effect) in [
+        (&mut on.gravity, Effect::Gravity),
+        (&mut on.wind, Effect::Wind),
+        (&mut on.wind_sources, Effect::WindSources),
+        (&mut on.object_motion, Effect::ObjectMotion),
+        (&mut on.interaction, Effect::Interaction),
+        (&mut on.collisions, Effect::Collisions),
+    ] {
+        if pick(effect) {
+            *flag = value;
+        }
+    }
+}
+
 /// Reads what one fur pack needs: its skin mesh (rest normals), and when a solver stage is
 /// planned, the one topology the scene calls for and a simulator over it.
-fn build_fur(scene: &Scene, pack: &Pack, simulate: bool) -> Result<FurState, RuntimeError> {
+fn build_fur(scene: &Scene, pack: &Pack, simulate: bool, options: WorldOptions) -> Result<FurState, RuntimeError> {
     let mesh = pack.skin_mesh()?;
     let per_vertex: Vec<[f32; 3]> = mesh.normals.clone();
     if !simulate {
@@ -446,43 +543,37 @@ fn build_fur(scene: &Scene, pack: &Pack, simulate: bool) -> Result<FurState, Run
     let Some(kind) = choose_topology(&available, parting) else {
         let wanted: &[TopologyKind] = if parting { &SEPARABLE_PREFERENCE } else { &NON_SEPARABLE_PREFERENCE };
         return Err(RuntimeError::MissingTopology {
-            path: pack.path().to_path_buf(),
+            path: pack.display_path(),
             separable: parting,
             wanted: wanted.to_vec(),
             found: available,
         });
     };
     let topology = pack.spring_topology(kind)?;
-    let (v, f) = (mesh.positions.len(), mesh.triangles.len());
     let (layout, rest) = if kind.is_separable() {
         let rest = mesh.triangles.iter().flat_map(|t| t.map(|i| mesh.normals[i as usize])).collect::<Vec<_>>();
         (ShellVertexLayout::PerCorner, rest)
     } else {
         (ShellVertexLayout::PerVertex, per_vertex)
     };
-    let s = &topology.stats;
-    if s.source_vertices as usize != v
-        || s.source_triangles as usize != f
-        || topology.shell_vertex_masses.len() != rest.len()
-    {
-        return Err(RuntimeError::InvalidPack {
-            path: pack.path().to_path_buf(),
-            what: format!(
-                "the {kind} topology was built on {} vertices / {} triangles with {} shell vertices; the skin mesh has {v} / {f}",
-                s.source_vertices,
-                s.source_triangles,
-                topology.shell_vertex_masses.len()
-            ),
-        });
-    }
+    // The one cross-section check (formats): the topology was built on this skin mesh. After it,
+    // the shell-vertex mapping below indexes `rest` in range.
+    let sections = PackSections { mesh: Some(&mesh), topologies: &[&topology], ..PackSections::default() };
+    check_consistency(pack.sections(), &sections).map_err(|e| e.with_path(&pack.display_path()))?;
     debug_assert!(topology.shell_vertex_masses.iter().all(|m| (m[0] == NO_MASS) == (m[1] == NO_MASS)));
     let guard = match scene.effects.wrong_side_guard {
-        Some(g) => GuardParams { enabled: true, threshold_angle_deg: g.max_angle_deg, impulse_m_per_s: g.impulse_m_s },
+        Some(g) => {
+            GuardParams { enabled: true, threshold_angle_deg: g.max_angle_deg, impulse_m_per_s: g.impulse_m_per_s }
+        }
         None => GuardParams { enabled: false, ..GuardParams::default() },
     };
-    let settings =
-        SolverSettings { guard, track_energy: false, ..SolverSettings::of(choose_solver(kind, scene.solver)) };
-    let sim_err = |source| RuntimeError::Simulation { path: pack.path().to_path_buf(), source };
+    let settings = SolverSettings {
+        guard,
+        track_energy: options.step_statistics,
+        implicit_iterations: scene.solver.implicit_iterations,
+        ..SolverSettings::of(choose_solver(kind, scene.solver.kind))
+    };
+    let sim_err = |source| RuntimeError::Simulation { path: pack.display_path(), source };
     let simulator = Simulator::new(&topology, settings).map_err(sim_err)?;
     // Every force stage overwrites its own term each step; a term without a stage stays off.
     let forces = ForceSet {
@@ -504,75 +595,4 @@ fn build_fur(scene: &Scene, pack: &Pack, simulate: bool) -> Result<FurState, Run
         rest,
         layout,
     })
-}
-
-/// Wind of a point source at `p` (grass thesis eq. 4.1 with the full 3D direction):
-/// `normalize(p − W) · ω / max(|p − W|, 5 cm)^σ`, in m/s of wind speed.
-fn point_source_wind(s: &crate::scene::WindSource, p: Vec3) -> Vec3 {
-    let wp = p - Vec3::from(s.position);
-    let d = wp.length();
-    if d == 0.0 {
-        return Vec3::ZERO;
-    }
-    wp / d * (s.power / d.max(POINT_SOURCE_MIN_DISTANCE_M).powf(s.falloff_exponent))
-}
-
-/// Lower clamp of a point source's distance, metres (as furbake-grass's default).
-const POINT_SOURCE_MIN_DISTANCE_M: f32 = 0.05;
-
-/// A pack's mesh frame at one time: rotation, uniform scale and the inverse model matrix.
-struct MeshFrame {
-    rotation: Quat,
-    scale: f32,
-    inverse: Mat4,
-}
-
-impl MeshFrame {
-    fn at(pack: &ScenePack, t: f64) -> MeshFrame {
-        let model = pack.model_at(t);
-        let (scale, rotation, _) = model.to_scale_rotation_translation();
-        // Scales are validated positive and uniform, so the model matrix is invertible.
-        MeshFrame { rotation, scale: scale.x, inverse: model.inverse() }
-    }
-
-    /// A world point in mesh coordinates.
-    fn point(&self, p: Vec3) -> Vec3 {
-        self.inverse.transform_point3(p)
-    }
-
-    /// A world acceleration (or force per unit mass) in mesh units.
-    fn vector(&self, v: Vec3) -> Vec3 {
-        self.rotation.inverse() * v / self.scale
-    }
-}
-
-/// Frame motion at `t` from the pack's motion path (see the module doc), in the mesh frame at
-/// `t`, multiplied by `inertia_scale`.
-fn frame_motion(pack: &ScenePack, t: f64, h: f64, inertia_scale: f32) -> FrameMotion {
-    let place = |t: f64| {
-        let (_, r, p) = pack.model_at(t.max(0.0)).to_scale_rotation_translation();
-        (p, r)
-    };
-    let (p0, q0) = place(t - h);
-    let (p1, q1) = place(t);
-    let (p2, q2) = place(t + h);
-    let (hf, frame) = (h as f32, MeshFrame::at(pack, t));
-    let accel = (p2 - 2.0 * p1 + p0) / (hf * hf);
-    let omega = |a: Quat, b: Quat, span: f32| {
-        let d = (b * a.inverse()).normalize();
-        // The shortest rotation (q and −q are the same rotation).
-        let d = if d.w < 0.0 { -d } else { d };
-        let (axis, angle) = d.to_axis_angle();
-        if angle.is_finite() { axis * (angle / span) } else { Vec3::ZERO }
-    };
-    let w_back = omega(q0, q1, hf);
-    let w_fwd = omega(q1, q2, hf);
-    let w = omega(q0, q2, 2.0 * hf);
-    let alpha = (w_fwd - w_back) / hf;
-    let to_mesh = frame.rotation.inverse();
-    FrameMotion {
-        linear_accel_m_per_s2: (frame.vector(accel) * inertia_scale).to_array(),
-        angular_velocity_rad_per_s: (to_mesh * w * inertia_scale).to_array(),
-        angular_accel_rad_per_s2: (to_mesh * alpha * inertia_scale).to_array(),
-    }
 }

@@ -5,9 +5,10 @@
 use std::sync::Arc;
 
 use furbake_bake::{BakeSettings, NoProgress, bake};
+use furbake_formats::FormatError;
 use furbake_formats::{PackWriter, SectionKind, sections::fin_atlas::FinAtlas};
 use furbake_import::{ImportSettings, import_gltf_slice, testmesh};
-use furbake_runtime::{Pack, RuntimeError};
+use furbake_runtime::Pack;
 
 fn baked_sphere_bytes() -> Vec<u8> {
     let gltf = testmesh::uv_sphere(6, 8, 1.0).gltf;
@@ -46,7 +47,7 @@ fn sections_are_read_only_when_asked_for_and_only_once() {
     }
     // A kind the pack does not hold is a typed error naming it, and reads nothing.
     match pack.section::<furbake_formats::sections::blade_field::BladeField>() {
-        Err(RuntimeError::MissingSection { kind, .. }) => assert_eq!(kind, SectionKind::BLADE_FIELD),
+        Err(FormatError::MissingSection { kind, .. }) => assert_eq!(kind, SectionKind::BLADE_FIELD),
         other => panic!("expected MissingSection, got {other:?}"),
     }
     assert_eq!(pack.kinds_read().len(), 3);
@@ -68,7 +69,7 @@ fn a_corrupt_section_fails_only_when_read() {
     assert!(pack.skin_mesh().is_ok(), "an intact section still loads");
     for attempt in 0..2 {
         match pack.fin_atlas() {
-            Err(RuntimeError::Format(e)) => {
+            Err(e) => {
                 assert!(e.is_bad_file(), "{e}");
                 assert!(e.to_string().contains("corrupt.fbk"), "the error names the file: {e}");
             }
@@ -84,8 +85,8 @@ fn open_rejects_a_non_pack() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("junk.fbk");
     std::fs::write(&path, b"not a furbake container at all, just some bytes of text......").unwrap();
-    assert!(matches!(Pack::open(&path), Err(RuntimeError::Format(_))));
-    assert!(matches!(Pack::open(dir.path().join("absent.fbk")), Err(RuntimeError::Format(_))));
+    assert!(Pack::open(&path).is_err_and(|e| e.is_bad_file()));
+    assert!(matches!(Pack::open(dir.path().join("absent.fbk")), Err(FormatError::Io { .. })));
 }
 
 #[test]

@@ -4,7 +4,7 @@
 use std::path::Path;
 
 use furbake_runtime::scene::{Collider, SolverChoice};
-use furbake_runtime::{Effect, Scene, SceneError};
+use furbake_runtime::{Effect, Event, Scene, SceneError, Solver};
 
 fn scenes_dir() -> &'static Path {
     Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/scenes"))
@@ -27,10 +27,10 @@ fn fox_scene_declares_only_its_effects() {
     assert_eq!(scene.packs.len(), 1);
     assert_eq!(scene.packs[0].path, scenes_dir().join("fox.fbk"), "relative paths resolve against the file");
     assert_eq!(scene.packs[0].motion.len(), 2);
-    assert_eq!(scene.effects.gravity.unwrap().acceleration_m_s2, [0.0, -9.81, 0.0], "default gravity");
+    assert_eq!(scene.effects.gravity.unwrap().acceleration_m_per_s2, [0.0, -9.81, 0.0], "default gravity");
     assert_eq!(scene.effects.wind_sources[0].falloff_exponent, 2.0);
     let guard = scene.effects.wrong_side_guard.unwrap();
-    assert_eq!((guard.restoring_weight_n, guard.max_angle_deg, guard.impulse_m_s), (0.02, 75.0, 0.05));
+    assert_eq!((guard.restoring_weight_n, guard.max_angle_deg, guard.impulse_m_per_s), (0.02, 75.0, 0.05));
     // The transform places the origin at the translation and scales uniformly.
     let m = scene.packs[0].motion[1].transform().to_mat4();
     assert_eq!(m.transform_point3(glam::Vec3::ZERO), glam::Vec3::new(0.5, 0.0, 0.0));
@@ -54,16 +54,17 @@ fn every_effect_parses() {
     assert_eq!(scene.packs[0].path, Path::new("/abs/grass.fbk"), "absolute paths are kept");
     assert_eq!(scene.effects.collisions.len(), 2);
     assert!(matches!(scene.effects.collisions[1], Collider::Ellipsoid { radii_m: [0.3, 0.1, 0.2], .. }));
-    assert_eq!(scene.effects.wind_sources[0].propagation_m_s, Some(4.0));
+    assert!(scene.effects.wind_sources[0].delayed_attenuation);
     assert_eq!(scene.effects.interaction.unwrap().position, Some([0.0, 0.3, 0.0]));
-    assert_eq!(scene.effects.wrong_side_guard.unwrap().impulse_m_s, 0.1);
+    assert_eq!(scene.effects.wrong_side_guard.unwrap().impulse_m_per_s, 0.1);
 }
 
 #[test]
 fn minimal_scene_has_no_effects_and_defaults() {
     let scene = parse(MINIMAL).unwrap();
     assert!(scene.effects().is_empty());
-    assert_eq!(scene.solver, SolverChoice::Auto);
+    assert_eq!(scene.solver, Solver { kind: SolverChoice::Auto, implicit_iterations: 1 });
+    assert!(scene.events.is_empty() && scene.duration_s.is_none());
     assert!(scene.camera.is_none());
     assert!((scene.time_step_s - 1.0 / 60.0).abs() < 1e-9);
     assert_eq!(scene.packs[0].path, Path::new("/base/a.fbk"));
@@ -99,7 +100,7 @@ fn out_of_range_values_name_their_key() {
         (format!("[camera]\neye = [0.0, 0.0, 1.0]\ntarget = [0.0, 0.0, 1.0]\n{MINIMAL}"), "camera.target"),
         (format!("[camera]\neye = [0.0, 1.0, 0.0]\ntarget = [0.0, 0.0, 0.0]\n{MINIMAL}"), "camera.up"),
         (format!("[light]\ndirection = [0.0, 0.0, 0.0]\n{MINIMAL}"), "light.direction"),
-        (format!("{MINIMAL}[effects.wind]\nvelocity_m_s = [nan, 0.0, 0.0]\n"), "effects.wind.velocity_m_s"),
+        (format!("{MINIMAL}[effects.wind]\nvelocity_m_per_s = [nan, 0.0, 0.0]\n"), "effects.wind.velocity_m_per_s"),
         (
             format!("{MINIMAL}[[effects.wind_sources]]\nposition = [0.0, 0.0, 0.0]\npower = -1.0\n"),
             "effects.wind_sources[0].power",
@@ -144,4 +145,111 @@ fn missing_file_is_an_io_error() {
     let err = Scene::load("/definitely/not/here.toml").unwrap_err();
     assert!(matches!(err, SceneError::Io { .. }), "{err}");
     assert!(err.to_string().contains("/definitely/not/here.toml"));
+}
+
+#[test]
+fn the_solver_is_a_table_or_its_kind_alone() {
+    let table = parse(&format!("[solver]\nkind = \"reference\"\nimplicit_iterations = 8\n{MINIMAL}")).unwrap();
+    assert_eq!(table.solver, Solver { kind: SolverChoice::Reference, implicit_iterations: 8 });
+    let short = parse(&format!("solver = \"explicit\"\n{MINIMAL}")).unwrap();
+    assert_eq!(short.solver, Solver { kind: SolverChoice::Explicit, implicit_iterations: 1 });
+    for bad in ["solver = \"rk4\"\n", "[solver]\nkind = \"implicit\"\nsweeps = 3\n"] {
+        assert!(matches!(parse(&format!("{bad}{MINIMAL}")), Err(SceneError::Parse { .. })), "{bad}");
+    }
+    match parse(&format!("[solver]\nimplicit_iterations = 0\n{MINIMAL}")) {
+        Err(SceneError::Invalid { field, .. }) => assert_eq!(field, "solver.implicit_iterations"),
+        other => panic!("{other:?}"),
+    }
+}
+
+#[test]
+fn events_parse_in_file_order_and_are_validated() {
+    let events = "[effects.gravity]\n[effects.wind]\nvelocity_m_per_s = [1.0, 0.0, 0.0]\n\
+        [[events]]\nkind = \"teleport\"\nat_s = 0.5\npack = \"a\"\noffset_m = [0.1, 0.0, 0.0]\n\
+        [[events]]\nkind = \"forces_off\"\nat_s = 1.0\neffects = [\"wind\"]\n\
+        [[events]]\nkind = \"forces_on\"\nat_s = 2.0\n";
+    let scene = parse(&format!("{MINIMAL}{events}")).unwrap();
+    assert_eq!(
+        scene.events,
+        vec![
+            Event::Teleport { at_s: 0.5, pack: "a".into(), offset_m: [0.1, 0.0, 0.0] },
+            Event::ForcesOff { at_s: 1.0, effects: vec![Effect::Wind] },
+            Event::ForcesOn { at_s: 2.0, effects: vec![] },
+        ]
+    );
+    let cases = [
+        ("[[events]]\nkind = \"teleport\"\nat_s = 0.5\npack = \"b\"\noffset_m = [0.0, 0.0, 0.0]\n", "events[0].pack"),
+        ("[[events]]\nkind = \"teleport\"\nat_s = -1.0\npack = \"a\"\noffset_m = [0.0, 0.0, 0.0]\n", "events[0].at_s"),
+        (
+            "[[events]]\nkind = \"teleport\"\nat_s = 1.0\npack = \"a\"\noffset_m = [nan, 0.0, 0.0]\n",
+            "events[0].offset_m",
+        ),
+        ("[[events]]\nkind = \"forces_off\"\nat_s = 1.0\neffects = [\"gravity\"]\n", "events[0].effects"),
+        (
+            "[effects.parting]\n[[events]]\nkind = \"forces_off\"\nat_s = 1.0\neffects = [\"parting\"]\n",
+            "events[0].effects",
+        ),
+    ];
+    for (text, key) in cases {
+        match parse(&format!("{MINIMAL}{text}")) {
+            Err(SceneError::Invalid { field, .. }) => assert_eq!(field, key, "for {text:?}"),
+            other => panic!("expected {key} to be rejected in {text:?}, got {other:?}"),
+        }
+    }
+    assert!(matches!(
+        parse(&format!("{MINIMAL}[[events]]\nkind = \"explode\"\nat_s = 1.0\n")),
+        Err(SceneError::Parse { .. })
+    ));
+    match parse(&format!("duration_s = 0.0\n{MINIMAL}")) {
+        Err(SceneError::Invalid { field, .. }) => assert_eq!(field, "duration_s"),
+        other => panic!("{other:?}"),
+    }
+}
+
+#[test]
+fn retired_keys_name_what_to_write_now() {
+    let cases = [
+        (format!("dt_s = 0.01\n{MINIMAL}"), "dt_s", "time_step_s"),
+        (
+            format!("{MINIMAL}[effects.gravity]\nacceleration_m_s2 = [0.0, -1.0, 0.0]\n"),
+            "effects.gravity.acceleration_m_s2",
+            "acceleration_m_per_s2",
+        ),
+        (
+            format!("{MINIMAL}[effects.wind]\nvelocity_m_s = [1.0, 0.0, 0.0]\n"),
+            "effects.wind.velocity_m_s",
+            "velocity_m_per_s",
+        ),
+        (
+            format!(
+                "{MINIMAL}[[effects.wind_sources]]\nposition = [0.0, 0.0, 0.0]\npower = 1.0\n[[effects.wind_sources]]\nposition = [0.0, 0.0, 0.0]\npower = 1.0\npropagation_m_s = 3.0\n"
+            ),
+            "effects.wind_sources[1].propagation_m_s",
+            "delayed_attenuation = true",
+        ),
+        (
+            format!("{MINIMAL}[effects.wrong_side_guard]\nimpulse_m_s = 0.1\n"),
+            "effects.wrong_side_guard.impulse_m_s",
+            "impulse_m_per_s",
+        ),
+        (format!("forces_stop_s = 1.0\n{MINIMAL}"), "forces_stop_s", "forces_off"),
+        // A whole furbake-sim scene (the retired `simulate PACK --scene` dialect).
+        (
+            "dt_s = 0.01\nduration_s = 1.0\n[forces]\ngravity_m_per_s2 = [0.0, -9.81, 0.0]\n".to_owned(),
+            "dt_s",
+            "runtime scene",
+        ),
+    ];
+    for (text, key, hint) in &cases {
+        match parse(text) {
+            Err(e @ SceneError::Outdated { .. }) => {
+                let SceneError::Outdated { field, what, .. } = &e else { unreachable!() };
+                assert_eq!(field, key, "for {text:?}");
+                assert!(what.contains(hint), "{e} should mention {hint}");
+                assert!(!e.to_string().contains('\n'), "one line: {e}");
+            }
+            other => panic!("expected {key} to be reported as retired in {text:?}, got {other:?}"),
+        }
+    }
+    assert_eq!(cases.len(), 7);
 }

@@ -1,4 +1,4 @@
-//! The world runs only what a scene asks for (SPEC "Runtime: Scenes", the user's ask 3): stages of
+//! The world runs only what a scene asks for (docs/design.md "Runtime: scenes and stages", the user's ask 3): stages of
 //! undeclared effects are never built and never run, sections only they need are never read, the
 //! topology follows `parting`, the solver follows the topology, forces act the way their effect
 //! says, and results are bit-identical on 1 and 4 threads.
@@ -9,7 +9,7 @@ use std::sync::Arc;
 use furbake_bake::{BakeSettings, BladeSettings, NoProgress, bake};
 use furbake_formats::SectionKind;
 use furbake_import::{ImportSettings, import_gltf_slice, testmesh};
-use furbake_runtime::{Pack, RuntimeError, Scene, ShellVertexLayout, StageKind, World};
+use furbake_runtime::{Pack, RuntimeError, Scene, ShellVertexLayout, StageKind, World, WorldOptions};
 use furbake_sim::{SolverKind, TopologyKind};
 
 /// Bakes `gltf` into `dir/name` with `topologies` and, when `blades`, a small blade field.
@@ -53,7 +53,7 @@ fn scene(dir: &Path, pack: &Path, effects: &str) -> Scene {
 /// Opens the scene's packs ourselves so their read counters can be checked afterwards.
 fn world_with_packs(scene: Scene) -> (World, Vec<Arc<Pack>>) {
     let packs: Vec<Arc<Pack>> = scene.packs.iter().map(|p| Arc::new(Pack::open(&p.path).unwrap())).collect();
-    (World::with_packs(scene, packs.clone()).unwrap(), packs)
+    (World::with_packs(scene, packs.clone(), WorldOptions::default()).unwrap(), packs)
 }
 
 fn stage_names(world: &World) -> Vec<&'static str> {
@@ -105,7 +105,7 @@ fn a_gravity_only_scene_never_builds_or_runs_wind_or_grass_stages() {
 fn wind_builds_the_fur_wind_and_grass_stages_but_never_reads_keyframes() {
     let dir = tempfile::tempdir().unwrap();
     let pack = patch_pack(dir.path(), &["prisms"], true);
-    let effects = "[effects.wind]\nvelocity_m_s = [3.0, 0.0, 0.0]\n\
+    let effects = "[effects.wind]\nvelocity_m_per_s = [3.0, 0.0, 0.0]\n\
                    [[effects.wind_sources]]\nposition = [-2.0, 0.0, 0.0]\npower = 1.0\n";
     let (mut world, packs) = world_with_packs(scene(dir.path(), &pack, effects));
     assert_eq!(stage_names(&world), ["fur_wind", "fur_solver", "fur_scale_vectors", "grass_forces"]);
@@ -149,7 +149,7 @@ fn a_point_wind_source_alone_moves_fur_and_grass_away_from_it() {
 fn a_grass_pack_without_topology_gets_grass_forces_and_static_shells() {
     let dir = tempfile::tempdir().unwrap();
     let pack = patch_pack(dir.path(), &[], true);
-    let effects = "[effects.gravity]\n[effects.wind]\nvelocity_m_s = [1.0, 0.0, 0.0]\n";
+    let effects = "[effects.gravity]\n[effects.wind]\nvelocity_m_per_s = [1.0, 0.0, 0.0]\n";
     let (mut world, packs) = world_with_packs(scene(dir.path(), &pack, effects));
     assert_eq!(stage_names(&world), ["grass_forces"]);
     world.step().unwrap();
@@ -196,7 +196,7 @@ fn parting_uses_a_separable_topology_and_its_absence_is_a_typed_error() {
     // A pack with only non-separable kinds cannot part; one with none cannot move at all.
     let mut checked = 0;
     for (topologies, effects, needs) in [
-        (&["prisms"][..], "[effects.wind]\nvelocity_m_s = [1.0, 0.0, 0.0]\n[effects.parting]\n", "separable"),
+        (&["prisms"][..], "[effects.wind]\nvelocity_m_per_s = [1.0, 0.0, 0.0]\n[effects.parting]\n", "separable"),
         (&[][..], "[effects.wrong_side_guard]\n", "non-separable"),
     ] {
         let sub = dir.path().join(format!("case{checked}"));
@@ -281,7 +281,9 @@ fn topology_kinds_are_peeked_without_reading_sections() {
     assert_eq!(t.mass_kg.len(), 96);
     assert_eq!(reads_of(&pack, SectionKind::SPRING_TOPOLOGY), vec![0, 1, 0]);
     match pack.spring_topology(TopologyKind::PRISMS) {
-        Err(RuntimeError::MissingSection { kind, .. }) => assert_eq!(kind, SectionKind::SPRING_TOPOLOGY),
+        Err(furbake_formats::FormatError::MissingSection { kind, .. }) => {
+            assert_eq!(kind, SectionKind::SPRING_TOPOLOGY)
+        }
         other => panic!("expected MissingSection, got {other:?}"),
     }
 }
@@ -318,7 +320,7 @@ path = "lawn.fbk"
 rotation_deg = [0.0, 30.0, 0.0]
 [effects.gravity]
 [effects.wind]
-velocity_m_s = [1.5, 0.0, 0.5]
+velocity_m_per_s = [1.5, 0.0, 0.5]
 gust_amplitude = 0.5
 [[effects.wind_sources]]
 position = [-1.0, 0.2, 0.0]
@@ -326,7 +328,7 @@ power = 2.0
 [[effects.wind_sources]]
 position = [1.0, 0.2, 1.0]
 power = 1.0
-propagation_m_s = 3.0
+delayed_attenuation = true
 [effects.object_motion]
 [effects.interaction]
 position = [0.4, 0.2, 0.0]
@@ -380,7 +382,7 @@ fn each_effect_alone_plans_exactly_its_stages() {
     let cases: [(&str, &[&str]); 10] = [
         ("", &[]),
         ("[effects.gravity]\n", &["fur_gravity", solver[0], solver[1]]),
-        ("[effects.wind]\nvelocity_m_s = [1.0, 0.0, 0.0]\n", &["fur_wind", solver[0], solver[1], "grass_forces"]),
+        ("[effects.wind]\nvelocity_m_per_s = [1.0, 0.0, 0.0]\n", &["fur_wind", solver[0], solver[1], "grass_forces"]),
         (
             "[[effects.wind_sources]]\nposition = [0.0, 0.0, 0.0]\npower = 1.0\n",
             &["fur_wind", solver[0], solver[1], "grass_forces"],
@@ -429,7 +431,7 @@ fn a_lying_topology_head_is_a_typed_error_not_a_panic() {
         std::fs::write(&bad, &damaged).unwrap();
         let pack = Pack::open(&bad).unwrap();
         match pack.topology_kinds() {
-            Err(RuntimeError::Format(e)) => assert!(e.to_string().contains("lying.fbk"), "{e}"),
+            Err(e) => assert!(e.to_string().contains("lying.fbk"), "{e}"),
             other => panic!("head ({at}, {value}): expected a format error, got {other:?}"),
         }
         let err = World::new(scene(dir.path(), &bad, "[effects.gravity]\n")).unwrap_err();
@@ -443,5 +445,5 @@ fn a_lying_topology_head_is_a_typed_error_not_a_panic() {
     std::fs::write(dir.path().join("corrupt.fbk"), &bytes).unwrap();
     let pack = Pack::open(dir.path().join("corrupt.fbk")).unwrap();
     assert_eq!(pack.topology_kinds().unwrap().len(), 1);
-    assert!(matches!(pack.spring_topology(TopologyKind::PRISMS), Err(RuntimeError::Format(e)) if e.is_bad_file()));
+    assert!(matches!(pack.spring_topology(TopologyKind::PRISMS), Err(e) if e.is_bad_file()));
 }

@@ -628,6 +628,21 @@ impl Simulator {
             .collect()
     }
 
+    /// As [`Simulator::scale_vectors`], written into `out` (one per shell vertex) without
+    /// allocating, for per-frame use. Fails when `out` has the wrong length.
+    pub fn write_scale_vectors(&self, out: &mut [[f32; 3]]) -> Result<(), SimError> {
+        if out.len() != self.model.shell_tip.len() {
+            return Err(SimError::Parameter {
+                name: "scale_vectors",
+                what: format!("{} slots for {} shell vertices", out.len(), self.model.shell_tip.len()),
+            });
+        }
+        for (o, &s) in out.iter_mut().zip(&self.model.shell_tip) {
+            *o = if s == NONE { [0.0; 3] } else { self.guard.scale[s as usize].to_array() };
+        }
+        Ok(())
+    }
+
     /// Rest directions (vertex normals) per shell vertex; `[0, 0, 0]` without fur.
     pub fn shell_normals(&self) -> Vec<[f32; 3]> {
         self.model

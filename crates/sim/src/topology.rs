@@ -1,7 +1,7 @@
 //! Topology builders (fur thesis §3.4.1, fig. 3.23–3.28): turn a welded skin mesh into one of the
 //! eight mass–spring topologies stored as a [`SpringTopology`].
 //!
-//! Counts on a mesh of V welded vertices, E unique edges and F triangles, all furry (SPEC.md):
+//! Counts on a mesh of V welded vertices, E unique edges and F triangles, all furry (docs/design.md "Topology counts"):
 //!
 //! | kind | masses | springs | sticks |
 //! |---|---|---|---|

@@ -1,11 +1,11 @@
 //! Solver behaviour: explicit refusal and substepping, NaN detection, convergence of the implicit
 //! sweeps to the converged reference, thread-count determinism, the restoring force of eq. 3.37,
-//! scale vectors and shell offsets (eq. 3.35–3.36), and the TOML/JSON scene runner.
+//! scale vectors and shell offsets (eq. 3.35–3.36).
 
 use furbake_formats::sections::spring_topology::{TopologyKind, TopologyParams};
 use furbake_sim::{
-    ForceSet, SimError, SimScene, Simulator, SolverKind, SolverSettings, build_topology, meshes, restoring_force,
-    run_scene, shell_offset, shell_vertex_position, synth,
+    ForceSet, SimError, Simulator, SolverKind, SolverSettings, build_topology, meshes, restoring_force, shell_offset,
+    shell_vertex_position, synth,
 };
 use glam::{Vec3, Vec3A};
 
@@ -144,54 +144,6 @@ fn shell_shearing_matches_eq_3_36() {
         assert!((top - Vec3::ONE - tangential).length() < 1e-6, "{s}: outer layer {top}");
     }
     assert_eq!(below, 0);
-}
-
-#[test]
-fn scene_runs_from_toml_and_reports_json() {
-    let (mesh, t) = prisms();
-    let scene: SimScene = toml::from_str(
-        r#"
-        topology = "prisms"
-        dt_s = 0.02
-        duration_s = 0.5
-        forces_stop_s = 0.3
-        record_every = 5
-        [solver]
-        kind = "implicit"
-        implicit_iterations = 2
-        [forces]
-        gravity_m_per_s2 = [0.0, -9.81, 0.0]
-        [forces.wind]
-        direction = [1.0, 0.0, 0.0]
-        force_n = 2e-4
-        [[motion]]
-        from_s = 0.1
-        to_s = 0.2
-        linear_accel_m_per_s2 = [490.5, 0.0, 0.0]
-        [[teleports]]
-        at_s = 0.24
-        offset_m = [0.05, 0.0, 0.0]
-        "#,
-    )
-    .expect("the scene parses");
-    let report = run_scene(&t, &mesh, &scene).expect("runs");
-    assert_eq!(report.steps, 25);
-    assert_eq!(report.step_stats.len(), 5 + 1);
-    assert_eq!(report.final_positions_m.len(), t.mass_kg.len());
-    assert_eq!(report.final_velocities_m_per_s.len(), t.mass_kg.len());
-    assert_eq!(report.final_scale_vectors.len(), mesh.positions.len());
-    let json = serde_json::to_value(&report).expect("serialises");
-    assert_eq!(json["topology"], "prisms");
-    assert_eq!(json["solver"], "implicit");
-    // Deterministic: a second run gives the same JSON.
-    assert_eq!(
-        serde_json::to_string(&report).ok(),
-        serde_json::to_string(&run_scene(&t, &mesh, &scene).expect("runs")).ok()
-    );
-    // Mismatched topology kind and unknown fields are typed errors.
-    let wrong = SimScene { topology: Some("sticks".into()), ..scene.clone() };
-    assert!(run_scene(&t, &mesh, &wrong).is_err());
-    assert!(toml::from_str::<SimScene>("dt_s = 0.1\nduration_s = 1\nbogus = 3").is_err());
 }
 
 /// `furbake simulate` output can be checked by an independent integrator: one explicit step of a

@@ -1,4 +1,4 @@
-//! Topology counts against SPEC.md (fur thesis §3.4.1): spring–sticks 2V/V, prisms 2V/V+E,
+//! Topology counts against docs/design.md (fur thesis §3.4.1): spring–sticks 2V/V, prisms 2V/V+E,
 //! separable spring–sticks 6F/3F, separable prisms 6F/6F, on the thesis's grass patch (V=13,
 //! E=28, F=16), grids, icospheres and a synthetic stand-in with the thesis dog's counts.
 

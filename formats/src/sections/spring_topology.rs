@@ -229,6 +229,17 @@ struct Meta {
 }
 
 impl SpringTopology {
+    /// The layout version whose record metadata starts with the kind's `u32` code (bincode,
+    /// fixed-width little-endian), so a reader can learn the kind from four bytes
+    /// ([`SpringTopology::kind_from_meta_prefix`]) without reading the section.
+    pub const PEEKABLE_VERSION: u16 = 1;
+
+    /// The topology kind from the first four bytes of a [`Self::PEEKABLE_VERSION`] record's
+    /// metadata (its first field).
+    pub fn kind_from_meta_prefix(prefix: [u8; 4]) -> TopologyKind {
+        TopologyKind(u32::from_le_bytes(prefix))
+    }
+
     /// Number of anchored masses.
     pub fn anchored_count(&self) -> usize {
         self.mass_anchored.iter().filter(|&&a| a != 0).count()
