@@ -6,6 +6,7 @@ use std::path::Path;
 
 mod common;
 mod golden;
+mod plan_first;
 mod preview_scene;
 mod simulate_scene;
 use common::*;
