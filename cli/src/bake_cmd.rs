@@ -12,7 +12,10 @@ use crate::args::BakeArgs;
 use crate::failure::{Classify, Failure};
 
 /// Stage two of argument parsing: the preset, the config file, `--set` and the named flags,
-/// merged in that order and validated as a whole.
+/// merged in that order and validated as a whole, plus the output paths. Runs before the input is
+/// read: a bad setting exits 2 with a message that starts with its key, and nothing is written.
+/// A config file that cannot be read or is not TOML is bad input (exit 1); its keys and values are
+/// settings (exit 2).
 pub fn plan(args: &BakeArgs) -> Result<BakeSettings, Failure> {
     let mut settings = BakeSettings::preset(&args.preset).usage()?;
     if let Some(path) = &args.config {
@@ -20,7 +23,7 @@ pub fn plan(args: &BakeArgs) -> Result<BakeSettings, Failure> {
             std::fs::read_to_string(path).with_context(|| format!("{}: cannot read config", path.display())).input()?;
         let value: serde_json::Value =
             toml::from_str(&text).with_context(|| format!("{}: invalid TOML", path.display())).input()?;
-        settings = settings.with_overrides(&value).with_context(|| format!("{}", path.display())).input()?;
+        settings = settings.with_overrides(&value).map_err(|e| anyhow!("{e} (in {})", path.display())).usage()?;
     }
     let mut sets: Vec<String> = args.set.clone();
     let mut named = |key: &str, v: Option<String>| {
@@ -44,10 +47,35 @@ pub fn plan(args: &BakeArgs) -> Result<BakeSettings, Failure> {
     }
     for s in &sets {
         settings =
-            settings.with_overrides(&dotted_override(s).usage()?).with_context(|| format!("--set {s}")).usage()?;
+            settings.with_overrides(&dotted_override(s).usage()?).map_err(|e| anyhow!("{e} (in --set {s})")).usage()?;
     }
     settings.validate().usage()?;
+    check_output_paths(args)?;
     Ok(settings)
+}
+
+/// The pack goes into an existing directory and is not one; `--png-dir`, when it exists, is a
+/// directory. Checked with the settings, so a typo costs no bake.
+fn check_output_paths(args: &BakeArgs) -> Result<(), Failure> {
+    let out = &args.output;
+    if out.is_dir() {
+        return Err(Failure::Usage(anyhow!("--output {}: is a directory, not a pack file", out.display())));
+    }
+    if let Some(parent) = out.parent().filter(|p| !p.as_os_str().is_empty()) {
+        if !parent.is_dir() {
+            return Err(Failure::Usage(anyhow!(
+                "--output {}: directory {} does not exist",
+                out.display(),
+                parent.display()
+            )));
+        }
+    }
+    if let Some(dir) = &args.png_dir {
+        if dir.exists() && !dir.is_dir() {
+            return Err(Failure::Usage(anyhow!("--png-dir {}: exists and is not a directory", dir.display())));
+        }
+    }
+    Ok(())
 }
 
 struct Bar(Option<ProgressBar>);
@@ -84,9 +112,15 @@ pub fn run(args: BakeArgs, quiet: bool) -> Result<(), Failure> {
     let mut progress = Bar(bar);
     progress.stage_done_import();
     let name = file_name(&args.mesh);
-    let baked = bake(&imported, &name, &settings, &mut progress)
-        .map_err(|e| anyhow!("{}: {e}", args.mesh.display()))
-        .input()?;
+    let baked = bake(&imported, &name, &settings, &mut progress).map_err(|e| {
+        // A setting refused against this mesh (too many blades for its area, ...) is still the
+        // settings' fault; anything else is the mesh's.
+        if e.is_settings_error() {
+            Failure::Usage(e.into())
+        } else {
+            Failure::Input(anyhow!("{}: {e}", args.mesh.display()))
+        }
+    })?;
     if let Some(bar) = &progress.0 {
         bar.set_message("writing pack");
     }

@@ -1,5 +1,7 @@
 //! Failures of a CLI command and their exit codes: 1 when the input (a mesh, a pack, a config
-//! file) is bad or unreadable, 2 when the command line itself is wrong. Messages are one line.
+//! file that cannot be read or is not TOML) is bad or unreadable, 2 when the command line or a
+//! setting is wrong (a flag, a `--set`, a config file's key or value). Errors keep this blame
+//! through the layers. Messages are one line.
 
 /// Exit code for bad input or an invalid file.
 pub const EXIT_BAD_INPUT: u8 = 1;

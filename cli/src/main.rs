@@ -19,6 +19,9 @@ use clap::Parser;
 
 use crate::args::{Cli, Command};
 
+/// Most worker threads `--threads` accepts.
+const MAX_THREADS: usize = 1024;
+
 fn main() -> ExitCode {
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
@@ -32,6 +35,12 @@ fn main() -> ExitCode {
         quiet_wayland_probe();
     }
     if let Some(n) = cli.threads {
+        // Part of the plan: checked before any command starts (0 would silently mean "one per
+        // core", a huge count exhausts the machine before failing).
+        if !(1..=MAX_THREADS).contains(&n) {
+            eprintln!("furbake: error: --threads = {n} is out of range (allowed: 1..={MAX_THREADS})");
+            return ExitCode::from(failure::EXIT_USAGE);
+        }
         if let Err(e) = rayon::ThreadPoolBuilder::new().num_threads(n).build_global() {
             eprintln!("furbake: error: cannot start {n} threads: {e}");
             return ExitCode::from(failure::EXIT_BAD_INPUT);

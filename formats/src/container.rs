@@ -168,14 +168,34 @@ impl PackWriter {
     }
 }
 
+/// Mode requested for every file [`write_file_atomic`] creates on Unix, before the umask: what
+/// `open(2)` with `O_CREAT` gets from an ordinary program (`0o666 & !umask`).
+#[cfg(unix)]
+const ORDINARY_FILE_MODE: u32 = 0o666;
+
 /// Writes `bytes` to `path` through a temporary file in the same directory and a rename.
+///
+/// The file gets the permissions an ordinary file write gets: on Unix the temporary file is
+/// created with mode `0o666` and the kernel applies the process umask (so `0o644` under umask
+/// `022`), without reading or changing the umask ourselves (`umask(2)` set-and-restore would race
+/// with other threads). Its name stays unpredictable (`tempfile` picks it and creates it with
+/// `O_EXCL`). On any error the temporary file is removed: `path` is either the old file or the
+/// complete new one, never half-written.
 pub fn write_file_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     let io = |source| FormatError::Io { path: path.to_path_buf(), source };
     let dir = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),
     };
-    let mut tmp = tempfile::Builder::new().prefix(".furbake-").suffix(".tmp").tempfile_in(&dir).map_err(io)?;
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(".furbake-").suffix(".tmp");
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        builder.permissions(std::fs::Permissions::from_mode(ORDINARY_FILE_MODE));
+    }
+    // Dropping `tmp` (the `?` below) deletes the temporary file; `persist` consumes it on success.
+    let mut tmp = builder.tempfile_in(&dir).map_err(io)?;
     tmp.write_all(bytes).map_err(io)?;
     tmp.as_file().sync_all().map_err(io)?;
     tmp.persist(path).map_err(|e| io(e.error))?;

@@ -89,6 +89,21 @@ pub enum FormatError {
     },
 }
 
+/// A parameter the caller chose for a new artifact is outside the range this crate accepts
+/// (e.g. [`TopologyParams::check_ranges`](crate::sections::spring_topology::TopologyParams::check_ranges)).
+/// Blame: the caller. `field` is the parameter's name inside its struct; callers that know where
+/// the struct sits in a larger plan prefix it (`topology.stiffness_n_per_m`).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{field} = {value} is out of range (allowed: {allowed})")]
+pub struct OutOfRange {
+    /// Name of the parameter.
+    pub field: &'static str,
+    /// The value given, as text.
+    pub value: String,
+    /// The allowed range, e.g. `[0, 1e9]`.
+    pub allowed: String,
+}
+
 fn display_path(path: &Option<PathBuf>) -> String {
     match path {
         Some(p) => p.display().to_string(),

@@ -35,7 +35,7 @@ pub use container::{
     ALIGN, AlignedBytes, HEADER_SIZE, MAGIC, MAX_SECTIONS, PackWriter, SectionEntry, TABLE_ENTRY_SIZE, VERSION_MAJOR,
     VERSION_MINOR, write_file_atomic,
 };
-pub use error::{FormatError, Result};
+pub use error::{FormatError, OutOfRange, Result};
 pub use kind::SectionKind;
 pub use pack::{Pack, Payload};
 pub use sections::Section;

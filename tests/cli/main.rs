@@ -5,7 +5,9 @@
 use std::path::Path;
 
 mod common;
+mod file_modes;
 mod golden;
+mod plan_first;
 mod preview_scene;
 mod simulate_scene;
 use common::*;

@@ -25,6 +25,7 @@ pub mod fin_edges;
 pub mod rng;
 pub mod settings;
 pub mod uv_map;
+pub mod validate;
 pub mod volume;
 
 use furbake_formats::PackWriter;
@@ -40,18 +41,15 @@ use furbake_formats::sections::triangle_uv_map::TriangleUvMap;
 use furbake_import::ImportedMesh;
 
 pub use settings::{BakeSettings, BladeSettings, ShellSettings};
+pub use validate::SettingsError;
 
 /// Why a bake failed.
 #[derive(Debug, thiserror::Error)]
 pub enum BakeError {
-    /// A parameter is out of range or unknown. Blame: the caller's settings.
-    #[error("setting {field}: {what}")]
-    Settings {
-        /// Dotted path of the offending setting.
-        field: String,
-        /// What is wrong with it.
-        what: String,
-    },
+    /// A setting is out of range, unknown, or too large for the mesh. Blame: the caller's
+    /// settings. The message starts with the setting's key.
+    #[error(transparent)]
+    Settings(#[from] SettingsError),
     /// The hair volume parameters are invalid.
     #[error(transparent)]
     Volume(#[from] volume::VolumeError),
@@ -69,6 +67,25 @@ pub enum BakeError {
         /// What is wrong.
         what: String,
     },
+}
+
+impl BakeError {
+    /// True when the caller's settings are to blame (a usage error: the CLI exits 2), false when
+    /// the input mesh is (exit 1). Settings errors keep this blame through every layer: a
+    /// parameter or limit refused by the volume, grass or topology stage is the settings' fault.
+    pub fn is_settings_error(&self) -> bool {
+        match self {
+            BakeError::Settings(_) | BakeError::Volume(_) => true,
+            BakeError::Grass(e) => matches!(
+                e,
+                furbake_grass::GrassError::Parameter { .. }
+                    | furbake_grass::GrassError::Limit { .. }
+                    | furbake_grass::GrassError::NotConverged { .. }
+            ),
+            BakeError::Topology(e) => matches!(e, furbake_sim::SimError::Parameter { .. }),
+            BakeError::Mesh { .. } => false,
+        }
+    }
 }
 
 /// The stages of [`bake`], reported to a [`Progress`] as they start.
@@ -160,7 +177,8 @@ impl BakedPack {
     }
 }
 
-/// Runs the whole pipeline on an imported mesh.
+/// Runs the whole pipeline on an imported mesh. The settings are validated first, alone and then
+/// against the mesh's size ([`validate`]); no stage starts before both checks pass.
 pub fn bake(
     input: &ImportedMesh,
     input_name: &str,
@@ -168,6 +186,7 @@ pub fn bake(
     progress: &mut dyn Progress,
 ) -> Result<BakedPack, BakeError> {
     settings.validate()?;
+    validate::check_against_mesh(settings, &input.mesh)?;
     let mesh = &input.mesh;
     if mesh.furry_triangles() == 0 {
         return Err(BakeError::Mesh { input: input_name.into(), what: "the fur mask selects no triangle".into() });

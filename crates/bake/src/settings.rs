@@ -1,6 +1,7 @@
 //! The bake plan: one settings struct per stage, presets (`fur`, `grass`), and deep-merged
 //! overrides from a config file or `--set key=value` flags. Parse, then plan: [`BakeSettings`] is
-//! validated as a whole before any stage runs, and it is what the manifest records.
+//! validated as a whole before any stage runs (the ranges are in [`crate::validate`]), and it is
+//! what the manifest records.
 
 use furbake_formats::sections::shell_atlas::VolumeParams;
 use furbake_formats::sections::spring_topology::{TopologyKind, TopologyParams};
@@ -8,8 +9,8 @@ use furbake_grass::{BladeFieldSettings, KeyframeSettings};
 use furbake_import::ImportSettings;
 use serde::{Deserialize, Serialize};
 
-use crate::BakeError;
 use crate::uv_map::UvSettings;
+use crate::validate::SettingsError;
 use crate::volume;
 
 /// Settings of the shell geometry.
@@ -69,13 +70,13 @@ pub const PRESETS: [&str; 2] = ["fur", "grass"];
 impl BakeSettings {
     /// The settings of a named preset (`fur`: 16 layers of 128², undercoat; `grass`: 64 layers of
     /// 64², longer blades, no undercoat).
-    pub fn preset(name: &str) -> Result<BakeSettings, BakeError> {
+    pub fn preset(name: &str) -> Result<BakeSettings, SettingsError> {
         let (volume, fraction) = match name {
             "fur" => (volume::fur_preset(), 0.015),
             "grass" => (volume::grass_preset(), 0.04),
             _ => {
-                return Err(BakeError::Settings {
-                    field: "preset".into(),
+                return Err(SettingsError::Invalid {
+                    key: "preset".into(),
                     what: format!("unknown preset {name:?} (known: {})", PRESETS.join(", ")),
                 });
             }
@@ -94,8 +95,9 @@ impl BakeSettings {
     }
 
     /// Applies `overrides` (a JSON object, e.g. parsed from TOML) on top of these settings: objects
-    /// merge key by key, anything else replaces. Unknown keys are errors that name the key.
-    pub fn with_overrides(&self, overrides: &serde_json::Value) -> Result<BakeSettings, BakeError> {
+    /// merge key by key, anything else replaces. Unknown keys and values of the wrong type are
+    /// errors that name the key. Ranges are not checked here: see [`Self::validate`].
+    pub fn with_overrides(&self, overrides: &serde_json::Value) -> Result<BakeSettings, SettingsError> {
         let mut start = self.clone();
         // A patch that configures blades on settings without them starts from the blade defaults,
         // so `--set blades.field.density_per_m2=100` alone turns blades on.
@@ -104,36 +106,59 @@ impl BakeSettings {
         }
         let mut base = serde_json::to_value(&start).expect("settings are plain serde structs");
         merge(&mut base, overrides);
-        serde_json::from_value(base).map_err(|e| BakeError::Settings { field: "config".into(), what: e.to_string() })
+        let leaves = leaf_keys(overrides);
+        // One key patched (`--set`): blame it; several (a config file): serde's message names the
+        // field, the caller names the file.
+        let blamed = || if leaves.len() == 1 { leaves[0].clone() } else { "settings".to_owned() };
+        let merged: BakeSettings =
+            serde_json::from_value(base).map_err(|e| SettingsError::Invalid { key: blamed(), what: e.to_string() })?;
+        // Structs that tolerate unknown fields when read from a pack (`topology`, whose metadata
+        // must stay readable when fields are added) would drop a misspelt key silently: every
+        // patched key must survive the round trip.
+        let back = serde_json::to_value(&merged).expect("settings are plain serde structs");
+        if let Some(key) = leaves.iter().find(|k| !has_key(&back, k)) {
+            return Err(SettingsError::Invalid { key: key.clone(), what: "unknown key".into() });
+        }
+        Ok(merged)
     }
 
-    /// Checks every parameter's range.
-    pub fn validate(&self) -> Result<(), BakeError> {
-        volume::validate_volume_params(&self.volume)?;
-        let positive = |field: &str, v: f32| {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                Err(BakeError::Settings { field: field.into(), what: format!("{v} must be a positive finite number") })
-            }
-        };
-        if let Some(l) = self.shells.fur_length_m {
-            positive("shells.fur_length_m", l)?;
-        }
-        positive("shells.auto_fur_length_fraction", self.shells.auto_fur_length_fraction)?;
-        if let Some(r) = self.uv.repeat_m {
-            positive("uv.repeat_m", r)?;
-        }
-        for (i, name) in self.topologies.iter().enumerate() {
-            if TopologyKind::from_name(name).is_none() {
-                return Err(BakeError::Settings {
-                    field: format!("topologies[{i}]"),
-                    what: format!("unknown topology {name:?} (known: {})", topology_names().join(", ")),
-                });
-            }
-        }
-        Ok(())
+    /// Checks every setting's range, stage by stage ([`crate::validate::validate_settings`]); the
+    /// first violation names its key, the value and the allowed range.
+    pub fn validate(&self) -> Result<(), SettingsError> {
+        crate::validate::validate_settings(self)
     }
+}
+
+/// The dotted paths of the leaves of a JSON object (`{"a":{"b":1}}` → `a.b`); arrays and scalars
+/// are leaves.
+fn leaf_keys(v: &serde_json::Value) -> Vec<String> {
+    fn walk(v: &serde_json::Value, prefix: &str, out: &mut Vec<String>) {
+        match v {
+            serde_json::Value::Object(m) if !m.is_empty() => {
+                for (k, child) in m {
+                    let path = if prefix.is_empty() { k.clone() } else { format!("{prefix}.{k}") };
+                    walk(child, &path, out);
+                }
+            }
+            _ if !prefix.is_empty() => out.push(prefix.to_owned()),
+            _ => {}
+        }
+    }
+    let mut out = Vec::new();
+    walk(v, "", &mut out);
+    out
+}
+
+/// True when the dotted `path` names a key of `v`.
+fn has_key(v: &serde_json::Value, path: &str) -> bool {
+    let mut at = v;
+    for k in path.split('.') {
+        match at.get(k) {
+            Some(next) => at = next,
+            None => return false,
+        }
+    }
+    true
 }
 
 /// The eight topology kind names, in code order.
@@ -141,9 +166,15 @@ pub fn topology_names() -> Vec<&'static str> {
     TopologyKind::KNOWN.iter().filter_map(|k| k.name()).collect()
 }
 
-/// Deep-merges `patch` into `base`.
+/// Deep-merges `patch` into `base`. A patch object that picks another variant of an enum replaces
+/// the base instead of merging into it (the old variant's fields would be unknown to the new one):
+/// internally tagged (`import.fur_mask`: a different `source`) or externally tagged
+/// (`import.weld_tolerance`: one key each, different).
 fn merge(base: &mut serde_json::Value, patch: &serde_json::Value) {
     match (base, patch) {
+        (serde_json::Value::Object(b), serde_json::Value::Object(p)) if is_other_variant(b, p) => {
+            *b = p.clone();
+        }
         (serde_json::Value::Object(b), serde_json::Value::Object(p)) => {
             for (k, v) in p {
                 match b.get_mut(k) {
@@ -158,18 +189,30 @@ fn merge(base: &mut serde_json::Value, patch: &serde_json::Value) {
     }
 }
 
+fn is_other_variant(
+    base: &serde_json::Map<String, serde_json::Value>,
+    patch: &serde_json::Map<String, serde_json::Value>,
+) -> bool {
+    let retagged = matches!((base.get("source"), patch.get("source")), (Some(a), Some(b)) if a != b);
+    let single = !base.contains_key("source")
+        && base.len() == 1
+        && patch.len() == 1
+        && base.keys().next() != patch.keys().next();
+    retagged || single
+}
+
 /// Turns `a.b.c=value` into `{"a":{"b":{"c":value}}}`; the value is parsed as JSON when it can
 /// be (numbers, booleans, null, arrays), else taken as a string.
-pub fn dotted_override(assignment: &str) -> Result<serde_json::Value, BakeError> {
-    let (path, raw) = assignment.split_once('=').ok_or_else(|| BakeError::Settings {
-        field: assignment.into(),
+pub fn dotted_override(assignment: &str) -> Result<serde_json::Value, SettingsError> {
+    let (path, raw) = assignment.split_once('=').ok_or_else(|| SettingsError::Invalid {
+        key: assignment.into(),
         what: "expected KEY=VALUE, e.g. volume.layers=32".into(),
     })?;
     let value = serde_json::from_str(raw.trim()).unwrap_or_else(|_| serde_json::Value::String(raw.trim().to_owned()));
     let mut out = value;
     for key in path.trim().split('.').rev() {
         if key.is_empty() {
-            return Err(BakeError::Settings { field: path.into(), what: "empty key segment".into() });
+            return Err(SettingsError::Invalid { key: path.into(), what: "empty key segment".into() });
         }
         out = serde_json::json!({ key: out });
     }
@@ -196,5 +239,31 @@ mod tests {
         let blades = s.blades.expect("a blade override turns blades on");
         assert_eq!(blades.field.density_per_m2, 50.0);
         assert_eq!(blades.keyframes, BladeSettings::default().keyframes);
+    }
+
+    #[test]
+    fn a_misspelt_key_of_a_tolerant_struct_is_refused_by_name() {
+        // Cause: `TopologyParams` accepts unknown fields (pack metadata stays readable as fields
+        // are added), so `--set topology.stifness_n_per_m=5` used to be dropped silently.
+        let base = BakeSettings::preset("fur").unwrap();
+        let err = base.with_overrides(&dotted_override("topology.stifness_n_per_m=5").unwrap()).unwrap_err();
+        assert_eq!(err.key(), "topology.stifness_n_per_m");
+        assert!(err.to_string().starts_with("topology.stifness_n_per_m: unknown key"), "{err}");
+        let err = base.with_overrides(&dotted_override("volume.layers=\"many\"").unwrap()).unwrap_err();
+        assert!(err.to_string().starts_with("volume.layers: "), "{err}");
+    }
+
+    #[test]
+    fn an_override_can_switch_an_enum_variant() {
+        // Cause: the deep merge kept the old variant's key beside the new one
+        // (`{"relative":1e-6,"absolute_m":0.01}`), which no variant accepts.
+        let base = BakeSettings::preset("fur").unwrap();
+        let s = base.with_overrides(&dotted_override(r#"import.weld_tolerance={"absolute_m":0.01}"#).unwrap()).unwrap();
+        assert_eq!(s.import.weld_tolerance, furbake_import::WeldTolerance::AbsoluteM(0.01));
+        let materials = r#"import.fur_mask={"source":"materials","names":["Fur"]}"#;
+        let s = base.with_overrides(&dotted_override(materials).unwrap()).unwrap();
+        let colour = r#"import.fur_mask={"source":"vertex_color","channel":"r","threshold":0.5}"#;
+        let s = s.with_overrides(&dotted_override(colour).unwrap()).unwrap();
+        assert!(matches!(s.import.fur_mask, furbake_import::FurMaskSource::VertexColor { .. }));
     }
 }

@@ -43,7 +43,7 @@ use std::path::Path;
 
 pub use error::{ImportError, PrimitiveRef};
 pub use furbake_formats::sections::skin_mesh::{SkinMesh, SkinMeshStats};
-pub use settings::{ColorChannel, FurMaskSource, ImportSettings, WeldTolerance};
+pub use settings::{ColorChannel, FurMaskSource, ImportSettings, InvalidImportSetting, WeldTolerance};
 
 /// The result of an import: the skin and what the bake manifest records about its input.
 #[derive(Clone, Debug, PartialEq)]
@@ -89,7 +89,7 @@ fn import(
     base_dir: Option<&Path>,
     settings: &ImportSettings,
 ) -> Result<ImportedMesh, ImportError> {
-    settings.validate().map_err(|message| ImportError::Settings { file: file.to_path_buf(), message })?;
+    settings.validate().map_err(|e| ImportError::Settings { file: file.to_path_buf(), message: e.to_string() })?;
     let asset = source::load_asset(bytes, file, base_dir)?;
     let mut walker = scene::SceneWalker::new(&asset, file, base_dir, settings);
     walker.walk()?;

@@ -117,15 +117,32 @@ impl Default for WeldTolerance {
     }
 }
 
+/// An import setting outside its allowed range. Blame: the caller. `key` is the setting's path
+/// inside [`ImportSettings`] (`fur_mask.threshold`); a caller that nests the settings prefixes it.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{key} = {value} is out of range (allowed: {allowed})")]
+pub struct InvalidImportSetting {
+    /// Dotted path of the setting.
+    pub key: &'static str,
+    /// The value given, as text.
+    pub value: String,
+    /// What is allowed.
+    pub allowed: &'static str,
+}
+
 impl ImportSettings {
-    /// Checks the settings; returns a description of the first problem.
-    pub fn validate(&self) -> Result<(), String> {
+    /// Checks the settings; returns the first setting out of range, with its key and range.
+    /// Ranges: `weld_tolerance.relative` [0, 0.1], `weld_tolerance.absolute_m` ≥ 0 (finite),
+    /// `fur_mask.threshold` [0, 1] for `vertex_color` and finite for `attribute`,
+    /// `fur_mask.name` non-empty, `fur_mask.names` at least one.
+    pub fn validate(&self) -> Result<(), InvalidImportSetting> {
+        let bad = |key, value: String, allowed| Err(InvalidImportSetting { key, value, allowed });
         match self.weld_tolerance {
             WeldTolerance::Relative(f) if !(f.is_finite() && (0.0..=0.1).contains(&f)) => {
-                return Err(format!("weld_tolerance.relative = {f} (must be in [0, 0.1])"));
+                return bad("weld_tolerance.relative", f.to_string(), "[0, 0.1]");
             }
             WeldTolerance::AbsoluteM(m) if !(m.is_finite() && m >= 0.0) => {
-                return Err(format!("weld_tolerance.absolute_m = {m} (must be finite and >= 0)"));
+                return bad("weld_tolerance.absolute_m", m.to_string(), "[0, ∞), finite");
             }
             _ => {}
         }
@@ -133,20 +150,24 @@ impl ImportSettings {
             FurMaskSource::All => {}
             FurMaskSource::VertexColor { threshold, .. } => {
                 if !(threshold.is_finite() && (0.0..=1.0).contains(threshold)) {
-                    return Err(format!("fur_mask.threshold = {threshold} (must be in [0, 1])"));
+                    return bad("fur_mask.threshold", threshold.to_string(), "[0, 1]");
                 }
             }
             FurMaskSource::Attribute { name, threshold } => {
                 if name.trim_start_matches('_').is_empty() {
-                    return Err("fur_mask.name is empty".to_string());
+                    return bad("fur_mask.name", format!("{name:?}"), "a non-empty attribute name, e.g. \"_FUR\"");
                 }
                 if !threshold.is_finite() {
-                    return Err(format!("fur_mask.threshold = {threshold} (must be finite)"));
+                    return bad("fur_mask.threshold", threshold.to_string(), "a finite number");
                 }
             }
             FurMaskSource::Materials { names } => {
                 if names.is_empty() {
-                    return Err("fur_mask.names is empty (no triangle would carry fur)".to_string());
+                    return bad(
+                        "fur_mask.names",
+                        "[]".to_owned(),
+                        "at least one material name (else no triangle carries fur)",
+                    );
                 }
             }
         }

@@ -141,8 +141,67 @@ impl Default for TopologyParams {
     }
 }
 
+/// Shortest and longest fur a new topology accepts, metres: outside, the pack is unusable (a
+/// denormal or overflowing rest length, spring constant or scale vector).
+pub const FUR_LENGTH_RANGE_M: (f32, f32) = (1e-6, 1e6);
+/// Lightest and heaviest hair chain a new topology accepts, kg.
+pub const HAIR_MASS_RANGE_KG: (f32, f32) = (1e-9, 1e3);
+/// Range of the (informative) anchored root mass, kg.
+pub const ROOT_MASS_RANGE_KG: (f32, f32) = (1e-9, 1e9);
+/// Largest spring stiffness a new topology accepts, N/m (0 = no spring force).
+pub const MAX_STIFFNESS_N_PER_M: f32 = 1e9;
+/// Largest damping a new topology accepts, N·s/m (0 = undamped).
+pub const MAX_DAMPING_N_S_PER_M: f32 = 1e6;
+/// Masses per chain a topology accepts (`chain_layers`, `reduced_chain_masses`).
+pub const CHAIN_MASSES_RANGE: (u32, u32) = (2, 1024);
+
 impl TopologyParams {
-    /// Fails unless every parameter is finite and in range.
+    /// The ranges a *new* topology's parameters must lie in, checked field by field in
+    /// declaration order; the first violation is returned with the field name, the value and the
+    /// allowed range. Stricter than [`Self::validate`], which readers apply to stored packs (so
+    /// that any pack ever written stays readable): here the upper bounds and positive minima keep
+    /// the built topology finite and usable.
+    ///
+    /// Ranges: `fur_length_m` [1e-6, 1e6], `chain_layers` and `reduced_chain_masses` 2..=1024,
+    /// `hair_mass_kg` [1e-9, 1e3], `root_mass_kg` [1e-9, 1e9], stiffnesses [0, 1e9] N/m,
+    /// dampings [0, 1e6] N·s/m; every float finite.
+    pub fn check_ranges(&self) -> std::result::Result<(), crate::OutOfRange> {
+        fn real(field: &'static str, v: f32, lo: f32, hi: f32) -> std::result::Result<(), crate::OutOfRange> {
+            if v.is_finite() && (lo..=hi).contains(&v) {
+                Ok(())
+            } else {
+                let bound = |b: f32| if b == 0.0 { "0".to_owned() } else { format!("{b:e}") };
+                Err(crate::OutOfRange {
+                    field,
+                    value: v.to_string(),
+                    allowed: format!("[{}, {}]", bound(lo), bound(hi)),
+                })
+            }
+        }
+        fn count(field: &'static str, v: u32) -> std::result::Result<(), crate::OutOfRange> {
+            let (lo, hi) = CHAIN_MASSES_RANGE;
+            if (lo..=hi).contains(&v) {
+                Ok(())
+            } else {
+                Err(crate::OutOfRange { field, value: v.to_string(), allowed: format!("{lo}..={hi}") })
+            }
+        }
+        let (l_lo, l_hi) = FUR_LENGTH_RANGE_M;
+        real("fur_length_m", self.fur_length_m, l_lo, l_hi)?;
+        count("chain_layers", self.chain_layers)?;
+        count("reduced_chain_masses", self.reduced_chain_masses)?;
+        let (m_lo, m_hi) = HAIR_MASS_RANGE_KG;
+        real("hair_mass_kg", self.hair_mass_kg, m_lo, m_hi)?;
+        let (r_lo, r_hi) = ROOT_MASS_RANGE_KG;
+        real("root_mass_kg", self.root_mass_kg, r_lo, r_hi)?;
+        real("stiffness_n_per_m", self.stiffness_n_per_m, 0.0, MAX_STIFFNESS_N_PER_M)?;
+        real("damping_n_s_per_m", self.damping_n_s_per_m, 0.0, MAX_DAMPING_N_S_PER_M)?;
+        real("edge_stiffness_n_per_m", self.edge_stiffness_n_per_m, 0.0, MAX_STIFFNESS_N_PER_M)?;
+        real("edge_damping_n_s_per_m", self.edge_damping_n_s_per_m, 0.0, MAX_DAMPING_N_S_PER_M)
+    }
+
+    /// Fails unless every parameter is finite and in range (the reader's check of a stored pack;
+    /// see [`Self::check_ranges`] for the stricter ranges of a new bake).
     pub fn validate(&self) -> Result<()> {
         let reals = [
             ("fur_length_m", self.fur_length_m),
@@ -389,6 +448,29 @@ impl Section for SpringTopology {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn check_ranges_names_the_first_bad_field_with_its_range() {
+        assert_eq!(TopologyParams::default().check_ranges(), Ok(()));
+        let mut cases = 0;
+        for (field, set) in [
+            ("stiffness_n_per_m", (|p: &mut TopologyParams| p.stiffness_n_per_m = -1.0) as fn(&mut TopologyParams)),
+            ("hair_mass_kg", |p| p.hair_mass_kg = 1e-45),
+            ("fur_length_m", |p| p.fur_length_m = 3e38),
+            ("damping_n_s_per_m", |p| p.damping_n_s_per_m = f32::NAN),
+            ("reduced_chain_masses", |p| p.reduced_chain_masses = 1),
+        ] {
+            let mut p = TopologyParams::default();
+            set(&mut p);
+            let err = p.check_ranges().unwrap_err();
+            assert_eq!(err.field, field);
+            assert!(err.to_string().starts_with(field), "{err}");
+            cases += 1;
+        }
+        assert_eq!(cases, 5);
+        let err = TopologyParams { stiffness_n_per_m: -1.0, ..Default::default() }.check_ranges().unwrap_err();
+        assert_eq!(err.to_string(), "stiffness_n_per_m = -1 is out of range (allowed: [0, 1e9])");
+    }
 
     fn sample() -> SpringTopology {
         SpringTopology {
