@@ -102,6 +102,8 @@ fn a_bad_topology_parameter_exits_2_before_the_input_is_read() {
     // Every topology hangs one chain mass on each shell layer: one layer is too few.
     assert_refused_before_reading(&["--topology", "sticks", "--layers", "1"], "volume.layers = 1");
     assert_refused_before_reading(&["--set", "topologies=[\"braid\"]"], "topologies[0]");
+    // A pack holds one topology of each kind (what `verify` checks), so a repeat is refused.
+    assert_refused_before_reading(&["--topology", "prisms", "--topology", "prisms"], "topologies[1]");
 }
 
 #[test]

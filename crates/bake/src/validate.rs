@@ -307,6 +307,13 @@ fn validate_topologies(s: &BakeSettings) -> Result<(), SettingsError> {
                 what: format!("unknown topology {name:?} (known: {})", topology_names().join(", ")),
             });
         }
+        // A pack holds one topology per kind (`furbake_formats::check_consistency`).
+        if s.topologies[..i].contains(name) {
+            return Err(SettingsError::Invalid {
+                key: format!("topologies[{i}]"),
+                what: format!("{name:?} is listed twice; a pack holds one topology of each kind"),
+            });
+        }
     }
     // The bake takes the fur length and chain length from the shells (see `bake`); the stored
     // defaults stand in when no topology is baked, so the ranges of the other fields still hold.
