@@ -278,3 +278,45 @@ fn crc32fast_hash(b: &[u8]) -> u32 {
     }
     !crc
 }
+
+#[test]
+fn values_outside_their_documented_ranges_are_rejected() {
+    // Cause: decoders checked finiteness only, so a pack whose parameters were NaN passed `verify`
+    // (`inspect --json` printed null) and one with 3e38 coordinates or a 1e12 N/m spring
+    // verified but could not be simulated or drawn.
+    let mut cases: Vec<(&str, Vec<u8>)> = Vec::new();
+    let mut shells = sample_shells();
+    shells.params.coat.density = f32::NAN;
+    cases.push(("coat.density", shells.encode()));
+    let mut shells = sample_shells();
+    shells.fur_length_m = 3e38;
+    cases.push(("fur_length_m", shells.encode()));
+    let mut shells = sample_shells();
+    shells.coverage[1] = 1.5;
+    cases.push(("coverage", shells.encode()));
+    let mut mesh = sample_mesh();
+    mesh.positions[0][0] = 3e38;
+    cases.push(("positions", mesh.encode()));
+    let mut mesh = sample_mesh();
+    mesh.normals[3] = [0.0, 0.0, 0.5];
+    cases.push(("normals", mesh.encode()));
+    let mut mesh = sample_mesh();
+    mesh.colors[2][1] = -0.5;
+    cases.push(("colors", mesh.encode()));
+    let uv = TriangleUvMap { repeat_m: 1e-45, seed: 9, corners: vec![[[0.0, 0.0], [1.0, 0.0], [0.5, 0.8]]] };
+    cases.push(("repeat_m", uv.encode()));
+    let mut rejected = 0;
+    for (what, payload) in &cases {
+        let err = match *what {
+            "coat.density" | "fur_length_m" | "coverage" => ShellAtlas::decode(payload).map(|_| ()),
+            "repeat_m" => TriangleUvMap::decode(payload).map(|_| ()),
+            _ => SkinMesh::decode(payload).map(|_| ()),
+        }
+        .unwrap_err();
+        assert!(err.is_bad_file() && err.to_string().contains(what), "{what}: {err}");
+        rejected += 1;
+    }
+    assert_eq!(rejected, 7);
+    // The samples themselves are in range.
+    assert!(ShellAtlas::decode(&sample_shells().encode()).is_ok() && SkinMesh::decode(&sample_mesh().encode()).is_ok());
+}

@@ -444,6 +444,7 @@ impl<'a> SceneWalker<'a> {
 
         let base = self.soup.positions.len() as u32;
         let mut bad_normals = 0usize;
+        let mut clamped_colors = 0usize;
         for v in 0..n {
             let p = positions.get(v);
             let wp = world.transform_point3(DVec3::new(p[0], p[1], p[2]));
@@ -476,7 +477,12 @@ impl<'a> SceneWalker<'a> {
                 let value = color.map(f64::from);
                 return Err(self.non_finite(at, "COLOR_0 × baseColorFactor", v, &value));
             }
-            self.soup.colors.push(color);
+            // glTF colours and factors are normalised to [0, 1]; a file outside that range is
+            // repaired (clamped) and reported, so the pack holds what the format documents.
+            if color.iter().any(|c| !(0.0..=1.0).contains(c)) {
+                clamped_colors += 1;
+            }
+            self.soup.colors.push(color.map(|c| c.clamp(0.0, 1.0)));
             let uv = uvs.as_ref().map_or([0.0; 2], |e| [e.get(v)[0] as f32, e.get(v)[1] as f32]);
             self.soup.texcoords.push(uv);
         }
@@ -485,6 +491,9 @@ impl<'a> SceneWalker<'a> {
         }
         if bad_normals > 0 {
             self.warn(format!("{at}: {bad_normals} zero or non-finite normals replaced by generated ones"));
+        }
+        if clamped_colors > 0 {
+            self.warn(format!("{at}: {clamped_colors} vertex colours outside [0, 1] clamped"));
         }
         self.soup.had_vertex_colors |= colors.is_some();
         self.soup.all_have_texcoords &= uvs.is_some();

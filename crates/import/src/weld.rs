@@ -226,7 +226,9 @@ pub(crate) fn weld_soup(soup: &Soup, tolerance: WeldTolerance) -> Result<Welded,
                     a
                 } else {
                     fallbacks += 1;
-                    first_face[i]
+                    // Every kept triangle has a non-zero cross product, so a vertex that belongs
+                    // to one has a unit face normal; +y stands in for one that belongs to none.
+                    if first_face[i] != DVec3::ZERO { first_face[i] } else { DVec3::Y }
                 }
             };
             n.as_vec3().to_array()

@@ -12,7 +12,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{Section, check_finite, check_indices, checked_count};
+use super::{MAX_COORDINATE_M, Section, check_coordinates, check_indices, check_param, check_range, checked_count};
 use crate::error::Result;
 use crate::record::{Record, RecordWriter};
 use crate::{FormatError, SectionKind};
@@ -21,6 +21,17 @@ use crate::{FormatError, SectionKind};
 pub const MAX_CLUSTERS: u64 = 1 << 26;
 /// Tolerance on the sum of a blade's four weights (they are stored as binary32).
 pub const WEIGHT_SUM_TOLERANCE: f32 = 1e-4;
+/// Cluster corners a field may have regardless of its blade count (a 255² grid).
+pub const FREE_CORNERS: u64 = 1 << 16;
+/// Cluster corners a field may have per blade beyond [`FREE_CORNERS`]. The force field costs
+/// work and memory per corner every step, so a grid far larger than its blades need is refused:
+/// a small pack cannot declare much more work than its data justifies. (A bake's grid covers the
+/// mesh's bounds with cells of `cluster_size_m`; 256 corners per blade is a field thinner than
+/// one blade per 16 × 16 cells.)
+pub const CORNERS_PER_BLADE: u64 = 256;
+/// Distance a blade's root may lie from the point its weights interpolate, as a fraction of the
+/// cell size (the weights are rounded to binary32).
+pub const WEIGHT_POSITION_TOLERANCE: f32 = 1e-3;
 
 /// The cluster grid in the `xz` plane.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -75,8 +86,9 @@ impl ClusterGrid {
     }
 
     fn validate(&self) -> Result<()> {
-        let sizes_ok = self.cell_size_m.iter().all(|s| s.is_finite() && *s > 0.0);
-        if !sizes_ok || !self.origin_m.iter().all(|o| o.is_finite()) || self.cells_x == 0 || self.cells_z == 0 {
+        let sizes_ok = self.cell_size_m.iter().all(|s| s.is_finite() && *s > 0.0 && *s <= MAX_COORDINATE_M);
+        let origin_ok = self.origin_m.iter().all(|o| o.is_finite() && o.abs() <= MAX_COORDINATE_M);
+        if !sizes_ok || !origin_ok || self.cells_x == 0 || self.cells_z == 0 {
             return Err(FormatError::invalid(format!("cluster grid {self:?} is not a valid grid")));
         }
         let corners = (self.cells_x as u64 + 1).saturating_mul(self.cells_z as u64 + 1);
@@ -174,16 +186,48 @@ impl Section for BladeField {
         let height = r.array_exact::<f32>(2, n, "height_scale")?;
         let cluster = r.array_exact::<u32>(3, n, "cluster")?;
         let weights = r.array_exact::<f32>(4, checked_count(n, 4, "weights")?, "weights")?;
-        check_finite(&positions, "positions")?;
-        check_finite(&yaw, "yaw_rad")?;
-        if let Some(i) = height.iter().position(|h| !(h.is_finite() && *h > 0.0)) {
-            return Err(FormatError::invalid(format!("height_scale[{i}] = {} is not positive", height[i])));
+        // The work a field declares is bounded by its data: the grid may not be far larger than
+        // its blades need (docs/design.md "Runtime: packs").
+        let corners = m.grid.corners() as u64;
+        let allowed = FREE_CORNERS.saturating_add(CORNERS_PER_BLADE.saturating_mul(n as u64));
+        if corners > allowed {
+            return Err(FormatError::Limit {
+                path: None,
+                what: "cluster corners for the blade count",
+                value: corners,
+                limit: allowed,
+            });
+        }
+        let p = &m.params;
+        check_param(p.density_per_m2, 0.0, 1e6, "density_per_m2")?;
+        check_param(p.height_min_m, 0.0, MAX_COORDINATE_M, "height_min_m")?;
+        check_param(p.height_max_m, p.height_min_m, MAX_COORDINATE_M, "height_max_m")?;
+        check_coordinates(&positions, "positions")?;
+        check_range(&yaw, -1e3, 1e3, "yaw_rad")?;
+        if let Some(i) = height.iter().position(|h| !(h.is_finite() && *h > 0.0 && *h <= MAX_COORDINATE_M)) {
+            return Err(FormatError::invalid(format!("height_scale[{i}] = {} is not a positive length", height[i])));
         }
         check_indices(&cluster, m.grid.clusters(), "cluster")?;
+        let cell = m.grid.cell_size_m;
         for (i, w) in weights.chunks_exact(4).enumerate() {
             let in_range = w.iter().all(|x| x.is_finite() && (-1e-6..=1.0 + 1e-6).contains(x));
             if !in_range || (w.iter().sum::<f32>() - 1.0).abs() > WEIGHT_SUM_TOLERANCE {
                 return Err(FormatError::invalid(format!("weights of blade {i} {w:?} are not bilinear weights")));
+            }
+            // The weights must place the blade where it stands (eq. 3.6–3.8): interpolating the
+            // corners' positions gives its root's (x, z).
+            let mut at = [0.0f32; 2];
+            for (c, wk) in m.grid.corner_indices(cluster[i]).into_iter().zip(w) {
+                let q = m.grid.corner_position(c);
+                at = [at[0] + wk * q[0], at[1] + wk * q[1]];
+            }
+            let (x, z) = (positions[3 * i], positions[3 * i + 2]);
+            let off = [(at[0] - x).abs() / cell[0], (at[1] - z).abs() / cell[1]];
+            if !(off[0] <= WEIGHT_POSITION_TOLERANCE && off[1] <= WEIGHT_POSITION_TOLERANCE) {
+                return Err(FormatError::invalid(format!(
+                    "blade {i} stands at ({x}, {z}) but its cluster {} and weights place it at ({}, {})",
+                    cluster[i], at[0], at[1]
+                )));
             }
         }
         Ok(BladeField {
@@ -270,6 +314,51 @@ mod tests {
             checked += 1;
         }
         assert_eq!(checked, 20);
+    }
+
+    #[test]
+    fn a_grid_far_larger_than_its_blades_need_is_refused() {
+        // Cause: a 556 KB pack declared an 8191² cluster grid for its few thousand blades; it
+        // passed `verify` and made `simulate` take 20 s and 1.6 GB on the force field.
+        let mut f = sample();
+        let cell = f.grid.cell_size_m;
+        f.grid = ClusterGrid { cells_x: 8191, cells_z: 8191, ..f.grid };
+        assert_eq!(f.grid.cell_size_m, cell);
+        // Keep every blade consistent with the bigger grid, so only the size is to blame.
+        for b in 0..f.blade_count() {
+            let p = f.positions[b];
+            let (c, [u, v]) = f.grid.locate(p[0], p[2]);
+            f.cluster[b] = c;
+            f.weights[b] = bilinear_weights(u, v);
+        }
+        match BladeField::decode(&f.encode()) {
+            Err(FormatError::Limit { what, value, limit, .. }) => {
+                assert_eq!(what, "cluster corners for the blade count");
+                assert_eq!((value, limit), (8192 * 8192, FREE_CORNERS + 20 * CORNERS_PER_BLADE));
+            }
+            other => panic!("expected a limit error, got {other:?}"),
+        }
+        // A grid within the allowance for its blades decodes.
+        let mut ok = sample();
+        ok.grid = ClusterGrid { cells_x: 200, cells_z: 200, ..ok.grid };
+        for b in 0..ok.blade_count() {
+            let p = ok.positions[b];
+            let (c, [u, v]) = ok.grid.locate(p[0], p[2]);
+            ok.cluster[b] = c;
+            ok.weights[b] = bilinear_weights(u, v);
+        }
+        assert!(BladeField::decode(&ok.encode()).is_ok());
+    }
+
+    #[test]
+    fn weights_must_place_the_blade_where_it_stands() {
+        let mut f = sample();
+        f.cluster[4] = (f.cluster[4] + 1) % f.grid.clusters() as u32;
+        let err = BladeField::decode(&f.encode()).unwrap_err();
+        assert!(err.to_string().contains("blade 4 stands at"), "{err}");
+        let mut f = sample();
+        f.params.height_max_m = f32::NAN;
+        assert!(BladeField::decode(&f.encode()).unwrap_err().to_string().contains("height_max_m"));
     }
 
     #[test]

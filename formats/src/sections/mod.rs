@@ -37,6 +37,32 @@ pub(crate) fn check_finite(values: &[f32], what: &str) -> Result<()> {
     }
 }
 
+/// Largest magnitude of a stored coordinate or length, metres: ten thousand kilometres. Larger
+/// values are no asset (and squaring them overflows `f32`), so readers refuse them.
+pub const MAX_COORDINATE_M: f32 = 1e7;
+
+/// Fails unless every value is finite and within `[lo, hi]`.
+pub(crate) fn check_range(values: &[f32], lo: f32, hi: f32, what: &str) -> Result<()> {
+    match values.iter().position(|v| !(v.is_finite() && (lo..=hi).contains(v))) {
+        None => Ok(()),
+        Some(i) if !values[i].is_finite() => {
+            Err(crate::FormatError::invalid(format!("{what}[{i}] is not finite ({})", values[i])))
+        }
+        Some(i) => Err(crate::FormatError::invalid(format!("{what}[{i}] = {} is outside [{lo:e}, {hi:e}]", values[i]))),
+    }
+}
+
+/// Fails unless every value is finite with a magnitude of at most [`MAX_COORDINATE_M`].
+pub(crate) fn check_coordinates(values: &[f32], what: &str) -> Result<()> {
+    check_range(values, -MAX_COORDINATE_M, MAX_COORDINATE_M, what)
+}
+
+/// Fails unless `value` is finite and within `[lo, hi]` (a scalar parameter).
+pub(crate) fn check_param(value: f32, lo: f32, hi: f32, what: &str) -> Result<()> {
+    check_range(&[value], lo, hi, what)
+        .map_err(|_| crate::FormatError::invalid(format!("{what} = {value} is outside [{lo:e}, {hi:e}]")))
+}
+
 /// Fails unless every index is below `bound`.
 pub(crate) fn check_indices(indices: &[u32], bound: usize, what: &str) -> Result<()> {
     match indices.iter().position(|&i| i as usize >= bound) {

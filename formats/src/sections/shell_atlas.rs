@@ -4,7 +4,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{Section, check_finite, checked_count};
+use super::{Section, check_finite, check_param, check_range, checked_count};
 use crate::error::Result;
 use crate::record::{Record, RecordWriter};
 use crate::{FormatError, SectionKind};
@@ -51,6 +51,39 @@ pub struct VolumeParams {
     pub fin_slices: u32,
     /// Fin texture height in texels (the width is `resolution`).
     pub fin_height: u32,
+}
+
+impl HairCoat {
+    fn check_stored(&self, what: &str) -> Result<()> {
+        check_param(self.density, 0.0, 1.0, &format!("{what}.density"))?;
+        check_param(self.length_min, 0.0, 1.0, &format!("{what}.length_min"))?;
+        check_param(self.length_max, self.length_min, 1.0, &format!("{what}.length_max"))?;
+        check_param(self.max_deviation_texels, 0.0, 1e6, &format!("{what}.max_deviation_texels"))?;
+        check_param(self.curvature_exponent, 0.0, 1e6, &format!("{what}.curvature_exponent"))?;
+        check_param(self.radius_texels, 0.0, 1e6, &format!("{what}.radius_texels"))?;
+        check_param(self.taper, 0.0, 1.0, &format!("{what}.taper"))
+    }
+}
+
+impl VolumeParams {
+    /// What a reader requires of stored volume parameters: finite and in the ranges a bake can
+    /// produce (they are informative — the atlas is baked — but `inspect` prints them, so they
+    /// must be numbers).
+    fn check_stored(&self) -> Result<()> {
+        self.coat.check_stored("coat")?;
+        if let Some(u) = &self.undercoat {
+            u.check_stored("undercoat")?;
+        }
+        check_param(self.shadow_min, 0.0, 1.0, "shadow_min")?;
+        check_param(self.shadow_exponent, 0.0, 1e6, "shadow_exponent")?;
+        if self.fin_slices == 0 || self.fin_slices > 1024 || self.fin_height == 0 || self.fin_height > MAX_RESOLUTION {
+            return Err(FormatError::invalid(format!(
+                "fin_slices = {} and fin_height = {} must lie in 1..=1024 and 1..={MAX_RESOLUTION}",
+                self.fin_slices, self.fin_height
+            )));
+        }
+        Ok(())
+    }
 }
 
 /// The shell slices, the shadow table and per-layer statistics.
@@ -130,10 +163,10 @@ impl Section for ShellAtlas {
         if let Some(i) = shadow.iter().position(|&x| !(x > 0.0 && x <= 1.0)) {
             return Err(FormatError::invalid(format!("shadow table[{i}] = {} is outside (0, 1]", shadow[i])));
         }
-        check_finite(&coverage, "coverage")?;
-        if !m.fur_length_m.is_finite() || m.fur_length_m <= 0.0 {
-            return Err(FormatError::invalid(format!("fur length {} must be positive", m.fur_length_m)));
-        }
+        check_range(&coverage, 0.0, 1.0, "coverage")?;
+        let (lo, hi) = crate::sections::spring_topology::FUR_LENGTH_RANGE_M;
+        check_param(m.fur_length_m, lo, hi, "fur_length_m")?;
+        m.params.check_stored()?;
         Ok(ShellAtlas {
             params: m.params,
             seed: m.seed,

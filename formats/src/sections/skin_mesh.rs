@@ -4,7 +4,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{Section, check_finite, check_indices, checked_count};
+use super::{Section, check_coordinates, check_indices, check_range, checked_count};
 use crate::error::Result;
 use crate::record::{Record, RecordWriter};
 use crate::{FormatError, SectionKind};
@@ -109,10 +109,17 @@ impl Section for SkinMesh {
         let fur = r.array_exact::<u8>(4, f, "fur_mask")?;
         let uv_len = if m.has_corner_texcoords { checked_count(f, 6, "corner_texcoords")? } else { 0 };
         let uvs = r.array_exact::<f32>(5, uv_len, "corner_texcoords")?;
-        check_finite(&positions, "positions")?;
-        check_finite(&normals, "normals")?;
-        check_finite(&colors, "colors")?;
-        check_finite(&uvs, "corner_texcoords")?;
+        check_coordinates(&positions, "positions")?;
+        // Unit normals (the importer normalises; a vertex of only skipped triangles keeps a unit
+        // fallback), colours in [0, 1] (glTF colours and base colours are normalised).
+        check_range(&normals, -1.0 - 1e-3, 1.0 + 1e-3, "normals")?;
+        if let Some(i) =
+            normals.chunks_exact(3).position(|n| ((n[0] * n[0] + n[1] * n[1] + n[2] * n[2]) - 1.0).abs() > 1e-2)
+        {
+            return Err(FormatError::invalid(format!("normals[{i}] is not a unit vector")));
+        }
+        check_range(&colors, 0.0, 1.0, "colors")?;
+        check_coordinates(&uvs, "corner_texcoords")?;
         check_indices(&tris, v, "triangles")?;
         if let Some(i) = fur.iter().position(|&x| x > 1) {
             return Err(FormatError::invalid(format!("fur_mask[{i}] = {} (must be 0 or 1)", fur[i])));

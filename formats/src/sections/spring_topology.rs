@@ -8,7 +8,7 @@ use std::fmt;
 
 use serde::{Deserialize, Serialize};
 
-use super::{Section, check_finite, check_indices, checked_count};
+use super::{MAX_COORDINATE_M, Section, check_coordinates, check_indices, check_range, checked_count};
 use crate::error::Result;
 use crate::record::{Record, RecordWriter};
 use crate::{FormatError, SectionKind};
@@ -152,6 +152,9 @@ pub const ROOT_MASS_RANGE_KG: (f32, f32) = (1e-9, 1e9);
 pub const MAX_STIFFNESS_N_PER_M: f32 = 1e9;
 /// Largest damping a new topology accepts, N·s/m (0 = undamped).
 pub const MAX_DAMPING_N_S_PER_M: f32 = 1e6;
+/// Range of one stored mass, kg: a hair's mass split over up to [`CHAIN_MASSES_RANGE`]'s masses at
+/// the light end, an anchored root at the heavy end.
+pub const MASS_RANGE_KG: (f32, f32) = (1e-13, 1e9);
 /// Masses per chain a topology accepts (`chain_layers`, `reduced_chain_masses`).
 pub const CHAIN_MASSES_RANGE: (u32, u32) = (2, 1024);
 
@@ -187,7 +190,11 @@ impl TopologyParams {
             }
         }
         let (l_lo, l_hi) = FUR_LENGTH_RANGE_M;
-        real("fur_length_m", self.fur_length_m, l_lo, l_hi)?;
+        // Exactly zero is allowed: zero-length springs are a stress case the solvers must survive
+        // (docs/design.md "Users and their asks", ask 2); denormal lengths are not.
+        if self.fur_length_m != 0.0 {
+            real("fur_length_m", self.fur_length_m, l_lo, l_hi)?;
+        }
         count("chain_layers", self.chain_layers)?;
         count("reduced_chain_masses", self.reduced_chain_masses)?;
         let (m_lo, m_hi) = HAIR_MASS_RANGE_KG;
@@ -200,33 +207,10 @@ impl TopologyParams {
         real("edge_damping_n_s_per_m", self.edge_damping_n_s_per_m, 0.0, MAX_DAMPING_N_S_PER_M)
     }
 
-    /// Fails unless every parameter is finite and in range (the reader's check of a stored pack;
-    /// see [`Self::check_ranges`] for the stricter ranges of a new bake).
+    /// [`Self::check_ranges`] as a format error: what a reader and the topology builder require
+    /// of stored or given parameters (one set of ranges for writing and reading).
     pub fn validate(&self) -> Result<()> {
-        let reals = [
-            ("fur_length_m", self.fur_length_m),
-            ("hair_mass_kg", self.hair_mass_kg),
-            ("root_mass_kg", self.root_mass_kg),
-            ("stiffness_n_per_m", self.stiffness_n_per_m),
-            ("damping_n_s_per_m", self.damping_n_s_per_m),
-            ("edge_stiffness_n_per_m", self.edge_stiffness_n_per_m),
-            ("edge_damping_n_s_per_m", self.edge_damping_n_s_per_m),
-        ];
-        for (name, v) in reals {
-            if !v.is_finite() || v < 0.0 {
-                return Err(FormatError::invalid(format!("topology parameter {name} = {v} (must be finite, ≥ 0)")));
-            }
-        }
-        if self.hair_mass_kg <= 0.0 || self.root_mass_kg <= 0.0 {
-            return Err(FormatError::invalid("topology masses must be positive"));
-        }
-        if !(2..=1024).contains(&self.chain_layers) || !(2..=1024).contains(&self.reduced_chain_masses) {
-            return Err(FormatError::invalid(format!(
-                "chain_layers = {} and reduced_chain_masses = {} must lie in 2..=1024",
-                self.chain_layers, self.reduced_chain_masses
-            )));
-        }
-        Ok(())
+        self.check_ranges().map_err(|e| FormatError::invalid(format!("topology parameter {e}")))
     }
 }
 
@@ -365,15 +349,14 @@ impl Section for SpringTopology {
         let t_len = r.array_exact::<f32>(8, nt, "stick lengths")?;
         let shell = r.array_exact::<u32>(9, checked_count(nv, 2, "shell vertex masses")?, "shell vertex masses")?;
 
-        check_finite(&pos, "mass rest positions")?;
-        check_finite(&mass, "mass_kg")?;
-        check_finite(&s_rest, "spring rest lengths")?;
-        check_finite(&s_k, "spring stiffness")?;
-        check_finite(&s_c, "spring damping")?;
-        check_finite(&t_len, "stick lengths")?;
-        if let Some(i) = mass.iter().position(|&x| x <= 0.0) {
-            return Err(FormatError::invalid(format!("mass_kg[{i}] = {} (must be positive)", mass[i])));
-        }
+        // Every value in the range the parameters' ranges imply, so a pack that reads also
+        // simulates (docs/design.md "Runtime: packs").
+        check_coordinates(&pos, "mass rest positions")?;
+        check_range(&mass, MASS_RANGE_KG.0, MASS_RANGE_KG.1, "mass_kg")?;
+        check_range(&s_rest, 0.0, MAX_COORDINATE_M, "spring rest lengths")?;
+        check_range(&s_k, 0.0, MAX_STIFFNESS_N_PER_M, "spring stiffness")?;
+        check_range(&s_c, 0.0, MAX_DAMPING_N_S_PER_M, "spring damping")?;
+        check_range(&t_len, 0.0, MAX_COORDINATE_M, "stick lengths")?;
         if let Some(i) = anchored.iter().position(|&x| x > 1) {
             return Err(FormatError::invalid(format!("mass_anchored[{i}] = {} (must be 0 or 1)", anchored[i])));
         }
@@ -614,5 +597,31 @@ mod tests {
             .array::<u8>(&t.mass_anchored)
             .finish();
         assert!(SpringTopology::decode(&bytes).expect_err("lying count").is_bad_file());
+    }
+
+    #[test]
+    fn stored_values_outside_the_parameter_ranges_are_rejected() {
+        // Cause: a spring of 1e12 N/m or a mass of 1e-30 kg decoded (finite and positive), and
+        // every simulation of the pack then failed.
+        let mut cases = 0;
+        for (what, damage) in [
+            (
+                "spring stiffness",
+                (|t: &mut SpringTopology| t.spring_stiffness_n_per_m[0] = 1e12) as fn(&mut SpringTopology),
+            ),
+            ("mass_kg", |t| t.mass_kg[1] = 1e-30),
+            ("mass rest positions", |t| t.mass_rest_positions[0][1] = 3e38),
+            ("topology parameter stiffness_n_per_m", |t| t.params.stiffness_n_per_m = 1e12),
+        ] {
+            let mut t = sample();
+            damage(&mut t);
+            let err = SpringTopology::decode(&t.encode()).unwrap_err();
+            assert!(err.to_string().contains(what), "{what}: {err}");
+            cases += 1;
+        }
+        assert_eq!(cases, 4);
+        let mut zero = sample();
+        zero.params.fur_length_m = 0.0;
+        assert!(SpringTopology::decode(&zero.encode()).is_ok(), "zero-length fur is a stress case, not an error");
     }
 }

@@ -5,10 +5,10 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{Section, check_finite, checked_count};
+use super::{Section, check_coordinates, check_param, checked_count};
+use crate::SectionKind;
 use crate::error::Result;
 use crate::record::{Record, RecordWriter};
-use crate::{FormatError, SectionKind};
 
 /// Per-triangle corner UVs in texture repeats (1.0 = one shell texture; the sampler wraps).
 #[derive(Clone, Debug, PartialEq)]
@@ -40,11 +40,10 @@ impl Section for TriangleUvMap {
     fn decode(payload: &[u8]) -> Result<Self> {
         let r = Record::parse(payload)?;
         let m: Meta = r.meta()?;
-        if !(m.repeat_m.is_finite() && m.repeat_m > 0.0) {
-            return Err(FormatError::invalid(format!("repeat length {} must be positive", m.repeat_m)));
-        }
+        let (lo, hi) = crate::sections::spring_topology::FUR_LENGTH_RANGE_M;
+        check_param(m.repeat_m, lo, hi, "repeat_m")?;
         let uv = r.array_exact::<f32>(0, checked_count(m.triangle_count as usize, 6, "uv corners")?, "uv corners")?;
-        check_finite(&uv, "uv corners")?;
+        check_coordinates(&uv, "uv corners")?;
         Ok(TriangleUvMap {
             repeat_m: m.repeat_m,
             seed: m.seed,
