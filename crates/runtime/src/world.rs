@@ -178,11 +178,23 @@ impl World {
         World::with_options(scene, WorldOptions::default())
     }
 
-    /// As [`World::new`], with `options`.
+    /// As [`World::new`], with `options`. Scene entries that name the same file share one opened
+    /// pack, so its sections are read and decoded once however often the scene places it.
     pub fn with_options(scene: Scene, options: WorldOptions) -> Result<World, RuntimeError> {
-        let mut opened = Vec::with_capacity(scene.packs.len());
+        let mut opened: Vec<Arc<Pack>> = Vec::with_capacity(scene.packs.len());
+        let mut by_file: Vec<(std::path::PathBuf, Arc<Pack>)> = Vec::new();
         for sp in &scene.packs {
-            opened.push(Arc::new(Pack::open(&sp.path)?));
+            // The canonical path identifies the file (a missing file fails in `Pack::open`).
+            let key = std::fs::canonicalize(&sp.path).unwrap_or_else(|_| sp.path.clone());
+            let pack = match by_file.iter().find(|(k, _)| *k == key) {
+                Some((_, p)) => Arc::clone(p),
+                None => {
+                    let p = Arc::new(Pack::open(&sp.path)?);
+                    by_file.push((key, Arc::clone(&p)));
+                    p
+                }
+            };
+            opened.push(pack);
         }
         World::with_packs(scene, opened, options)
     }

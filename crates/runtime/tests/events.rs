@@ -155,3 +155,22 @@ fn pack_state_is_in_world_space() {
     assert_eq!(state.scale_vectors.len(), mesh.positions.len());
     assert!(state.scale_vectors.iter().all(|s| (Vec3::from(*s).length() - 1.0).abs() < 1e-4));
 }
+
+#[test]
+fn entries_naming_the_same_file_share_one_opened_pack() {
+    let dir = tempfile::tempdir().unwrap();
+    ball(dir.path());
+    let mut text = String::from("time_step_s = 0.01\n");
+    for i in 0..50 {
+        text += &format!("[[packs]]\nname = \"ball{i}\"\npath = \"ball.fbk\"\ntranslation = [{i}.0, 0.0, 0.0]\n");
+    }
+    text += "[effects.gravity]\n";
+    let mut w = World::new(Scene::from_toml_str(&text, Path::new("t.toml"), dir.path()).unwrap()).unwrap();
+    w.step().unwrap();
+    assert!((1..50).all(|i| std::sync::Arc::ptr_eq(w.pack(0), w.pack(i))), "one opened pack for one file");
+    // Its skin mesh and topology were read once for all fifty entries.
+    let reads: u32 = w.pack(0).read_counts().iter().map(|&(_, n)| n).sum();
+    assert_eq!(reads, 2, "{:?}", w.pack(0).read_counts());
+    // Each entry still simulates on its own.
+    assert_eq!(w.stage_stats().iter().filter(|s| s.name == "fur_solver").count(), 50);
+}
