@@ -5,6 +5,7 @@
 use std::path::Path;
 
 mod common;
+mod confinement;
 mod file_modes;
 mod golden;
 mod plan_first;
