@@ -4,6 +4,7 @@
 
 use std::path::Path;
 
+mod closed_stdout;
 mod common;
 mod confinement;
 mod file_modes;
