@@ -5,7 +5,7 @@ use std::path::Path;
 
 use anyhow::{Context, anyhow};
 use furbake_bake::{BakeSettings, Progress, Stage, bake, settings::dotted_override};
-use furbake_import::import_gltf;
+use furbake_import::{ImportError, import_gltf, import_gltf_with_asset_root};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use crate::args::BakeArgs;
@@ -55,8 +55,16 @@ pub fn plan(args: &BakeArgs) -> Result<BakeSettings, Failure> {
 }
 
 /// The pack goes into an existing directory and is not one; `--png-dir`, when it exists, is a
-/// directory. Checked with the settings, so a typo costs no bake.
+/// directory; `--asset-root` is an existing directory. Checked with the settings, so a typo costs
+/// no bake.
 fn check_output_paths(args: &BakeArgs) -> Result<(), Failure> {
+    if let Some(root) = &args.asset_root {
+        match std::fs::metadata(root) {
+            Ok(m) if m.is_dir() => {}
+            Ok(_) => return Err(Failure::Usage(anyhow!("--asset-root {}: is not a directory", root.display()))),
+            Err(e) => return Err(Failure::Usage(anyhow!("--asset-root {}: {e}", root.display()))),
+        }
+    }
     let out = &args.output;
     if out.is_dir() {
         return Err(Failure::Usage(anyhow!("--output {}: is a directory, not a pack file", out.display())));
@@ -103,10 +111,17 @@ pub fn run(args: BakeArgs, quiet: bool) -> Result<(), Failure> {
         bar.set_message("importing glTF");
         bar
     });
-    let imported = match import_gltf(&args.mesh, &settings.import) {
+    let imported = match &args.asset_root {
+        Some(root) => import_gltf_with_asset_root(&args.mesh, root, &settings.import),
+        None => import_gltf(&args.mesh, &settings.import),
+    };
+    let imported = match imported {
         Ok(m) => m,
-        // Invalid import settings are the caller's mistake (exit 2); everything else is the file's.
-        Err(e @ furbake_import::ImportError::Settings { .. }) => return Err(Failure::Usage(e.into())),
+        // Invalid import settings and asset roots are the caller's mistake (exit 2); everything
+        // else (a refused external file included) is the file's.
+        Err(e @ (ImportError::Settings { .. } | ImportError::AssetRoot { .. })) => {
+            return Err(Failure::Usage(e.into()));
+        }
         Err(e) => return Err(Failure::Input(e.into())),
     };
     let mut progress = Bar(bar);

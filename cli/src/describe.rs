@@ -189,27 +189,33 @@ fn tidy_f32(v: &mut Value) {
 pub fn run_inspect(args: InspectArgs) -> Result<(), Failure> {
     let (pack, decoded) = load(&args.file)?;
     let doc = describe(&args.file, &pack, &decoded);
-    if args.json {
-        println!("{}", serde_json::to_string_pretty(&doc).expect("JSON values always serialise"));
+    let text = if args.json {
+        serde_json::to_string_pretty(&doc).expect("JSON values always serialise") + "\n"
     } else {
-        print_table(&doc);
-    }
-    Ok(())
+        table(&doc)
+    };
+    crate::stdout::write(&text)
 }
 
-fn print_table(doc: &Value) {
-    println!(
+/// The `inspect` table, one line per row.
+fn table(doc: &Value) -> String {
+    use std::fmt::Write;
+    // Writing into a `String` cannot fail; the results are ignored for that reason.
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
         "{}  (furbake format {}, {} bytes)",
         doc["file"].as_str().unwrap_or(""),
         doc["format_version"].as_str().unwrap_or(""),
         doc["file_size"]
     );
-    println!();
-    println!("{:>3}  {:<16} {:>3} {:>10} {:>10}  crc32", "#", "kind", "ver", "offset", "size");
+    let _ = writeln!(out);
+    let _ = writeln!(out, "{:>3}  {:<16} {:>3} {:>10} {:>10}  crc32", "#", "kind", "ver", "offset", "size");
     let empty = Vec::new();
     let sections = doc["sections"].as_array().unwrap_or(&empty);
     for s in sections {
-        println!(
+        let _ = writeln!(
+            out,
             "{:>3}  {:<16} {:>3} {:>10} {:>10}  {}",
             s["index"].as_u64().unwrap_or(0),
             s["kind"].as_str().unwrap_or("?"),
@@ -220,24 +226,25 @@ fn print_table(doc: &Value) {
         );
     }
     for s in sections {
-        println!();
-        println!("[{}] {}", s["index"], s["kind"].as_str().unwrap_or("?"));
+        let _ = writeln!(out);
+        let _ = writeln!(out, "[{}] {}", s["index"], s["kind"].as_str().unwrap_or("?"));
         if let Value::Object(fields) = s {
             for (k, v) in fields {
                 if matches!(k.as_str(), "index" | "kind" | "version" | "offset" | "size" | "crc32") {
                     continue;
                 }
-                println!("  {k:<30} {}", compact(v));
+                let _ = writeln!(out, "  {k:<30} {}", compact(v));
             }
         }
     }
-    println!();
-    println!("statistics");
+    let _ = writeln!(out);
+    let _ = writeln!(out, "statistics");
     if let Value::Object(fields) = &doc["statistics"] {
         for (k, v) in fields {
-            println!("  {k:<30} {}", compact(v));
+            let _ = writeln!(out, "  {k:<30} {}", compact(v));
         }
     }
+    out
 }
 
 fn compact(v: &Value) -> String {
@@ -257,11 +264,11 @@ pub fn run_verify(args: VerifyArgs, quiet: bool) -> Result<(), Failure> {
     let (pack, decoded) = load(&args.file)?;
     let checks = check_consistency(&pack, &decoded).map_err(|e| e.with_path(&args.file)).input()?;
     if !quiet {
-        println!(
+        crate::stdout::line(format_args!(
             "{}: ok ({} sections decoded and checksummed, {checks} cross-section checks)",
             args.file.display(),
             pack.sections().len()
-        );
+        ))?;
     }
     Ok(())
 }

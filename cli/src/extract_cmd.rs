@@ -23,7 +23,7 @@ pub fn run(args: ExtractArgs, quiet: bool) -> Result<(), Failure> {
     furbake_formats::write_file_atomic(&meta, text.as_bytes()).input()?;
     written.push(meta);
     if !quiet {
-        println!("extracted {} files into {}", written.len(), args.output.display());
+        crate::stdout::line(format_args!("extracted {} files into {}", written.len(), args.output.display()))?;
     }
     Ok(())
 }

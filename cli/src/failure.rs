@@ -1,7 +1,8 @@
 //! Failures of a CLI command and their exit codes: 1 when the input (a mesh, a pack, a config
 //! file that cannot be read or is not TOML) is bad or unreadable, 2 when the command line or a
 //! setting is wrong (a flag, a `--set`, a config file's key or value). Errors keep this blame
-//! through the layers. Messages are one line.
+//! through the layers. Messages are one line. A closed stdout is no failure of the command: it
+//! ends quietly with exit 0.
 
 /// Exit code for bad input or an invalid file.
 pub const EXIT_BAD_INPUT: u8 = 1;
@@ -15,6 +16,8 @@ pub enum Failure {
     Input(anyhow::Error),
     /// The command line or settings are wrong (exit 2).
     Usage(anyhow::Error),
+    /// Stdout is a closed pipe (the reader, e.g. `head`, has exited): stop quietly, exit 0.
+    StdoutClosed,
 }
 
 impl Failure {
@@ -23,6 +26,7 @@ impl Failure {
         match self {
             Failure::Input(_) => EXIT_BAD_INPUT,
             Failure::Usage(_) => EXIT_USAGE,
+            Failure::StdoutClosed => 0,
         }
     }
 
@@ -30,6 +34,7 @@ impl Failure {
     pub fn message(&self) -> String {
         let e = match self {
             Failure::Input(e) | Failure::Usage(e) => e,
+            Failure::StdoutClosed => return String::new(),
         };
         let mut parts: Vec<String> = Vec::new();
         for cause in e.chain() {

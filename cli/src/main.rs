@@ -12,6 +12,7 @@ mod png;
 mod preview_cmd;
 mod report_cmd;
 mod simulate_cmd;
+mod stdout;
 
 use std::process::ExitCode;
 
@@ -57,7 +58,7 @@ fn main() -> ExitCode {
         Command::Extract(a) => extract_cmd::run(a, cli.quiet),
     };
     match result {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(()) | Err(failure::Failure::StdoutClosed) => ExitCode::SUCCESS,
         Err(f) => {
             eprintln!("furbake: error: {}", f.message());
             ExitCode::from(f.code())

@@ -88,11 +88,11 @@ pub fn run(args: SimulateArgs, quiet: bool) -> Result<(), Failure> {
             furbake_formats::write_file_atomic(out, format!("{json}\n").as_bytes()).input()?;
         }
         if args.json {
-            println!("{json}");
+            crate::stdout::line(&json)?;
         }
     }
     if !args.json {
-        print!("{}", stage_table(&report));
+        crate::stdout::write(&stage_table(&report))?;
     }
     if !quiet {
         eprintln!(

@@ -1,14 +1,13 @@
 //! The container: a 64-byte header, a section table, and 16-byte-aligned sections, all
 //! little-endian (layout in `docs/format.md`). [`PackWriter`] assembles one and writes it
-//! atomically (temporary file + rename); the header and table parsers here are the only code that
+//! atomically (`atomic.rs`); the header and table parsers here are the only code that
 //! reads the container's layout, and [`crate::Pack`] (the one reader) builds on them.
 //!
 //! Validation happens here, once, with checked arithmetic: after the table parses, every section
 //! offset and length is inside the file; the reader checks a section's CRC-32 before handing its
 //! bytes to a decoder, so section decoders can trust the bounds of the bytes they are handed.
 
-use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use crate::SectionKind;
 use crate::error::{FormatError, Result};
@@ -161,45 +160,11 @@ impl PackWriter {
         out
     }
 
-    /// Writes the container to `path` through a temporary file in the same directory, then
-    /// renames it into place: a crash or error never leaves a half-written `path`.
+    /// Writes the container to `path` with [`crate::write_file_atomic`]: a crash or error never
+    /// leaves a half-written `path`, nor (on Linux) a temporary file.
     pub fn write_atomic(&self, path: &Path) -> Result<()> {
-        write_file_atomic(path, &self.to_bytes())
+        crate::atomic::write_file_atomic(path, &self.to_bytes())
     }
-}
-
-/// Mode requested for every file [`write_file_atomic`] creates on Unix, before the umask: what
-/// `open(2)` with `O_CREAT` gets from an ordinary program (`0o666 & !umask`).
-#[cfg(unix)]
-const ORDINARY_FILE_MODE: u32 = 0o666;
-
-/// Writes `bytes` to `path` through a temporary file in the same directory and a rename.
-///
-/// The file gets the permissions an ordinary file write gets: on Unix the temporary file is
-/// created with mode `0o666` and the kernel applies the process umask (so `0o644` under umask
-/// `022`), without reading or changing the umask ourselves (`umask(2)` set-and-restore would race
-/// with other threads). Its name stays unpredictable (`tempfile` picks it and creates it with
-/// `O_EXCL`). On any error the temporary file is removed: `path` is either the old file or the
-/// complete new one, never half-written.
-pub fn write_file_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    let io = |source| FormatError::Io { path: path.to_path_buf(), source };
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    let mut builder = tempfile::Builder::new();
-    builder.prefix(".furbake-").suffix(".tmp");
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        builder.permissions(std::fs::Permissions::from_mode(ORDINARY_FILE_MODE));
-    }
-    // Dropping `tmp` (the `?` below) deletes the temporary file; `persist` consumes it on success.
-    let mut tmp = builder.tempfile_in(&dir).map_err(io)?;
-    tmp.write_all(bytes).map_err(io)?;
-    tmp.as_file().sync_all().map_err(io)?;
-    tmp.persist(path).map_err(|e| io(e.error))?;
-    Ok(())
 }
 
 fn align_up(x: usize) -> usize {

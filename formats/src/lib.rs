@@ -5,8 +5,8 @@
 //! CRC-32 per section) and 16-byte-aligned, little-endian sections; `docs/format.md` specifies
 //! every byte. A *pack* holds all artifacts of one asset; a single-artifact file is the same
 //! container with one section. Readers validate magic, version, bounds, checksums and counts
-//! before they allocate or trust anything, and return [`FormatError`]s; writers go through a
-//! temporary file and a rename.
+//! before they allocate or trust anything, and return [`FormatError`]s; writers go through an
+//! unnamed (Linux `O_TMPFILE`) or temporary file and a rename (`atomic.rs`).
 //!
 //! ```
 //! use furbake_formats::{Pack, PackWriter, Section, sections::fin_atlas::FinAtlas};
@@ -22,6 +22,7 @@
 //! # Ok::<(), furbake_formats::FormatError>(())
 //! ```
 
+mod atomic;
 mod consistency;
 mod container;
 mod error;
@@ -30,10 +31,11 @@ mod pack;
 pub mod record;
 pub mod sections;
 
+pub use atomic::write_file_atomic;
 pub use consistency::{PackSections, check_consistency};
 pub use container::{
     ALIGN, AlignedBytes, HEADER_SIZE, MAGIC, MAX_SECTIONS, PackWriter, SectionEntry, TABLE_ENTRY_SIZE, VERSION_MAJOR,
-    VERSION_MINOR, write_file_atomic,
+    VERSION_MINOR,
 };
 pub use error::{FormatError, OutOfRange, Result};
 pub use kind::SectionKind;

@@ -4,7 +4,9 @@
 
 use std::path::Path;
 
+mod closed_stdout;
 mod common;
+mod confinement;
 mod file_modes;
 mod golden;
 mod plan_first;

@@ -6,6 +6,8 @@
 use std::fmt;
 use std::path::PathBuf;
 
+use crate::external::{ExternalRef, UriProblem};
+
 /// Where in the file a primitive lives: mesh index, mesh name (if any) and primitive index.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct PrimitiveRef {
@@ -166,6 +168,33 @@ pub enum ImportError {
         message: String,
     },
 
+    /// An external file named by a buffer or image URI was refused (an escape from the asset
+    /// roots, an absolute path, a scheme, a bad escape, a FIFO, device or directory, a buffer
+    /// file shorter than its `byteLength`, …) or could not be read. Names the URI as written.
+    #[error("{}: {referrer} uri {uri:?}: {problem}", file.display())]
+    ExternalFile {
+        /// The glTF file being imported.
+        file: PathBuf,
+        /// The buffer or image whose URI it is.
+        referrer: ExternalRef,
+        /// The URI exactly as the file writes it.
+        uri: Box<str>,
+        /// What is wrong (boxed to keep [`ImportError`] small).
+        problem: Box<UriProblem>,
+    },
+
+    /// The asset root the caller named (`--asset-root`) is not an existing directory. Blame:
+    /// the caller.
+    #[error("{}: asset root {}: {message}", file.display(), root.display())]
+    AssetRoot {
+        /// The glTF file being imported.
+        file: PathBuf,
+        /// The asset root as given.
+        root: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+
     /// A size is beyond what furbake accepts (file bytes, accessor elements, vertices, node
     /// instances); this guards against lying headers and allocation bombs.
     #[error("{}: {what} is {count}, more than the limit of {limit}", file.display())]
@@ -216,6 +245,8 @@ impl ImportError {
             | ImportError::PrimitiveWithoutTriangles { file, .. }
             | ImportError::NoTriangles { file, .. }
             | ImportError::Scene { file, .. }
+            | ImportError::ExternalFile { file, .. }
+            | ImportError::AssetRoot { file, .. }
             | ImportError::TooLarge { file, .. }
             | ImportError::FurMask { file, .. }
             | ImportError::Settings { file, .. } => file,

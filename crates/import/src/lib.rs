@@ -3,7 +3,8 @@
 //!
 //! The pipeline, one verb per stage:
 //! 1. `source` — read the bytes, split the GLB container, refuse unsupported
-//!    required extensions, validate with the `gltf` crate, load and hash the buffers;
+//!    required extensions, validate with the `gltf` crate, load and hash the buffers (external
+//!    files only from inside the asset roots, through `external`);
 //! 2. `scene` — walk the default scene (else scene 0, else every root node), apply node
 //!    transforms (matrix or TRS, normals by the inverse transpose, winding flipped under
 //!    mirroring), triangulate lists/strips/fans, decide the per-triangle fur mask;
@@ -30,6 +31,7 @@
 mod accessor;
 mod base64;
 mod error;
+mod external;
 pub mod limits;
 mod scene;
 mod settings;
@@ -42,6 +44,7 @@ mod weld;
 use std::path::Path;
 
 pub use error::{ImportError, PrimitiveRef};
+pub use external::{ExternalRef, UriProblem};
 pub use furbake_formats::sections::skin_mesh::{SkinMesh, SkinMeshStats};
 pub use settings::{ColorChannel, FurMaskSource, ImportSettings, InvalidImportSetting, WeldTolerance};
 
@@ -50,48 +53,75 @@ pub use settings::{ColorChannel, FurMaskSource, ImportSettings, InvalidImportSet
 pub struct ImportedMesh {
     /// The welded, triangulated skin.
     pub mesh: SkinMesh,
-    /// Bytes read: the main file, every external buffer file and every external image file
-    /// sampled for colour (embedded `data:` buffers and GLB images are part of the main file).
+    /// Bytes read: the main file, every external buffer file (its first `byteLength` bytes, all
+    /// that is read of it) and every external image file sampled for colour (embedded `data:`
+    /// buffers and GLB images are part of the main file).
     pub input_bytes: u64,
-    /// Lowercase hex SHA-256 over the main file's bytes, then each external buffer file's
-    /// bytes in buffer order, then each external base-colour image file sampled, in first-use order.
+    /// Lowercase hex SHA-256 over the main file's bytes, then each external buffer file's first
+    /// `byteLength` bytes in buffer order, then each external base-colour image file sampled, in
+    /// first-use order.
     pub input_sha256: String,
     /// Non-fatal findings, each prefixed with the file name: skipped point/line primitives,
     /// ignored skins or morph targets, fur-mask fallbacks, dropped vertices.
     pub warnings: Vec<String>,
 }
 
-/// Imports the glTF file at `path` (`.glb` or `.gltf`; external buffers are resolved relative
-/// to the file's directory).
+/// Imports the glTF file at `path` (`.glb` or `.gltf`). External buffers and images are
+/// resolved relative to the file's directory and must lie inside it (symlinks followed); see
+/// [`import_gltf_with_asset_root`] to allow a wider directory.
 pub fn import_gltf(path: &Path, settings: &ImportSettings) -> Result<ImportedMesh, ImportError> {
+    import_file(path, None, settings)
+}
+
+/// Imports the glTF file at `path`, reading external buffers and images from inside its own
+/// directory *or* inside `asset_root` (for pipelines that keep textures in shared folders, e.g.
+/// `../shared/fur.png` with `asset_root` the folder above both). URIs are still resolved relative
+/// to the glTF's directory. `asset_root` must be an existing directory
+/// ([`ImportError::AssetRoot`] otherwise, checked before the file is read).
+pub fn import_gltf_with_asset_root(
+    path: &Path,
+    asset_root: &Path,
+    settings: &ImportSettings,
+) -> Result<ImportedMesh, ImportError> {
+    let refuse =
+        |message: String| ImportError::AssetRoot { file: path.to_path_buf(), root: asset_root.to_path_buf(), message };
+    match std::fs::metadata(asset_root) {
+        Ok(m) if m.is_dir() => import_file(path, Some(asset_root), settings),
+        Ok(_) => Err(refuse("is not a directory".to_owned())),
+        Err(e) => Err(refuse(e.to_string())),
+    }
+}
+
+fn import_file(path: &Path, extra_root: Option<&Path>, settings: &ImportSettings) -> Result<ImportedMesh, ImportError> {
     let bytes = source::read_file_limited(path, path)?;
     let base_dir = match path.parent() {
         Some(dir) if !dir.as_os_str().is_empty() => dir,
         _ => Path::new("."),
     };
-    import(&bytes, path, Some(base_dir), settings)
+    import(&bytes, path, external::ExternalFiles { base_dir: Some(base_dir), extra_root }, settings)
 }
 
 /// Imports glTF bytes held in memory. `name_for_errors` names the input in errors and warnings;
-/// `base_dir` resolves external buffer URIs (`None`: only GLB-embedded or `data:` buffers work).
+/// `base_dir` resolves external buffer and image URIs, which must lie inside it (`None`: only
+/// GLB-embedded or `data:` buffers work).
 pub fn import_gltf_slice(
     bytes: &[u8],
     name_for_errors: &str,
     base_dir: Option<&Path>,
     settings: &ImportSettings,
 ) -> Result<ImportedMesh, ImportError> {
-    import(bytes, Path::new(name_for_errors), base_dir, settings)
+    import(bytes, Path::new(name_for_errors), external::ExternalFiles { base_dir, extra_root: None }, settings)
 }
 
 fn import(
     bytes: &[u8],
     file: &Path,
-    base_dir: Option<&Path>,
+    external: external::ExternalFiles<'_>,
     settings: &ImportSettings,
 ) -> Result<ImportedMesh, ImportError> {
     settings.validate().map_err(|e| ImportError::Settings { file: file.to_path_buf(), message: e.to_string() })?;
-    let asset = source::load_asset(bytes, file, base_dir)?;
-    let mut walker = scene::SceneWalker::new(&asset, file, base_dir, settings);
+    let asset = source::load_asset(bytes, file, external)?;
+    let mut walker = scene::SceneWalker::new(&asset, file, external, settings);
     walker.walk()?;
     let mut warnings = asset.warnings.clone();
     warnings.append(&mut walker.warnings);

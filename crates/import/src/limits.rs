@@ -1,7 +1,8 @@
 //! Size limits that keep a lying or hostile file from exhausting memory (docs/design.md "Import", "Determinism and errors": absurd
 //! sizes get a clear error). Far above any fur skin (the thesis's dog has 1872 vertices).
 
-/// Largest main file or buffer accepted, in bytes (2 GiB).
+/// Largest main file, buffer (`byteLength`) or external image file accepted, in bytes (2 GiB);
+/// checked before reading, and reads are bounded by it.
 pub const MAX_FILE_BYTES: u64 = 1 << 31;
 /// Most elements one accessor may have (8 Mi); also bounds accessors without a buffer view.
 pub const MAX_ACCESSOR_ELEMENTS: u64 = 1 << 23;

@@ -16,6 +16,7 @@ use gltf::json::mesh::{Mode, Semantic};
 use gltf::json::validation::Checked;
 
 use crate::accessor::{AccessorReader, Elements};
+use crate::external::ExternalFiles;
 use crate::limits::{MAX_NODE_DEPTH, MAX_NODE_VISITS, MAX_RAW_TRIANGLES, MAX_RAW_VERTICES};
 use crate::source::Asset;
 use crate::texture::TextureCache;
@@ -104,7 +105,7 @@ pub(crate) struct SceneWalker<'a> {
     pub asset: &'a Asset,
     pub file: &'a Path,
     pub mask: &'a FurMaskSource,
-    base_dir: Option<&'a Path>,
+    external: ExternalFiles<'a>,
     sample_textures: bool,
     pub textures: TextureCache,
     pub soup: Soup,
@@ -121,12 +122,12 @@ pub(crate) struct SceneWalker<'a> {
 }
 
 impl<'a> SceneWalker<'a> {
-    pub fn new(asset: &'a Asset, file: &'a Path, base_dir: Option<&'a Path>, settings: &'a ImportSettings) -> Self {
+    pub fn new(asset: &'a Asset, file: &'a Path, external: ExternalFiles<'a>, settings: &'a ImportSettings) -> Self {
         SceneWalker {
             asset,
             file,
             mask: &settings.fur_mask,
-            base_dir,
+            external,
             sample_textures: settings.base_color_texture,
             textures: TextureCache::default(),
             soup: Soup { all_have_texcoords: true, ..Soup::default() },
@@ -421,7 +422,7 @@ impl<'a> SceneWalker<'a> {
         };
         let texture = match (texture_info, &texture_uvs) {
             (Some(info), Some(_)) => {
-                self.textures.get(asset, file, self.base_dir, info.index.value(), &mut self.warnings)
+                self.textures.get(asset, file, self.external, info.index.value(), &mut self.warnings)?
             }
             _ => None,
         };

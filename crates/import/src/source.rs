@@ -1,15 +1,18 @@
 //! Reading the asset: splitting a GLB container (validated with checked arithmetic, never
 //! trusting its header), parsing and validating the JSON with the `gltf` crate, refusing
 //! unsupported required extensions *before* the `gltf` crate sees them, and loading every buffer
-//! (GLB binary chunk, base64 `data:` URI or external file) with the input hash computed over the
-//! main file's bytes then each external buffer file's bytes, in buffer order.
+//! (GLB binary chunk, base64 `data:` URI or external file, the last only from inside the asset
+//! roots: see `external`) with the input hash computed over the main file's bytes then each
+//! external buffer file's bytes read (its first `byteLength`), in buffer order.
 
-use std::path::{Path, PathBuf};
+use std::io::Read;
+use std::path::Path;
 
 use gltf::json;
 use sha2::{Digest, Sha256};
 
 use crate::ImportError;
+use crate::external::{ExternalFiles, ExternalRef, Need};
 use crate::limits::MAX_FILE_BYTES;
 
 const GLB_MAGIC: &[u8; 4] = b"glTF";
@@ -145,36 +148,6 @@ fn validate(root: &json::Root) -> Result<(), String> {
     Err(format!("validation failed: {}{more}", errors.join("; ")))
 }
 
-/// Decodes `%XX` escapes in a URI path.
-pub(crate) fn percent_decode(uri: &str) -> String {
-    let bytes = uri.as_bytes();
-    let mut out = Vec::with_capacity(bytes.len());
-    let mut i = 0;
-    while i < bytes.len() {
-        if bytes[i] == b'%' && i + 2 < bytes.len() {
-            let hex = std::str::from_utf8(&bytes[i + 1..i + 3]).ok().and_then(|h| u8::from_str_radix(h, 16).ok());
-            if let Some(b) = hex {
-                out.push(b);
-                i += 3;
-                continue;
-            }
-        }
-        out.push(bytes[i]);
-        i += 1;
-    }
-    String::from_utf8_lossy(&out).into_owned()
-}
-
-fn has_scheme(uri: &str) -> bool {
-    match uri.find(':') {
-        Some(colon) => {
-            let scheme = &uri[..colon];
-            colon > 1 && scheme.chars().all(|c| c.is_ascii_alphanumeric() || "+-.".contains(c))
-        }
-        None => false,
-    }
-}
-
 fn extension_hint(extension: &str) -> &'static str {
     match extension {
         "KHR_draco_mesh_compression" | "EXT_meshopt_compression" | "KHR_mesh_quantization" => {
@@ -186,8 +159,8 @@ fn extension_hint(extension: &str) -> &'static str {
 }
 
 /// Parses `bytes` (a `.glb` or `.gltf`) and loads its buffers. `file` names the input in errors;
-/// `base_dir` resolves relative buffer URIs (`None`: external buffers are an error).
-pub(crate) fn load_asset(bytes: &[u8], file: &Path, base_dir: Option<&Path>) -> Result<Asset, ImportError> {
+/// `external` resolves relative buffer URIs and confines them to the asset roots.
+pub(crate) fn load_asset(bytes: &[u8], file: &Path, external: ExternalFiles<'_>) -> Result<Asset, ImportError> {
     let invalid = |message: String| ImportError::InvalidGltf { file: file.to_path_buf(), message };
     let (json_bytes, bin) = if bytes.starts_with(GLB_MAGIC) {
         let glb = split_glb(bytes).map_err(invalid)?;
@@ -248,14 +221,13 @@ pub(crate) fn load_asset(bytes: &[u8], file: &Path, base_dir: Option<&Path>) -> 
                 crate::base64::decode(&uri[comma + 1..]).map_err(|e| buffer_error(format!("data: URI: {e}")))?
             }
             Some(uri) => {
-                if has_scheme(uri) || uri.starts_with('/') || uri.starts_with('\\') {
-                    return Err(buffer_error(format!("uri {uri:?} is not a relative file reference")));
-                }
-                let dir = base_dir.ok_or_else(|| {
-                    buffer_error(format!("uri {uri:?} names an external file, but no base directory was given"))
+                // Exactly `declared` bytes (checked against the limit above), or a refusal.
+                let data = external.read(uri, Need::Prefix(declared)).map_err(|problem| ImportError::ExternalFile {
+                    file: file.to_path_buf(),
+                    referrer: ExternalRef::Buffer(index),
+                    uri: uri.as_str().into(),
+                    problem: Box::new(problem),
                 })?;
-                let path: PathBuf = dir.join(percent_decode(uri));
-                let data = read_file_limited(&path, file)?;
                 hasher.update(&data);
                 input_bytes += data.len() as u64;
                 data
@@ -270,19 +242,28 @@ pub(crate) fn load_asset(bytes: &[u8], file: &Path, base_dir: Option<&Path>) -> 
     Ok(Asset { root, buffers, input_bytes, input_hasher: hasher, warnings })
 }
 
-/// Reads a whole file after checking its size against [`MAX_FILE_BYTES`].
+/// Reads the main glTF file the caller named, at most [`MAX_FILE_BYTES`]: its size is checked on
+/// the opened handle before reading, and the read goes through `take`, so a file that is not
+/// what its size says (a device such as `/dev/zero`, a pipe) cannot exhaust memory.
 pub(crate) fn read_file_limited(path: &Path, file: &Path) -> Result<Vec<u8>, ImportError> {
     let io = |source| ImportError::Io { file: file.to_path_buf(), what: path.to_path_buf(), source };
-    let len = std::fs::metadata(path).map_err(io)?.len();
+    let too_large = |count| ImportError::TooLarge {
+        file: file.to_path_buf(),
+        what: format!("the size of {}", path.display()),
+        count,
+        limit: MAX_FILE_BYTES,
+    };
+    let handle = std::fs::File::open(path).map_err(io)?;
+    let len = handle.metadata().map_err(io)?.len();
     if len > MAX_FILE_BYTES {
-        return Err(ImportError::TooLarge {
-            file: file.to_path_buf(),
-            what: format!("the size of {}", path.display()),
-            count: len,
-            limit: MAX_FILE_BYTES,
-        });
+        return Err(too_large(len));
     }
-    std::fs::read(path).map_err(io)
+    let mut data = Vec::new();
+    handle.take(MAX_FILE_BYTES + 1).read_to_end(&mut data).map_err(io)?;
+    if data.len() as u64 > MAX_FILE_BYTES {
+        return Err(too_large(data.len() as u64));
+    }
+    Ok(data)
 }
 
 #[cfg(test)]
@@ -314,16 +295,5 @@ mod tests {
         v1[4] = 1;
         assert!(split_glb(&v1).unwrap_err().contains("version 1"));
         assert!(split_glb(&glb[..7]).is_err());
-    }
-
-    #[test]
-    fn percent_decoding_and_schemes() {
-        assert_eq!(percent_decode("a%20b.bin"), "a b.bin");
-        assert_eq!(percent_decode("100%"), "100%");
-        assert_eq!(percent_decode("x%zz"), "x%zz");
-        assert!(has_scheme("http://x/y.bin"));
-        assert!(has_scheme("file:///y.bin"));
-        assert!(!has_scheme("y.bin"));
-        assert!(!has_scheme("C:/y.bin")); // a drive letter is not a scheme (single letter)
     }
 }

@@ -2,14 +2,19 @@
 //! thesis §3.2: "derived from the color of the skin"); a textured model without `COLOR_0` would
 //! otherwise come out white. Each vertex gets `baseColorFactor × texture(TEXCOORD_n)` (bilinear,
 //! wrapping, sRGB decoded to linear). Images come from a buffer view (GLB), a base64 `data:` URI
-//! or a relative file; PNG and JPEG decode, anything else is a warning and the factor alone.
+//! or a relative file inside the asset roots; PNG and JPEG decode, anything else is a warning and
+//! the factor alone. A file URI that is refused (an escape from the asset roots, a FIFO, …) is
+//! an error, like a refused buffer URI; a missing or unreadable image file stays a warning.
 
 use std::collections::HashMap;
 use std::path::Path;
 
 use gltf::json;
 
-use crate::source::{Asset, read_file_limited};
+use crate::ImportError;
+use crate::external::{ExternalFiles, ExternalRef, Need};
+use crate::limits::MAX_FILE_BYTES;
+use crate::source::Asset;
 
 /// A decoded base-colour image in linear RGBA.
 pub(crate) struct LinearImage {
@@ -58,21 +63,31 @@ pub(crate) struct TextureCache {
 }
 
 impl TextureCache {
-    /// The decoded image of texture `texture`, decoding it on first use. Problems become
-    /// warnings (the caller then uses the base colour factor alone).
+    /// The decoded image of texture `texture`, decoding it on first use. A refused file URI is
+    /// an error; other problems become warnings (the caller then uses the base colour factor
+    /// alone).
     pub fn get(
         &mut self,
         asset: &Asset,
         file: &Path,
-        base_dir: Option<&Path>,
+        external: ExternalFiles<'_>,
         texture: usize,
         warnings: &mut Vec<String>,
-    ) -> Option<&LinearImage> {
-        let image = asset.root.textures.get(texture)?.source.value();
+    ) -> Result<Option<&LinearImage>, ImportError> {
+        let Some(texture) = asset.root.textures.get(texture) else { return Ok(None) };
+        let image = texture.source.value();
         if !self.images.contains_key(&image) {
-            let decoded = match decode_image(asset, file, base_dir, image, &mut self.external) {
+            let decoded = match decode_image(asset, external, image, &mut self.external) {
                 Ok(img) => Some(img),
-                Err(why) => {
+                Err(ImageProblem::Refused { uri, problem }) => {
+                    return Err(ImportError::ExternalFile {
+                        file: file.to_path_buf(),
+                        referrer: ExternalRef::Image(image),
+                        uri,
+                        problem: Box::new(problem),
+                    });
+                }
+                Err(ImageProblem::Unusable(why)) => {
                     warnings.push(format!(
                         "{}: base colour image {image} not used ({why}); the fur takes the base colour factor",
                         file.display()
@@ -82,17 +97,36 @@ impl TextureCache {
             };
             self.images.insert(image, decoded);
         }
-        self.images.get(&image).and_then(Option::as_ref)
+        Ok(self.images.get(&image).and_then(Option::as_ref))
+    }
+}
+
+/// Why an image is not used.
+enum ImageProblem {
+    /// Its file URI was refused: an error.
+    Refused { uri: Box<str>, problem: crate::UriProblem },
+    /// Anything else (cannot decode, missing file, …): a warning.
+    Unusable(String),
+}
+
+impl From<&str> for ImageProblem {
+    fn from(why: &str) -> Self {
+        ImageProblem::Unusable(why.to_owned())
+    }
+}
+
+impl From<String> for ImageProblem {
+    fn from(why: String) -> Self {
+        ImageProblem::Unusable(why)
     }
 }
 
 fn image_bytes(
     asset: &Asset,
-    file: &Path,
-    base_dir: Option<&Path>,
+    files: ExternalFiles<'_>,
     image: &json::Image,
     external: &mut Vec<Vec<u8>>,
-) -> Result<Vec<u8>, String> {
+) -> Result<Vec<u8>, ImageProblem> {
     if let Some(view) = image.buffer_view {
         let v = asset.root.buffer_views.get(view.value()).ok_or("its buffer view does not exist")?;
         let buffer = asset.buffers.get(v.buffer.value()).ok_or("its buffer does not exist")?;
@@ -109,32 +143,31 @@ fn image_bytes(
         if !rest[..comma].ends_with(";base64") {
             return Err("only base64 data: URIs are supported".into());
         }
-        return crate::base64::decode(&rest[comma + 1..]).map_err(|e| format!("data: URI: {e}"));
+        return crate::base64::decode(&rest[comma + 1..]).map_err(|e| format!("data: URI: {e}").into());
     }
-    if uri.contains(':') || uri.starts_with('/') || uri.starts_with('\\') {
-        return Err(format!("uri {uri:?} is not a relative file reference"));
-    }
-    let dir = base_dir.ok_or("it names an external file but no base directory is known")?;
-    let bytes = read_file_limited(&dir.join(crate::source::percent_decode(uri)), file).map_err(|e| e.to_string())?;
+    let bytes = match files.read(uri, Need::Whole { limit: MAX_FILE_BYTES }) {
+        Ok(bytes) => bytes,
+        Err(problem) if problem.is_refusal() => return Err(ImageProblem::Refused { uri: uri.into(), problem }),
+        Err(problem) => return Err(format!("uri {uri:?} {problem}").into()),
+    };
     external.push(bytes.clone());
     Ok(bytes)
 }
 
 fn decode_image(
     asset: &Asset,
-    file: &Path,
-    base_dir: Option<&Path>,
+    files: ExternalFiles<'_>,
     index: usize,
     external: &mut Vec<Vec<u8>>,
-) -> Result<LinearImage, String> {
+) -> Result<LinearImage, ImageProblem> {
     let image = asset.root.images.get(index).ok_or("it does not exist")?;
-    let bytes = image_bytes(asset, file, base_dir, image, external)?;
+    let bytes = image_bytes(asset, files, image, external)?;
     let reader = image::ImageReader::new(std::io::Cursor::new(&bytes))
         .with_guessed_format()
         .map_err(|e| format!("cannot read its header: {e}"))?;
     let (w, h) = reader.into_dimensions().map_err(|e| format!("cannot read its size: {e}"))?;
     if w == 0 || h == 0 || w > MAX_IMAGE_SIDE || h > MAX_IMAGE_SIDE {
-        return Err(format!("it is {w}×{h}, outside 1..={MAX_IMAGE_SIDE} per side"));
+        return Err(format!("it is {w}×{h}, outside 1..={MAX_IMAGE_SIDE} per side").into());
     }
     let rgba = image::load_from_memory(&bytes).map_err(|e| format!("cannot decode it: {e}"))?.to_rgba8();
     let texels = rgba

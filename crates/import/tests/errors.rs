@@ -5,7 +5,7 @@ mod common;
 
 use common::{document, document_of, import_value, triangle};
 use furbake_import::testmesh::{TestPrimitive, data_uri};
-use furbake_import::{ImportError, ImportSettings, import_gltf_slice};
+use furbake_import::{ImportError, ImportSettings, UriProblem, import_gltf_slice};
 use serde_json::json;
 
 fn defaults() -> ImportSettings {
@@ -185,9 +185,17 @@ fn external_buffers_need_a_base_directory() {
     let mut doc = document(p, i);
     doc["buffers"][0]["uri"] = json!("mesh.bin");
     let err = import_value(&doc, &defaults()).unwrap_err();
-    assert!(matches!(&err, ImportError::Buffer { message, .. } if message.contains("no base directory")), "{err}");
+    assert!(
+        matches!(&err, ImportError::ExternalFile { problem, .. } if matches!(**problem, UriProblem::NoBaseDirectory)),
+        "{err}"
+    );
+    assert!(err.to_string().contains("no base directory"), "{err}");
     doc["buffers"][0]["uri"] = json!("https://example.invalid/mesh.bin");
-    assert!(matches!(import_value(&doc, &defaults()), Err(ImportError::Buffer { .. })));
+    let err = import_value(&doc, &defaults()).unwrap_err();
+    assert!(
+        matches!(&err, ImportError::ExternalFile { problem, .. } if matches!(**problem, UriProblem::Scheme { .. })),
+        "{err}"
+    );
 }
 
 #[test]

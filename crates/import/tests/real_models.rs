@@ -176,11 +176,16 @@ fn a_missing_external_buffer_names_the_missing_file() {
     std::fs::copy(fixture("TwoSidedPlane/TwoSidedPlane.gltf"), &copy).unwrap();
     let err = import_gltf(&copy, &ImportSettings::default()).unwrap_err();
     match &err {
-        ImportError::Io { file, what, .. } => {
+        ImportError::ExternalFile { file, referrer, uri, problem } => {
             assert_eq!(file, &copy);
-            assert!(what.ends_with("TwoSidedPlane.bin"), "{err}");
+            assert_eq!(*referrer, furbake_import::ExternalRef::Buffer(0));
+            assert_eq!(&**uri, "TwoSidedPlane.bin");
+            assert!(
+                matches!(&**problem, furbake_import::UriProblem::Io { path, .. } if path.ends_with("TwoSidedPlane.bin"))
+            );
+            assert!(err.to_string().contains("TwoSidedPlane.bin"), "{err}");
         }
-        other => panic!("expected Io, got {other}"),
+        other => panic!("expected ExternalFile, got {other}"),
     }
     let missing = dir.path().join("nope.glb");
     let err = import_gltf(&missing, &ImportSettings::default()).unwrap_err();
