@@ -10,7 +10,7 @@
 //!   animation steps the world once (`time_step_s`) before each frame.
 //!
 //! Arguments become a validated [`PreviewPlan`] before any work starts. Every PNG is written
-//! atomically (temporary file + rename); a failed animation removes the frames it had written, so
+//! atomically (`furbake_formats::write_file_atomic`); a failed animation removes the frames it had written, so
 //! a failure never leaves a partial sequence behind.
 
 use std::path::{Path, PathBuf};
