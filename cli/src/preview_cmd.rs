@@ -166,6 +166,7 @@ impl SceneRun {
             .renderer
             .render_world(&g.device, &g.queue, &self.target, &self.world)
             .and_then(|_| read_back(&g.device, &g.queue, &self.target))
+            .and_then(|image| g.check().map(|()| image))
             .map_err(|e| render_failure(e, &self.path))?;
         write_png(png, &image)
     }

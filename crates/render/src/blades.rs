@@ -194,12 +194,7 @@ impl BladeRenderer {
         table: &KeyframeTable,
         settings: &BladeSettings,
     ) -> Result<BladeRenderer, RenderError> {
-        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let renderer = Self::build(device, queue, field, table, settings)?;
-        if let Some(e) = pollster::block_on(scope.pop()) {
-            return Err(RenderError::Gpu { what: e.to_string() });
-        }
-        Ok(renderer)
+        crate::gpu_scope(device, "creating the blade renderer", || Self::build(device, queue, field, table, settings))
     }
 
     fn build(

@@ -85,6 +85,19 @@ pub enum RenderError {
         /// The device's limit.
         limit: u64,
     },
+    /// The device ran out of memory creating a resource (blame: the scene's size for this
+    /// machine; smaller targets, fewer packs or fewer layers fit).
+    #[error("the GPU ran out of memory: {what}")]
+    OutOfMemory {
+        /// wgpu's message, with what was being created.
+        what: String,
+    },
+    /// The device was lost (driver reset, GPU removed); nothing more can be drawn with it.
+    #[error("the GPU device was lost: {what}")]
+    DeviceLost {
+        /// The reason the driver gave.
+        what: String,
+    },
     /// wgpu reported a validation error or a failed readback (a bug in this crate or the driver).
     #[error("GPU error: {what}")]
     Gpu {
@@ -93,7 +106,9 @@ pub enum RenderError {
     },
 }
 
-/// A device and queue created without a window.
+/// A device and queue created without a window. wgpu's default reaction to an error outside an
+/// error scope is a panic, and a lost device only logs; this host records both instead, and
+/// [`HeadlessGpu::check`] turns them into typed errors, so no GPU failure aborts the process.
 pub struct HeadlessGpu {
     /// The adapter's name, backend and driver (for logs and reports).
     pub info: wgpu::AdapterInfo,
@@ -101,6 +116,37 @@ pub struct HeadlessGpu {
     pub device: wgpu::Device,
     /// Its queue.
     pub queue: wgpu::Queue,
+    /// Errors wgpu raised outside any error scope, and a lost device, in order.
+    failures: std::sync::Arc<std::sync::Mutex<Vec<RenderError>>>,
+}
+
+/// Runs `f` inside error scopes for validation, out-of-memory and internal errors and returns
+/// the first error wgpu reported as a typed [`RenderError`] naming `what` was being done.
+/// (Popping a scope is bookkeeping on the device timeline, not a wait for the GPU.)
+pub(crate) fn gpu_scope<T>(
+    device: &wgpu::Device,
+    what: &str,
+    f: impl FnOnce() -> Result<T, RenderError>,
+) -> Result<T, RenderError> {
+    let oom = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+    let validation = device.push_error_scope(wgpu::ErrorFilter::Validation);
+    let internal = device.push_error_scope(wgpu::ErrorFilter::Internal);
+    let result = f();
+    // Scopes pop in reverse order of pushing.
+    let errors =
+        [pollster::block_on(internal.pop()), pollster::block_on(validation.pop()), pollster::block_on(oom.pop())];
+    let value = result?;
+    match errors.into_iter().flatten().next() {
+        None => Ok(value),
+        Some(e) => Err(typed_gpu_error(e, what)),
+    }
+}
+
+fn typed_gpu_error(e: wgpu::Error, what: &str) -> RenderError {
+    match e {
+        wgpu::Error::OutOfMemory { .. } => RenderError::OutOfMemory { what: format!("{what}: {e}") },
+        e => RenderError::Gpu { what: format!("{what}: {e}") },
+    }
 }
 
 impl HeadlessGpu {
@@ -133,7 +179,31 @@ impl HeadlessGpu {
             required_limits: wgpu::Limits::default(),
             ..Default::default()
         }))?;
-        Ok(HeadlessGpu { info: adapter.get_info(), device, queue })
+        let failures = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
+        let sink = std::sync::Arc::clone(&failures);
+        device.on_uncaptured_error(std::sync::Arc::new(move |e: wgpu::Error| {
+            let mut list = sink.lock().unwrap_or_else(|p| p.into_inner());
+            list.push(typed_gpu_error(e, "outside any error scope"));
+        }));
+        let sink = std::sync::Arc::clone(&failures);
+        device.set_device_lost_callback(move |reason, message| {
+            // Dropping the device at the end of a run also "loses" it; only other reasons count.
+            if reason != wgpu::DeviceLostReason::Destroyed {
+                let mut list = sink.lock().unwrap_or_else(|p| p.into_inner());
+                list.push(RenderError::DeviceLost { what: format!("{reason:?}: {message}") });
+            }
+        });
+        Ok(HeadlessGpu { info: adapter.get_info(), device, queue, failures })
+    }
+
+    /// The first GPU failure recorded since the last check (an error outside any error scope,
+    /// or a lost device), as a typed error; `Ok` when there was none.
+    pub fn check(&self) -> Result<(), RenderError> {
+        let mut list = self.failures.lock().unwrap_or_else(|p| p.into_inner());
+        if list.is_empty() {
+            return Ok(());
+        }
+        Err(list.remove(0))
     }
 }
 
@@ -327,7 +397,9 @@ pub fn render_pack(
     if let Some(blades) = BladeRenderer::from_pack(&gpu.device, &gpu.queue, &pack, &BladeSettings::default())? {
         blades.render(&gpu.device, &gpu.queue, &target, &view, None);
     }
-    read_back(&gpu.device, &gpu.queue, &target)
+    let image = read_back(&gpu.device, &gpu.queue, &target)?;
+    gpu.check()?;
+    Ok(image)
 }
 
 /// Maps `buffer` (a `MAP_READ` buffer whose copy was already submitted) and waits until the map

@@ -127,6 +127,12 @@ impl RenderTarget {
                 what: format!("target size {width}×{height} (each side in 1..={max})"),
             });
         }
+        crate::gpu_scope(device, &format!("creating a {width}×{height} render target"), || {
+            Ok(Self::create(device, width, height))
+        })
+    }
+
+    fn create(device: &wgpu::Device, width: u32, height: u32) -> RenderTarget {
         let size = wgpu::Extent3d { width, height, depth_or_array_layers: 1 };
         let make = |label, format, usage| {
             device.create_texture(&wgpu::TextureDescriptor {
@@ -146,7 +152,7 @@ impl RenderTarget {
             wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
         );
         let depth = make("furbake depth target", DEPTH_FORMAT, wgpu::TextureUsages::RENDER_ATTACHMENT);
-        Ok(RenderTarget { color, depth, width, height })
+        RenderTarget { color, depth, width, height }
     }
 
     /// Width / height.
@@ -188,12 +194,7 @@ impl FurRenderer {
         settings: &RenderSettings,
     ) -> Result<FurRenderer, RenderError> {
         settings.validate()?;
-        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let renderer = Self::build(device, queue, asset, settings)?;
-        if let Some(e) = pollster::block_on(scope.pop()) {
-            return Err(RenderError::Gpu { what: e.to_string() });
-        }
-        Ok(renderer)
+        crate::gpu_scope(device, "creating the fur renderer", || Self::build(device, queue, asset, settings))
     }
 
     fn build(

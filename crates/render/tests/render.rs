@@ -223,3 +223,27 @@ fn pixels_beyond_tolerance(image: &RgbaImage, reference: &RgbaImage) -> (usize, 
     }
     (far, worst)
 }
+
+#[test]
+fn gpu_errors_become_typed_errors_not_panics() {
+    // Cause: wgpu's default reaction to an error outside an error scope is a panic, so a bad
+    // upload or an exhausted device aborted `furbake preview` instead of exiting 1.
+    let g = HeadlessGpu::new().expect("a wgpu adapter (lavapipe without a GPU)");
+    assert!(g.check().is_ok(), "a fresh device has no failure");
+    let buffer = g.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("sixteen bytes"),
+        size: 16,
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::UNIFORM,
+        mapped_at_creation: false,
+    });
+    // A write past the end: a validation error outside any error scope.
+    g.queue.write_buffer(&buffer, 64, &[0u8; 16]);
+    match g.check() {
+        Err(furbake_render::RenderError::Gpu { what }) => assert!(what.contains("outside any error scope"), "{what}"),
+        other => panic!("expected a recorded GPU error, got {other:?}"),
+    }
+    assert!(g.check().is_ok(), "each failure is reported once");
+    // The device still works afterwards.
+    let target = RenderTarget::new(&g.device, 8, 8).unwrap();
+    assert_eq!(read_back(&g.device, &g.queue, &target).unwrap().dimensions(), (8, 8));
+}
