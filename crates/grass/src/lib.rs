@@ -31,7 +31,6 @@
 //! # Ok::<(), furbake_grass::GrassError>(())
 //! ```
 
-pub mod accuracy;
 pub mod blade;
 pub mod decode;
 pub mod field;
@@ -40,7 +39,6 @@ pub mod keyframes;
 pub mod rng;
 pub mod simulate;
 
-pub use accuracy::{GrassAccuracyOptions, grass_accuracy_markdown};
 pub use blade::{BladeShape, ReferenceBlade, build_reference_blade};
 pub use decode::{BladeSoa, Interpolation, KeyframeDecoder, PoseBlend, PoseKey};
 pub use field::{BladeFieldSettings, ground_grid_mesh, scatter_blades};

@@ -14,7 +14,7 @@ use crate::clusters::Clusters;
 use crate::forces::{ForceEval, ForceSet};
 use crate::model::{NONE, SimModel};
 use crate::shell::{GuardParams, GuardState};
-use crate::solvers::{self, ImplicitScratch, ReferenceScratch, sum_over};
+use crate::solvers::{self, ImplicitScratch, ReferenceScratch, Step, sum_over};
 
 /// Which solver advances the state.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -424,43 +424,38 @@ impl Simulator {
             let (xo, vo) = (&mut self.x_next, &mut self.v_next);
             // The mass–spring kernels run the guard in their pass on the last substep, if they can.
             let guard = (sub + 1 == substeps).then_some((&self.settings.guard, &mut self.guard));
+            let step = Step {
+                model: &self.model,
+                fe: &fe,
+                h: hf,
+                x,
+                v,
+                x_out: xo,
+                v_out: vo,
+                guard,
+                rotation: Some(self.settings.max_link_rotation_rad as f64),
+            };
             let out = match self.settings.kind {
-                SolverKind::Explicit => solvers::explicit_step(&self.model, &fe, hf, x, v, xo, vo, guard),
-                SolverKind::Stick => solvers::stick_step(&self.model, &fe, hf, x, v, xo, vo, guard),
+                SolverKind::Explicit => solvers::explicit_step(Step { rotation: None, ..step }),
+                SolverKind::Stick => solvers::stick_step(Step { rotation: None, ..step }),
                 SolverKind::Implicit => solvers::implicit_step(
-                    &self.model,
-                    &fe,
-                    hf,
+                    step,
                     self.settings.implicit_iterations,
                     self.clusters.as_ref(),
                     &mut self.implicit,
-                    x,
-                    v,
-                    xo,
-                    vo,
-                    guard,
-                    Some(self.settings.max_link_rotation_rad as f64),
                 ),
                 SolverKind::Reference => {
-                    let (it, rel, out) = solvers::reference_step(
-                        &self.model,
-                        &fe,
-                        hf,
+                    let r = solvers::reference_step(
+                        step,
                         self.settings.reference_tolerance,
                         self.settings.reference_max_iterations,
                         &mut self.reference,
-                        x,
-                        v,
-                        xo,
-                        vo,
-                        guard,
-                        Some(self.settings.max_link_rotation_rad as f64),
                     );
-                    stats.cg_iterations += it;
-                    if rel > self.settings.reference_tolerance && rel.is_finite() {
-                        return Err(SimError::NotConverged { iterations: it, residual: rel });
+                    stats.cg_iterations += r.iterations;
+                    if r.residual > self.settings.reference_tolerance && r.residual.is_finite() {
+                        return Err(SimError::NotConverged { iterations: r.iterations, residual: r.residual });
                     }
-                    out
+                    r.step
                 }
             };
             // The lane-group kernels check their output as they write it; the rest is checked here.

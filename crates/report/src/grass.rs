@@ -1,5 +1,5 @@
 //! The grass part of `docs/accuracy.md` (the user's first explicit ask, for grass): what accuracy
-//! costs in time, measured, not estimated.
+//! costs in time, measured, not estimated; section numbers are the grass thesis's.
 //!
 //! 1. Pose error against the unquantised, uninterpolated simulation (the blade settled directly
 //!    under each query force, §3.2.4) for keyframe counts × selection (nearest / linear eq. 3.13 /
@@ -20,14 +20,12 @@ use std::time::Instant;
 use furbake_formats::sections::keyframe_table::{CompressionStages, DisplacementEncoding, Symmetry};
 use glam::{DVec3, Vec2, Vec3};
 
-use crate::GrassError;
-use crate::blade::build_reference_blade;
-use crate::decode::{BladeSoa, Interpolation, KeyframeDecoder};
-use crate::field::{BladeFieldSettings, ground_grid_mesh, scatter_blades};
-use crate::force::{ForceField, ForceScene, WindSource};
-use crate::keyframes::{KeyframeSettings, PoseGridSettings, compress_poses, simulate_poses};
-use crate::rng::SplitMix64;
-use crate::simulate::BladeSimulator;
+use furbake_grass::rng::SplitMix64;
+use furbake_grass::{
+    BladeFieldSettings, BladeSimulator, BladeSoa, ForceField, ForceScene, GrassError, Interpolation, KeyframeDecoder,
+    KeyframeSettings, PoseGridSettings, ReferenceBlade, WindSource, build_reference_blade, compress_poses,
+    ground_grid_mesh, scatter_blades, simulate_poses,
+};
 
 /// Timed batches per measurement; the fastest is reported (the least disturbed by other load).
 const TIMING_BATCHES: usize = 5;
@@ -101,7 +99,7 @@ pub fn measure_pose_error(options: &GrassAccuracyOptions) -> Result<Vec<PoseErro
         let eq = sim.settle(DVec3::new(force.x as f64, 0.0, force.y as f64), None)?;
         let exact: Vec<Vec3> = (0..blade.vertex_count())
             .map(|v| {
-                let level = crate::blade::ReferenceBlade::level_of_vertex(v);
+                let level = ReferenceBlade::level_of_vertex(v);
                 Vec3::from(blade.positions[v]) + (eq.nodes[level] - blade.nodes[level]).as_vec3()
             })
             .collect();
@@ -279,7 +277,7 @@ pub fn grass_accuracy_markdown(options: &GrassAccuracyOptions) -> Result<String,
     let _ = writeln!(w, "## Grass\n");
     let _ = writeln!(
         w,
-        "Measured by `furbake-grass` with {} worker threads; times are the fastest of {TIMING_BATCHES} wall-clock batches and still move with machine load.\n",
+        "Measured by `furbake-report` on `furbake-grass` with {} worker threads; times are the fastest of {TIMING_BATCHES} wall-clock batches and still move with machine load.\n",
         rayon::current_num_threads()
     );
     let _ = writeln!(w, "### Pose error against the direct simulation, by keyframe count and selection\n");

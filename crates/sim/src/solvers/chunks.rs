@@ -1,0 +1,65 @@
+//! Fixed-chunk parallel loops and sums: every per-mass loop of the solvers runs over fixed
+//! `CHUNK`-mass chunks (in parallel above `PARALLEL_MIN` free masses), and every sum adds its
+//! chunks' partial sums in chunk order, so every result — positions, CG dot products, energies —
+//! is bit-identical for any rayon thread count.
+
+use glam::Vec3A;
+use rayon::prelude::*;
+
+/// Masses per parallel work item; also the fixed chunk of deterministic sums.
+pub(crate) const CHUNK: usize = 1024;
+/// Below this many free masses the kernels run on the calling thread.
+pub(crate) const PARALLEL_MIN: usize = 4096;
+
+/// Runs `f(k)` for every free mass `k`, writing the returned `(x, v)` to `x_out[k]`, `v_out[k]`.
+pub(super) fn for_free<F>(n_free: usize, x_out: &mut [Vec3A], v_out: &mut [Vec3A], f: F)
+where
+    F: Fn(usize) -> (Vec3A, Vec3A) + Sync,
+{
+    let (xs, vs) = (&mut x_out[..n_free], &mut v_out[..n_free]);
+    if n_free < PARALLEL_MIN {
+        for (k, (xo, vo)) in xs.iter_mut().zip(vs.iter_mut()).enumerate() {
+            (*xo, *vo) = f(k);
+        }
+        return;
+    }
+    xs.par_chunks_mut(CHUNK).zip(vs.par_chunks_mut(CHUNK)).enumerate().for_each(|(c, (xc, vc))| {
+        for (o, (xo, vo)) in xc.iter_mut().zip(vc.iter_mut()).enumerate() {
+            (*xo, *vo) = f(c * CHUNK + o);
+        }
+    });
+}
+
+/// Deterministic parallel sum of `f(k)` over `0..n` (fixed chunks, summed in order).
+pub(crate) fn sum_over<F: Fn(usize) -> f64 + Sync>(n: usize, f: F) -> f64 {
+    let chunks = n.div_ceil(CHUNK);
+    let partial: Vec<f64> = if n < PARALLEL_MIN {
+        (0..chunks).map(|c| (c * CHUNK..((c + 1) * CHUNK).min(n)).map(&f).sum()).collect()
+    } else {
+        (0..chunks).into_par_iter().map(|c| (c * CHUNK..((c + 1) * CHUNK).min(n)).map(&f).sum()).collect()
+    };
+    partial.iter().sum()
+}
+
+/// Runs `f(chunk, out_chunk)` over the fixed `CHUNK`-mass chunks of `out` (parallel above the
+/// cut-off) and returns the results in chunk order, so sums over them are thread-count independent.
+pub(super) fn chunk_map<T: Send, R: Send, F: Fn(usize, &mut [T]) -> R + Sync>(out: &mut [T], f: F) -> Vec<R> {
+    if out.len() < PARALLEL_MIN {
+        out.chunks_mut(CHUNK).enumerate().map(|(c, o)| f(c, o)).collect()
+    } else {
+        out.par_chunks_mut(CHUNK).enumerate().map(|(c, o)| f(c, o)).collect()
+    }
+}
+
+/// [`chunk_map`] over two slices of the same length, chunked alike.
+pub(super) fn chunk_map2<T: Send, U: Send, R: Send, F: Fn(usize, &mut [T], &mut [U]) -> R + Sync>(
+    a: &mut [T],
+    b: &mut [U],
+    f: F,
+) -> Vec<R> {
+    if a.len() < PARALLEL_MIN {
+        a.chunks_mut(CHUNK).zip(b.chunks_mut(CHUNK)).enumerate().map(|(c, (x, y))| f(c, x, y)).collect()
+    } else {
+        a.par_chunks_mut(CHUNK).zip(b.par_chunks_mut(CHUNK)).enumerate().map(|(c, (x, y))| f(c, x, y)).collect()
+    }
+}

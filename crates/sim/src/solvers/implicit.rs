@@ -1,0 +1,345 @@
+//! The implicit mass–spring solver (fur thesis §3.3.2, eq. 3.26–3.34): the linearised
+//! backward-Euler system `(M − h ∂F/∂v − h² ∂F/∂x) Δv = h (F + h ∂F/∂x v)` solved by
+//! `iterations` sweeps from `Δv = 0`; one sweep is the thesis's first iterate of eq. 3.34.
+//!
+//! Two deliberate changes, both needed for stability at large steps: the full 3×3 spring Jacobian
+//! of eq. 3.29 is used with the transverse term clamped at zero under compression, and the mass's
+//! own Jacobian blocks are moved to the left-hand side (eq. 3.34 as printed keeps only `M` there
+//! and diverges once `h²k/m > 1`) — a link between two free masses counts twice on the diagonal,
+//! which makes the diagonal dominate the system matrix so every sweep count is stable. Where the
+//! free masses fall into small independent clusters (separable prisms: three tips each) the
+//! system is solved exactly per cluster instead (`clusters.rs`): truncated sweeps there pump
+//! energy into a spinning stiff cluster. One sweep without hair trees or clusters runs in the
+//! fused lane-group pass (`fused.rs`).
+
+use glam::{DMat3, DVec3, Vec3A};
+use rayon::prelude::*;
+
+use super::chunks::{CHUNK, PARALLEL_MIN, for_free};
+use super::fused::{Mode, finish_step, group_step};
+use super::{Step, StepOutcome};
+use super::{external, restoring};
+use crate::clusters::{Clusters, MAX_CLUSTER, solve_cluster};
+use crate::model::{NONE, SimModel};
+
+/// Symmetric 3×3 matrix `[xx, yy, zz, xy, xz, yz]`.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Sym3(pub [f32; 6]);
+
+impl Sym3 {
+    #[inline(always)]
+    pub(super) fn scaled_identity(s: f32) -> Sym3 {
+        Sym3([s, s, s, 0.0, 0.0, 0.0])
+    }
+    #[inline(always)]
+    fn add_scaled(&mut self, o: &Sym3, s: f32) {
+        for i in 0..6 {
+            self.0[i] += o.0[i] * s;
+        }
+    }
+    #[inline(always)]
+    fn mul(&self, v: Vec3A) -> Vec3A {
+        let m = &self.0;
+        Vec3A::new(
+            m[0] * v.x + m[3] * v.y + m[4] * v.z,
+            m[3] * v.x + m[1] * v.y + m[5] * v.z,
+            m[4] * v.x + m[5] * v.y + m[2] * v.z,
+        )
+    }
+    /// Solves `self · x = b` by the adjugate (the matrix is symmetric positive definite by
+    /// construction); NaN when it is singular, which the simulator's finiteness check reports.
+    #[inline(always)]
+    fn solve(&self, b: Vec3A) -> Vec3A {
+        let [a, e, i, bb, c, f] = self.0;
+        let (c00, c01, c02) = (e * i - f * f, c * f - bb * i, bb * f - c * e);
+        let (c11, c12, c22) = (a * i - c * c, bb * c - a * f, a * e - bb * bb);
+        let det = a * c00 + bb * c01 + c * c02;
+        if !(det.is_finite() && det > 0.0) {
+            return Vec3A::splat(f32::NAN);
+        }
+        let r = 1.0 / det;
+        Vec3A::new(
+            (c00 * b.x + c01 * b.y + c02 * b.z) * r,
+            (c01 * b.x + c11 * b.y + c12 * b.z) * r,
+            (c02 * b.x + c12 * b.y + c22 * b.z) * r,
+        )
+    }
+}
+
+/// Hooke + viscosity force on mass i from a link (as the fused pass computes it) and the link's
+/// stiffness block `Kp = k (β I + (1 − β) d̂d̂ᵀ)` (eq. 3.29 with the transverse term `β = 1 − rest/l`
+/// clamped to [0, 1], so the block is positive semi-definite); `∂F_i/∂x_j = Kp`,
+/// `∂F_i/∂x_i = −Kp`. One square root and one division.
+#[inline(always)]
+fn force_and_block(d: Vec3A, dv: Vec3A, rest: f32, k: f32, c: f32) -> (Vec3A, Sym3) {
+    let l = d.length();
+    let inv_l = 1.0 / l.max(1e-20);
+    let force = d * (k * (1.0 - rest * inv_l)) + dv * c;
+    if k == 0.0 {
+        return (force, Sym3::default());
+    }
+    if l <= 1e-12 {
+        return (force, Sym3::scaled_identity(if rest == 0.0 { k } else { 0.0 }));
+    }
+    let beta = (1.0 - rest * inv_l).clamp(0.0, 1.0);
+    let u = d * inv_l;
+    let g = k * (1.0 - beta);
+    let kb = k * beta;
+    (
+        force,
+        Sym3([kb + g * u.x * u.x, kb + g * u.y * u.y, kb + g * u.z * u.z, g * u.x * u.y, g * u.x * u.z, g * u.y * u.z]),
+    )
+}
+
+/// Per-step scratch of the mass–spring solvers (kept between steps to avoid reallocating).
+#[derive(Default)]
+pub(crate) struct ImplicitScratch {
+    /// Per free mass the right-hand side `h (F + h ∂F/∂x v)`.
+    b: Vec<Vec3A>,
+    /// Per free mass the diagonal block of the sweeps' matrix `P`.
+    diag: Vec<Sym3>,
+    /// Per adjacency entry the link's `h c I + h² Kp` block.
+    blocks: Vec<Sym3>,
+    /// The solution `Δv` so far.
+    dv: Vec<Vec3A>,
+    /// The residual `b − A Δv` of the current sweep.
+    res: Vec<Vec3A>,
+    /// Per free mass the inverse of its block of `P` factored along the hair trees.
+    dinv: Vec<DMat3>,
+    /// The tree solve's forward (`rp`) and backward (`z`) vectors.
+    rp: Vec<DVec3>,
+    z: Vec<DVec3>,
+    /// Per small cluster, its masses' `Δv` by slot (see `clusters`).
+    cluster_dv: Vec<[Vec3A; MAX_CLUSTER]>,
+}
+
+fn sym_to_dmat(m: &Sym3) -> DMat3 {
+    let q = m.0.map(|c| c as f64);
+    DMat3::from_cols_array(&[q[0], q[3], q[4], q[3], q[1], q[5], q[4], q[5], q[2]])
+}
+
+/// One implicit Euler step (eq. 3.26–3.34) with `iterations` sweeps, or the exact per-cluster
+/// solve when `clusters` is given. Runs the step's guard in the same pass where it can.
+///
+/// Each sweep solves `P z = b − A Δv` and adds `z` to `Δv`, where `P` keeps the exact couplings
+/// along each hair (a free mass and its free parent, solved by elimination from the tips down
+/// to the roots and back) and replaces every other link between free masses by twice its block
+/// on the diagonal (`P ≥ A`, so the sweeps converge and the step stays stable). For the two-mass
+/// topologies there is nothing to eliminate and one sweep is one 3×3 solve per mass.
+pub(crate) fn implicit_step(
+    mut step: Step,
+    iterations: u32,
+    clusters: Option<&Clusters>,
+    scratch: &mut ImplicitScratch,
+) -> StepOutcome {
+    let model = step.model;
+    if iterations <= 1 && !model.has_tree() && clusters.is_none() {
+        // One sweep without trees: per mass its links' forces and blocks, one 3×3 solve.
+        return group_step(step, Mode::Implicit, &[]);
+    }
+    assemble_system(&step, scratch);
+    match clusters {
+        // Small independent clusters: the exact solve (see `clusters`), whatever the sweep count.
+        Some(cl) => solve_clusters(&step, cl, scratch),
+        None if model.has_tree() => {
+            factor_trees(model, scratch);
+            for it in 0..iterations {
+                compute_residual(&step, it, scratch);
+                sweep_trees(model, scratch);
+            }
+        }
+        None => {
+            for it in 0..iterations {
+                compute_residual(&step, it, scratch);
+                sweep_diagonal(model, scratch);
+            }
+        }
+    }
+    advance(&mut step, &scratch.dv);
+    finish_step(step)
+}
+
+/// Free mass `k`'s right-hand side `b_k`, its diagonal block of `P` and (into `blocks`, its
+/// adjacency's slice) every link's `h c I + h² Kp` block.
+#[inline]
+fn assemble_mass(step: &Step, k: usize, blocks: &mut [Sym3]) -> (Vec3A, Sym3) {
+    let (model, fe, h, x, v) = (step.model, step.fe, step.h, step.x, step.v);
+    let h2 = h * h;
+    let (xi, vi) = (x[k], v[k]);
+    let mut f = external(model, fe, k, xi, vi) + restoring(model, fe, x, k, xi);
+    let mut kv = Vec3A::ZERO;
+    let kr = model.restoring_stiffness(k, fe.restoring_w);
+    let mut diag = Sym3::scaled_identity(model.mass[k] + h2 * kr);
+    if kr > 0.0 {
+        kv -= (vi - v[model.rest_parent[k] as usize]) * kr;
+    }
+    let base = model.adj_start[k] as usize;
+    for (e, a) in model.adj_of(k).iter().enumerate() {
+        let j = a.other as usize;
+        let dv = v[j] - vi;
+        let (fl, kp) = force_and_block(x[j] - xi, dv, a.rest, a.k, a.c);
+        f += fl;
+        kv += kp.mul(dv);
+        let mut hb = Sym3::scaled_identity(h * a.c);
+        hb.add_scaled(&kp, h2);
+        diag.add_scaled(&hb, model.adj_weight[base + e]);
+        blocks[e] = hb;
+    }
+    ((f + kv * h) * h, diag)
+}
+
+/// Sizes the scratch for the step and assembles every free mass's right-hand side, diagonal block
+/// and link blocks ([`assemble_mass`]); `Δv = 0`.
+fn assemble_system(step: &Step, s: &mut ImplicitScratch) {
+    let model = step.model;
+    let nf = model.n_free;
+    s.b.resize(nf, Vec3A::ZERO);
+    s.diag.resize(nf, Sym3::default());
+    s.blocks.resize(model.adj.len(), Sym3::default());
+    s.dv.clear();
+    s.dv.resize(nf, Vec3A::ZERO);
+    s.res.resize(nf, Vec3A::ZERO);
+    let mut block_slices: Vec<&mut [Sym3]> = Vec::with_capacity(nf);
+    let mut rest = s.blocks.as_mut_slice();
+    for k in 0..nf {
+        let len = (model.adj_start[k + 1] - model.adj_start[k]) as usize;
+        let (head, tail) = rest.split_at_mut(len);
+        block_slices.push(head);
+        rest = tail;
+    }
+    let work = |(k, ((b, d), bl)): (usize, ((&mut Vec3A, &mut Sym3), &mut &mut [Sym3]))| {
+        let (bb, dd) = assemble_mass(step, k, bl);
+        *b = bb;
+        *d = dd;
+    };
+    if nf < PARALLEL_MIN {
+        s.b.iter_mut().zip(s.diag.iter_mut()).zip(block_slices.iter_mut()).enumerate().for_each(work);
+    } else {
+        s.b.par_iter_mut()
+            .zip(s.diag.par_iter_mut())
+            .zip(block_slices.par_iter_mut())
+            .enumerate()
+            .with_min_len(CHUNK)
+            .for_each(work);
+    }
+}
+
+/// `Δv` by the exact solve of every small independent cluster (see `clusters`).
+fn solve_clusters(step: &Step, cl: &Clusters, s: &mut ImplicitScratch) {
+    let (model, h, restoring_w) = (step.model, step.h, step.fe.restoring_w);
+    let nf = model.n_free;
+    s.cluster_dv.resize(cl.len(), [Vec3A::ZERO; MAX_CLUSTER]);
+    let (out, blocks, b) = (&mut s.cluster_dv, &s.blocks, &s.b);
+    let solve = |(c, o): (usize, &mut [Vec3A; MAX_CLUSTER])| solve_cluster(model, cl, c, h, restoring_w, blocks, b, o);
+    if nf < PARALLEL_MIN {
+        out.iter_mut().enumerate().for_each(solve);
+    } else {
+        out.par_iter_mut().enumerate().with_min_len(CHUNK / 4).for_each(solve);
+    }
+    for k in 0..nf {
+        s.dv[k] = out[cl.index_of(k)][cl.slot[k] as usize];
+    }
+}
+
+/// Factors `P` along the hair trees, deepest level first: `D'_k = D_k − Σ_c H_c D'_c⁻¹ H_c`
+/// (into `dinv`, the inverses), and sizes the tree solve's vectors.
+fn factor_trees(model: &SimModel, s: &mut ImplicitScratch) {
+    let nf = model.n_free;
+    s.dinv.resize(nf, DMat3::ZERO);
+    for &(ls, le) in model.levels.iter().rev() {
+        for k in ls..le {
+            let mut d = sym_to_dmat(&s.diag[k]);
+            let (cs, ce) = (model.tree_children_start[k] as usize, model.tree_children_start[k + 1] as usize);
+            for &c in &model.tree_children[cs..ce] {
+                let hc = sym_to_dmat(&s.blocks[model.tree_parent_adj[c as usize] as usize]);
+                d -= hc * s.dinv[c as usize] * hc;
+            }
+            s.dinv[k] = if d.determinant() > 0.0 { d.inverse() } else { DMat3::NAN };
+        }
+    }
+    s.rp.resize(nf, DVec3::ZERO);
+    s.z.resize(nf, DVec3::ZERO);
+}
+
+/// The residual `b − A Δv` of sweep `it` into `res` (`b` itself on the first sweep, `Δv = 0`).
+fn compute_residual(step: &Step, it: u32, s: &mut ImplicitScratch) {
+    if it == 0 {
+        s.res.copy_from_slice(&s.b);
+        return;
+    }
+    let (model, fe, h) = (step.model, step.fe, step.h);
+    let (nf, h2) = (model.n_free, h * h);
+    let (b, blocks, dv) = (&s.b, &s.blocks, &s.dv);
+    let residual = |k: usize| -> Vec3A {
+        let kr = model.restoring_stiffness(k, fe.restoring_w);
+        let mut ax = dv[k] * (model.mass[k] + h2 * kr);
+        let base = model.adj_start[k] as usize;
+        for (e, a) in model.adj_of(k).iter().enumerate() {
+            let j = a.other as usize;
+            let dvj = if j < nf { dv[j] } else { Vec3A::ZERO };
+            ax += blocks[base + e].mul(dv[k] - dvj);
+        }
+        b[k] - ax
+    };
+    if nf < PARALLEL_MIN {
+        for (k, o) in s.res.iter_mut().enumerate() {
+            *o = residual(k);
+        }
+    } else {
+        s.res.par_iter_mut().enumerate().with_min_len(CHUNK).for_each(|(k, o)| *o = residual(k));
+    }
+}
+
+/// `Δv += P⁻¹ res` with `P` block diagonal (no hair trees): one 3×3 solve per mass.
+fn sweep_diagonal(model: &SimModel, s: &mut ImplicitScratch) {
+    let (diag, res) = (&s.diag, &s.res);
+    if model.n_free < PARALLEL_MIN {
+        for (k, o) in s.dv.iter_mut().enumerate() {
+            *o += diag[k].solve(res[k]);
+        }
+    } else {
+        s.dv.par_iter_mut().enumerate().with_min_len(CHUNK).for_each(|(k, o)| *o += diag[k].solve(res[k]));
+    }
+}
+
+/// `Δv += P⁻¹ res` with `P` factored along the hair trees ([`factor_trees`]): eliminate from the
+/// tips down to the roots, then substitute back up.
+fn sweep_trees(model: &SimModel, s: &mut ImplicitScratch) {
+    let nf = model.n_free;
+    for k in 0..nf {
+        s.rp[k] = s.res[k].as_dvec3();
+    }
+    for &(ls, le) in model.levels.iter().rev() {
+        for k in ls..le {
+            let (cs, ce) = (model.tree_children_start[k] as usize, model.tree_children_start[k + 1] as usize);
+            for &c in &model.tree_children[cs..ce] {
+                let c = c as usize;
+                let hc = sym_to_dmat(&s.blocks[model.tree_parent_adj[c] as usize]);
+                let add = hc * (s.dinv[c] * s.rp[c]);
+                s.rp[k] += add;
+            }
+        }
+    }
+    for &(ls, le) in &model.levels {
+        for k in ls..le {
+            let mut t = s.rp[k];
+            let p = model.tree_parent[k];
+            if p != NONE {
+                t += sym_to_dmat(&s.blocks[model.tree_parent_adj[k] as usize]) * s.z[p as usize];
+            }
+            s.z[k] = s.dinv[k] * t;
+        }
+    }
+    for k in 0..nf {
+        s.dv[k] += s.z[k].as_vec3a();
+    }
+}
+
+/// The new state from `Δv`: `v + Δv` and `x + h (v + Δv)` (eq. 3.26, 3.20).
+fn advance(step: &mut Step, dv: &[Vec3A]) {
+    let (x, v, h) = (step.x, step.v, step.h);
+    for_free(step.model.n_free, step.x_out, step.v_out, |k| {
+        let vn = v[k] + dv[k];
+        (x[k] + vn * h, vn)
+    });
+}
