@@ -169,3 +169,55 @@ fn simulate_scene_errors_name_their_cause() {
     }
     assert_eq!(checked, 8);
 }
+
+#[test]
+fn every_fixture_scene_runs_in_the_one_runtime() {
+    // Every scene in fixtures/scenes/ is a runtime scene: with its packs baked beside it, it
+    // simulates.
+    let dir = tempfile::tempdir().unwrap();
+    let generated = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/generated/grass_patch.gltf");
+    let fox = shared_fixture("Fox.glb");
+    let grass = [
+        "--preset",
+        "grass",
+        "--blades",
+        "50",
+        "--set",
+        "blades.keyframes.grid.poses=40",
+        "--topology",
+        "prisms",
+        "--topology",
+        "separable-prisms",
+    ];
+    for (input, output, extra) in [
+        (&fox, "fox.fbk", &["--topology", "prisms"][..]),
+        (&generated, "patch.fbk", &["--topology", "prisms"][..]),
+        (&generated, "grass-patch.fbk", &grass[..]),
+    ] {
+        let out_path = dir.path().join(output);
+        let mut args = vec!["bake", s(input), "-o", s(&out_path), "--resolution", "16", "-q"];
+        args.extend_from_slice(extra);
+        assert_ok(&furbake(&args), &format!("{args:?}"));
+    }
+    let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/scenes");
+    let mut ran = Vec::new();
+    for entry in std::fs::read_dir(&scenes).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_none_or(|e| e != "toml") {
+            continue;
+        }
+        let copy = dir.path().join(path.file_name().unwrap());
+        std::fs::copy(&path, &copy).unwrap();
+        let out = furbake(&["simulate", s(&copy), "--frames", "5", "--json", "-q"]);
+        assert_ok(&out, &format!("simulate {}", path.display()));
+        let report = json_of(&out);
+        assert_eq!(report["frames"], 5);
+        assert!(!stage_names(&report).is_empty(), "{} declares effects, so stages run", path.display());
+        ran.push(path.file_name().unwrap().to_string_lossy().into_owned());
+    }
+    ran.sort();
+    assert_eq!(
+        ran,
+        ["demo_fox_and_grass.toml", "fur_wind_gust.toml", "runtime_everything.toml", "runtime_fox_in_wind.toml"]
+    );
+}

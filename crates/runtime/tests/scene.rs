@@ -51,7 +51,9 @@ fn every_effect_parses() {
         Effect::WrongSideGuard,
     ];
     assert_eq!(scene.effects(), all.to_vec());
-    assert_eq!(scene.packs[0].path, Path::new("/abs/grass.fbk"), "absolute paths are kept");
+    assert_eq!(scene.packs[0].path, scenes_dir().join("grass-patch.fbk"));
+    let absolute = parse("[[packs]]\nname = \"a\"\npath = \"/abs/a.fbk\"\n").unwrap();
+    assert_eq!(absolute.packs[0].path, Path::new("/abs/a.fbk"), "absolute paths are kept");
     assert_eq!(scene.effects.collisions.len(), 2);
     assert!(matches!(scene.effects.collisions[1], Collider::Ellipsoid { radii_m: [0.3, 0.1, 0.2], .. }));
     assert!(scene.effects.wind_sources[0].delayed_attenuation);
