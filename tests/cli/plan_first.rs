@@ -102,6 +102,16 @@ fn a_bad_topology_parameter_exits_2_before_the_input_is_read() {
     // Every topology hangs one chain mass on each shell layer: one layer is too few.
     assert_refused_before_reading(&["--topology", "sticks", "--layers", "1"], "volume.layers = 1");
     assert_refused_before_reading(&["--set", "topologies=[\"braid\"]"], "topologies[0]");
+    // Cause: `topology.chain_layers=1000000` was recorded in the manifest but ignored (the chain
+    // follows the shell layers); a setting the bake overrides is refused, naming what decides.
+    assert_refused_before_reading(
+        &["--set", "topology.chain_layers=1000000"],
+        "topology.chain_layers: is taken from volume.layers",
+    );
+    assert_refused_before_reading(
+        &["--set", "topology.fur_length_m=0.5"],
+        "topology.fur_length_m: is taken from shells.fur_length_m",
+    );
     // A pack holds one topology of each kind (what `verify` checks), so a repeat is refused.
     assert_refused_before_reading(&["--topology", "prisms", "--topology", "prisms"], "topologies[1]");
 }

@@ -315,8 +315,26 @@ fn validate_topologies(s: &BakeSettings) -> Result<(), SettingsError> {
             });
         }
     }
-    // The bake takes the fur length and chain length from the shells (see `bake`); the stored
-    // defaults stand in when no topology is baked, so the ranges of the other fields still hold.
+    // The bake takes the fur length and chain length from the shells (see `bake`): a value set
+    // for them would be recorded but ignored, so it is refused, naming the setting that decides.
+    let defaults = furbake_formats::sections::spring_topology::TopologyParams::default();
+    for (key, differs, instead) in [
+        (
+            "topology.chain_layers",
+            s.topology.chain_layers != defaults.chain_layers,
+            "volume.layers (one chain mass per shell layer)",
+        ),
+        ("topology.fur_length_m", s.topology.fur_length_m != defaults.fur_length_m, "shells.fur_length_m"),
+    ] {
+        if differs {
+            return Err(SettingsError::Invalid {
+                key: key.to_owned(),
+                what: format!("is taken from {instead}; set that instead"),
+            });
+        }
+    }
+    // The stored defaults stand in when no topology is baked, so the ranges of the other fields
+    // still hold.
     let mut params = s.topology.clone();
     if let Some(l) = s.shells.fur_length_m {
         params.fur_length_m = l;
