@@ -30,6 +30,7 @@
 mod clusters;
 mod error;
 pub mod forces;
+mod groups;
 pub mod meshes;
 mod model;
 pub mod shell;

@@ -2,7 +2,7 @@
 //! first (sorted by depth from the skin, so stick projection can run level by level) and anchored
 //! ones last; per free mass a compressed adjacency of its force links (springs, and the damping of
 //! sticks), its rigid parent link if any, and its restoring-force data (eq. 3.37); and the same
-//! adjacency in lane groups of eight masses ([`GroupData`]) for the vectorised kernels. Every
+//! adjacency in lane groups of eight masses ([`GroupData`], `groups.rs`) for the vectorised kernels. Every
 //! solver gathers forces per mass from this adjacency, so results never depend on the thread
 //! count.
 //!
@@ -15,6 +15,7 @@ use furbake_formats::sections::spring_topology::{NO_MASS, SpringTopology};
 use glam::Vec3A;
 
 use crate::SimError;
+use crate::groups::GroupData;
 
 /// Marks "none" in the per-mass `u32` tables.
 pub(crate) const NONE: u32 = u32::MAX;
@@ -28,50 +29,6 @@ pub(crate) struct Adj {
     pub rest: f32,
     pub k: f32,
     pub c: f32,
-}
-
-/// Free masses per lane group of the per-mass kernels (one AVX register of `f32`).
-pub(crate) const GROUP: usize = 8;
-
-/// One adjacency slot of a lane group: for each of the group's eight free masses, one of its force
-/// links (the other end, rest length, Hooke and viscosity constants), in adjacency order; masses
-/// with fewer links than the group's widest get a padding link to themselves with zero constants
-/// (zero length, zero force, zero block). 128 bytes: two cache lines serve eight links.
-#[derive(Clone, Copy, Debug)]
-#[repr(C, align(32))]
-pub(crate) struct Slot {
-    pub other: [u32; GROUP],
-    pub rest: [f32; GROUP],
-    pub k: [f32; GROUP],
-    pub c: [f32; GROUP],
-}
-
-/// Per-mass data of the lane groups, padded to whole groups (a padding lane repeats the last free
-/// mass's index and carries no restoring link, no parent and zero constants).
-#[derive(Debug, Default)]
-pub(crate) struct GroupData {
-    /// Slots of group `g`: `slots[start[g]..start[g + 1]]`.
-    pub start: Vec<u32>,
-    pub slots: Vec<Slot>,
-    /// Per slot entry: the link's weight on the implicit diagonal (`adj_weight`; 0 for padding).
-    pub slot_w: Vec<[f32; GROUP]>,
-    /// Per lane: the free mass it computes (padding lanes: the last free mass).
-    pub lane: Vec<u32>,
-    pub mass: Vec<f32>,
-    pub inv_mass: Vec<f32>,
-    pub rest_parent: Vec<u32>,
-    /// Rest direction of the restoring link, by component.
-    pub rest_n: [Vec<f32>; 3],
-    pub rest_len: Vec<f32>,
-    pub parent: Vec<u32>,
-    pub parent_len: Vec<f32>,
-    pub parent_c: Vec<f32>,
-    /// Shortest link per lane (infinity for padding lanes: no rotation limit).
-    pub shortest_link: Vec<f32>,
-    /// Per lane: the root of the tip this mass is (NONE when it is none), and the tip's rest
-    /// direction by component (the wrong-side guard, run in the same pass).
-    pub tip_root: Vec<u32>,
-    pub tip_n: [Vec<f32>; 3],
 }
 
 /// One tip: the mass whose direction from its root gives a scale vector (eq. 3.35).
@@ -147,66 +104,6 @@ pub(crate) struct SimModel {
     pub springs: Vec<([u32; 2], f32, f32)>,
     pub spring_count: usize,
     pub stick_count: usize,
-}
-
-/// Builds the lane-group layout of the free masses (see [`GroupData`]).
-#[allow(clippy::too_many_arguments)]
-fn build_groups(
-    n_free: usize,
-    adj_start: &[u32],
-    adj: &[Adj],
-    adj_weight: &[f32],
-    mass: &[f32],
-    rest_parent: &[u32],
-    rest_n: &[Vec3A],
-    rest_len: &[f32],
-    parent: &[u32],
-    parent_len: &[f32],
-    parent_c: &[f32],
-) -> GroupData {
-    let mut g = GroupData::default();
-    if n_free == 0 {
-        g.start.push(0);
-        return g;
-    }
-    let ng = n_free.div_ceil(GROUP);
-    let np = ng * GROUP;
-    g.start.reserve(ng + 1);
-    g.start.push(0);
-    for gi in 0..ng {
-        let lanes: [usize; GROUP] = std::array::from_fn(|l| (gi * GROUP + l).min(n_free - 1));
-        let real = |l: usize| gi * GROUP + l < n_free;
-        let deg = |l: usize| if real(l) { (adj_start[lanes[l] + 1] - adj_start[lanes[l]]) as usize } else { 0 };
-        let width = (0..GROUP).map(deg).max().unwrap_or(0);
-        for s in 0..width {
-            let mut slot = Slot { other: [0; GROUP], rest: [0.0; GROUP], k: [0.0; GROUP], c: [0.0; GROUP] };
-            let mut w = [0.0; GROUP];
-            for l in 0..GROUP {
-                if s < deg(l) {
-                    let e = adj_start[lanes[l]] as usize + s;
-                    let a = adj[e];
-                    (slot.other[l], slot.rest[l], slot.k[l], slot.c[l], w[l]) =
-                        (a.other, a.rest, a.k, a.c, adj_weight[e]);
-                } else {
-                    slot.other[l] = lanes[l] as u32;
-                }
-            }
-            g.slots.push(slot);
-            g.slot_w.push(w);
-        }
-        g.start.push(g.slots.len() as u32);
-    }
-    let real = |k: usize| k < n_free;
-    g.lane = (0..np).map(|k| k.min(n_free - 1) as u32).collect();
-    g.mass = (0..np).map(|k| if real(k) { mass[k] } else { 1.0 }).collect();
-    g.inv_mass = (0..np).map(|k| if real(k) { 1.0 / mass[k] } else { 0.0 }).collect();
-    g.rest_parent = (0..np).map(|k| if real(k) { rest_parent[k] } else { NONE }).collect();
-    g.rest_n = std::array::from_fn(|a| (0..np).map(|k| if real(k) { rest_n[k][a] } else { 0.0 }).collect());
-    g.rest_len = (0..np).map(|k| if real(k) { rest_len[k] } else { 0.0 }).collect();
-    g.parent = (0..np).map(|k| if real(k) { parent[k] } else { NONE }).collect();
-    g.parent_len = (0..np).map(|k| if real(k) { parent_len[k] } else { 0.0 }).collect();
-    g.parent_c = (0..np).map(|k| if real(k) { parent_c[k] } else { 0.0 }).collect();
-    g
 }
 
 impl SimModel {
@@ -534,31 +431,8 @@ impl SimModel {
             .collect();
         let has_sticks = parent.iter().any(|&p| p != NONE);
         let sticks_to_anchors = parent.iter().all(|&p| p == NONE || p as usize >= n_free);
-        let mut groups = build_groups(
-            n_free,
-            &adj_start,
-            &adj,
-            &adj_weight,
-            &mass,
-            &rest_parent,
-            &rest_n,
-            &rest_len,
-            &parent,
-            &parent_len,
-            &parent_c,
-        );
-        let np = groups.lane.len();
-        groups.shortest_link = (0..np).map(|k| if k < n_free { shortest_link[k] } else { f32::INFINITY }).collect();
-        groups.tip_root = vec![NONE; np];
-        groups.tip_n = std::array::from_fn(|_| vec![0.0; np]);
-        for t in &tips {
-            groups.tip_root[t.tip as usize] = t.root;
-            for a in 0..3 {
-                groups.tip_n[a][t.tip as usize] = t.n[a];
-            }
-        }
         let adj_other = adj.iter().map(|a| a.other).collect();
-        Ok(SimModel {
+        let mut model = SimModel {
             has_sticks,
             shortest_link,
             n,
@@ -588,12 +462,15 @@ impl SimModel {
             ref_slot,
             ref_owner,
             ref_first,
-            groups,
+            groups: GroupData::default(),
             sticks_to_anchors,
             springs,
             spring_count: lens[2],
             stick_count: lens[6],
-        })
+        };
+        // The lane groups are the finished model's per-mass data in another layout.
+        model.groups = GroupData::lay_out(&model);
+        Ok(model)
     }
 
     /// True when some free mass hangs from another free mass (chains).
