@@ -31,6 +31,7 @@ mod clusters;
 mod error;
 pub mod forces;
 mod groups;
+mod link_graph;
 pub mod meshes;
 mod model;
 pub mod shell;
