@@ -103,85 +103,96 @@ impl Clusters {
     }
 }
 
-/// Solves cluster `c`'s block of `A Δv = b` exactly and writes its masses' `Δv` into `out`
-/// (indexed by slot). `A_kk = (m_k + h² k_r) I + Σ_links B`, `A_kj = −Σ_links(k,j) B` with `B`
-/// the link blocks `h c I + h² Kp` in adjacency order (`blocks`, unweighted), `k_r` the
-/// restoring stiffness. Gaussian elimination with partial pivoting in f64; a singular block
-/// (cannot happen for positive masses) gives NaN, which the simulator's finiteness check reports.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn solve_cluster(
-    model: &SimModel,
-    clusters: &Clusters,
-    c: usize,
-    h: f32,
-    restoring_w: f32,
-    blocks: &[Sym3],
-    b: &[Vec3A],
-    out: &mut [Vec3A; MAX_CLUSTER],
-) {
-    const N: usize = 3 * MAX_CLUSTER;
-    let members = &clusters.members[clusters.start[c] as usize..clusters.start[c + 1] as usize];
-    let n = 3 * members.len();
-    let mut a = [[0.0f64; N + 1]; N];
-    let h2 = (h as f64) * (h as f64);
-    for (s, &k) in members.iter().enumerate() {
-        let k = k as usize;
-        let d = model.mass[k] as f64 + h2 * model.restoring_stiffness(k, restoring_w) as f64;
-        for q in 0..3 {
-            a[3 * s + q][3 * s + q] += d;
-            a[3 * s + q][N] = b[k][q] as f64;
-        }
-        let base = model.adj_start[k] as usize;
-        for (e, adj) in model.adj_of(k).iter().enumerate() {
-            let m = sym_rows(&blocks[base + e]);
-            let j = adj.other as usize;
-            for r in 0..3 {
-                for q in 0..3 {
-                    a[3 * s + r][3 * s + q] += m[r][q];
-                }
+/// One implicit step's linearised backward-Euler system `A Δv = b` (eq. 3.26–3.33), seen cluster
+/// by cluster: `A_kk = (m_k + h² k_r) I + Σ_links B`, `A_kj = −Σ_links(k,j) B` with `B` the link
+/// blocks `h c I + h² Kp` in adjacency order (`blocks`, unweighted) and `k_r` the restoring
+/// stiffness.
+pub(crate) struct ClusterSystem<'a> {
+    pub model: &'a SimModel,
+    pub clusters: &'a Clusters,
+    /// Step length, seconds.
+    pub h: f32,
+    /// Weight `w` of the restoring force (eq. 3.37), newtons.
+    pub restoring_w: f32,
+    /// Per adjacency entry: the link's block `B`.
+    pub blocks: &'a [Sym3],
+    /// Per free mass: the right-hand side.
+    pub b: &'a [Vec3A],
+}
+
+impl ClusterSystem<'_> {
+    /// Solves cluster `c`'s block of `A Δv = b` exactly: its masses' `Δv`, indexed by slot (the
+    /// entries past the cluster's size are zero). Gaussian elimination with partial pivoting in
+    /// f64; a singular block (cannot happen for positive masses) gives NaN, which the
+    /// simulator's finiteness check reports.
+    pub fn solve(&self, c: usize) -> [Vec3A; MAX_CLUSTER] {
+        let ClusterSystem { model, clusters, h, restoring_w, blocks, b } = *self;
+        const N: usize = 3 * MAX_CLUSTER;
+        let members = &clusters.members[clusters.start[c] as usize..clusters.start[c + 1] as usize];
+        let n = 3 * members.len();
+        let mut a = [[0.0f64; N + 1]; N];
+        let h2 = (h as f64) * (h as f64);
+        for (s, &k) in members.iter().enumerate() {
+            let k = k as usize;
+            let d = model.mass[k] as f64 + h2 * model.restoring_stiffness(k, restoring_w) as f64;
+            for q in 0..3 {
+                a[3 * s + q][3 * s + q] += d;
+                a[3 * s + q][N] = b[k][q] as f64;
             }
-            if j < model.n_free {
-                let t = clusters.slot[j] as usize;
+            let base = model.adj_start[k] as usize;
+            for (e, adj) in model.adj_of(k).iter().enumerate() {
+                let m = sym_rows(&blocks[base + e]);
+                let j = adj.other as usize;
                 for r in 0..3 {
                     for q in 0..3 {
-                        a[3 * s + r][3 * t + q] -= m[r][q];
+                        a[3 * s + r][3 * s + q] += m[r][q];
+                    }
+                }
+                if j < model.n_free {
+                    let t = clusters.slot[j] as usize;
+                    for r in 0..3 {
+                        for q in 0..3 {
+                            a[3 * s + r][3 * t + q] -= m[r][q];
+                        }
                     }
                 }
             }
         }
-    }
-    // Forward elimination with partial pivoting; the right-hand side rides in column N.
-    for col in 0..n {
-        let mut p = col;
-        for r in col + 1..n {
-            if a[r][col].abs() > a[p][col].abs() {
-                p = r;
-            }
-        }
-        a.swap(col, p);
-        let piv = a[col][col];
-        let inv = if piv != 0.0 { 1.0 / piv } else { f64::NAN };
-        for r in col + 1..n {
-            let f = a[r][col] * inv;
-            if f != 0.0 {
-                let pivot_row = a[col];
-                for (q, value) in a[r].iter_mut().enumerate().take(n).skip(col) {
-                    *value -= f * pivot_row[q];
+        // Forward elimination with partial pivoting; the right-hand side rides in column N.
+        for col in 0..n {
+            let mut p = col;
+            for r in col + 1..n {
+                if a[r][col].abs() > a[p][col].abs() {
+                    p = r;
                 }
-                a[r][N] -= f * pivot_row[N];
+            }
+            a.swap(col, p);
+            let piv = a[col][col];
+            let inv = if piv != 0.0 { 1.0 / piv } else { f64::NAN };
+            for r in col + 1..n {
+                let f = a[r][col] * inv;
+                if f != 0.0 {
+                    let pivot_row = a[col];
+                    for (q, value) in a[r].iter_mut().enumerate().take(n).skip(col) {
+                        *value -= f * pivot_row[q];
+                    }
+                    a[r][N] -= f * pivot_row[N];
+                }
             }
         }
-    }
-    let mut x = [0.0f64; N];
-    for r in (0..n).rev() {
-        let mut s = a[r][N];
-        for q in r + 1..n {
-            s -= a[r][q] * x[q];
+        let mut x = [0.0f64; N];
+        for r in (0..n).rev() {
+            let mut s = a[r][N];
+            for q in r + 1..n {
+                s -= a[r][q] * x[q];
+            }
+            x[r] = s / a[r][r];
         }
-        x[r] = s / a[r][r];
-    }
-    for s in 0..members.len() {
-        out[s] = Vec3A::new(x[3 * s] as f32, x[3 * s + 1] as f32, x[3 * s + 2] as f32);
+        let mut out = [Vec3A::ZERO; MAX_CLUSTER];
+        for s in 0..members.len() {
+            out[s] = Vec3A::new(x[3 * s] as f32, x[3 * s + 1] as f32, x[3 * s + 2] as f32);
+        }
+        out
     }
 }
 

@@ -30,6 +30,8 @@
 mod clusters;
 mod error;
 pub mod forces;
+mod groups;
+mod link_graph;
 pub mod meshes;
 mod model;
 pub mod shell;

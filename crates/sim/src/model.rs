@@ -1,20 +1,22 @@
-//! The solver-ready form of a [`SpringTopology`]: masses reordered so that the free masses come
-//! first (sorted by depth from the skin, so stick projection can run level by level) and anchored
-//! ones last; per free mass a compressed adjacency of its force links (springs, and the damping of
-//! sticks), its rigid parent link if any, and its restoring-force data (eq. 3.37); and the same
-//! adjacency in lane groups of eight masses ([`GroupData`]) for the vectorised kernels. Every
-//! solver gathers forces per mass from this adjacency, so results never depend on the thread
-//! count.
+//! The solver-ready form of a [`SpringTopology`] (fur thesis §3.4.1): masses reordered so that
+//! the free masses come first (sorted by depth from the skin, so stick projection can run level by
+//! level) and anchored ones last; per free mass a compressed adjacency of its force links
+//! (springs, and the damping of sticks; eq. 3.23–3.24), its rigid parent link if any, and its
+//! restoring-force data (eq. 3.37); the tips of the shell's scale vectors (eq. 3.35); and the same
+//! adjacency in lane groups of eight masses ([`GroupData`], `groups.rs`) for the vectorised
+//! kernels. Every solver gathers forces per mass from this adjacency, so results never depend on
+//! the thread count.
 //!
-//! The topology was validated when it was decoded or built; [`SimModel::new`] re-checks the few
-//! structural assumptions the solvers make and reports violations as [`SimError::InvalidInput`].
-
-use std::collections::VecDeque;
+//! [`SimModel::new`] is the table of contents: it checks the topology and finds its hair forest
+//! ([`LinkGraph`]), then runs one verb-first stage per part of the model, each reading the
+//! [`ModelContext`] (graph, internal order, solver choice) and returning its own arrays.
 
 use furbake_formats::sections::spring_topology::{NO_MASS, SpringTopology};
 use glam::Vec3A;
 
 use crate::SimError;
+use crate::groups::GroupData;
+use crate::link_graph::LinkGraph;
 
 /// Marks "none" in the per-mass `u32` tables.
 pub(crate) const NONE: u32 = u32::MAX;
@@ -28,50 +30,6 @@ pub(crate) struct Adj {
     pub rest: f32,
     pub k: f32,
     pub c: f32,
-}
-
-/// Free masses per lane group of the per-mass kernels (one AVX register of `f32`).
-pub(crate) const GROUP: usize = 8;
-
-/// One adjacency slot of a lane group: for each of the group's eight free masses, one of its force
-/// links (the other end, rest length, Hooke and viscosity constants), in adjacency order; masses
-/// with fewer links than the group's widest get a padding link to themselves with zero constants
-/// (zero length, zero force, zero block). 128 bytes: two cache lines serve eight links.
-#[derive(Clone, Copy, Debug)]
-#[repr(C, align(32))]
-pub(crate) struct Slot {
-    pub other: [u32; GROUP],
-    pub rest: [f32; GROUP],
-    pub k: [f32; GROUP],
-    pub c: [f32; GROUP],
-}
-
-/// Per-mass data of the lane groups, padded to whole groups (a padding lane repeats the last free
-/// mass's index and carries no restoring link, no parent and zero constants).
-#[derive(Debug, Default)]
-pub(crate) struct GroupData {
-    /// Slots of group `g`: `slots[start[g]..start[g + 1]]`.
-    pub start: Vec<u32>,
-    pub slots: Vec<Slot>,
-    /// Per slot entry: the link's weight on the implicit diagonal (`adj_weight`; 0 for padding).
-    pub slot_w: Vec<[f32; GROUP]>,
-    /// Per lane: the free mass it computes (padding lanes: the last free mass).
-    pub lane: Vec<u32>,
-    pub mass: Vec<f32>,
-    pub inv_mass: Vec<f32>,
-    pub rest_parent: Vec<u32>,
-    /// Rest direction of the restoring link, by component.
-    pub rest_n: [Vec<f32>; 3],
-    pub rest_len: Vec<f32>,
-    pub parent: Vec<u32>,
-    pub parent_len: Vec<f32>,
-    pub parent_c: Vec<f32>,
-    /// Shortest link per lane (infinity for padding lanes: no rotation limit).
-    pub shortest_link: Vec<f32>,
-    /// Per lane: the root of the tip this mass is (NONE when it is none), and the tip's rest
-    /// direction by component (the wrong-side guard, run in the same pass).
-    pub tip_root: Vec<u32>,
-    pub tip_n: [Vec<f32>; 3],
 }
 
 /// One tip: the mass whose direction from its root gives a scale vector (eq. 3.35).
@@ -149,66 +107,6 @@ pub(crate) struct SimModel {
     pub stick_count: usize,
 }
 
-/// Builds the lane-group layout of the free masses (see [`GroupData`]).
-#[allow(clippy::too_many_arguments)]
-fn build_groups(
-    n_free: usize,
-    adj_start: &[u32],
-    adj: &[Adj],
-    adj_weight: &[f32],
-    mass: &[f32],
-    rest_parent: &[u32],
-    rest_n: &[Vec3A],
-    rest_len: &[f32],
-    parent: &[u32],
-    parent_len: &[f32],
-    parent_c: &[f32],
-) -> GroupData {
-    let mut g = GroupData::default();
-    if n_free == 0 {
-        g.start.push(0);
-        return g;
-    }
-    let ng = n_free.div_ceil(GROUP);
-    let np = ng * GROUP;
-    g.start.reserve(ng + 1);
-    g.start.push(0);
-    for gi in 0..ng {
-        let lanes: [usize; GROUP] = std::array::from_fn(|l| (gi * GROUP + l).min(n_free - 1));
-        let real = |l: usize| gi * GROUP + l < n_free;
-        let deg = |l: usize| if real(l) { (adj_start[lanes[l] + 1] - adj_start[lanes[l]]) as usize } else { 0 };
-        let width = (0..GROUP).map(deg).max().unwrap_or(0);
-        for s in 0..width {
-            let mut slot = Slot { other: [0; GROUP], rest: [0.0; GROUP], k: [0.0; GROUP], c: [0.0; GROUP] };
-            let mut w = [0.0; GROUP];
-            for l in 0..GROUP {
-                if s < deg(l) {
-                    let e = adj_start[lanes[l]] as usize + s;
-                    let a = adj[e];
-                    (slot.other[l], slot.rest[l], slot.k[l], slot.c[l], w[l]) =
-                        (a.other, a.rest, a.k, a.c, adj_weight[e]);
-                } else {
-                    slot.other[l] = lanes[l] as u32;
-                }
-            }
-            g.slots.push(slot);
-            g.slot_w.push(w);
-        }
-        g.start.push(g.slots.len() as u32);
-    }
-    let real = |k: usize| k < n_free;
-    g.lane = (0..np).map(|k| k.min(n_free - 1) as u32).collect();
-    g.mass = (0..np).map(|k| if real(k) { mass[k] } else { 1.0 }).collect();
-    g.inv_mass = (0..np).map(|k| if real(k) { 1.0 / mass[k] } else { 0.0 }).collect();
-    g.rest_parent = (0..np).map(|k| if real(k) { rest_parent[k] } else { NONE }).collect();
-    g.rest_n = std::array::from_fn(|a| (0..np).map(|k| if real(k) { rest_n[k][a] } else { 0.0 }).collect());
-    g.rest_len = (0..np).map(|k| if real(k) { rest_len[k] } else { 0.0 }).collect();
-    g.parent = (0..np).map(|k| if real(k) { parent[k] } else { NONE }).collect();
-    g.parent_len = (0..np).map(|k| if real(k) { parent_len[k] } else { 0.0 }).collect();
-    g.parent_c = (0..np).map(|k| if real(k) { parent_c[k] } else { 0.0 }).collect();
-    g
-}
-
 impl SimModel {
     /// Builds the model. With `springs_as_sticks` (the stick solver), every spring from an
     /// anchored root to its free child becomes a rigid stick of its rest length (orientation
@@ -216,384 +114,72 @@ impl SimModel {
     /// edges) stay springs: chaining rigid projections follow-the-leader style lets a chain gain
     /// energy, because a parent never feels its child.
     pub fn new(t: &SpringTopology, springs_as_sticks: bool) -> Result<SimModel, SimError> {
-        let n = t.mass_kg.len();
-        let bad = |what: String| Err(SimError::InvalidInput(what));
-        let lens = [
-            t.mass_rest_positions.len(),
-            t.mass_anchored.len(),
-            t.spring_ends.len(),
-            t.spring_rest_lengths_m.len(),
-            t.spring_stiffness_n_per_m.len(),
-            t.spring_damping_n_s_per_m.len(),
-            t.stick_ends.len(),
-            t.stick_lengths_m.len(),
-        ];
-        if lens[0] != n
-            || lens[1] != n
-            || lens[3] != lens[2]
-            || lens[4] != lens[2]
-            || lens[5] != lens[2]
-            || lens[7] != lens[6]
-        {
-            return bad(format!("topology arrays disagree in length: {n} masses, {lens:?}"));
-        }
-        if n >= NONE as usize {
-            return bad("too many masses".into());
-        }
-        let in_range = |e: &[u32; 2]| (e[0] as usize) < n && (e[1] as usize) < n && e[0] != e[1];
-        if !t.spring_ends.iter().all(in_range) || !t.stick_ends.iter().all(in_range) {
-            return bad("a spring or stick index is out of range or joins a mass to itself".into());
-        }
-        if !t.mass_kg.iter().all(|m| m.is_finite() && *m > 0.0)
-            || !t.mass_rest_positions.iter().flatten().all(|c| c.is_finite())
-        {
-            return bad("masses must be positive and positions finite".into());
-        }
-        let anchored = |i: usize| t.mass_anchored[i] != 0;
-        let damping = t.params.damping_n_s_per_m;
+        let graph = LinkGraph::build(t)?;
+        let order = order_by_depth(&graph);
+        let cx = ModelContext { graph, order, springs_as_sticks };
+        let adjacency = build_adjacency(&cx);
+        let reference = number_reference_slots(&cx, &adjacency);
+        let tree_children = collect_tree_children(&cx, &adjacency.tree_parent);
+        let shell_tips = map_shell_tips(&cx)?;
+        let restoring = build_restoring_links(&cx, &shell_tips);
+        let tips = order_tips_by_mass(&cx, shell_tips);
+        let springs = list_energy_springs(&cx);
+        let shortest_link = find_shortest_links(&cx, &adjacency);
 
-        // Undirected link list: (a, b, rest, k, c, is_stick), topology order, springs then sticks.
-        let mut links: Vec<(u32, u32, f32, f32, f32, bool)> = Vec::with_capacity(lens[2] + lens[6]);
-        for s in 0..lens[2] {
-            let [a, b] = t.spring_ends[s];
-            links.push((
-                a,
-                b,
-                t.spring_rest_lengths_m[s],
-                t.spring_stiffness_n_per_m[s],
-                t.spring_damping_n_s_per_m[s],
-                false,
-            ));
-        }
-        for s in 0..lens[6] {
-            let [a, b] = t.stick_ends[s];
-            links.push((a, b, t.stick_lengths_m[s], 0.0, damping, true));
-        }
-        if links
-            .iter()
-            .any(|l| !(l.2.is_finite() && l.3.is_finite() && l.4.is_finite() && l.2 >= 0.0 && l.3 >= 0.0 && l.4 >= 0.0))
-        {
-            return bad("link lengths and constants must be finite and ≥ 0".into());
-        }
-        let mut inc_start = vec![0u32; n + 1];
-        for l in &links {
-            inc_start[l.0 as usize + 1] += 1;
-            inc_start[l.1 as usize + 1] += 1;
-        }
-        for i in 0..n {
-            inc_start[i + 1] += inc_start[i];
-        }
-        let mut fill = inc_start.clone();
-        let mut inc = vec![0u32; inc_start[n] as usize];
-        for (li, l) in links.iter().enumerate() {
-            for e in [l.0, l.1] {
-                inc[fill[e as usize] as usize] = li as u32;
-                fill[e as usize] += 1;
-            }
-        }
-        let incident = |i: usize| &inc[inc_start[i] as usize..inc_start[i + 1] as usize];
-
-        // Breadth-first search from the anchored masses: depth and parent link of every mass.
-        // A mass that is the far end of a stick takes that stick as its parent.
-        let mut depth = vec![u32::MAX; n];
-        let mut parent_link = vec![NONE; n];
-        let mut queue = VecDeque::new();
-        for (i, d) in depth.iter_mut().enumerate() {
-            if anchored(i) {
-                *d = 0;
-                queue.push_back(i);
-            }
-        }
-        let mut stick_child = vec![NONE; n];
-        for (li, l) in links.iter().enumerate() {
-            if l.5 {
-                if anchored(l.1 as usize) || stick_child[l.1 as usize] != NONE {
-                    return bad(format!("mass {} is the far end of an anchored or second stick", l.1));
-                }
-                stick_child[l.1 as usize] = li as u32;
-            }
-        }
-        while let Some(i) = queue.pop_front() {
-            for &li in incident(i) {
-                let l = links[li as usize];
-                let j = if l.0 as usize == i { l.1 } else { l.0 } as usize;
-                if depth[j] != u32::MAX {
-                    continue;
-                }
-                // Sticks are only ever followed from their near end.
-                if l.5 && l.1 as usize != j {
-                    continue;
-                }
-                depth[j] = depth[i] + 1;
-                parent_link[j] = li;
-                queue.push_back(j);
-            }
-        }
-        for (i, &stick) in stick_child.iter().enumerate() {
-            if stick != NONE && parent_link[i] != stick {
-                return bad(format!("stick {stick} does not lead away from the skin"));
-            }
-        }
-        for d in &mut depth {
-            if *d == u32::MAX {
-                *d = 1; // a free mass not connected to the skin: it floats.
-            }
-        }
-
-        // Internal order: free masses by (depth, index), then anchored masses by index.
-        let mut order: Vec<u32> = (0..n as u32).collect();
-        order.sort_by_key(|&i| (anchored(i as usize), depth[i as usize], i));
-        let n_free = order.iter().take_while(|&&i| !anchored(i as usize)).count();
-        let mut inv = vec![0u32; n];
-        for (k, &i) in order.iter().enumerate() {
-            inv[i as usize] = k as u32;
-        }
-        let mut levels = Vec::new();
-        let mut s = 0;
-        while s < n_free {
-            let d = depth[order[s] as usize];
-            let mut e = s;
-            while e < n_free && depth[order[e] as usize] == d {
-                e += 1;
-            }
-            levels.push((s, e));
-            s = e;
-        }
-
-        // Which links are rigid: sticks always; with `springs_as_sticks` also every root spring.
-        // Mass–spring solvers keep a stick's damping as a force on both ends; the stick solver
-        // applies a rigid link's damping to the child only (see `stick.rs`).
-        let mut adj_start = vec![0u32; n_free + 1];
-        let mut adj = Vec::new();
-        let mut adj_weight = Vec::new();
-        let mut adj_link: Vec<u32> = Vec::new();
-        let mut tree_parent = vec![NONE; n_free];
-        let mut tree_parent_adj = vec![NONE; n_free];
-        let mut parent = vec![NONE; n_free];
-        let mut parent_len = vec![0.0; n_free];
-        let mut parent_c = vec![0.0; n_free];
-        for k in 0..n_free {
-            let i = order[k] as usize;
-            for &li in incident(i) {
-                let l = links[li as usize];
-                let j = if l.0 as usize == i { l.1 } else { l.0 } as usize;
-                let parent_of_i = parent_link[i] == li;
-                let rigid = l.5 || (springs_as_sticks && parent_of_i && anchored(j));
-                if rigid && parent_of_i {
-                    parent[k] = inv[j];
-                    parent_len[k] = l.2;
-                    parent_c[k] = l.4;
-                }
-                if !(rigid && springs_as_sticks) {
-                    let other_free = !anchored(j);
-                    let tree = other_free && (parent_of_i || parent_link[j] == li);
-                    if tree && parent_of_i {
-                        tree_parent[k] = inv[j];
-                        tree_parent_adj[k] = adj.len() as u32;
-                    }
-                    adj_weight.push(if other_free && !tree { 2.0 } else { 1.0 });
-                    adj.push(Adj { other: inv[j], rest: l.2, k: if l.5 { 0.0 } else { l.3 }, c: l.4 });
-                    adj_link.push(li);
-                }
-            }
-            adj_start[k + 1] = adj.len() as u32;
-        }
-        // Links between free masses, numbered in the order their first end lists them.
-        let mut ref_slot = vec![NONE; adj.len()];
-        let mut ref_owner = vec![false; adj.len()];
-        let mut ref_first = vec![0u32; n_free + 1];
-        let mut slot_of_link = vec![NONE; links.len()];
-        let mut slots = 0u32;
-        for k in 0..n_free {
-            for e in adj_start[k] as usize..adj_start[k + 1] as usize {
-                if adj[e].other as usize >= n_free {
-                    continue;
-                }
-                let li = adj_link[e] as usize;
-                if slot_of_link[li] == NONE {
-                    slot_of_link[li] = slots;
-                    slots += 1;
-                    ref_owner[e] = true;
-                }
-                ref_slot[e] = slot_of_link[li];
-            }
-            ref_first[k + 1] = slots;
-        }
-
-        // Tips (eq. 3.35): one per distinct tip mass named by the shell-vertex map.
-        let mut tip_slot = vec![NONE; n];
-        let mut tips = Vec::new();
-        let mut shell_tip = Vec::with_capacity(t.shell_vertex_masses.len());
-        for &[r, tp] in &t.shell_vertex_masses {
-            if r == NO_MASS {
-                shell_tip.push(NONE);
-                continue;
-            }
-            if r as usize >= n || tp as usize >= n || r == tp {
-                return bad(format!("shell vertex maps to masses ({r}, {tp}) outside the topology"));
-            }
-            if anchored(tp as usize) {
-                return bad(format!("shell vertex tip mass {tp} is anchored"));
-            }
-            if tip_slot[tp as usize] == NONE {
-                let (pr, pt) =
-                    (Vec3A::from(t.mass_rest_positions[r as usize]), Vec3A::from(t.mass_rest_positions[tp as usize]));
-                let nrm = (pt - pr).try_normalize().unwrap_or(Vec3A::Y);
-                tip_slot[tp as usize] = tips.len() as u32;
-                tips.push(Tip { root: inv[r as usize], tip: inv[tp as usize], n: nrm });
-            }
-            shell_tip.push(tip_slot[tp as usize]);
-        }
-        let mut tree_children_start = vec![0u32; n_free + 1];
-        for &p in &tree_parent {
-            if p != NONE {
-                tree_children_start[p as usize + 1] += 1;
-            }
-        }
-        for k in 0..n_free {
-            tree_children_start[k + 1] += tree_children_start[k];
-        }
-        let mut fill = tree_children_start.clone();
-        let mut tree_children = vec![0u32; tree_children_start[n_free] as usize];
-        for (k, &p) in tree_parent.iter().enumerate() {
-            if p != NONE {
-                tree_children[fill[p as usize] as usize] = k as u32;
-                fill[p as usize] += 1;
-            }
-        }
-
-        // Restoring links (eq. 3.37): every free mass is pulled towards the rest direction of its
-        // parent link (for two-mass topologies the parent is the root, exactly eq. 3.37; along a
-        // chain every segment is restored, so a folded chain cannot stay folded).
-        let mut rest_parent = vec![NONE; n_free];
-        let mut rest_n = vec![Vec3A::ZERO; n_free];
-        let mut rest_len = vec![0.0; n_free];
-        for k in 0..n_free {
-            let i = order[k] as usize;
-            let li = parent_link[i];
-            if li == NONE {
-                continue;
-            }
-            let l = links[li as usize];
-            let j = if l.0 as usize == i { l.1 } else { l.0 } as usize;
-            let (pj, pi) = (Vec3A::from(t.mass_rest_positions[j]), Vec3A::from(t.mass_rest_positions[i]));
-            let fallback = if tip_slot[i] != NONE { tips[tip_slot[i] as usize].n } else { Vec3A::Y };
-            rest_parent[k] = inv[j];
-            rest_n[k] = (pi - pj).try_normalize().unwrap_or(fallback);
-            rest_len[k] = pi.distance(pj);
-        }
-
-        // Tips in the order of their tip masses, so a range of free masses owns a range of tips.
-        let mut by_mass: Vec<u32> = (0..tips.len() as u32).collect();
-        by_mass.sort_by_key(|&t| tips[t as usize].tip);
-        let mut new_slot = vec![0u32; tips.len()];
-        for (ns, &old) in by_mass.iter().enumerate() {
-            new_slot[old as usize] = ns as u32;
-        }
-        let tips: Vec<Tip> = by_mass.iter().map(|&t| tips[t as usize]).collect();
-        for s in &mut shell_tip {
-            if *s != NONE {
-                *s = new_slot[*s as usize];
-            }
-        }
-        let mut tip_first = vec![0u32; n_free + 1];
-        for t in &tips {
-            tip_first[t.tip as usize + 1] += 1;
-        }
-        for k in 0..n_free {
-            tip_first[k + 1] += tip_first[k];
-        }
-        let guard_fusable = tips.iter().all(|t| t.root as usize >= n_free);
-
-        let rest: Vec<Vec3A> = order.iter().map(|&i| Vec3A::from(t.mass_rest_positions[i as usize])).collect();
-        let mass: Vec<f32> = order.iter().map(|&i| t.mass_kg[i as usize]).collect();
-        // Springs that the stick solver made rigid hold no energy there.
-        let rigid_spring = |s: usize| {
-            springs_as_sticks && {
-                let [a, b] = t.spring_ends[s];
-                (parent_link[a as usize] == s as u32 && anchored(b as usize))
-                    || (parent_link[b as usize] == s as u32 && anchored(a as usize))
-            }
-        };
-        let springs = (0..lens[2])
-            .filter(|&s| !rigid_spring(s))
-            .map(|s| {
-                let [a, b] = t.spring_ends[s];
-                ([inv[a as usize], inv[b as usize]], t.spring_rest_lengths_m[s], t.spring_stiffness_n_per_m[s])
-            })
-            .collect();
-        let shortest_link: Vec<f32> = (0..n_free)
-            .map(|k| {
-                let adj_min = adj[adj_start[k] as usize..adj_start[k + 1] as usize]
-                    .iter()
-                    .map(|a| a.rest)
-                    .filter(|&r| r > 0.0)
-                    .fold(f32::INFINITY, f32::min);
-                if parent_len[k] > 0.0 { adj_min.min(parent_len[k]) } else { adj_min }
-            })
-            .collect();
-        let has_sticks = parent.iter().any(|&p| p != NONE);
-        let sticks_to_anchors = parent.iter().all(|&p| p == NONE || p as usize >= n_free);
-        let mut groups = build_groups(
-            n_free,
-            &adj_start,
-            &adj,
-            &adj_weight,
-            &mass,
-            &rest_parent,
-            &rest_n,
-            &rest_len,
-            &parent,
-            &parent_len,
-            &parent_c,
-        );
-        let np = groups.lane.len();
-        groups.shortest_link = (0..np).map(|k| if k < n_free { shortest_link[k] } else { f32::INFINITY }).collect();
-        groups.tip_root = vec![NONE; np];
-        groups.tip_n = std::array::from_fn(|_| vec![0.0; np]);
-        for t in &tips {
-            groups.tip_root[t.tip as usize] = t.root;
-            for a in 0..3 {
-                groups.tip_n[a][t.tip as usize] = t.n[a];
-            }
-        }
-        let adj_other = adj.iter().map(|a| a.other).collect();
-        Ok(SimModel {
-            has_sticks,
-            shortest_link,
-            n,
-            n_free,
-            order,
-            rest,
-            mass,
-            adj_start,
+        let ModelContext { graph, order, .. } = cx;
+        let (n, n_free) = (graph.len(), order.n_free);
+        let rest = order.order.iter().map(|&i| Vec3A::from(t.mass_rest_positions[i as usize])).collect();
+        let mass = order.order.iter().map(|&i| t.mass_kg[i as usize]).collect();
+        let Adjacency {
+            start: adj_start,
             adj,
-            adj_weight,
+            weight: adj_weight,
+            link: _,
             tree_parent,
             tree_parent_adj,
-            tree_children_start,
-            tree_children,
             parent,
             parent_len,
             parent_c,
-            levels,
-            rest_parent,
-            rest_n,
-            rest_len,
-            tips,
-            tip_first,
-            guard_fusable,
-            shell_tip,
-            adj_other,
-            ref_slot,
-            ref_owner,
-            ref_first,
-            groups,
-            sticks_to_anchors,
+        } = adjacency;
+        let mut model = SimModel {
+            n,
+            n_free,
+            order: order.order,
+            rest,
+            mass,
+            adj_other: adj.iter().map(|a| a.other).collect(),
+            adj_start,
+            adj,
+            adj_weight,
+            ref_slot: reference.slot,
+            ref_owner: reference.owner,
+            ref_first: reference.first,
+            has_sticks: parent.iter().any(|&p| p != NONE),
+            sticks_to_anchors: parent.iter().all(|&p| p == NONE || p as usize >= n_free),
+            parent,
+            parent_len,
+            parent_c,
+            tree_parent,
+            tree_parent_adj,
+            tree_children_start: tree_children.start,
+            tree_children: tree_children.children,
+            levels: order.levels,
+            rest_parent: restoring.parent,
+            rest_n: restoring.n,
+            rest_len: restoring.len,
+            tips: tips.tips,
+            tip_first: tips.first,
+            guard_fusable: tips.guard_fusable,
+            shell_tip: tips.shell_tip,
+            shortest_link,
+            groups: GroupData::default(),
             springs,
-            spring_count: lens[2],
-            stick_count: lens[6],
-        })
+            spring_count: t.spring_ends.len(),
+            stick_count: t.stick_ends.len(),
+        };
+        // The lane groups are the finished model's per-mass data in another layout.
+        model.groups = GroupData::lay_out(&model);
+        Ok(model)
     }
 
     /// True when some free mass hangs from another free mass (chains).
@@ -613,4 +199,326 @@ impl SimModel {
     pub fn restoring_stiffness(&self, k: usize, w: f32) -> f32 {
         if self.rest_parent[k] == NONE || w == 0.0 { 0.0 } else { 2.0 * w / self.rest_len[k].max(1e-3) }
     }
+}
+
+/// What every stage after ordering reads: the checked topology's link graph, the internal order
+/// of its masses and the solver's choice of rigid links.
+struct ModelContext<'t> {
+    graph: LinkGraph<'t>,
+    order: MassOrder,
+    /// The stick solver: springs from an anchored root to its free child are rigid.
+    springs_as_sticks: bool,
+}
+
+impl ModelContext<'_> {
+    fn topo(&self) -> &SpringTopology {
+        self.graph.topo
+    }
+    fn n_free(&self) -> usize {
+        self.order.n_free
+    }
+}
+
+/// The internal order: free masses by (depth, index), then anchored masses by index.
+struct MassOrder {
+    /// internal index → topology index
+    order: Vec<u32>,
+    /// topology index → internal index
+    inv: Vec<u32>,
+    n_free: usize,
+    /// Free-mass ranges of equal depth, in increasing depth.
+    levels: Vec<(usize, usize)>,
+}
+
+/// Orders the masses by depth from the skin (free first, anchored last) and finds the levels.
+fn order_by_depth(graph: &LinkGraph) -> MassOrder {
+    let (n, depth) = (graph.len(), &graph.depth);
+    let mut order: Vec<u32> = (0..n as u32).collect();
+    order.sort_by_key(|&i| (graph.anchored(i as usize), depth[i as usize], i));
+    let n_free = order.iter().take_while(|&&i| !graph.anchored(i as usize)).count();
+    let mut inv = vec![0u32; n];
+    for (k, &i) in order.iter().enumerate() {
+        inv[i as usize] = k as u32;
+    }
+    let mut levels = Vec::new();
+    let mut s = 0;
+    while s < n_free {
+        let d = depth[order[s] as usize];
+        let mut e = s;
+        while e < n_free && depth[order[e] as usize] == d {
+            e += 1;
+        }
+        levels.push((s, e));
+        s = e;
+    }
+    MassOrder { order, inv, n_free, levels }
+}
+
+/// Per free mass: its force links (CSR), rigid parent and free parent in the hair tree.
+struct Adjacency {
+    /// Adjacency of free mass `k`: `adj[start[k]..start[k + 1]]`.
+    start: Vec<u32>,
+    adj: Vec<Adj>,
+    /// Per entry: the link's weight on the implicit diagonal (see `SimModel::adj_weight`).
+    weight: Vec<f32>,
+    /// Per entry: the link (index into `LinkGraph::links`).
+    link: Vec<u32>,
+    tree_parent: Vec<u32>,
+    tree_parent_adj: Vec<u32>,
+    parent: Vec<u32>,
+    parent_len: Vec<f32>,
+    parent_c: Vec<f32>,
+}
+
+/// Builds each free mass's adjacency and finds its rigid and tree parents. Which links are rigid:
+/// sticks always; with `springs_as_sticks` also every root spring. Mass–spring solvers keep a
+/// stick's damping as a force on both ends; the stick solver applies a rigid link's damping to
+/// the child only (see `stick.rs`), so there a rigid link is no adjacency entry.
+fn build_adjacency(cx: &ModelContext) -> Adjacency {
+    let (g, n_free, inv) = (&cx.graph, cx.n_free(), &cx.order.inv);
+    let mut a = Adjacency {
+        start: vec![0u32; n_free + 1],
+        adj: Vec::new(),
+        weight: Vec::new(),
+        link: Vec::new(),
+        tree_parent: vec![NONE; n_free],
+        tree_parent_adj: vec![NONE; n_free],
+        parent: vec![NONE; n_free],
+        parent_len: vec![0.0; n_free],
+        parent_c: vec![0.0; n_free],
+    };
+    for k in 0..n_free {
+        let i = cx.order.order[k] as usize;
+        for &li in g.incident(i) {
+            let l = g.links[li as usize];
+            let j = l.other_end(i);
+            let parent_of_i = g.parent_link[i] == li;
+            let rigid = l.stick || (cx.springs_as_sticks && parent_of_i && g.anchored(j));
+            if rigid && parent_of_i {
+                a.parent[k] = inv[j];
+                a.parent_len[k] = l.rest;
+                a.parent_c[k] = l.c;
+            }
+            if !(rigid && cx.springs_as_sticks) {
+                let other_free = !g.anchored(j);
+                let tree = other_free && (parent_of_i || g.parent_link[j] == li);
+                if tree && parent_of_i {
+                    a.tree_parent[k] = inv[j];
+                    a.tree_parent_adj[k] = a.adj.len() as u32;
+                }
+                a.weight.push(if other_free && !tree { 2.0 } else { 1.0 });
+                a.adj.push(Adj { other: inv[j], rest: l.rest, k: if l.stick { 0.0 } else { l.k }, c: l.c });
+                a.link.push(li);
+            }
+        }
+        a.start[k + 1] = a.adj.len() as u32;
+    }
+    a
+}
+
+/// The reference solver's block slots (see `SimModel::ref_slot`).
+struct ReferenceSlots {
+    slot: Vec<u32>,
+    owner: Vec<bool>,
+    first: Vec<u32>,
+}
+
+/// Numbers the links between free masses in the order their first end lists them.
+fn number_reference_slots(cx: &ModelContext, a: &Adjacency) -> ReferenceSlots {
+    let n_free = cx.n_free();
+    let mut r = ReferenceSlots {
+        slot: vec![NONE; a.adj.len()],
+        owner: vec![false; a.adj.len()],
+        first: vec![0u32; n_free + 1],
+    };
+    let mut slot_of_link = vec![NONE; cx.graph.links.len()];
+    let mut slots = 0u32;
+    for k in 0..n_free {
+        for e in a.start[k] as usize..a.start[k + 1] as usize {
+            if a.adj[e].other as usize >= n_free {
+                continue;
+            }
+            let li = a.link[e] as usize;
+            if slot_of_link[li] == NONE {
+                slot_of_link[li] = slots;
+                slots += 1;
+                r.owner[e] = true;
+            }
+            r.slot[e] = slot_of_link[li];
+        }
+        r.first[k + 1] = slots;
+    }
+    r
+}
+
+/// CSR of tree children per free mass.
+struct TreeChildren {
+    start: Vec<u32>,
+    children: Vec<u32>,
+}
+
+/// Inverts the free parents of the hair tree into children lists.
+fn collect_tree_children(cx: &ModelContext, tree_parent: &[u32]) -> TreeChildren {
+    let n_free = cx.n_free();
+    let mut start = vec![0u32; n_free + 1];
+    for &p in tree_parent {
+        if p != NONE {
+            start[p as usize + 1] += 1;
+        }
+    }
+    for k in 0..n_free {
+        start[k + 1] += start[k];
+    }
+    let mut fill = start.clone();
+    let mut children = vec![0u32; start[n_free] as usize];
+    for (k, &p) in tree_parent.iter().enumerate() {
+        if p != NONE {
+            children[fill[p as usize] as usize] = k as u32;
+            fill[p as usize] += 1;
+        }
+    }
+    TreeChildren { start, children }
+}
+
+/// The tips named by the shell-vertex map, in order of first mention.
+struct ShellTips {
+    tips: Vec<Tip>,
+    /// Per topology mass: its slot in `tips` (NONE when it is no tip).
+    tip_slot: Vec<u32>,
+    /// Per shell vertex: its slot in `tips` (NONE for bare vertices).
+    shell_tip: Vec<u32>,
+}
+
+/// Tips (eq. 3.35): one per distinct tip mass named by the shell-vertex map; its rest direction
+/// runs from root to tip.
+fn map_shell_tips(cx: &ModelContext) -> Result<ShellTips, SimError> {
+    let (t, n, inv) = (cx.topo(), cx.graph.len(), &cx.order.inv);
+    let bad = |what: String| Err(SimError::InvalidInput(what));
+    let mut m = ShellTips {
+        tips: Vec::new(),
+        tip_slot: vec![NONE; n],
+        shell_tip: Vec::with_capacity(t.shell_vertex_masses.len()),
+    };
+    for &[r, tp] in &t.shell_vertex_masses {
+        if r == NO_MASS {
+            m.shell_tip.push(NONE);
+            continue;
+        }
+        if r as usize >= n || tp as usize >= n || r == tp {
+            return bad(format!("shell vertex maps to masses ({r}, {tp}) outside the topology"));
+        }
+        if cx.graph.anchored(tp as usize) {
+            return bad(format!("shell vertex tip mass {tp} is anchored"));
+        }
+        if m.tip_slot[tp as usize] == NONE {
+            let (pr, pt) =
+                (Vec3A::from(t.mass_rest_positions[r as usize]), Vec3A::from(t.mass_rest_positions[tp as usize]));
+            let nrm = (pt - pr).try_normalize().unwrap_or(Vec3A::Y);
+            m.tip_slot[tp as usize] = m.tips.len() as u32;
+            m.tips.push(Tip { root: inv[r as usize], tip: inv[tp as usize], n: nrm });
+        }
+        m.shell_tip.push(m.tip_slot[tp as usize]);
+    }
+    Ok(m)
+}
+
+/// Per free mass: the restoring link of eq. 3.37 (parent, rest direction, rest length).
+struct RestoringLinks {
+    parent: Vec<u32>,
+    n: Vec<Vec3A>,
+    len: Vec<f32>,
+}
+
+/// Restoring links (eq. 3.37): every free mass is pulled towards the rest direction of its
+/// parent link (for two-mass topologies the parent is the root, exactly eq. 3.37; along a chain
+/// every segment is restored, so a folded chain cannot stay folded). A zero-length link takes its
+/// tip's direction, else +Y.
+fn build_restoring_links(cx: &ModelContext, shell: &ShellTips) -> RestoringLinks {
+    let (t, g, n_free, inv) = (cx.topo(), &cx.graph, cx.n_free(), &cx.order.inv);
+    let mut r = RestoringLinks { parent: vec![NONE; n_free], n: vec![Vec3A::ZERO; n_free], len: vec![0.0; n_free] };
+    for k in 0..n_free {
+        let i = cx.order.order[k] as usize;
+        let li = g.parent_link[i];
+        if li == NONE {
+            continue;
+        }
+        let j = g.links[li as usize].other_end(i);
+        let (pj, pi) = (Vec3A::from(t.mass_rest_positions[j]), Vec3A::from(t.mass_rest_positions[i]));
+        let fallback = if shell.tip_slot[i] != NONE { shell.tips[shell.tip_slot[i] as usize].n } else { Vec3A::Y };
+        r.parent[k] = inv[j];
+        r.n[k] = (pi - pj).try_normalize().unwrap_or(fallback);
+        r.len[k] = pi.distance(pj);
+    }
+    r
+}
+
+/// The tips in the order of their tip masses (see `SimModel::tips`).
+struct OrderedTips {
+    tips: Vec<Tip>,
+    shell_tip: Vec<u32>,
+    first: Vec<u32>,
+    guard_fusable: bool,
+}
+
+/// Sorts the tips by tip mass, so a range of free masses owns a range of tips, and renumbers the
+/// shell vertices' tip slots to match.
+fn order_tips_by_mass(cx: &ModelContext, shell: ShellTips) -> OrderedTips {
+    let n_free = cx.n_free();
+    let ShellTips { tips, mut shell_tip, .. } = shell;
+    let mut by_mass: Vec<u32> = (0..tips.len() as u32).collect();
+    by_mass.sort_by_key(|&t| tips[t as usize].tip);
+    let mut new_slot = vec![0u32; tips.len()];
+    for (ns, &old) in by_mass.iter().enumerate() {
+        new_slot[old as usize] = ns as u32;
+    }
+    let tips: Vec<Tip> = by_mass.iter().map(|&t| tips[t as usize]).collect();
+    for s in &mut shell_tip {
+        if *s != NONE {
+            *s = new_slot[*s as usize];
+        }
+    }
+    let mut first = vec![0u32; n_free + 1];
+    for t in &tips {
+        first[t.tip as usize + 1] += 1;
+    }
+    for k in 0..n_free {
+        first[k + 1] += first[k];
+    }
+    let guard_fusable = tips.iter().all(|t| t.root as usize >= n_free);
+    OrderedTips { tips, shell_tip, first, guard_fusable }
+}
+
+/// The springs that act as springs in this model, internal indices, with rest length and
+/// stiffness (energy). Springs that the stick solver made rigid hold no energy there.
+fn list_energy_springs(cx: &ModelContext) -> Vec<([u32; 2], f32, f32)> {
+    let (t, g, inv) = (cx.topo(), &cx.graph, &cx.order.inv);
+    let rigid_spring = |s: usize| {
+        cx.springs_as_sticks && {
+            let [a, b] = t.spring_ends[s];
+            (g.parent_link[a as usize] == s as u32 && g.anchored(b as usize))
+                || (g.parent_link[b as usize] == s as u32 && g.anchored(a as usize))
+        }
+    };
+    (0..t.spring_ends.len())
+        .filter(|&s| !rigid_spring(s))
+        .map(|s| {
+            let [a, b] = t.spring_ends[s];
+            ([inv[a as usize], inv[b as usize]], t.spring_rest_lengths_m[s], t.spring_stiffness_n_per_m[s])
+        })
+        .collect()
+}
+
+/// Per free mass: its shortest non-zero link length (force links and rigid parent), metres;
+/// infinity when it has none.
+fn find_shortest_links(cx: &ModelContext, a: &Adjacency) -> Vec<f32> {
+    (0..cx.n_free())
+        .map(|k| {
+            let adj_min = a.adj[a.start[k] as usize..a.start[k + 1] as usize]
+                .iter()
+                .map(|a| a.rest)
+                .filter(|&r| r > 0.0)
+                .fold(f32::INFINITY, f32::min);
+            if a.parent_len[k] > 0.0 { adj_min.min(a.parent_len[k]) } else { adj_min }
+        })
+        .collect()
 }

@@ -1,6 +1,6 @@
 //! The fused lane-group pass: the explicit (eq. 3.20–3.25), stick (§3.4.1) and one-sweep implicit
 //! (eq. 3.26–3.34, one 3×3 solve per mass) updates of the fur thesis, run per free mass eight
-//! masses at a time in the lanes of one register (`lanes.rs`; [`crate::model::GroupData`]: eight
+//! masses at a time in the lanes of one register (`lanes.rs`; [`crate::groups::GroupData`]: eight
 //! consecutive free masses per group, their links slot by slot, the link constants of one slot in
 //! two cache lines).
 //!
@@ -24,7 +24,8 @@ use super::reference::CgRow;
 use super::stick::{place_on_stick, project_sticks};
 use super::{Step, StepOutcome};
 use crate::forces::ForceEval;
-use crate::model::{GROUP, NONE, SimModel};
+use crate::groups::GROUP;
+use crate::model::{NONE, SimModel};
 use crate::shell::{GuardOutcome, GuardState};
 
 /// Which update the lane-group kernel applies.

@@ -19,7 +19,7 @@ use super::chunks::{CHUNK, PARALLEL_MIN, for_free};
 use super::fused::{Mode, finish_step, group_step};
 use super::{Step, StepOutcome};
 use super::{external, restoring};
-use crate::clusters::{Clusters, MAX_CLUSTER, solve_cluster};
+use crate::clusters::{ClusterSystem, Clusters, MAX_CLUSTER};
 use crate::model::{NONE, SimModel};
 
 /// Symmetric 3×3 matrix `[xx, yy, zz, xy, xz, yz]`.
@@ -229,8 +229,9 @@ fn solve_clusters(step: &Step, cl: &Clusters, s: &mut ImplicitScratch) {
     let (model, h, restoring_w) = (step.model, step.h, step.fe.restoring_w);
     let nf = model.n_free;
     s.cluster_dv.resize(cl.len(), [Vec3A::ZERO; MAX_CLUSTER]);
-    let (out, blocks, b) = (&mut s.cluster_dv, &s.blocks, &s.b);
-    let solve = |(c, o): (usize, &mut [Vec3A; MAX_CLUSTER])| solve_cluster(model, cl, c, h, restoring_w, blocks, b, o);
+    let system = ClusterSystem { model, clusters: cl, h, restoring_w, blocks: &s.blocks, b: &s.b };
+    let out = &mut s.cluster_dv;
+    let solve = |(c, o): (usize, &mut [Vec3A; MAX_CLUSTER])| *o = system.solve(c);
     if nf < PARALLEL_MIN {
         out.iter_mut().enumerate().for_each(solve);
     } else {

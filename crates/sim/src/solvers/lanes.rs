@@ -2,14 +2,15 @@
 //! mass): [`Lanes`], eight `f32` lanes with the operations the per-mass kernels need, as portable
 //! arrays ([`Sc`]) and as an AVX register ([`Avx`], used only after runtime detection of AVX2 and
 //! FMA); the three-component helpers ([`V3`], `map3!`, [`dot3`]) and the group loads ([`at`],
-//! [`present`]). Eight consecutive free masses form one lane group ([`crate::model::GroupData`]).
+//! [`present`]). Eight consecutive free masses form one lane group ([`crate::groups::GroupData`]).
 
 use std::ops::{Add, Div, Mul, Sub};
 
 use glam::Vec3A;
 
 use super::rotation::rotation_step;
-use crate::model::{GROUP, NONE};
+use crate::groups::GROUP;
+use crate::model::NONE;
 
 /// Eight `f32` lanes and the operations the per-mass kernels need. [`Sc`] is portable (plain
 /// arrays, which the compiler vectorises as it can); [`Avx`] is an AVX register, used only after

@@ -15,7 +15,7 @@ use super::external;
 use super::lanes::{Avx, Lanes, dot3, map3};
 use crate::forces::ForceEval;
 #[cfg(target_arch = "x86_64")]
-use crate::model::GROUP;
+use crate::groups::GROUP;
 use crate::model::SimModel;
 
 /// One free mass's rotation-limited step (see `Simulator::rotation_limited_step_s`): the `h` with
