@@ -197,6 +197,29 @@ pub struct PreviewArgs {
     /// the rest pose and step once before each frame).
     #[arg(long, value_name = "SECONDS")]
     pub settle: Option<f64>,
+    /// Scene only: most GPU memory the scene's renderers may take, estimated from the packs
+    /// before anything is created (bytes, or with a K, M or G suffix: powers of 1024). A scene
+    /// above it exits 2 naming this flag. Default 2G.
+    #[arg(long, value_name = "SIZE", default_value = "2G", value_parser = parse_bytes)]
+    pub max_memory: u64,
+}
+
+/// `4096`, `64K`, `512M`, `2G` (powers of 1024) → bytes.
+fn parse_bytes(s: &str) -> Result<u64, String> {
+    let t = s.trim();
+    let (digits, shift) = match t.chars().last().map(|c| c.to_ascii_uppercase()) {
+        Some('K') => (&t[..t.len() - 1], 10),
+        Some('M') => (&t[..t.len() - 1], 20),
+        Some('G') => (&t[..t.len() - 1], 30),
+        _ => (t, 0),
+    };
+    digits
+        .trim()
+        .parse::<u64>()
+        .ok()
+        .and_then(|n| n.checked_mul(1u64 << shift))
+        .filter(|&n| n > 0)
+        .ok_or_else(|| format!("{s:?} is not a size: a positive whole number of bytes, or with K, M or G"))
 }
 
 const PREVIEW_HELP: &str =

@@ -34,7 +34,7 @@ enum PreviewPlan {
     /// One still image of a pack.
     Pack { pack: PathBuf, output: PathBuf, size: (u32, u32) },
     /// A runtime scene, as a still or as numbered frames.
-    Scene { scene: PathBuf, output: SceneOutput, size: (u32, u32), settle_s: f64 },
+    Scene { scene: PathBuf, output: SceneOutput, size: (u32, u32), settle_s: f64, max_memory: u64 },
 }
 
 /// Where a scene's images go.
@@ -55,7 +55,9 @@ enum InputKind {
 pub fn run(args: PreviewArgs, quiet: bool) -> Result<(), Failure> {
     match plan(args)? {
         PreviewPlan::Pack { pack, output, size } => run_pack(&pack, &output, size, quiet),
-        PreviewPlan::Scene { scene, output, size, settle_s } => run_scene(&scene, &output, size, settle_s, quiet),
+        PreviewPlan::Scene { scene, output, size, settle_s, max_memory } => {
+            run_scene(&scene, &output, size, settle_s, max_memory, quiet)
+        }
     }
 }
 
@@ -85,7 +87,7 @@ fn plan(args: PreviewArgs) -> Result<PreviewPlan, Failure> {
             if !(settle_s.is_finite() && (0.0..=MAX_SETTLE_S).contains(&settle_s)) {
                 return Err(Failure::Usage(anyhow!("--settle {settle_s}: seconds in 0..={MAX_SETTLE_S}")));
             }
-            Ok(PreviewPlan::Scene { scene: args.input, output, size: args.size, settle_s })
+            Ok(PreviewPlan::Scene { scene: args.input, output, size: args.size, settle_s, max_memory: args.max_memory })
         }
     }
 }
@@ -144,10 +146,24 @@ struct SceneRun {
 }
 
 impl SceneRun {
-    /// Loads the scene, builds its world and a renderer that shares the world's packs.
-    fn start(path: &Path, (w, h): (u32, u32)) -> Result<SceneRun, Failure> {
+    /// Loads the scene, builds its world, checks the renderers' estimated GPU memory against
+    /// `max_memory` before creating anything on the GPU, and builds a renderer that shares the
+    /// world's packs.
+    fn start(path: &Path, (w, h): (u32, u32), max_memory: u64) -> Result<SceneRun, Failure> {
         let scene = Scene::load(path).map_err(failure::scene)?;
         let world = World::new(scene).map_err(|e| failure::runtime(e, path))?;
+        let need =
+            SceneRenderer::estimate_gpu_bytes(&world).map_err(|e| render_failure(e, path))? + 8 * w as u64 * h as u64; // colour and depth targets
+        if need > max_memory {
+            return Err(Failure::Usage(anyhow!(
+                "{}: the scene's {} pack entries need about {} MiB of GPU memory, above --max-memory {} MiB; \
+                 place fewer entries or raise --max-memory",
+                path.display(),
+                world.pack_count(),
+                need.div_ceil(1 << 20),
+                max_memory >> 20
+            )));
+        }
         let gpu = HeadlessGpu::new().map_err(|e| render_failure(e, path))?;
         let renderer = SceneRenderer::new(&gpu.device, &gpu.queue, &world).map_err(|e| render_failure(e, path))?;
         let target = RenderTarget::new(&gpu.device, w, h).map_err(|e| render_failure(e, path))?;
@@ -194,9 +210,16 @@ impl SceneRun {
     }
 }
 
-fn run_scene(path: &Path, output: &SceneOutput, (w, h): (u32, u32), settle_s: f64, quiet: bool) -> Result<(), Failure> {
+fn run_scene(
+    path: &Path,
+    output: &SceneOutput,
+    (w, h): (u32, u32),
+    settle_s: f64,
+    max_memory: u64,
+    quiet: bool,
+) -> Result<(), Failure> {
     let started = Instant::now();
-    let mut run = SceneRun::start(path, (w, h))?;
+    let mut run = SceneRun::start(path, (w, h), max_memory)?;
     let step_s = run.world.scene().time_step_s;
     let settle_steps = (settle_s / step_s as f64 - 1e-9).ceil().max(0.0) as u64;
     for _ in 0..settle_steps {

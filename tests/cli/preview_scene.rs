@@ -258,3 +258,40 @@ fn preview_flag_misuse_is_a_usage_error_that_writes_nothing() {
     let err = stderr(&furbake(&["preview", s(&junk), "-o", s(&png)]));
     assert!(err.contains("notes.txt") && err.contains("SCENE.toml"), "{err}");
 }
+
+#[test]
+fn a_scene_over_the_gpu_memory_budget_is_refused_before_anything_is_created() {
+    // Cause: `preview` of a scene with 500 entries of the same two packs needed 3.5 GB and, under
+    // a memory limit, panicked inside wgpu or segfaulted. The renderers' memory is estimated
+    // from the packs first and a scene above `--max-memory` (default 2 GiB) exits 2.
+    let dir = tempfile::tempdir().unwrap();
+    bake_packs(dir.path());
+    let mut text = String::from("time_step_s = 0.02\n");
+    for i in 0..500 {
+        for pack in ["fox", "grass"] {
+            text += &format!("[[packs]]\nname = \"{pack}{i}\"\npath = \"{pack}.fbk\"\nscale = 0.01\n");
+        }
+    }
+    text += "[effects.gravity]\n";
+    let big = dir.path().join("big.toml");
+    std::fs::write(&big, text).unwrap();
+    let png = dir.path().join("big.png");
+    let started = std::time::Instant::now();
+    let out = furbake(&["preview", s(&big), "-o", s(&png), "--size", "64x64"]);
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("1000 pack entries") && err.contains("--max-memory 2048 MiB"), "{err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    assert!(!png.exists());
+    println!("refused in {:.2} s: {err}", started.elapsed().as_secs_f64());
+    // The same budget check on a small scene: a tiny budget refuses it, an ordinary one renders.
+    let small = write_scene(dir.path(), "small.toml", "grass.fbk", "");
+    let out = furbake(&["preview", s(&small), "-o", s(&png), "--size", "64x64", "--max-memory", "1M"]);
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    assert!(!png.exists());
+    let out = furbake(&["preview", s(&small), "-o", s(&png), "--size", "64x64", "--max-memory", "64M", "-q"]);
+    assert_ok(&out, "small scene within 64 MiB");
+    assert!(png.exists());
+    let out = furbake(&["preview", s(&small), "-o", s(&png), "--max-memory", "lots"]);
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+}

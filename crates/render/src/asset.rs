@@ -94,6 +94,25 @@ impl FurAsset {
         Ok(FurAsset { mesh, shells, uv_map, fins })
     }
 
+    /// Bytes of GPU memory a [`crate::FurRenderer`] of this asset allocates for its data (skin
+    /// corners, scale vectors, the shell atlas with its mip chain, fins when `with_fins`), not
+    /// counting the renderer's fixed cost ([`crate::RENDERER_OVERHEAD_BYTES`]). Computed from the
+    /// sections' sizes alone, before anything is uploaded.
+    pub fn gpu_bytes(&self, with_fins: bool) -> u64 {
+        use crate::shaders::{FinVertex, SurfaceVertex};
+        let (v, f) = (self.mesh.positions.len() as u64, self.mesh.triangles.len() as u64);
+        let mips = |texels: u64| texels + texels / 3; // a full mip chain adds a third
+        let res = self.shells.params.resolution as u64;
+        let mut bytes = 3 * f * std::mem::size_of::<SurfaceVertex>() as u64 // skin corners
+            + 16 * v.max(3 * f) // scale vectors, room for either layout
+            + mips(res * res * self.shells.layers() as u64); // R8 shell atlas
+        if let (true, Some((atlas, edges))) = (with_fins, &self.fins) {
+            bytes += mips(atlas.width as u64 * atlas.height as u64)
+                + 6 * edges.vertices.len() as u64 * std::mem::size_of::<FinVertex>() as u64;
+        }
+        bytes
+    }
+
     /// The skin.
     pub fn mesh(&self) -> &SkinMesh {
         &self.mesh

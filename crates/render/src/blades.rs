@@ -513,6 +513,18 @@ impl BladeRenderer {
         BladeRenderer::new(device, queue, &field, &table, settings).map(Some)
     }
 
+    /// Bytes of GPU memory a renderer of `field` and `table` allocates for its data (blade
+    /// instances, the displacement payload, corner forces and delayed-source directions), not
+    /// counting its fixed cost ([`crate::RENDERER_OVERHEAD_BYTES`]) nor the positions buffer a
+    /// compute readback adds.
+    pub fn gpu_bytes(field: &BladeField, table: &KeyframeTable) -> u64 {
+        let corners = field.grid.corners() as u64;
+        field.blade_count() as u64 * std::mem::size_of::<BladeGpu>() as u64
+            + table.stored_poses() * table.stored_vectors as u64 * 3 * 4
+            + corners * 8
+            + corners * 8 * MAX_DELAYED_SOURCES as u64
+    }
+
     /// Centre and radius (metres) of a sphere holding every blade in any pose (roots grown by the
     /// tallest blade's reference extent), for [`View::framing`] and the near/far planes.
     pub fn bounding_sphere(&self) -> ([f32; 3], f32) {

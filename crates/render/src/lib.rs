@@ -39,6 +39,12 @@ pub use furbake_runtime::ShellVertexLayout;
 pub use renderer::{COLOR_FORMAT, DEPTH_FORMAT, FurRenderer, RenderSettings, RenderTarget, ShellBlend};
 pub use scene::{BladeForces, PackInput, PackRenderers, SceneFrame, SceneObject, SceneRenderer};
 
+/// The fixed GPU (or, on lavapipe, host) memory of one fur or blade renderer beyond its data —
+/// pipelines, bind groups, uniform buffers. Measured on lavapipe: a scene of 50 Fox entries took
+/// 199 MB more resident memory than one (`/usr/bin/time -v furbake preview`, 64×64), about
+/// 4 MiB per entry of which ~0.5 MiB is data.
+pub const RENDERER_OVERHEAD_BYTES: u64 = 4 << 20;
+
 /// The command that installs a software Vulkan driver on Debian/Ubuntu machines without a GPU.
 pub const LAVAPIPE_HINT: &str =
     "apt-get update && apt-get install -y --no-install-recommends mesa-vulkan-drivers libvulkan1";

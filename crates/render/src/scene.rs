@@ -316,6 +316,28 @@ impl SceneRenderer {
         Ok(SceneRenderer { frame: SceneFrame::from_scene(scene), packs })
     }
 
+    /// The GPU memory [`SceneRenderer::new`] would allocate for `world` — every entry's fur and
+    /// blade data plus [`crate::RENDERER_OVERHEAD_BYTES`] per renderer — computed from the
+    /// sections' sizes before anything is created, so a host can refuse a scene that would not
+    /// fit instead of failing inside the driver. Reads (and shares) the sections the renderer
+    /// would read.
+    pub fn estimate_gpu_bytes(world: &World) -> Result<u64, RenderError> {
+        let settings = RenderSettings::for_scene(world.scene());
+        let mut total = 0u64;
+        for i in 0..world.pack_count() {
+            let pack = world.pack(i);
+            if pack.has(SectionKind::SKIN_MESH) && pack.has(SectionKind::SHELL_ATLAS) {
+                let asset = FurAsset::from_pack(pack, settings.fins)?;
+                total = total.saturating_add(asset.gpu_bytes(settings.fins) + crate::RENDERER_OVERHEAD_BYTES);
+            }
+            if let Some(field) = pack.optional_section::<furbake_formats::sections::blade_field::BladeField>()? {
+                let table = pack.keyframe_table()?;
+                total = total.saturating_add(BladeRenderer::gpu_bytes(&field, &table) + crate::RENDERER_OVERHEAD_BYTES);
+            }
+        }
+        Ok(total)
+    }
+
     /// Draws `world`'s current state (see the module doc): every pack at its model matrix, its
     /// fur with the world's scale vectors, its blades with the world's corner forces — and, when
     /// a wind source with delayed attenuation acts, that source evaluated per blade on the GPU.
