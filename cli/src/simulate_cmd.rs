@@ -49,7 +49,17 @@ pub fn run(args: SimulateArgs, quiet: bool) -> Result<(), Failure> {
     let frames = match args.frames {
         Some(n) if n > MAX_FRAMES => return Err(Failure::Usage(anyhow!("--frames {n} is above {MAX_FRAMES}"))),
         Some(n) => n,
-        None => (scene.duration_s.unwrap_or(DEFAULT_SCENE_TIME_S) / dt as f64 - 1e-9).ceil().max(1.0) as u64,
+        None => {
+            let steps = (scene.duration_s.unwrap_or(DEFAULT_SCENE_TIME_S) / dt as f64 - 1e-9).ceil().max(1.0);
+            if steps > MAX_FRAMES as f64 {
+                return Err(Failure::Usage(anyhow!(
+                    "{}: duration_s / time_step_s is {steps} steps, above {MAX_FRAMES}; shorten duration_s, \
+                     lengthen time_step_s or pass --frames",
+                    path.display()
+                )));
+            }
+            steps as u64
+        }
     };
     let record_every = match args.record_every {
         Some(0) => return Err(Failure::Usage(anyhow!("--record-every must be at least 1"))),

@@ -152,6 +152,9 @@ fn simulate_scene_errors_name_their_cause() {
     )
     .unwrap();
     let renamed = write_scene(dir.path(), "renamed.toml", "[effects.wind]\nvelocity_m_s = [1.0, 0.0, 0.0]\n");
+    // A day of scene time at a microsecond step: 8.6e10 steps would run for days.
+    let endless = dir.path().join("endless.toml");
+    std::fs::write(&endless, "time_step_s = 1e-6\nduration_s = 86400.0\n[[packs]]\nname = \"patch\"\npath = \"patch.fbk\"\n[effects.gravity]\n").unwrap();
     let still = write_scene(dir.path(), "still.toml", "[effects.gravity]\n");
     for (args, needle) in [
         (vec!["simulate", s(&pack), "--scene", s(&old_scene)], "runtime scene"),
@@ -159,6 +162,7 @@ fn simulate_scene_errors_name_their_cause() {
         (vec!["simulate", s(&old_scene)], "runtime scene"),
         (vec!["preview", s(&old_scene), "-o", "never.png"], "runtime scene"),
         (vec!["simulate", s(&renamed)], "velocity_m_per_s"),
+        (vec!["simulate", s(&endless)], "duration_s / time_step_s"),
     ] {
         let out = furbake(&args);
         assert_eq!(out.status.code(), Some(2), "{args:?}: {}", stderr(&out));
@@ -167,7 +171,7 @@ fn simulate_scene_errors_name_their_cause() {
         assert!(err.contains(needle), "{args:?}: {err}");
         checked += 1;
     }
-    assert_eq!(checked, 8);
+    assert_eq!(checked, 9);
 }
 
 #[test]
