@@ -9,6 +9,7 @@ mod common;
 mod confinement;
 mod file_modes;
 mod golden;
+mod hermetic;
 mod plan_first;
 mod preview_scene;
 mod simulate_scene;
