@@ -20,7 +20,7 @@ use crate::{FormatError, SectionKind};
 /// `u16` by the skin weights.
 pub const MAX_JOINTS: usize = 65_535;
 /// Longest joint name kept, in bytes (longer names are cut at a character boundary on import).
-pub const MAX_NAME_BYTES: usize = 256;
+pub const MAX_NAME_BYTES: usize = 128;
 /// Smallest `|det|` of an inverse bind matrix's 3×3 part a reader accepts (a non-invertible
 /// inverse bind is refused on import; this is its stored form, with room for tiny scales).
 pub const MIN_INVERSE_BIND_DETERMINANT: f64 = 1e-24;
