@@ -225,3 +225,72 @@ fn the_wolf_and_the_truck_are_rigged() {
     let b = import_gltf(&fixture("Box.glb"), &ImportSettings::default()).unwrap();
     assert_eq!(b.animation, Default::default());
 }
+
+#[test]
+fn hostile_skinning_and_animation_values_never_panic() {
+    // Every numeric field of the strip's skin, morph target and clips set in turn to a hostile
+    // value: the import returns a mesh or a typed error, never a panic.
+    let hostile = [f32::NAN, f32::INFINITY, -1.0, 0.0, 1e30, -1e-30];
+    let base = SkinnedStrip::default();
+    let mut variants: Vec<SkinnedStrip> = Vec::new();
+    for &h in &hostile {
+        for v in 0..6 {
+            for k in 0..4 {
+                let mut s = base.clone();
+                s.weights[v][k] = h;
+                variants.push(s);
+            }
+            let mut s = base.clone();
+            s.morph_positions[v][2] = h;
+            variants.push(s);
+        }
+        for j in 0..2 {
+            for e in 0..16 {
+                let mut s = base.clone();
+                s.inverse_binds[j][e] = h;
+                variants.push(s);
+            }
+        }
+        for a in 0..base.animations.len() {
+            for t in 0..base.animations[a].channels[0].3.len() {
+                let mut s = base.clone();
+                s.animations[a].channels[0].3[t] = h;
+                variants.push(s);
+            }
+            for x in 0..base.animations[a].channels[0].4.len() {
+                let mut s = base.clone();
+                s.animations[a].channels[0].4[x] = h;
+                variants.push(s);
+            }
+        }
+    }
+    for j in [2u16, 255, u16::MAX] {
+        for v in 0..6 {
+            let mut s = base.clone();
+            s.joints[v][0] = j;
+            variants.push(s);
+        }
+    }
+    let (mut ok, mut errors) = (0, 0);
+    for (i, s) in variants.iter().enumerate() {
+        let r = std::panic::catch_unwind(|| import_strip(s)).unwrap_or_else(|_| panic!("variant {i} panicked"));
+        match r {
+            Ok(m) => {
+                // What imports also encodes and decodes (the decoders' ranges hold).
+                use furbake_formats::Section;
+                let a = m.animation;
+                Skeleton::decode(&a.skeleton.unwrap().encode()).unwrap_or_else(|e| panic!("variant {i}: {e}"));
+                furbake_formats::sections::skin_weights::SkinWeights::decode(&a.skin_weights.unwrap().encode())
+                    .unwrap_or_else(|e| panic!("variant {i}: {e}"));
+                furbake_formats::sections::morph_targets::MorphTargets::decode(&a.morph_targets.unwrap().encode())
+                    .unwrap_or_else(|e| panic!("variant {i}: {e}"));
+                furbake_formats::sections::animation_clips::AnimationClips::decode(&a.clips.unwrap().encode())
+                    .unwrap_or_else(|e| panic!("variant {i}: {e}"));
+                ok += 1;
+            }
+            Err(_) => errors += 1,
+        }
+    }
+    assert_eq!(ok + errors, variants.len());
+    assert!(ok > 50 && errors > 50, "{ok} imported, {errors} refused");
+}
