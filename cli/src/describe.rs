@@ -9,13 +9,17 @@
 
 use std::path::Path;
 
+use furbake_formats::sections::animation_clips::AnimationClips;
 use furbake_formats::sections::blade_field::BladeField;
 use furbake_formats::sections::fin_atlas::FinAtlas;
 use furbake_formats::sections::fin_edges::FinEdges;
 use furbake_formats::sections::keyframe_table::KeyframeTable;
 use furbake_formats::sections::manifest::BakeManifest;
+use furbake_formats::sections::morph_targets::MorphTargets;
 use furbake_formats::sections::shell_atlas::ShellAtlas;
+use furbake_formats::sections::skeleton::Skeleton;
 use furbake_formats::sections::skin_mesh::SkinMesh;
+use furbake_formats::sections::skin_weights::SkinWeights;
 use furbake_formats::sections::spring_topology::SpringTopology;
 use furbake_formats::sections::triangle_uv_map::TriangleUvMap;
 use furbake_formats::{Pack, PackSections, Section, SectionKind};
@@ -36,6 +40,10 @@ pub struct Decoded {
     pub blade_fields: Vec<BladeField>,
     pub keyframe_tables: Vec<KeyframeTable>,
     pub topologies: Vec<SpringTopology>,
+    pub skeleton: Option<Skeleton>,
+    pub skin_weights: Option<SkinWeights>,
+    pub morph_targets: Option<MorphTargets>,
+    pub clips: Option<AnimationClips>,
     /// One summary per section, in table order (`None` for unknown kinds).
     pub summaries: Vec<Option<Value>>,
 }
@@ -54,6 +62,10 @@ pub fn decode_all(pack: &Pack) -> furbake_formats::Result<Decoded> {
             SectionKind::BLADE_FIELD => push(&mut d.blade_fields, pack.decode(i)?),
             SectionKind::KEYFRAME_TABLE => push(&mut d.keyframe_tables, pack.decode(i)?),
             SectionKind::SPRING_TOPOLOGY => push(&mut d.topologies, pack.decode(i)?),
+            SectionKind::SKELETON => keep(&mut d.skeleton, pack.decode(i)?),
+            SectionKind::SKIN_WEIGHTS => keep(&mut d.skin_weights, pack.decode(i)?),
+            SectionKind::MORPH_TARGETS => keep(&mut d.morph_targets, pack.decode(i)?),
+            SectionKind::ANIMATION_CLIPS => keep(&mut d.clips, pack.decode(i)?),
             _ => None,
         };
         d.summaries.push(summary);
@@ -76,7 +88,8 @@ fn push<S: Section>(list: &mut Vec<S>, value: S) -> Option<Value> {
 }
 
 /// Cross-section checks (`furbake_formats::check_consistency`, the one place they live): every
-/// artifact agrees with the skin mesh it was baked from, a blade field has its keyframe table.
+/// artifact agrees with the skin mesh it was baked from, a blade field has its keyframe table,
+/// skin weights, morph targets and clips agree with the skeleton and the skin.
 /// Returns the number of checks made.
 pub fn check_consistency(pack: &Pack, d: &Decoded) -> furbake_formats::Result<usize> {
     let topologies: Vec<&SpringTopology> = d.topologies.iter().collect();
@@ -91,6 +104,10 @@ pub fn check_consistency(pack: &Pack, d: &Decoded) -> furbake_formats::Result<us
         topologies: &topologies,
         blade_fields: &blade_fields,
         keyframe_tables: &keyframe_tables,
+        skeleton: d.skeleton.as_ref(),
+        skin_weights: d.skin_weights.as_ref(),
+        morph_targets: d.morph_targets.as_ref(),
+        clips: d.clips.as_ref(),
     };
     furbake_formats::check_consistency(pack.sections(), &sections)
 }
@@ -144,6 +161,18 @@ pub fn describe(path: &Path, pack: &Pack, d: &Decoded) -> Value {
     if let Some(f) = &d.fin_edges {
         stats.insert("fin_edges".into(), json!(f.vertices.len()));
     }
+    if let Some(s) = &d.skeleton {
+        stats.insert("joints".into(), json!(s.joint_count()));
+    }
+    if let Some(w) = &d.skin_weights {
+        stats.insert("renormalised_weight_vertices".into(), json!(w.stats.renormalised_vertices));
+    }
+    if let Some(m) = &d.morph_targets {
+        stats.insert("morph_targets".into(), json!(m.target_count()));
+    }
+    if let Some(c) = &d.clips {
+        stats.insert("clips".into(), json!(c.clips.len()));
+    }
     let of_kind = |kind: SectionKind| -> Vec<Value> {
         pack.sections()
             .iter()
@@ -162,6 +191,22 @@ pub fn describe(path: &Path, pack: &Pack, d: &Decoded) -> Value {
         "keyframe_tables": of_kind(SectionKind::KEYFRAME_TABLE),
         "blade_fields": of_kind(SectionKind::BLADE_FIELD),
     });
+    // Clips and joints at the top level too, like topologies (fields are only ever added).
+    if let Some(c) = &d.clips {
+        doc["clips"] = c.summary()["clips"].clone();
+    }
+    if let Some(s) = &d.skeleton {
+        doc["joints"] = json!(
+            s.names
+                .iter()
+                .zip(&s.parents)
+                .map(|(n, &p)| json!({
+                    "name": n,
+                    "parent": (p != Skeleton::NO_PARENT).then_some(p),
+                }))
+                .collect::<Vec<_>>()
+        );
+    }
     tidy_f32(&mut doc);
     doc
 }

@@ -1,19 +1,24 @@
 //! Cross-section consistency: the sections of one pack agree with one another — every artifact
 //! with the skin mesh it was baked from (UV map, fin edges, spring topologies: fur thesis §3.2,
 //! §3.4.1), the fin atlas with the shells, and a blade field with the keyframe table that poses
-//! its blades (grass thesis §3.2–3.3). Each section's own decoder has already checked the section
+//! its blades (grass thesis §3.2–3.3), and the animation sections with the skin and one another
+//! (glTF 2.0 specification, "Skins", "Morph Targets", "Animations"). Each section's own decoder has already checked the section
 //! alone; this checks pairs. One function, [`check_consistency`], called by `furbake verify` and
 //! `inspect` on every section, and by the runtime and the renderer on the sections they loaded.
 
 use crate::SectionKind;
 use crate::container::SectionEntry;
 use crate::error::{FormatError, Result};
+use crate::sections::animation_clips::{AnimationClips, ChannelTarget};
 use crate::sections::blade_field::BladeField;
 use crate::sections::fin_atlas::FinAtlas;
 use crate::sections::fin_edges::FinEdges;
 use crate::sections::keyframe_table::KeyframeTable;
+use crate::sections::morph_targets::MorphTargets;
 use crate::sections::shell_atlas::ShellAtlas;
+use crate::sections::skeleton::Skeleton;
 use crate::sections::skin_mesh::SkinMesh;
+use crate::sections::skin_weights::SkinWeights;
 use crate::sections::spring_topology::SpringTopology;
 use crate::sections::triangle_uv_map::TriangleUvMap;
 
@@ -37,6 +42,14 @@ pub struct PackSections<'a> {
     pub blade_fields: &'a [&'a BladeField],
     /// Keyframe tables.
     pub keyframe_tables: &'a [&'a KeyframeTable],
+    /// The skeleton.
+    pub skeleton: Option<&'a Skeleton>,
+    /// The skin weights.
+    pub skin_weights: Option<&'a SkinWeights>,
+    /// The morph targets.
+    pub morph_targets: Option<&'a MorphTargets>,
+    /// The animation clips.
+    pub clips: Option<&'a AnimationClips>,
 }
 
 /// Checks that the pack whose section table is `entries` holds sections that belong together,
@@ -64,6 +77,10 @@ pub fn check_consistency(entries: &[SectionEntry], sections: &PackSections<'_>) 
         SectionKind::FIN_EDGES,
         SectionKind::BLADE_FIELD,
         SectionKind::KEYFRAME_TABLE,
+        SectionKind::SKELETON,
+        SectionKind::SKIN_WEIGHTS,
+        SectionKind::MORPH_TARGETS,
+        SectionKind::ANIMATION_CLIPS,
     ] {
         checks += 1;
         let n = entries.iter().filter(|e| e.kind == kind).count();
@@ -74,6 +91,10 @@ pub fn check_consistency(entries: &[SectionEntry], sections: &PackSections<'_>) 
     checks += 1;
     if index_of(SectionKind::BLADE_FIELD).is_some() && index_of(SectionKind::KEYFRAME_TABLE).is_none() {
         return Err(bad(SectionKind::BLADE_FIELD, "a blade field needs a keyframe table to pose its blades".into()));
+    }
+    checks += 1;
+    if index_of(SectionKind::SKIN_WEIGHTS).is_some() != index_of(SectionKind::SKELETON).is_some() {
+        return Err(bad(SectionKind::SKIN_WEIGHTS, "skin weights and a skeleton come together or not at all".into()));
     }
     for (i, t) in sections.topologies.iter().enumerate() {
         checks += 1;
@@ -144,6 +165,9 @@ pub fn check_consistency(entries: &[SectionEntry], sections: &PackSections<'_>) 
             }
         }
     }
+    let in_table = (index_of(SectionKind::SKELETON).is_some(), index_of(SectionKind::MORPH_TARGETS).is_some());
+    let clips_in_table = index_of(SectionKind::ANIMATION_CLIPS).is_some();
+    checks += check_animation(sections, clips_in_table.then_some(in_table), &bad)?;
     if let (Some(s), Some(fins)) = (sections.shells, sections.fins) {
         checks += 1;
         if s.params.resolution != fins.width {
@@ -163,6 +187,112 @@ pub fn check_consistency(entries: &[SectionEntry], sections: &PackSections<'_>) 
         let blades = field.positions.len();
         if blades > 0 && table.stored_poses() == 0 {
             return Err(bad(SectionKind::KEYFRAME_TABLE, format!("no poses for a field of {blades} blades")));
+        }
+    }
+    Ok(checks)
+}
+
+/// The animation sections against the skin mesh and one another: weights and morph deltas for
+/// every skin vertex, weights naming binds of the skeleton, clip channels naming existing joints
+/// and morph groups with the group's weight count. Returns the number of checks made.
+///
+/// `table` is `(skeleton, morph targets)` present in the section table when the table lists the
+/// clips: a clip driving joints needs a skeleton in the pack even when the caller did not load it.
+fn check_animation(
+    s: &PackSections<'_>,
+    table: Option<(bool, bool)>,
+    bad: &dyn Fn(SectionKind, String) -> FormatError,
+) -> Result<usize> {
+    let (skeleton_in_table, morphs_in_table) = table.unwrap_or((true, true));
+    let mut checks = 0;
+    if let (Some(mesh), Some(w)) = (s.mesh, s.skin_weights) {
+        checks += 1;
+        if w.vertex_count() != mesh.positions.len() {
+            return Err(bad(
+                SectionKind::SKIN_WEIGHTS,
+                format!("{} vertices, the skin mesh has {}", w.vertex_count(), mesh.positions.len()),
+            ));
+        }
+    }
+    if let (Some(sk), Some(w)) = (s.skeleton, s.skin_weights) {
+        checks += 1;
+        if w.bind_count as usize != sk.bind_count() {
+            return Err(bad(
+                SectionKind::SKIN_WEIGHTS,
+                format!("written for {} binds, the skeleton has {}", w.bind_count, sk.bind_count()),
+            ));
+        }
+        if let Some(b) = w.binds.iter().find(|&&b| b as usize >= sk.bind_count()) {
+            return Err(bad(
+                SectionKind::SKIN_WEIGHTS,
+                format!("bind {b} is outside the skeleton's {}", sk.bind_count()),
+            ));
+        }
+    }
+    if let (Some(mesh), Some(m)) = (s.mesh, s.morph_targets) {
+        checks += 1;
+        if m.vertex_count as usize != mesh.positions.len() {
+            return Err(bad(
+                SectionKind::MORPH_TARGETS,
+                format!("{} vertices, the skin mesh has {}", m.vertex_count, mesh.positions.len()),
+            ));
+        }
+    }
+    if let Some(clips) = s.clips {
+        for (ci, clip) in clips.clips.iter().enumerate() {
+            for (k, ch) in clip.channels.iter().enumerate() {
+                checks += 1;
+                let at = format!("clip {ci} \"{}\" channel {k} ({})", clip.name, ch.target.path_name());
+                match ch.target {
+                    ChannelTarget::MorphWeights(g) => {
+                        let Some(m) = s.morph_targets else {
+                            if !morphs_in_table {
+                                return Err(bad(
+                                    SectionKind::ANIMATION_CLIPS,
+                                    format!("{at}: the pack has no morph targets"),
+                                ));
+                            }
+                            continue;
+                        };
+                        match m.groups.get(g as usize) {
+                            None => {
+                                return Err(bad(
+                                    SectionKind::ANIMATION_CLIPS,
+                                    format!("{at}: morph group {g} is outside the {} groups", m.groups.len()),
+                                ));
+                            }
+                            Some(group) if group.target_count != ch.components => {
+                                return Err(bad(
+                                    SectionKind::ANIMATION_CLIPS,
+                                    format!(
+                                        "{at}: {} weights per key, the group has {} targets",
+                                        ch.components, group.target_count
+                                    ),
+                                ));
+                            }
+                            Some(_) => {}
+                        }
+                    }
+                    _ => {
+                        let joint = ch.target.index();
+                        let Some(sk) = s.skeleton else {
+                            if !skeleton_in_table {
+                                return Err(bad(
+                                    SectionKind::ANIMATION_CLIPS,
+                                    format!("{at}: the pack has no skeleton"),
+                                ));
+                            }
+                            continue;
+                        };
+                        if joint as usize >= sk.joint_count() {
+                            return Err(bad(
+                                SectionKind::ANIMATION_CLIPS,
+                                format!("{at}: joint {joint} is outside the skeleton's {}", sk.joint_count()),
+                            ));
+                        }
+                    }
+                }
+            }
         }
     }
     Ok(checks)

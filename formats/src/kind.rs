@@ -28,9 +28,17 @@ impl SectionKind {
     pub const KEYFRAME_TABLE: SectionKind = SectionKind(8);
     /// Scattered grass blades grouped in clusters (grass thesis eq. 3.6–3.8).
     pub const BLADE_FIELD: SectionKind = SectionKind(9);
+    /// The joint hierarchy (rest TRS) and the skinning palette (glTF 2.0 "Skins").
+    pub const SKELETON: SectionKind = SectionKind(10);
+    /// Up to eight joint influences per welded skin vertex (glTF 2.0 "Skins").
+    pub const SKIN_WEIGHTS: SectionKind = SectionKind(11);
+    /// Morph-target position and normal deltas per welded vertex (glTF 2.0 "Morph Targets").
+    pub const MORPH_TARGETS: SectionKind = SectionKind(12);
+    /// Every animation clip: channels, interpolation, key times and values (glTF 2.0 "Animations").
+    pub const ANIMATION_CLIPS: SectionKind = SectionKind(13);
 
     /// Every kind this version of the crate knows, in code order.
-    pub const KNOWN: [SectionKind; 9] = [
+    pub const KNOWN: [SectionKind; 13] = [
         Self::BAKE_MANIFEST,
         Self::SKIN_MESH,
         Self::SHELL_ATLAS,
@@ -40,6 +48,10 @@ impl SectionKind {
         Self::SPRING_TOPOLOGY,
         Self::KEYFRAME_TABLE,
         Self::BLADE_FIELD,
+        Self::SKELETON,
+        Self::SKIN_WEIGHTS,
+        Self::MORPH_TARGETS,
+        Self::ANIMATION_CLIPS,
     ];
 
     /// The stable snake_case name used by `furbake inspect --json`, or `None` for unknown codes.
@@ -54,6 +66,10 @@ impl SectionKind {
             Self::SPRING_TOPOLOGY => "spring_topology",
             Self::KEYFRAME_TABLE => "keyframe_table",
             Self::BLADE_FIELD => "blade_field",
+            Self::SKELETON => "skeleton",
+            Self::SKIN_WEIGHTS => "skin_weights",
+            Self::MORPH_TARGETS => "morph_targets",
+            Self::ANIMATION_CLIPS => "animation_clips",
             _ => return None,
         })
     }

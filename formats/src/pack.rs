@@ -32,13 +32,17 @@ use crate::container::{
     AlignedBytes, HEADER_SIZE, SectionEntry, TABLE_ENTRY_SIZE, check_section_crc, parse_header, parse_table,
 };
 use crate::error::{FormatError, Result};
+use crate::sections::animation_clips::AnimationClips;
 use crate::sections::blade_field::BladeField;
 use crate::sections::fin_atlas::FinAtlas;
 use crate::sections::fin_edges::FinEdges;
 use crate::sections::keyframe_table::KeyframeTable;
 use crate::sections::manifest::BakeManifest;
+use crate::sections::morph_targets::MorphTargets;
 use crate::sections::shell_atlas::ShellAtlas;
+use crate::sections::skeleton::Skeleton;
 use crate::sections::skin_mesh::SkinMesh;
+use crate::sections::skin_weights::SkinWeights;
 use crate::sections::spring_topology::{SpringTopology, TopologyKind};
 use crate::sections::triangle_uv_map::TriangleUvMap;
 use crate::{Section, SectionKind, decode_section};
@@ -320,6 +324,26 @@ impl Pack {
     /// The grass keyframe table (shared).
     pub fn keyframe_table(&self) -> Result<Arc<KeyframeTable>> {
         self.section()
+    }
+
+    /// The skeleton (joint hierarchy and skinning palette; shared), `None` for an unskinned pack.
+    pub fn skeleton(&self) -> Result<Option<Arc<Skeleton>>> {
+        self.optional_section()
+    }
+
+    /// The per-vertex skin weights (shared), `None` for an unskinned pack.
+    pub fn skin_weights(&self) -> Result<Option<Arc<SkinWeights>>> {
+        self.optional_section()
+    }
+
+    /// The morph targets (shared), `None` when the pack has none.
+    pub fn morph_targets(&self) -> Result<Option<Arc<MorphTargets>>> {
+        self.optional_section()
+    }
+
+    /// The animation clips (shared), `None` when the pack has none.
+    pub fn animation_clips(&self) -> Result<Option<Arc<AnimationClips>>> {
+        self.optional_section()
     }
 
     /// The bake manifest (shared).

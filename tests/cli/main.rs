@@ -4,6 +4,7 @@
 
 use std::path::Path;
 
+mod animation;
 mod closed_stdout;
 mod common;
 mod confinement;

@@ -4,7 +4,9 @@
 //!
 //! [`bake`] reads as the pipeline's table of contents: derive the fur length and texel density,
 //! grow the hair volume and slice it into shell and fin atlases (fur thesis §3.1), map every
-//! triangle on its own (§3.2), find the fin edges (§3.2), and record the manifest.
+//! triangle on its own (§3.2), find the fin edges (§3.2), carry the imported skeleton, skin
+//! weights, morph targets and clips through (glTF 2.0 "Skins", "Morph Targets", "Animations"),
+//! and record the manifest.
 //!
 //! ```
 //! use furbake_bake::{BakeSettings, bake, NoProgress};
@@ -38,7 +40,7 @@ use furbake_formats::sections::shell_atlas::ShellAtlas;
 use furbake_formats::sections::skin_mesh::SkinMesh;
 use furbake_formats::sections::spring_topology::{SpringTopology, TopologyKind};
 use furbake_formats::sections::triangle_uv_map::TriangleUvMap;
-use furbake_import::ImportedMesh;
+use furbake_import::{ImportedAnimation, ImportedMesh};
 
 pub use settings::{BakeSettings, BladeSettings, ShellSettings};
 pub use validate::SettingsError;
@@ -151,6 +153,9 @@ pub struct BakedPack {
     pub blades: Option<(BladeField, KeyframeTable)>,
     /// The mass–spring topologies asked for, in settings order.
     pub topologies: Vec<SpringTopology>,
+    /// The skeleton, skin weights, morph targets and clips of an animated input (all `None`
+    /// for a static one, whose pack is then byte-identical to before they existed).
+    pub animation: ImportedAnimation,
 }
 
 impl BakedPack {
@@ -172,6 +177,19 @@ impl BakedPack {
         }
         for t in &self.topologies {
             w.push_section(t);
+        }
+        let a = &self.animation;
+        if let Some(s) = &a.skeleton {
+            w.push_section(s);
+        }
+        if let Some(s) = &a.skin_weights {
+            w.push_section(s);
+        }
+        if let Some(m) = &a.morph_targets {
+            w.push_section(m);
+        }
+        if let Some(c) = &a.clips {
+            w.push_section(c);
         }
         w
     }
@@ -232,8 +250,10 @@ pub fn bake(
         }
     }
 
+    let animation = input.animation.clone();
+
     let manifest = record_manifest(input, input_name, settings);
-    Ok(BakedPack { manifest, mesh: mesh.clone(), shells, fins, uv_map, fin_edges, blades, topologies })
+    Ok(BakedPack { manifest, mesh: mesh.clone(), shells, fins, uv_map, fin_edges, blades, topologies, animation })
 }
 
 /// The fur length in metres: the explicit setting, or a fraction of the bounding-box diagonal.

@@ -28,6 +28,60 @@ impl fmt::Display for PrimitiveRef {
     }
 }
 
+/// Where in the file skinning or animation data lives (glTF 2.0 specification, "Skins",
+/// "Animations", "Morph Targets").
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum AnimationRef {
+    /// A skin: index and name.
+    Skin {
+        /// Index in the file's `skins` array.
+        skin: usize,
+        /// Its `name`, when it has one.
+        name: Option<Box<str>>,
+    },
+    /// A sampler of an animation.
+    Sampler {
+        /// Index in the file's `animations` array.
+        animation: usize,
+        /// The animation's `name`, when it has one.
+        name: Option<Box<str>>,
+        /// Index of the sampler inside the animation.
+        sampler: usize,
+    },
+    /// A channel of an animation.
+    Channel {
+        /// Index in the file's `animations` array.
+        animation: usize,
+        /// The animation's `name`, when it has one.
+        name: Option<Box<str>>,
+        /// Index of the channel inside the animation.
+        channel: usize,
+    },
+    /// The skin attributes or morph targets of a primitive.
+    Primitive(PrimitiveRef),
+}
+
+impl fmt::Display for AnimationRef {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let named = |f: &mut fmt::Formatter<'_>, what: &str, i: usize, name: &Option<Box<str>>| match name {
+            Some(n) => write!(f, "{what} {i} \"{n}\""),
+            None => write!(f, "{what} {i}"),
+        };
+        match self {
+            AnimationRef::Skin { skin, name } => named(f, "skin", *skin, name),
+            AnimationRef::Sampler { animation, name, sampler } => {
+                named(f, "animation", *animation, name)?;
+                write!(f, ", sampler {sampler}")
+            }
+            AnimationRef::Channel { animation, name, channel } => {
+                named(f, "animation", *animation, name)?;
+                write!(f, ", channel {channel}")
+            }
+            AnimationRef::Primitive(p) => p.fmt(f),
+        }
+    }
+}
+
 /// Everything that can go wrong while importing a glTF file.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -209,6 +263,20 @@ pub enum ImportError {
         limit: u64,
     },
 
+    /// Skin, morph-target or animation data is unusable: a joint index out of range, weights that
+    /// are NaN or sum to 0, a non-invertible inverse bind matrix, a sampler whose input and
+    /// output counts disagree or whose key times do not increase, … The message names the index
+    /// (joint, vertex, key) concerned.
+    #[error("{}: {at}: {message}", file.display())]
+    Animation {
+        /// The glTF file being imported.
+        file: PathBuf,
+        /// The skin, sampler, channel or primitive (boxed to keep [`ImportError`] small).
+        at: Box<AnimationRef>,
+        /// What is wrong, with the offending index.
+        message: String,
+    },
+
     /// The fur-mask source cannot be applied to this file (e.g. the named attribute exists in
     /// no primitive).
     #[error("{}: fur mask: {message}", file.display())]
@@ -249,6 +317,7 @@ impl ImportError {
             | ImportError::AssetRoot { file, .. }
             | ImportError::TooLarge { file, .. }
             | ImportError::FurMask { file, .. }
+            | ImportError::Animation { file, .. }
             | ImportError::Settings { file, .. } => file,
         }
     }

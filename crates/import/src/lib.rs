@@ -12,8 +12,12 @@
 //!    average normals and colours per welded vertex, generate area-weighted normals where the
 //!    file had none.
 //!
-//! Skinned meshes are imported in their bind pose: each node's own mesh positions under the
-//! node's world transform; skins, joints, animations and morph targets are ignored. Every
+//! 4. `animation` — skins (joint hierarchy, inverse binds, up to eight normalised influences per
+//!    vertex), morph targets and every animation clip (glTF 2.0 "Skins", "Morph Targets",
+//!    "Animations"), carried through the weld to the welded vertices.
+//!
+//! A skinned mesh is imported in its bind space (its node's transform ignored, as glTF says);
+//! its rest shape is what the skeleton's binds reproduce at the bind pose. Every
 //! failure is an [`ImportError`] naming the file (and mesh/primitive); no input makes it panic.
 //!
 //! ```
@@ -29,6 +33,7 @@
 //! ```
 
 mod accessor;
+mod animation;
 mod base64;
 mod error;
 mod external;
@@ -43,7 +48,8 @@ mod weld;
 
 use std::path::Path;
 
-pub use error::{ImportError, PrimitiveRef};
+pub use animation::ImportedAnimation;
+pub use error::{AnimationRef, ImportError, PrimitiveRef};
 pub use external::{ExternalRef, UriProblem};
 pub use furbake_formats::sections::skin_mesh::{SkinMesh, SkinMeshStats};
 pub use settings::{ColorChannel, FurMaskSource, ImportSettings, InvalidImportSetting, WeldTolerance};
@@ -62,8 +68,10 @@ pub struct ImportedMesh {
     /// first-use order.
     pub input_sha256: String,
     /// Non-fatal findings, each prefixed with the file name: skipped point/line primitives,
-    /// ignored skins or morph targets, fur-mask fallbacks, dropped vertices.
+    /// ignored influences or animation channels, fur-mask fallbacks, dropped vertices.
     pub warnings: Vec<String>,
+    /// The skeleton, skin weights, morph targets and clips (all `None` for a static file).
+    pub animation: ImportedAnimation,
 }
 
 /// Imports the glTF file at `path` (`.glb` or `.gltf`). External buffers and images are
@@ -127,7 +135,17 @@ fn import(
     warnings.append(&mut walker.warnings);
     let welded = weld::weld_soup(&walker.soup, settings.weld_tolerance)
         .map_err(|e| ImportError::NoTriangles { file: file.to_path_buf(), details: e.details })?;
-    warnings.extend(welded.warnings.into_iter().map(|w| format!("{}: {w}", file.display())));
+    warnings.extend(welded.warnings.iter().map(|w| format!("{}: {w}", file.display())));
+    let soup = &walker.soup;
+    let raw = animation::RawRig {
+        influences: &soup.influences,
+        morph_group: &soup.morph_group,
+        morph_at: &soup.morph_at,
+        morph_deltas: &soup.morph_deltas,
+    };
+    let rig = std::mem::replace(&mut walker.rig, animation::Rig::new(&asset.root));
+    let (animation, rig_warnings) = rig.finish(&asset, file, &raw, &welded.representatives)?;
+    warnings.extend(rig_warnings.into_iter().map(|w| format!("{}: {w}", file.display())));
     if welded.mesh.furry_triangles() == 0 {
         warnings.push(format!("{}: no triangle carries fur under the chosen fur mask", file.display()));
     }
@@ -138,5 +156,5 @@ fn import(
         input_bytes += image.len() as u64;
     }
     let input_sha256 = sha2::Digest::finalize(hasher).iter().map(|b| format!("{b:02x}")).collect();
-    Ok(ImportedMesh { mesh: welded.mesh, input_bytes, input_sha256, warnings })
+    Ok(ImportedMesh { mesh: welded.mesh, input_bytes, input_sha256, warnings, animation })
 }

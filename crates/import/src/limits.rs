@@ -14,3 +14,16 @@ pub const MAX_RAW_TRIANGLES: u64 = 1 << 24;
 pub const MAX_NODE_DEPTH: usize = 256;
 /// Most node visits (a node reached through several parents counts once per path).
 pub const MAX_NODE_VISITS: u64 = 1 << 20;
+/// Most skeleton joints (skin joints, rigidly bound mesh nodes and their ancestors). Joint names
+/// are kept in the skeleton section's metadata, which readers cap at 1 MiB.
+pub const MAX_JOINTS: usize = 4096;
+/// Most animation clips.
+pub const MAX_CLIPS: usize = 1024;
+/// Most channels over all clips.
+pub const MAX_CHANNELS: usize = 1 << 16;
+/// Most key times over all channels of all clips (16 Mi).
+pub const MAX_KEYS: u64 = 1 << 24;
+/// Most morph targets over all mesh instances.
+pub const MAX_MORPH_TARGETS: usize = 1024;
+/// Most stored morph deltas, targets × welded vertices (16 Mi; position and normal each).
+pub const MAX_MORPH_DELTAS: u64 = 1 << 24;

@@ -16,6 +16,7 @@ use gltf::json::mesh::{Mode, Semantic};
 use gltf::json::validation::Checked;
 
 use crate::accessor::{AccessorReader, Elements};
+use crate::animation::{Influences, NO_GROUP, Rig};
 use crate::external::ExternalFiles;
 use crate::limits::{MAX_NODE_DEPTH, MAX_NODE_VISITS, MAX_RAW_TRIANGLES, MAX_RAW_VERTICES};
 use crate::source::Asset;
@@ -46,10 +47,30 @@ pub(crate) struct Soup {
     pub had_vertex_colors: bool,
     /// Primitives skipped because they are points or lines.
     pub skipped_primitives: u32,
+    /// Per raw vertex: its influences (empty unless the file has skins or animations).
+    pub influences: Vec<Influences>,
+    /// Per raw vertex: its morph group ([`NO_GROUP`] for none).
+    pub morph_group: Vec<u32>,
+    /// Per raw vertex: where its `2t` morph deltas start in `morph_deltas`.
+    pub morph_at: Vec<u32>,
+    /// Morph deltas: per raw vertex with a group, `t` position then `t` normal deltas.
+    pub morph_deltas: Vec<[f32; 3]>,
+    /// Per morph group: `2t`, the deltas stored per raw vertex.
+    pub morph_group_len: Vec<usize>,
+}
+
+/// How a primitive's vertices are bound to the skeleton.
+enum Binding {
+    /// The file has no skins and no animations.
+    None,
+    /// A skinned mesh: the bind of each joint slot of its skin.
+    Skin { skin: usize, binds: Vec<u32> },
+    /// An unskinned mesh in a rigged file: one bind on its node.
+    Rigid(u32),
 }
 
 /// The string a glTF file uses for a semantic (`POSITION`, `COLOR_0`, `_FUR`).
-fn semantic_name(s: &Semantic) -> String {
+pub(crate) fn semantic_name(s: &Semantic) -> String {
     match s {
         Semantic::Positions => "POSITION".to_string(),
         Semantic::Normals => "NORMAL".to_string(),
@@ -116,9 +137,9 @@ pub(crate) struct SceneWalker<'a> {
     mask_source_found: bool,
     /// Material names used by imported primitives.
     used_materials: BTreeSet<String>,
-    warned_skin: bool,
-    warned_morph: bool,
     mask_warnings: u32,
+    /// Skins, morph targets and animation binds collected on the way.
+    pub rig: Rig,
 }
 
 impl<'a> SceneWalker<'a> {
@@ -136,9 +157,8 @@ impl<'a> SceneWalker<'a> {
             visits: 0,
             mask_source_found: false,
             used_materials: BTreeSet::new(),
-            warned_skin: false,
-            warned_morph: false,
             mask_warnings: 0,
+            rig: Rig::new(&asset.root),
         }
     }
 
@@ -234,13 +254,17 @@ impl<'a> SceneWalker<'a> {
             return Err(self.scene_error(index, "the node's world transform is not finite".to_string()));
         }
         if let Some(mesh) = node.mesh {
-            if node.skin.is_some() && !self.warned_skin {
-                self.warned_skin = true;
-                self.warn(
-                    "skinned mesh: importing the bind pose (skins, joints and animations are ignored)".to_string(),
-                );
-            }
-            self.import_mesh(mesh.value(), world)?;
+            // glTF 2.0 "Skins": a skinned mesh ignores its node's transform; the joints carry it.
+            let (binding, mesh_world) = match node.skin {
+                Some(skin) => {
+                    let binds = self.rig.skin_binds(asset, self.file, skin.value())?;
+                    (Binding::Skin { skin: skin.value(), binds }, DMat4::IDENTITY)
+                }
+                None if self.rig.binding => (Binding::Rigid(self.rig.rigid_bind(self.file, index, world)?), world),
+                None => (Binding::None, world),
+            };
+            let morph = self.rig.morph_group(asset, self.file, index, mesh.value())?;
+            self.import_mesh(mesh.value(), mesh_world, &binding, morph)?;
         }
         self.on_path[index] = true;
         for child in node.children.iter().flatten() {
@@ -250,7 +274,13 @@ impl<'a> SceneWalker<'a> {
         Ok(())
     }
 
-    fn import_mesh(&mut self, mesh_index: usize, world: DMat4) -> Result<(), ImportError> {
+    fn import_mesh(
+        &mut self,
+        mesh_index: usize,
+        world: DMat4,
+        binding: &Binding,
+        morph: Option<(u32, usize)>,
+    ) -> Result<(), ImportError> {
         let asset = self.asset;
         let mesh = asset.root.meshes.get(mesh_index).ok_or_else(|| ImportError::InvalidGltf {
             file: self.file.to_path_buf(),
@@ -258,7 +288,7 @@ impl<'a> SceneWalker<'a> {
         })?;
         for (p, primitive) in mesh.primitives.iter().enumerate() {
             let at = PrimitiveRef { mesh: mesh_index, mesh_name: mesh.name.as_deref().map(Box::from), primitive: p };
-            self.import_primitive(primitive, &at, world)?;
+            self.import_primitive(primitive, &at, world, binding, morph)?;
         }
         Ok(())
     }
@@ -312,6 +342,8 @@ impl<'a> SceneWalker<'a> {
         primitive: &json::mesh::Primitive,
         at: &PrimitiveRef,
         world: DMat4,
+        binding: &Binding,
+        morph: Option<(u32, usize)>,
     ) -> Result<(), ImportError> {
         let asset = self.asset;
         let file = self.file;
@@ -328,10 +360,6 @@ impl<'a> SceneWalker<'a> {
             self.soup.skipped_primitives += 1;
             self.warn(format!("{at}: skipped, mode {} has no triangles", mode_name(mode)));
             return Ok(());
-        }
-        if primitive.targets.as_ref().is_some_and(|t| !t.is_empty()) && !self.warned_morph {
-            self.warned_morph = true;
-            self.warn(format!("{at}: morph targets ignored, the base shape is imported"));
         }
         let reader = AccessorReader { root: &asset.root, buffers: &asset.buffers, file, at };
         let Some(pos_acc) = primitive.attributes.get(&Checked::Valid(Semantic::Positions)) else {
@@ -440,6 +468,52 @@ impl<'a> SceneWalker<'a> {
         if det < 0.0 {
             for t in &mut local {
                 t.swap(1, 2);
+            }
+        }
+
+        // Skin influences and morph deltas per raw vertex (glTF 2.0 "Skins", "Morph Targets").
+        let mut referenced = vec![false; n];
+        for &i in &indices {
+            referenced[i as usize] = true;
+        }
+        match binding {
+            Binding::None => {}
+            Binding::Skin { skin, binds } => {
+                let inf = self.rig.read_influences(&reader, primitive, n, binds, &referenced, *skin)?;
+                self.soup.influences.extend(inf);
+            }
+            Binding::Rigid(b) => {
+                let mut one: Influences = [(0, 0.0); crate::animation::MAX_INFLUENCES];
+                one[0] = (*b, 1.0);
+                self.soup.influences.extend(std::iter::repeat_n(one, n));
+                self.rig.stats.rigid_vertices += n as u32;
+            }
+        }
+        match morph {
+            Some((group, t)) => {
+                let deltas = Rig::read_morph_deltas(&reader, primitive, n, t, m3, normal_matrix)?;
+                let start = self.soup.morph_deltas.len();
+                if start + deltas.len() > u32::MAX as usize {
+                    return Err(ImportError::TooLarge {
+                        file: file.to_path_buf(),
+                        what: "the morph deltas before welding".to_string(),
+                        count: (start + deltas.len()) as u64,
+                        limit: u64::from(u32::MAX),
+                    });
+                }
+                self.soup.morph_deltas.extend(deltas);
+                if self.soup.morph_group_len.len() <= group as usize {
+                    self.soup.morph_group_len.resize(group as usize + 1, 0);
+                }
+                self.soup.morph_group_len[group as usize] = 2 * t;
+                for v in 0..n {
+                    self.soup.morph_group.push(group);
+                    self.soup.morph_at.push((start + v * 2 * t) as u32);
+                }
+            }
+            None => {
+                self.soup.morph_group.extend(std::iter::repeat_n(NO_GROUP, n));
+                self.soup.morph_at.extend(std::iter::repeat_n(0, n));
             }
         }
 

@@ -306,3 +306,175 @@ pub fn committed_meshes() -> Vec<(&'static str, TestMesh)> {
         ("plane_bare_centre.gltf", plane_with_bare_region(8, 2.0)),
     ]
 }
+
+/// A skinned, morphing, animated strip for the animation tests (glTF 2.0 "Skins", "Morph
+/// Targets", "Animations"): six vertices at `y = 0, 1, 2` and `x = ±0.5` (four triangles, normals
+/// +Z), two joints — `root` at the origin and its child `bend` at `y = 1` — with weights 1/0 at
+/// `y = 0`, ½/½ at `y = 1`, 0/1 at `y = 2`; inverse binds identity and translate(0, −1, 0). The
+/// mesh node carries a translation of 10 m in x that the specification says to ignore. One morph
+/// target lifts the top row by +1 in z (normal delta +0.5 x). Edit the fields, then [`to_gltf`].
+///
+/// [`to_gltf`]: SkinnedStrip::to_gltf
+#[derive(Clone, Debug)]
+pub struct SkinnedStrip {
+    /// `POSITION`.
+    pub positions: Vec<[f32; 3]>,
+    /// `JOINTS_0` (as float-convertible unsigned shorts).
+    pub joints: Vec<[u16; 4]>,
+    /// `WEIGHTS_0`.
+    pub weights: Vec<[f32; 4]>,
+    /// Optional `JOINTS_1` / `WEIGHTS_1`.
+    pub second_set: Option<InfluenceSet>,
+    /// Inverse bind matrices (column-major), one per joint.
+    pub inverse_binds: Vec<[f32; 16]>,
+    /// Morph target 0: position deltas.
+    pub morph_positions: Vec<[f32; 3]>,
+    /// Morph target 0: normal deltas.
+    pub morph_normals: Vec<[f32; 3]>,
+    /// Animations: (name, channels as (node, path, interpolation, times, flat values)).
+    pub animations: Vec<TestAnimation>,
+}
+
+/// A `JOINTS_n` / `WEIGHTS_n` pair.
+pub type InfluenceSet = (Vec<[u16; 4]>, Vec<[f32; 4]>);
+
+/// One channel of a [`TestAnimation`]: `(node, path, interpolation, key times, flat values)`.
+pub type TestChannel = (usize, &'static str, &'static str, Vec<f32>, Vec<f32>);
+
+/// One animation of a [`SkinnedStrip`]: a name and channels, each `(node, path, interpolation,
+/// key times, flat output values)`; node 0 is `root`, 1 is `bend`, 2 is the mesh node.
+#[derive(Clone, Debug)]
+pub struct TestAnimation {
+    /// The animation's name.
+    pub name: String,
+    /// Its channels.
+    pub channels: Vec<TestChannel>,
+}
+
+impl Default for SkinnedStrip {
+    fn default() -> Self {
+        let positions = vec![
+            [-0.5, 0.0, 0.0],
+            [0.5, 0.0, 0.0],
+            [-0.5, 1.0, 0.0],
+            [0.5, 1.0, 0.0],
+            [-0.5, 2.0, 0.0],
+            [0.5, 2.0, 0.0],
+        ];
+        let w = |a: f32| [a, 1.0 - a, 0.0, 0.0];
+        let id = [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0];
+        let mut down = id;
+        down[13] = -1.0;
+        let s = std::f32::consts::FRAC_1_SQRT_2;
+        SkinnedStrip {
+            positions,
+            joints: vec![[0, 1, 0, 0]; 6],
+            weights: vec![w(1.0), w(1.0), w(0.5), w(0.5), w(0.0), w(0.0)],
+            second_set: None,
+            inverse_binds: vec![id, down],
+            morph_positions: vec![[0.0; 3], [0.0; 3], [0.0; 3], [0.0; 3], [0.0, 0.0, 1.0], [0.0, 0.0, 1.0]],
+            morph_normals: vec![[0.0; 3], [0.0; 3], [0.0; 3], [0.0; 3], [0.5, 0.0, 0.0], [0.5, 0.0, 0.0]],
+            animations: vec![
+                TestAnimation {
+                    name: "Bend".into(),
+                    channels: vec![(1, "rotation", "LINEAR", vec![0.0, 1.0], vec![0.0, 0.0, 0.0, 1.0, 0.0, 0.0, s, s])],
+                },
+                TestAnimation {
+                    name: "Step".into(),
+                    channels: vec![(0, "translation", "STEP", vec![0.0, 1.0], vec![0.0, 0.0, 0.0, 1.0, 0.0, 0.0])],
+                },
+                TestAnimation {
+                    name: "Cubic".into(),
+                    // Keys at 0 s and 2 s: value 0 → 1 in x, out-tangent of key 0 and in-tangent
+                    // of key 1 both (3, 0, 0) per second.
+                    channels: vec![(
+                        0,
+                        "translation",
+                        "CUBICSPLINE",
+                        vec![0.0, 2.0],
+                        vec![0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 3.0, 0.0, 0.0, 3.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+                    )],
+                },
+                TestAnimation {
+                    name: "Morph".into(),
+                    channels: vec![(2, "weights", "LINEAR", vec![0.0, 1.0], vec![0.0, 1.0])],
+                },
+            ],
+        }
+    }
+}
+
+impl SkinnedStrip {
+    /// The `.gltf` JSON document (buffer embedded), for editing before [`SkinnedStrip::to_gltf`].
+    pub fn to_json(&self) -> Value {
+        let mut b = BufferBuilder { data: Vec::new(), views: Vec::new(), accessors: Vec::new() };
+        let pos = b.floats(&self.positions, "VEC3", true);
+        let normals = b.floats(&vec![[0.0f32, 0.0, 1.0]; self.positions.len()], "VEC3", false);
+        let short4 = |b: &mut BufferBuilder, j: &[[u16; 4]]| {
+            let words: Vec<[u8; 4]> = j
+                .iter()
+                .flat_map(|q| [[q[0].to_le_bytes(), q[1].to_le_bytes()], [q[2].to_le_bytes(), q[3].to_le_bytes()]])
+                .map(|[a, c]| [a[0], a[1], c[0], c[1]])
+                .collect();
+            b.push(&words, j.len(), "VEC4", 5123, json!({}))
+        };
+        let joints = short4(&mut b, &self.joints);
+        let weights = b.floats(&self.weights, "VEC4", false);
+        let idx: Vec<[u8; 4]> = [0u32, 1, 3, 0, 3, 2, 2, 3, 5, 2, 5, 4].iter().map(|i| i.to_le_bytes()).collect();
+        let indices = b.push(&idx, 12, "SCALAR", 5125, json!({}));
+        let mut attributes = json!({ "POSITION": pos, "NORMAL": normals, "JOINTS_0": joints, "WEIGHTS_0": weights });
+        if let Some((j, w)) = &self.second_set {
+            attributes["JOINTS_1"] = json!(short4(&mut b, j));
+            attributes["WEIGHTS_1"] = json!(b.floats(w, "VEC4", false));
+        }
+        let ibm = b.floats(&self.inverse_binds, "MAT4", false);
+        let mp = b.floats(&self.morph_positions, "VEC3", true);
+        let mn = b.floats(&self.morph_normals, "VEC3", false);
+        let mut animations = Vec::new();
+        for a in &self.animations {
+            let mut samplers = Vec::new();
+            let mut channels = Vec::new();
+            for (node, path, interpolation, times, values) in &a.channels {
+                let t: Vec<[f32; 1]> = times.iter().map(|&x| [x]).collect();
+                let input = b.floats(&t, "SCALAR", true);
+                let (ty, n) = match *path {
+                    "translation" | "scale" => ("VEC3", 3),
+                    "rotation" => ("VEC4", 4),
+                    _ => ("SCALAR", 1),
+                };
+                let words: Vec<[u8; 4]> = values.iter().map(|v| v.to_le_bytes()).collect();
+                let output = b.push(&words, values.len() / n, ty, 5126, json!({}));
+                samplers.push(json!({ "input": input, "output": output, "interpolation": interpolation }));
+                channels.push(json!({ "sampler": samplers.len() - 1, "target": { "node": node, "path": path } }));
+            }
+            animations.push(json!({ "name": a.name, "samplers": samplers, "channels": channels }));
+        }
+        json!({
+            "asset": { "version": "2.0", "generator": "furbake-import testmesh" },
+            "scene": 0,
+            "scenes": [{ "nodes": [0, 2] }],
+            "nodes": [
+                { "name": "root", "children": [1] },
+                { "name": "bend", "translation": [0.0, 1.0, 0.0] },
+                { "name": "strip", "mesh": 0, "skin": 0, "translation": [10.0, 0.0, 0.0] },
+            ],
+            "skins": [{ "name": "strip_skin", "joints": [0, 1], "inverseBindMatrices": ibm, "skeleton": 0 }],
+            "meshes": [{
+                "name": "strip",
+                "primitives": [{ "attributes": attributes, "indices": indices, "mode": 4,
+                                 "targets": [{ "POSITION": mp, "NORMAL": mn }] }],
+                "weights": [0.0],
+                "extras": { "targetNames": ["lift"] },
+            }],
+            "animations": animations,
+            "buffers": [{ "byteLength": b.data.len(), "uri": data_uri(&b.data) }],
+            "bufferViews": b.views,
+            "accessors": b.accessors,
+        })
+    }
+
+    /// The `.gltf` JSON bytes.
+    pub fn to_gltf(&self) -> Vec<u8> {
+        serde_json::to_vec_pretty(&self.to_json()).expect("a serde_json::Value always serialises")
+    }
+}

@@ -4,6 +4,11 @@
 //! colours are averaged over each welded vertex's members (area-weighted face normals where the
 //! file had none). Deterministic: a spatial hash with cells one tolerance wide, neighbour cells
 //! searched, the lowest matching welded index wins, vertex order = first occurrence.
+//!
+//! Skinning stays consistent (glTF 2.0 specification, "Skins", "Morph Targets"): two vertices weld
+//! only when their influences agree (same binds, weights within [`WEIGHT_TOLERANCE`]) and their
+//! morph deltas agree (same group, deltas within the weld tolerance), so every welded vertex
+//! carries its members' one set.
 
 use std::collections::HashMap;
 
@@ -18,10 +23,43 @@ use crate::scene::Soup;
 /// to the same vertex.
 const DEGENERATE_SINE: f64 = 1e-10;
 
+/// Largest difference of two influence weights that still counts as the same influence.
+pub(crate) const WEIGHT_TOLERANCE: f32 = 1e-4;
+
 /// The result of welding, before it is wrapped with file-level data.
 pub(crate) struct Welded {
     pub mesh: SkinMesh,
     pub warnings: Vec<String>,
+    /// A raw vertex of each welded vertex (its first member).
+    pub representatives: Vec<u32>,
+}
+
+/// Whether raw vertices `a` and `b` may weld: their influences and morph deltas agree.
+fn same_rig(soup: &Soup, a: usize, b: usize, tol: f64) -> bool {
+    if !soup.influences.is_empty() {
+        let (x, y) = (&soup.influences[a], &soup.influences[b]);
+        if x.iter().zip(y).any(|(p, q)| p.0 != q.0 && (p.1 > 0.0 || q.1 > 0.0) || (p.1 - q.1).abs() > WEIGHT_TOLERANCE)
+        {
+            return false;
+        }
+    }
+    if soup.morph_group.is_empty() {
+        return true;
+    }
+    let (g, h) = (soup.morph_group[a], soup.morph_group[b]);
+    if g != h {
+        return false;
+    }
+    if g == crate::animation::NO_GROUP {
+        return true;
+    }
+    // Same group: both vertices store the group's 2t deltas at their offsets.
+    let t2 = soup.morph_group_len.get(g as usize).copied().unwrap_or(0);
+    let (sa, sb) = (soup.morph_at[a] as usize, soup.morph_at[b] as usize);
+    soup.morph_deltas[sa..sa + t2].iter().zip(&soup.morph_deltas[sb..sb + t2]).enumerate().all(|(k, (p, q))| {
+        let limit = if k < t2 / 2 { tol + 1e-9 } else { 1e-3 };
+        (0..3).all(|i| f64::from((p[i] - q[i]).abs()) <= limit)
+    })
 }
 
 /// Why welding produced no mesh.
@@ -32,7 +70,12 @@ pub(crate) struct NoTriangles {
 /// Maps each raw vertex to a welded vertex. `tol == 0` welds only identical positions.
 /// Returns `(raw → welded, representative raw vertex per welded vertex)`; unused raw vertices
 /// map to `u32::MAX`.
-fn weld_positions(positions: &[DVec3], used: &[bool], tol: f64) -> (Vec<u32>, Vec<u32>) {
+fn weld_positions(
+    positions: &[DVec3],
+    used: &[bool],
+    tol: f64,
+    compatible: &dyn Fn(usize, usize) -> bool,
+) -> (Vec<u32>, Vec<u32>) {
     let mut map = vec![u32::MAX; positions.len()];
     let mut reps: Vec<u32> = Vec::new();
     if tol > 0.0 {
@@ -56,7 +99,8 @@ fn weld_positions(positions: &[DVec3], used: &[bool], tol: f64) -> (Vec<u32>, Ve
                         let key = [k[0].saturating_add(dx), k[1].saturating_add(dy), k[2].saturating_add(dz)];
                         if let Some(list) = grid.get(&key) {
                             for &w in list {
-                                if w < best && positions[reps[w as usize] as usize].distance_squared(p) <= tol2 {
+                                let r = reps[w as usize] as usize;
+                                if w < best && positions[r].distance_squared(p) <= tol2 && compatible(r, i) {
                                     best = w;
                                 }
                             }
@@ -73,16 +117,21 @@ fn weld_positions(positions: &[DVec3], used: &[bool], tol: f64) -> (Vec<u32>, Ve
         }
     } else {
         let key = |p: DVec3| p.to_array().map(|x| if x == 0.0 { 0u64 } else { x.to_bits() });
-        let mut exact: HashMap<[u64; 3], u32> = HashMap::new();
+        let mut exact: HashMap<[u64; 3], Vec<u32>> = HashMap::new();
         for (i, &p) in positions.iter().enumerate() {
             if !used[i] {
                 continue;
             }
-            let next = reps.len() as u32;
-            let w = *exact.entry(key(p)).or_insert(next);
-            if w == next {
-                reps.push(i as u32);
-            }
+            let list = exact.entry(key(p)).or_default();
+            let w = match list.iter().find(|&&w| compatible(reps[w as usize] as usize, i)) {
+                Some(&w) => w,
+                None => {
+                    let w = reps.len() as u32;
+                    reps.push(i as u32);
+                    list.push(w);
+                    w
+                }
+            };
             map[i] = w;
         }
     }
@@ -116,7 +165,7 @@ pub(crate) fn weld_soup(soup: &Soup, tolerance: WeldTolerance) -> Result<Welded,
         WeldTolerance::Relative(f) => f64::from(f) * diagonal,
         WeldTolerance::AbsoluteM(m) => f64::from(m),
     };
-    let (map, reps) = weld_positions(&soup.positions, &used, tol);
+    let (map, reps) = weld_positions(&soup.positions, &used, tol, &|a, b| same_rig(soup, a, b, tol));
 
     // Triangles over welded vertices, degenerate ones skipped.
     let mut kept: Vec<usize> = Vec::with_capacity(soup.triangles.len());
@@ -256,7 +305,17 @@ pub(crate) fn weld_soup(soup: &Soup, tolerance: WeldTolerance) -> Result<Welded,
         had_vertex_colors: soup.had_vertex_colors,
         weld_tolerance_m: tol as f32,
     };
-    Ok(Welded { mesh: SkinMesh { positions, normals, colors, triangles, fur_mask, corner_texcoords, stats }, warnings })
+    let mut representatives = vec![0u32; v];
+    for (w, &r) in reps.iter().enumerate() {
+        if new_index[w] != u32::MAX {
+            representatives[new_index[w] as usize] = r;
+        }
+    }
+    Ok(Welded {
+        mesh: SkinMesh { positions, normals, colors, triangles, fur_mask, corner_texcoords, stats },
+        warnings,
+        representatives,
+    })
 }
 
 #[cfg(test)]
@@ -273,13 +332,15 @@ mod tests {
             DVec3::new(-5e-4, 0.0, 5e-4),     // within 1e-3 of vertex 0, across a cell border
         ];
         let used = vec![true; p.len()];
-        let (map, reps) = weld_positions(&p, &used, 1e-3);
+        let any = |_: usize, _: usize| true;
+        let (map, reps) = weld_positions(&p, &used, 1e-3, &any);
         assert_eq!(map, vec![0, 1, 1, 2, 0]);
         assert_eq!(reps, vec![0, 1, 3]);
-        let (map0, reps0) = weld_positions(&p, &used, 0.0);
+        let (map0, reps0) = weld_positions(&p, &used, 0.0, &any);
         assert_eq!(map0, vec![0, 1, 2, 3, 4]);
         assert_eq!(reps0.len(), 5);
-        let (map_neg, _) = weld_positions(&[DVec3::new(-0.0, 0.0, 1.0), DVec3::new(0.0, -0.0, 1.0)], &[true; 2], 0.0);
+        let (map_neg, _) =
+            weld_positions(&[DVec3::new(-0.0, 0.0, 1.0), DVec3::new(0.0, -0.0, 1.0)], &[true; 2], 0.0, &any);
         assert_eq!(map_neg, vec![0, 0], "-0.0 and 0.0 are the same position");
     }
 }

@@ -13,6 +13,9 @@
 //! advances one `time_step_s`, leaving per pack the fur scale vectors (eq. 3.35, after the
 //! wrong-side guard of §3.4.3) and the grass forces. [`World::stage_stats`] counts each stage's
 //! runs and wall time; [`World::pack_state`] reports a pack's state in world space.
+//! [`animation`] is the CPU reference of character animation — clip sampling, a clip player
+//! with cross-fades, joint and skinning matrices, morph-then-skin of positions and normals — on
+//! a pack's skeleton, skin weights, morph targets and clips (not yet driven by the [`World`]).
 //!
 //! ```
 //! use furbake_bake::{BakeSettings, NoProgress, bake};
@@ -71,6 +74,7 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+pub mod animation;
 mod frame;
 pub mod scene;
 pub mod stages;
@@ -81,6 +85,7 @@ use std::path::PathBuf;
 use furbake_formats::FormatError;
 use furbake_sim::{SimError, TopologyKind};
 
+pub use animation::{AnimationError, AnimationPlayer, ClipPlayback, Pose};
 pub use frame::{
     FUR_GUST_WAVELENGTH_M, FUR_WIND_N_PER_M_PER_S, GRASS_COLLIDER_FALLOFF, GRASS_COLLIDER_STRENGTH,
     GRASS_FORCE_PER_M_PER_S,

@@ -4,14 +4,18 @@
 use crate::SectionKind;
 use crate::error::Result;
 
+pub mod animation_clips;
 pub mod blade_field;
 pub mod fin_atlas;
 pub mod fin_edges;
 pub mod keyframe_table;
 
 pub mod manifest;
+pub mod morph_targets;
 pub mod shell_atlas;
+pub mod skeleton;
 pub mod skin_mesh;
+pub mod skin_weights;
 pub mod spring_topology;
 pub mod triangle_uv_map;
 

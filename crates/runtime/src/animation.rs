@@ -1,0 +1,426 @@
+//! The CPU reference of character animation (glTF 2.0 specification, "Animations" →
+//! "Interpolation", "Skins" → "Joint hierarchy" and "Skinned mesh", "Morph Targets"), the
+//! groundwork for the fur thesis's future work (§3.4.1): the furry object's own motion drives the
+//! mass points on its surface.
+//!
+//! Stages, each a function over caller-owned buffers so a frame allocates nothing:
+//! 1. [`sample_clip`] — a clip's channels at a time into a [`Pose`] (local TRS per joint, morph
+//!    weights): `STEP`, `LINEAR` (rotations by spherical linear interpolation, shortest arc) and
+//!    `CUBICSPLINE` (Hermite, tangents scaled by the key interval `t_{k+1} − t_k`); before the first
+//!    key the first value holds, after the last the last;
+//! 2. [`AnimationPlayer`] — a clip by name, time, speed, looping, and a cross-fade from the
+//!    previous clip ([`blend_poses`]: translations, scales and weights linearly, rotations by slerp);
+//! 3. [`joint_world_matrices`] and [`skinning_matrices`] — `world(j) = world(parent) × T × R × S`,
+//!    then per bind `world(joint) × inverseBind`;
+//! 4. [`morph_and_skin`] — morph (`p + Σ wₜ·Δpₜ`, normals likewise), then linear blend skinning
+//!    `p' = (Σ wᵢ·Mᵢ)·p`; normals by the inverse transpose of the blended matrix (its cofactor
+//!    matrix times the sign of its determinant, defined even when it is singular), renormalised.
+
+use furbake_formats::sections::animation_clips::{
+    AnimationClip, AnimationClips, ChannelTarget, ClipChannel, Interpolation,
+};
+use furbake_formats::sections::morph_targets::{MorphGroup, MorphTargets};
+use furbake_formats::sections::skeleton::Skeleton;
+use furbake_formats::sections::skin_mesh::SkinMesh;
+use furbake_formats::sections::skin_weights::SkinWeights;
+use glam::{Mat3, Mat4, Quat, Vec3};
+
+/// Why an animation call cannot proceed. Blame: the caller (a clip name the pack lacks, buffers
+/// sized for another pack); the sections themselves were validated when decoded.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum AnimationError {
+    /// No clip of that name.
+    #[error("no animation clip named {name:?} (the pack has: {known})")]
+    UnknownClip {
+        /// The name asked for.
+        name: String,
+        /// The clips the pack has, comma-separated.
+        known: String,
+    },
+    /// A buffer or section does not have the size the others imply.
+    #[error("{what}: {got} elements, expected {expected}")]
+    SizeMismatch {
+        /// Which buffer or section.
+        what: &'static str,
+        /// Elements expected.
+        expected: usize,
+        /// Elements given.
+        got: usize,
+    },
+}
+
+fn check_len(what: &'static str, expected: usize, got: usize) -> Result<(), AnimationError> {
+    if expected == got { Ok(()) } else { Err(AnimationError::SizeMismatch { what, expected, got }) }
+}
+
+/// The animated state of a skeleton: local TRS per joint and morph weights per target.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Pose {
+    /// Local translation per joint.
+    pub translations: Vec<Vec3>,
+    /// Local rotation per joint (unit).
+    pub rotations: Vec<Quat>,
+    /// Local scale per joint.
+    pub scales: Vec<Vec3>,
+    /// Weight per morph target.
+    pub morph_weights: Vec<f32>,
+}
+
+impl Pose {
+    /// The rest pose: the skeleton's rest TRS and the default morph weights.
+    pub fn rest(skeleton: Option<&Skeleton>, morphs: Option<&MorphTargets>) -> Pose {
+        let mut pose = Pose::default();
+        pose.set_rest(skeleton, morphs);
+        pose
+    }
+
+    /// Resets every joint and weight to rest (reusing the buffers once they have their size).
+    pub fn set_rest(&mut self, skeleton: Option<&Skeleton>, morphs: Option<&MorphTargets>) {
+        self.translations.clear();
+        self.rotations.clear();
+        self.scales.clear();
+        self.morph_weights.clear();
+        if let Some(s) = skeleton {
+            self.translations.extend(s.translations.iter().map(|&t| Vec3::from(t)));
+            self.rotations.extend(s.rotations.iter().map(|&q| Quat::from_array(q)));
+            self.scales.extend(s.scales.iter().map(|&v| Vec3::from(v)));
+        }
+        if let Some(m) = morphs {
+            self.morph_weights.extend_from_slice(&m.default_weights);
+        }
+    }
+}
+
+/// Hermite basis of glTF's cubic spline at `s ∈ [0, 1]` over an interval of `td` seconds:
+/// `(value k, out-tangent k, value k+1, in-tangent k+1)` coefficients.
+fn hermite(s: f32, td: f32) -> [f32; 4] {
+    let (s2, s3) = (s * s, s * s * s);
+    [2.0 * s3 - 3.0 * s2 + 1.0, td * (s3 - 2.0 * s2 + s), -2.0 * s3 + 3.0 * s2, td * (s3 - s2)]
+}
+
+/// Samples one channel at `time_s` into `out` (`components` values; a rotation is normalised).
+pub fn sample_channel(channel: &ClipChannel, time_s: f32, out: &mut [f32]) {
+    let n = channel.components as usize;
+    let times = &channel.times_s;
+    let e = channel.interpolation.elements_per_key();
+    // Element `which` (0 in-tangent, 1 value, 2 out-tangent for splines) of key `k`.
+    let element = |k: usize, which: usize| {
+        let at = (k * e + if e == 3 { which } else { 0 }) * n;
+        &channel.values[at..at + n]
+    };
+    let last = times.len() - 1;
+    // Decoded channels have at least one key and strictly increasing times.
+    let next = times.partition_point(|&t| t <= time_s);
+    if next == 0 || next > last || channel.interpolation == Interpolation::Step {
+        let k = next.saturating_sub(1).min(last);
+        out[..n].copy_from_slice(element(k, 1));
+    } else {
+        let k = next - 1;
+        let td = times[k + 1] - times[k];
+        let s = ((time_s - times[k]) / td).clamp(0.0, 1.0);
+        match channel.interpolation {
+            Interpolation::Linear if matches!(channel.target, ChannelTarget::Rotation(_)) => {
+                let a = Quat::from_slice(element(k, 1));
+                let b = Quat::from_slice(element(k + 1, 1));
+                out[..4].copy_from_slice(&a.slerp(b, s).to_array());
+            }
+            Interpolation::Linear => {
+                let (a, b) = (element(k, 1), element(k + 1, 1));
+                for c in 0..n {
+                    out[c] = a[c] + (b[c] - a[c]) * s;
+                }
+            }
+            Interpolation::CubicSpline => {
+                let h = hermite(s, td);
+                let (vk, bk, vk1, ak1) = (element(k, 1), element(k, 2), element(k + 1, 1), element(k + 1, 0));
+                for c in 0..n {
+                    out[c] = h[0] * vk[c] + h[1] * bk[c] + h[2] * vk1[c] + h[3] * ak1[c];
+                }
+            }
+            Interpolation::Step => unreachable!("handled above"),
+        }
+    }
+    if matches!(channel.target, ChannelTarget::Rotation(_)) {
+        let q = Quat::from_slice(&out[..4]);
+        let q = if q.length_squared() > 0.0 { q.normalize() } else { Quat::IDENTITY };
+        out[..4].copy_from_slice(&q.to_array());
+    }
+}
+
+/// Samples every channel of `clip` at `time_s` into `pose`; joints and weights the clip does not
+/// drive keep their values. `groups` are the morph targets' groups (empty without morph targets).
+/// Channels naming joints or groups outside `pose` are skipped (`check_consistency` rules them
+/// out for a verified pack).
+pub fn sample_clip(clip: &AnimationClip, time_s: f32, groups: &[MorphGroup], pose: &mut Pose) {
+    let mut buf = [0.0f32; 4];
+    for ch in &clip.channels {
+        let i = ch.target.index() as usize;
+        match ch.target {
+            ChannelTarget::Translation(_) if i < pose.translations.len() => {
+                sample_channel(ch, time_s, &mut buf);
+                pose.translations[i] = Vec3::from_slice(&buf);
+            }
+            ChannelTarget::Scale(_) if i < pose.scales.len() => {
+                sample_channel(ch, time_s, &mut buf);
+                pose.scales[i] = Vec3::from_slice(&buf);
+            }
+            ChannelTarget::Rotation(_) if i < pose.rotations.len() => {
+                sample_channel(ch, time_s, &mut buf);
+                pose.rotations[i] = Quat::from_slice(&buf);
+            }
+            ChannelTarget::MorphWeights(_) => {
+                let Some(g) = groups.get(i) else { continue };
+                let range = g.first_target as usize..(g.first_target + g.target_count) as usize;
+                if g.target_count == ch.components && range.end <= pose.morph_weights.len() {
+                    sample_channel(ch, time_s, &mut pose.morph_weights[range]);
+                }
+            }
+            _ => {}
+        }
+    }
+}
+
+/// `out = a` blended towards `b` by `weight` (0 → `a`, 1 → `b`): translations, scales and morph
+/// weights linearly, rotations by slerp. All four poses must have the same sizes.
+pub fn blend_poses(a: &Pose, b: &Pose, weight: f32, out: &mut Pose) -> Result<(), AnimationError> {
+    let w = weight.clamp(0.0, 1.0);
+    check_len("pose b joints", a.translations.len(), b.translations.len())?;
+    check_len("pose b weights", a.morph_weights.len(), b.morph_weights.len())?;
+    check_len("output pose joints", a.translations.len(), out.translations.len())?;
+    check_len("output pose weights", a.morph_weights.len(), out.morph_weights.len())?;
+    for j in 0..a.translations.len() {
+        out.translations[j] = a.translations[j].lerp(b.translations[j], w);
+        out.scales[j] = a.scales[j].lerp(b.scales[j], w);
+        out.rotations[j] = a.rotations[j].slerp(b.rotations[j], w).normalize();
+    }
+    for (k, o) in out.morph_weights.iter_mut().enumerate() {
+        *o = a.morph_weights[k] + (b.morph_weights[k] - a.morph_weights[k]) * w;
+    }
+    Ok(())
+}
+
+/// One clip being played: which, where, how fast, looping or clamped.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ClipPlayback {
+    /// Index of the clip in the pack's [`AnimationClips`].
+    pub clip: usize,
+    /// Clip time, seconds (already wrapped or clamped to the clip).
+    pub time_s: f32,
+    /// Playback speed (1 = real time; negative plays backwards).
+    pub speed: f32,
+    /// Whether the clip wraps around at its end (else it holds its last pose).
+    pub looping: bool,
+}
+
+impl ClipPlayback {
+    fn advance(&mut self, dt_s: f32, duration_s: f32) {
+        let t = self.time_s + dt_s * self.speed;
+        self.time_s = if duration_s <= 0.0 {
+            0.0
+        } else if self.looping {
+            t.rem_euclid(duration_s)
+        } else {
+            t.clamp(0.0, duration_s)
+        };
+    }
+}
+
+/// Plays clips on one pack's skeleton and morph targets: the current clip, and while a cross-fade
+/// runs the previous one, blended by the elapsed fraction of the fade. Owns its scratch poses, so
+/// [`AnimationPlayer::pose`] allocates nothing.
+#[derive(Clone, Debug)]
+pub struct AnimationPlayer {
+    current: ClipPlayback,
+    /// The clip faded out: its playback, the fade's length and time elapsed, seconds.
+    fading: Option<(ClipPlayback, f32, f32)>,
+    rest: Pose,
+    scratch_a: Pose,
+    scratch_b: Pose,
+}
+
+fn clip_index(clips: &AnimationClips, name: &str) -> Result<usize, AnimationError> {
+    clips.clips.iter().position(|c| c.name == name).ok_or_else(|| AnimationError::UnknownClip {
+        name: name.to_string(),
+        known: clips.clips.iter().map(|c| c.name.as_str()).collect::<Vec<_>>().join(", "),
+    })
+}
+
+impl AnimationPlayer {
+    /// Starts clip `name` at time 0 with `speed` and `looping`, on the rest pose of `skeleton` and
+    /// `morphs` (joints and weights the clip does not drive stay at rest).
+    pub fn new(
+        clips: &AnimationClips,
+        name: &str,
+        speed: f32,
+        looping: bool,
+        skeleton: Option<&Skeleton>,
+        morphs: Option<&MorphTargets>,
+    ) -> Result<Self, AnimationError> {
+        let clip = clip_index(clips, name)?;
+        let rest = Pose::rest(skeleton, morphs);
+        Ok(AnimationPlayer {
+            current: ClipPlayback { clip, time_s: 0.0, speed, looping },
+            fading: None,
+            scratch_a: rest.clone(),
+            scratch_b: rest.clone(),
+            rest,
+        })
+    }
+
+    /// The clip playing now.
+    pub fn current(&self) -> ClipPlayback {
+        self.current
+    }
+
+    /// Switches to clip `name` from time 0, cross-fading from the current clip over `fade_s`
+    /// seconds (0: switch at once). Speed and looping are kept.
+    pub fn play(&mut self, clips: &AnimationClips, name: &str, fade_s: f32) -> Result<(), AnimationError> {
+        let clip = clip_index(clips, name)?;
+        let previous = self.current;
+        self.current = ClipPlayback { clip, time_s: 0.0, ..previous };
+        self.fading = (fade_s > 0.0).then_some((previous, fade_s, 0.0));
+        Ok(())
+    }
+
+    /// Sets the current clip's time (wrapped or clamped to it).
+    pub fn seek(&mut self, clips: &AnimationClips, time_s: f32) {
+        self.current.time_s = 0.0;
+        let d = clips.clips.get(self.current.clip).map_or(0.0, |c| c.duration_s);
+        let speed = self.current.speed;
+        self.current.speed = 1.0;
+        self.current.advance(time_s, d);
+        self.current.speed = speed;
+    }
+
+    /// Advances by `dt_s` seconds of scene time.
+    pub fn advance(&mut self, clips: &AnimationClips, dt_s: f32) {
+        let duration = |i: usize| clips.clips.get(i).map_or(0.0, |c| c.duration_s);
+        self.current.advance(dt_s, duration(self.current.clip));
+        if let Some((prev, fade, elapsed)) = &mut self.fading {
+            prev.advance(dt_s, duration(prev.clip));
+            *elapsed += dt_s.abs();
+            if *elapsed >= *fade {
+                self.fading = None;
+            }
+        }
+    }
+
+    /// The weight of the current clip (1 when no fade runs).
+    pub fn fade_weight(&self) -> f32 {
+        self.fading.map_or(1.0, |(_, fade, elapsed)| (elapsed / fade).clamp(0.0, 1.0))
+    }
+
+    /// Writes the pose of now into `out` (which must have the rest pose's sizes).
+    pub fn pose(
+        &mut self,
+        clips: &AnimationClips,
+        groups: &[MorphGroup],
+        out: &mut Pose,
+    ) -> Result<(), AnimationError> {
+        check_len("output pose joints", self.rest.translations.len(), out.translations.len())?;
+        check_len("output pose weights", self.rest.morph_weights.len(), out.morph_weights.len())?;
+        let sample = |p: ClipPlayback, into: &mut Pose, rest: &Pose| {
+            copy_pose(rest, into);
+            if let Some(c) = clips.clips.get(p.clip) {
+                sample_clip(c, p.time_s, groups, into);
+            }
+        };
+        match self.fading {
+            None => sample(self.current, out, &self.rest),
+            Some((prev, _, _)) => {
+                sample(prev, &mut self.scratch_a, &self.rest);
+                sample(self.current, &mut self.scratch_b, &self.rest);
+                blend_poses(&self.scratch_a, &self.scratch_b, self.fade_weight(), out)?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Copies `from` into `to` without allocating (same sizes).
+fn copy_pose(from: &Pose, to: &mut Pose) {
+    to.translations.copy_from_slice(&from.translations);
+    to.rotations.copy_from_slice(&from.rotations);
+    to.scales.copy_from_slice(&from.scales);
+    to.morph_weights.copy_from_slice(&from.morph_weights);
+}
+
+/// World matrix of every joint: `world(j) = world(parent(j)) × T × R × S` (the identity above a
+/// root). The skeleton is in topological order, so one pass suffices.
+pub fn joint_world_matrices(skeleton: &Skeleton, pose: &Pose, out: &mut [Mat4]) -> Result<(), AnimationError> {
+    let j = skeleton.joint_count();
+    check_len("pose joints", j, pose.translations.len())?;
+    check_len("world matrices", j, out.len())?;
+    for i in 0..j {
+        let local = Mat4::from_scale_rotation_translation(pose.scales[i], pose.rotations[i], pose.translations[i]);
+        let parent = skeleton.parents[i];
+        // Decoded skeletons have parents before children (`Skeleton::decode` checks it).
+        out[i] = if parent == Skeleton::NO_PARENT { local } else { out[parent as usize] * local };
+    }
+    Ok(())
+}
+
+/// The skinning matrix of every bind: `world(joint) × inverseBind`.
+pub fn skinning_matrices(skeleton: &Skeleton, world: &[Mat4], out: &mut [Mat4]) -> Result<(), AnimationError> {
+    check_len("world matrices", skeleton.joint_count(), world.len())?;
+    check_len("skinning matrices", skeleton.bind_count(), out.len())?;
+    for (b, o) in out.iter_mut().enumerate() {
+        *o = world[skeleton.bind_joints[b] as usize] * Mat4::from_cols_array(&skeleton.inverse_binds[b]);
+    }
+    Ok(())
+}
+
+/// Morphs then skins every skin vertex into `positions` and `normals` (one per skin vertex):
+/// `p' = (Σ wᵢ·Mᵢ)(p + Σ wₜ·Δpₜ)`, `n' = normalize(cof(Σ wᵢ·Mᵢ)·(n + Σ wₜ·Δnₜ))`. Without
+/// `weights` only the morph is applied; without `morphs` only the skinning.
+pub fn morph_and_skin(
+    mesh: &SkinMesh,
+    weights: Option<&SkinWeights>,
+    morphs: Option<(&MorphTargets, &[f32])>,
+    skinning: &[Mat4],
+    positions: &mut [[f32; 3]],
+    normals: &mut [[f32; 3]],
+) -> Result<(), AnimationError> {
+    let v = mesh.positions.len();
+    check_len("output positions", v, positions.len())?;
+    check_len("output normals", v, normals.len())?;
+    if let Some(w) = weights {
+        check_len("skin weights vertices", v, w.vertex_count())?;
+        check_len("skinning matrices", w.bind_count as usize, skinning.len())?;
+    }
+    if let Some((m, mw)) = morphs {
+        check_len("morph target vertices", v, m.vertex_count as usize)?;
+        check_len("morph weights", m.target_count(), mw.len())?;
+    }
+    for i in 0..v {
+        let mut p = Vec3::from(mesh.positions[i]);
+        let mut n = Vec3::from(mesh.normals[i]);
+        if let Some((m, mw)) = morphs {
+            for (t, &wt) in mw.iter().enumerate() {
+                if wt != 0.0 {
+                    p += wt * Vec3::from(m.position_deltas[t * v + i]);
+                    if !m.normal_deltas.is_empty() {
+                        n += wt * Vec3::from(m.normal_deltas[t * v + i]);
+                    }
+                }
+            }
+        }
+        if let Some(w) = weights {
+            let mut blended = Mat4::ZERO;
+            for (b, wi) in w.influences(i) {
+                if wi != 0.0 {
+                    blended += skinning[b as usize] * wi;
+                }
+            }
+            p = blended.transform_point3(p);
+            let m3 = Mat3::from_mat4(blended);
+            let (c0, c1, c2) = (m3.x_axis, m3.y_axis, m3.z_axis);
+            let cofactor = Mat3::from_cols(c1.cross(c2), c2.cross(c0), c0.cross(c1));
+            n = cofactor * n * m3.determinant().signum();
+        }
+        positions[i] = p.to_array();
+        // A collapsed normal (a joint scaled to zero) keeps the rest normal rather than NaN.
+        normals[i] = n.try_normalize().unwrap_or(Vec3::from(mesh.normals[i])).to_array();
+    }
+    Ok(())
+}

@@ -1,0 +1,60 @@
+//! The animation CPU reference allocates nothing per frame once its buffers exist: a counting
+//! global allocator (per thread, so other tests running in parallel do not count) watches one
+//! frame of advance → pose → joint matrices → skinning matrices → morph-then-skin on the Fox.
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+use std::path::PathBuf;
+
+use furbake_import::{ImportSettings, import_gltf};
+use furbake_runtime::animation::{AnimationPlayer, Pose, joint_world_matrices, morph_and_skin, skinning_matrices};
+use glam::Mat4;
+
+struct Counting;
+
+thread_local! {
+    static ALLOCATIONS: Cell<u64> = const { Cell::new(0) };
+}
+
+// SAFETY: forwards every call to the system allocator unchanged; only counts allocations.
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        let _ = ALLOCATIONS.try_with(|c| c.set(c.get() + 1));
+        // SAFETY: the caller's contract for `alloc` is passed through.
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        // SAFETY: the caller's contract for `dealloc` is passed through.
+        unsafe { System.dealloc(ptr, layout) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+#[test]
+fn a_frame_of_animation_allocates_nothing() {
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/fixtures/real/Fox.glb");
+    let fox = import_gltf(&path, &ImportSettings::default()).unwrap();
+    let a = &fox.animation;
+    let (sk, weights, clips) = (a.skeleton.as_ref().unwrap(), a.skin_weights.as_ref(), a.clips.as_ref().unwrap());
+    let mut player = AnimationPlayer::new(clips, "Walk", 1.0, true, Some(sk), None).unwrap();
+    let mut pose = Pose::rest(Some(sk), None);
+    let mut world = vec![Mat4::IDENTITY; sk.joint_count()];
+    let mut palette = vec![Mat4::IDENTITY; sk.bind_count()];
+    let v = fox.mesh.positions.len();
+    let (mut p, mut n) = (vec![[0.0; 3]; v], vec![[0.0; 3]; v]);
+    player.play(clips, "Run", 0.3).unwrap(); // a cross-fade uses the player's scratch poses
+    let before = ALLOCATIONS.with(Cell::get);
+    for _ in 0..10 {
+        player.advance(clips, 1.0 / 60.0);
+        player.pose(clips, &[], &mut pose).unwrap();
+        joint_world_matrices(sk, &pose, &mut world).unwrap();
+        skinning_matrices(sk, &world, &mut palette).unwrap();
+        morph_and_skin(&fox.mesh, weights, None, &palette, &mut p, &mut n).unwrap();
+    }
+    let after = ALLOCATIONS.with(Cell::get);
+    assert_eq!(after - before, 0, "allocations during 10 frames");
+    assert!(p.iter().flatten().all(|x| x.is_finite()));
+    assert!(before > 0, "the counter counts (the import allocated)");
+}
