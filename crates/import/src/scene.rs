@@ -9,6 +9,7 @@
 use std::collections::BTreeSet;
 use std::path::Path;
 
+use furbake_formats::sections::MAX_COORDINATE_M;
 use glam::{DMat3, DMat4, DQuat, DVec3};
 use gltf::json;
 use gltf::json::accessor::Type;
@@ -17,6 +18,7 @@ use gltf::json::validation::Checked;
 
 use crate::accessor::{AccessorReader, Elements};
 use crate::external::ExternalFiles;
+
 use crate::limits::{MAX_NODE_DEPTH, MAX_NODE_VISITS, MAX_RAW_TRIANGLES, MAX_RAW_VERTICES};
 use crate::source::Asset;
 use crate::texture::TextureCache;
@@ -273,6 +275,17 @@ impl<'a> SceneWalker<'a> {
         }
     }
 
+    fn out_of_range(&self, at: &PrimitiveRef, attribute: &str, vertex: usize, value: &[f64]) -> ImportError {
+        ImportError::OutOfRange {
+            file: self.file.to_path_buf(),
+            at: at.clone(),
+            attribute: attribute.to_string(),
+            vertex,
+            value: value.iter().map(|&v| v as f32).collect(),
+            limit: MAX_COORDINATE_M,
+        }
+    }
+
     /// Reads an optional attribute, checking its count and that every value is finite.
     fn read_optional(
         &self,
@@ -453,6 +466,9 @@ impl<'a> SceneWalker<'a> {
             if !wp.as_vec3().is_finite() {
                 return Err(self.non_finite(at, "POSITION (after node transform)", v, &wp.to_array()));
             }
+            if wp.abs().max_element() > MAX_COORDINATE_M as f64 {
+                return Err(self.out_of_range(at, "POSITION (after node transform)", v, &wp.to_array()));
+            }
             self.soup.positions.push(wp);
             let normal = normals.as_ref().and_then(|e| {
                 let q = e.get(v);
@@ -485,6 +501,10 @@ impl<'a> SceneWalker<'a> {
             }
             self.soup.colors.push(color.map(|c| c.clamp(0.0, 1.0)));
             let uv = uvs.as_ref().map_or([0.0; 2], |e| [e.get(v)[0] as f32, e.get(v)[1] as f32]);
+            // The pack stores texture coordinates within the coordinate limit too.
+            if uv.iter().any(|c| c.abs() > MAX_COORDINATE_M) {
+                return Err(self.out_of_range(at, "TEXCOORD_0", v, &uv.map(f64::from)));
+            }
             self.soup.texcoords.push(uv);
         }
         if normals.is_none() || bad_normals > 0 {

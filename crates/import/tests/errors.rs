@@ -47,6 +47,33 @@ fn nan_position_names_the_vertex() {
 }
 
 #[test]
+fn huge_finite_texcoords_and_positions_are_errors_not_packs_that_fail_verify() {
+    // Cause: the importer checked TEXCOORD_0 and positions only for finiteness, so a glTF with a
+    // texture coordinate of 3.4e38 imported, baked and exited 0 — writing a pack whose skin mesh
+    // `verify` refuses (coordinates beyond ±1e7; found by furbake-fuzz, glTF seed 2 case 53).
+    let (p, i) = triangle();
+    let prim = TestPrimitive {
+        texcoords: Some(vec![[0.0, 0.0], [3.4e38, 0.0], [0.0, 1.0]]),
+        ..TestPrimitive::triangles(p.clone(), i.clone())
+    };
+    let err = import_value(&document_of(&[prim]), &defaults()).unwrap_err();
+    match &err {
+        ImportError::OutOfRange { attribute, vertex, .. } => {
+            assert_eq!((attribute.as_str(), *vertex), ("TEXCOORD_0", 1))
+        }
+        other => panic!("expected OutOfRange, got {other}"),
+    }
+    let (mut p, i) = (p, i);
+    p[2][0] = 2e7;
+    let err = import_value(&document(p, i), &defaults()).unwrap_err();
+    assert!(
+        matches!(&err, ImportError::OutOfRange { attribute, vertex: 2, .. } if attribute.starts_with("POSITION")),
+        "{err}"
+    );
+    assert!(err.to_string().contains("beyond the ±1e7 a pack stores"), "{err}");
+}
+
+#[test]
 fn out_of_range_index_is_reported_with_its_position() {
     let (p, _) = triangle();
     let err = import_value(&document(p, vec![0, 1, 2, 2, 1, 7]), &defaults()).unwrap_err();
