@@ -8,6 +8,7 @@ mod closed_stdout;
 mod common;
 mod confinement;
 mod file_modes;
+mod fuzz_gltf;
 mod golden;
 mod plan_first;
 mod preview_scene;
