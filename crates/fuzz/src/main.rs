@@ -52,7 +52,11 @@ fn main() {
             "--max-memory-mib" => config.max_memory_mib = number(),
             "--steps" => config.steps = number() as u32,
             "--cli-every" => config.cli_every = number().max(1),
-            "--cli" => config.cli = Some(PathBuf::from(&value)),
+            // Absolute: the binary runs in a fresh directory per case.
+            "--cli" => {
+                config.cli =
+                    Some(std::fs::canonicalize(&value).unwrap_or_else(|e| usage(&format!("--cli {value}: {e}"))))
+            }
             "--out" => config.out_dir = PathBuf::from(&value),
             _ => match Target::from_name(flag.trim_start_matches("--")) {
                 Some(t) => counts.push((t, number())),
