@@ -19,7 +19,7 @@ use gltf::json::validation::Checked;
 use crate::accessor::{AccessorReader, Elements};
 use crate::external::ExternalFiles;
 
-use crate::limits::{MAX_NODE_DEPTH, MAX_NODE_VISITS, MAX_RAW_TRIANGLES, MAX_RAW_VERTICES};
+use crate::limits::{MAX_INSTANCED_VERTICES, MAX_NODE_DEPTH, MAX_NODE_VISITS, MAX_RAW_TRIANGLES, MAX_RAW_VERTICES};
 use crate::source::Asset;
 use crate::texture::TextureCache;
 use crate::{FurMaskSource, ImportError, ImportSettings, PrimitiveRef};
@@ -114,6 +114,10 @@ pub(crate) struct SceneWalker<'a> {
     pub warnings: Vec<String>,
     on_path: Vec<bool>,
     visits: u64,
+    /// Per mesh: imported at least once (a later node naming it is an instance).
+    mesh_seen: Vec<bool>,
+    /// Vertices added by second and later instances of a mesh.
+    instanced_vertices: u64,
     /// Whether some primitive had the fur-mask attribute / colour.
     mask_source_found: bool,
     /// Material names used by imported primitives.
@@ -136,6 +140,8 @@ impl<'a> SceneWalker<'a> {
             warnings: Vec::new(),
             on_path: vec![false; asset.root.nodes.len()],
             visits: 0,
+            mesh_seen: vec![false; asset.root.meshes.len()],
+            instanced_vertices: 0,
             mask_source_found: false,
             used_materials: BTreeSet::new(),
             warned_skin: false,
@@ -258,6 +264,27 @@ impl<'a> SceneWalker<'a> {
             file: self.file.to_path_buf(),
             message: format!("mesh {mesh_index} does not exist"),
         })?;
+        // Instancing multiplies vertices without bytes to back them: a 2 KB file whose nodes
+        // branch into 2^19 paths to one mesh made millions of vertices (8 s, 1.2 GB). Repeated
+        // instances may add at most MAX_INSTANCED_VERTICES (declared POSITION counts).
+        if self.mesh_seen[mesh_index] {
+            let declared: u64 = mesh
+                .primitives
+                .iter()
+                .filter_map(|p| p.attributes.iter().find(|(s, _)| matches!(s, Checked::Valid(Semantic::Positions))))
+                .filter_map(|(_, acc)| asset.root.accessors.get(acc.value()).map(|a| a.count.0))
+                .sum();
+            self.instanced_vertices = self.instanced_vertices.saturating_add(declared);
+            if self.instanced_vertices > MAX_INSTANCED_VERTICES {
+                return Err(ImportError::TooLarge {
+                    file: self.file.to_path_buf(),
+                    what: "the number of vertices added by repeated mesh instances".to_string(),
+                    count: self.instanced_vertices,
+                    limit: MAX_INSTANCED_VERTICES,
+                });
+            }
+        }
+        self.mesh_seen[mesh_index] = true;
         for (p, primitive) in mesh.primitives.iter().enumerate() {
             let at = PrimitiveRef { mesh: mesh_index, mesh_name: mesh.name.as_deref().map(Box::from), primitive: p };
             self.import_primitive(primitive, &at, world)?;
