@@ -10,7 +10,7 @@ FURBAKE := target/debug/furbake
 OUT := out/demo
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-.PHONY: demo test build deps bench fmt clippy golden clean-out report
+.PHONY: demo test build deps bench fmt clippy golden clean-out report fuzz
 
 # The renderer needs a Vulkan driver; on machines without a GPU that is Mesa's lavapipe.
 deps:
@@ -62,3 +62,13 @@ golden:
 # Regenerate docs/accuracy.md and its plots from measurements (release build; a few minutes).
 report:
 	$(CARGO) run --release -p furbake-cli -- report accuracy -o docs
+
+# The long fuzzing campaign (issue 10, item 7; crates/fuzz): release build, 200,000 pack, 3,000
+# glTF (every 10th also through the debug `furbake` binary under a 2 GiB limit) and 3,000 scene
+# mutants; exits 1 on any panic, abort, hang or slow case, with reproducers in
+# target/fuzz-reproducers. `make fuzz FUZZ_SEED=7` runs other mutants.
+FUZZ_SEED ?= 1
+fuzz:
+	$(CARGO) build -p furbake-cli
+	$(CARGO) run --release -p furbake-fuzz -- --packs 200000 --gltf 3000 --scenes 3000 \
+		--seed $(FUZZ_SEED) --cli $(FURBAKE) --cli-every 10 --slow-ms 2000 --out target/fuzz-reproducers

@@ -9,6 +9,7 @@ mod closed_stdout;
 mod common;
 mod confinement;
 mod file_modes;
+mod fuzz_gltf;
 mod golden;
 mod hermetic;
 mod plan_first;

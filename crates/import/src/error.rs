@@ -173,6 +173,24 @@ pub enum ImportError {
         value: Vec<f32>,
     },
 
+    /// A position (after its node transform) or texture coordinate is finite but larger in
+    /// magnitude than a pack stores (`furbake_formats::sections::MAX_COORDINATE_M`).
+    #[error("{}: {at}: {attribute} of vertex {vertex} is {value:?}, beyond the ±{limit:e} a pack stores", file.display())]
+    OutOfRange {
+        /// The glTF file being imported.
+        file: PathBuf,
+        /// The offending primitive.
+        at: PrimitiveRef,
+        /// The attribute name (`TEXCOORD_0`, `POSITION (after node transform)`).
+        attribute: String,
+        /// Vertex index inside the primitive.
+        vertex: usize,
+        /// The offending value.
+        value: Vec<f32>,
+        /// The largest magnitude accepted.
+        limit: f32,
+    },
+
     /// An index points past the end of the primitive's vertices.
     #[error(
         "{}: {at}: index {position} is {index}, but the primitive has only {vertex_count} vertices",
@@ -309,6 +327,7 @@ impl ImportError {
             | ImportError::Accessor { file, .. }
             | ImportError::MissingPosition { file, .. }
             | ImportError::NonFinite { file, .. }
+            | ImportError::OutOfRange { file, .. }
             | ImportError::IndexOutOfRange { file, .. }
             | ImportError::PrimitiveWithoutTriangles { file, .. }
             | ImportError::NoTriangles { file, .. }

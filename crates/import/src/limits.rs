@@ -10,6 +10,11 @@ pub const MAX_ACCESSOR_ELEMENTS: u64 = 1 << 23;
 pub const MAX_RAW_VERTICES: u64 = 1 << 23;
 /// Most triangles in the whole scene before welding (16 Mi).
 pub const MAX_RAW_TRIANGLES: u64 = 1 << 24;
+/// Most vertices that second and later instances of meshes may add (1 Mi; declared `POSITION`
+/// counts): instancing multiplies vertices without bytes to back them, so a node DAG of a few
+/// kilobytes could otherwise fill [`MAX_RAW_VERTICES`] (seconds and a gigabyte). A rug of a
+/// thousand instances of a 100-vertex tile stays far below.
+pub const MAX_INSTANCED_VERTICES: u64 = 1 << 20;
 /// Deepest node hierarchy accepted.
 pub const MAX_NODE_DEPTH: usize = 256;
 /// Most node visits (a node reached through several parents counts once per path).

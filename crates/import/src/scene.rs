@@ -9,6 +9,7 @@
 use std::collections::BTreeSet;
 use std::path::Path;
 
+use furbake_formats::sections::MAX_COORDINATE_M;
 use glam::{DMat3, DMat4, DQuat, DVec3};
 use gltf::json;
 use gltf::json::accessor::Type;
@@ -18,7 +19,8 @@ use gltf::json::validation::Checked;
 use crate::accessor::{AccessorReader, Elements};
 use crate::animation::{Influences, NO_GROUP, Rig};
 use crate::external::ExternalFiles;
-use crate::limits::{MAX_NODE_DEPTH, MAX_NODE_VISITS, MAX_RAW_TRIANGLES, MAX_RAW_VERTICES};
+
+use crate::limits::{MAX_INSTANCED_VERTICES, MAX_NODE_DEPTH, MAX_NODE_VISITS, MAX_RAW_TRIANGLES, MAX_RAW_VERTICES};
 use crate::source::Asset;
 use crate::texture::TextureCache;
 use crate::{FurMaskSource, ImportError, ImportSettings, PrimitiveRef};
@@ -133,6 +135,10 @@ pub(crate) struct SceneWalker<'a> {
     pub warnings: Vec<String>,
     on_path: Vec<bool>,
     visits: u64,
+    /// Per mesh: imported at least once (a later node naming it is an instance).
+    mesh_seen: Vec<bool>,
+    /// Vertices added by second and later instances of a mesh.
+    instanced_vertices: u64,
     /// Whether some primitive had the fur-mask attribute / colour.
     mask_source_found: bool,
     /// Material names used by imported primitives.
@@ -155,6 +161,8 @@ impl<'a> SceneWalker<'a> {
             warnings: Vec::new(),
             on_path: vec![false; asset.root.nodes.len()],
             visits: 0,
+            mesh_seen: vec![false; asset.root.meshes.len()],
+            instanced_vertices: 0,
             mask_source_found: false,
             used_materials: BTreeSet::new(),
             mask_warnings: 0,
@@ -286,6 +294,27 @@ impl<'a> SceneWalker<'a> {
             file: self.file.to_path_buf(),
             message: format!("mesh {mesh_index} does not exist"),
         })?;
+        // Instancing multiplies vertices without bytes to back them: a 2 KB file whose nodes
+        // branch into 2^19 paths to one mesh made millions of vertices (8 s, 1.2 GB). Repeated
+        // instances may add at most MAX_INSTANCED_VERTICES (declared POSITION counts).
+        if self.mesh_seen[mesh_index] {
+            let declared: u64 = mesh
+                .primitives
+                .iter()
+                .filter_map(|p| p.attributes.iter().find(|(s, _)| matches!(s, Checked::Valid(Semantic::Positions))))
+                .filter_map(|(_, acc)| asset.root.accessors.get(acc.value()).map(|a| a.count.0))
+                .sum();
+            self.instanced_vertices = self.instanced_vertices.saturating_add(declared);
+            if self.instanced_vertices > MAX_INSTANCED_VERTICES {
+                return Err(ImportError::TooLarge {
+                    file: self.file.to_path_buf(),
+                    what: "the number of vertices added by repeated mesh instances".to_string(),
+                    count: self.instanced_vertices,
+                    limit: MAX_INSTANCED_VERTICES,
+                });
+            }
+        }
+        self.mesh_seen[mesh_index] = true;
         for (p, primitive) in mesh.primitives.iter().enumerate() {
             let at = PrimitiveRef { mesh: mesh_index, mesh_name: mesh.name.as_deref().map(Box::from), primitive: p };
             self.import_primitive(primitive, &at, world, binding, morph)?;
@@ -300,6 +329,17 @@ impl<'a> SceneWalker<'a> {
             attribute: attribute.to_string(),
             vertex,
             value: value.iter().map(|&v| v as f32).collect(),
+        }
+    }
+
+    fn out_of_range(&self, at: &PrimitiveRef, attribute: &str, vertex: usize, value: &[f64]) -> ImportError {
+        ImportError::OutOfRange {
+            file: self.file.to_path_buf(),
+            at: at.clone(),
+            attribute: attribute.to_string(),
+            vertex,
+            value: value.iter().map(|&v| v as f32).collect(),
+            limit: MAX_COORDINATE_M,
         }
     }
 
@@ -527,6 +567,9 @@ impl<'a> SceneWalker<'a> {
             if !wp.as_vec3().is_finite() {
                 return Err(self.non_finite(at, "POSITION (after node transform)", v, &wp.to_array()));
             }
+            if wp.abs().max_element() > MAX_COORDINATE_M as f64 {
+                return Err(self.out_of_range(at, "POSITION (after node transform)", v, &wp.to_array()));
+            }
             self.soup.positions.push(wp);
             let normal = normals.as_ref().and_then(|e| {
                 let q = e.get(v);
@@ -559,6 +602,10 @@ impl<'a> SceneWalker<'a> {
             }
             self.soup.colors.push(color.map(|c| c.clamp(0.0, 1.0)));
             let uv = uvs.as_ref().map_or([0.0; 2], |e| [e.get(v)[0] as f32, e.get(v)[1] as f32]);
+            // The pack stores texture coordinates within the coordinate limit too.
+            if uv.iter().any(|c| c.abs() > MAX_COORDINATE_M) {
+                return Err(self.out_of_range(at, "TEXCOORD_0", v, &uv.map(f64::from)));
+            }
             self.soup.texcoords.push(uv);
         }
         if normals.is_none() || bad_normals > 0 {

@@ -47,6 +47,68 @@ fn nan_position_names_the_vertex() {
 }
 
 #[test]
+fn huge_finite_texcoords_and_positions_are_errors_not_packs_that_fail_verify() {
+    // Cause: the importer checked TEXCOORD_0 and positions only for finiteness, so a glTF with a
+    // texture coordinate of 3.4e38 imported, baked and exited 0 — writing a pack whose skin mesh
+    // `verify` refuses (coordinates beyond ±1e7; found by furbake-fuzz, glTF seed 2 case 53).
+    let (p, i) = triangle();
+    let prim = TestPrimitive {
+        texcoords: Some(vec![[0.0, 0.0], [3.4e38, 0.0], [0.0, 1.0]]),
+        ..TestPrimitive::triangles(p.clone(), i.clone())
+    };
+    let err = import_value(&document_of(&[prim]), &defaults()).unwrap_err();
+    match &err {
+        ImportError::OutOfRange { attribute, vertex, .. } => {
+            assert_eq!((attribute.as_str(), *vertex), ("TEXCOORD_0", 1))
+        }
+        other => panic!("expected OutOfRange, got {other}"),
+    }
+    let (mut p, i) = (p, i);
+    p[2][0] = 2e7;
+    let err = import_value(&document(p, i), &defaults()).unwrap_err();
+    assert!(
+        matches!(&err, ImportError::OutOfRange { attribute, vertex: 2, .. } if attribute.starts_with("POSITION")),
+        "{err}"
+    );
+    assert!(err.to_string().contains("beyond the ±1e7 a pack stores"), "{err}");
+}
+
+/// The grass patch (13 vertices) under a node DAG of `depth` levels, each node naming the next
+/// twice: 2^depth instances of one mesh from about a kilobyte of JSON.
+fn node_dag(depth: usize) -> serde_json::Value {
+    let mut doc: serde_json::Value = serde_json::from_slice(&furbake_import::testmesh::grass_patch(2.0).gltf).unwrap();
+    let mut nodes = vec![json!({ "mesh": 0 })];
+    for d in 0..depth {
+        let next = if d + 1 == depth { 0 } else { d + 2 };
+        nodes.push(json!({ "children": [next, next] }));
+    }
+    doc["nodes"] = json!(nodes);
+    doc["scenes"] = json!([{ "nodes": [1] }]);
+    doc
+}
+
+#[test]
+fn a_node_dag_instancing_one_mesh_millions_of_times_is_refused() {
+    // Cause: instancing was bounded only by the raw-vertex limit (8 Mi) and the node-visit limit
+    // (2^20), so a 1.7 KB glTF whose nodes branch into 2^19 paths to the grass patch imported
+    // 6.8 M vertices: 8 s and 1.2 GB in a release build (found by furbake-fuzz, glTF seed 1 case
+    // 995). Repeated instances may now add at most 1 Mi vertices.
+    let started = std::time::Instant::now();
+    let err = import_value(&node_dag(19), &defaults()).unwrap_err();
+    match &err {
+        ImportError::TooLarge { what, limit, .. } => {
+            assert!(what.contains("repeated mesh instances"), "{err}");
+            assert_eq!(*limit, furbake_import::limits::MAX_INSTANCED_VERTICES);
+        }
+        other => panic!("expected TooLarge, got {other}"),
+    }
+    assert!(started.elapsed().as_secs() < 30, "refused in {:?}", started.elapsed());
+    // Ordinary instancing still imports: 2^10 instances of 13 vertices.
+    let mesh = import_value(&node_dag(10), &defaults()).expect("1,024 instances import");
+    assert_eq!(mesh.mesh.triangles.len(), 16 << 10);
+}
+
+#[test]
 fn out_of_range_index_is_reported_with_its_position() {
     let (p, _) = triangle();
     let err = import_value(&document(p, vec![0, 1, 2, 2, 1, 7]), &defaults()).unwrap_err();

@@ -93,7 +93,7 @@ pub use frame::{
 pub use furbake_formats::Pack;
 pub use scene::{Camera, Effect, Effects, Event, Light, Scene, SceneError, ScenePack, Solver, SolverChoice};
 pub use stages::{PlannedStage, StageKind, StageStats};
-pub use world::{FurFrame, GrassFrame, PackState, ShellVertexLayout, World, WorldOptions};
+pub use world::{FurFrame, GrassFrame, MAX_MASS_UPDATES_PER_STEP, PackState, ShellVertexLayout, World, WorldOptions};
 
 /// Why a runtime operation failed.
 #[derive(Debug, thiserror::Error)]

@@ -31,6 +31,15 @@ use crate::stages::{
 };
 use crate::{Pack, RuntimeError};
 
+/// Most mass updates (masses × substeps) one [`World::step`] may spend on one pack's fur: 2^22,
+/// about a fifth of a second of one core for the implicit solver in a release build (measured
+/// ~45 ns per mass update on the Fox's separable prisms). The solvers
+/// split a step into substeps when forces or stiffness demand it (up to 10,000); on a large
+/// topology that alone made one step cost seconds (the Fox's separable prisms under a gravity of
+/// 1e9 m/s²), so a pack's substep limit is this budget over its mass count, and a step past it
+/// fails with a simulation error instead of running long.
+pub const MAX_MASS_UPDATES_PER_STEP: u64 = 1 << 22;
+
 /// How a fur pack's scale vectors are indexed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
@@ -579,11 +588,14 @@ fn build_fur(scene: &Scene, pack: &Pack, simulate: bool, options: WorldOptions) 
         }
         None => GuardParams { enabled: false, ..GuardParams::default() },
     };
+    let defaults = SolverSettings::of(choose_solver(kind, scene.solver.kind));
+    let masses = topology.mass_kg.len().max(1) as u64;
     let settings = SolverSettings {
         guard,
         track_energy: options.step_statistics,
         implicit_iterations: scene.solver.implicit_iterations,
-        ..SolverSettings::of(choose_solver(kind, scene.solver.kind))
+        max_substeps: (MAX_MASS_UPDATES_PER_STEP / masses).clamp(1, defaults.max_substeps as u64) as u32,
+        ..defaults
     };
     let sim_err = |source| RuntimeError::Simulation { path: pack.display_path(), source };
     let simulator = Simulator::new(&topology, settings).map_err(sim_err)?;

@@ -447,3 +447,25 @@ fn a_lying_topology_head_is_a_typed_error_not_a_panic() {
     assert_eq!(pack.topology_kinds().unwrap().len(), 1);
     assert!(matches!(pack.spring_topology(TopologyKind::PRISMS), Err(e) if e.is_bad_file()));
 }
+
+#[test]
+fn a_step_of_a_large_topology_under_absurd_gravity_is_refused_not_run_for_seconds() {
+    // Cause: the solvers may split a step into up to 10,000 substeps whatever the topology's
+    // size, so a scene with a gravity of 1e9 m/s² on the Fox's separable prisms (3,456 masses)
+    // ran 2 s per three steps in a release build (found by furbake-fuzz, scenes seed 1 case
+    // 2876). The world now gives each pack at most MAX_MASS_UPDATES_PER_STEP mass updates.
+    let dir = tempfile::tempdir().unwrap();
+    let pack = bake_pack(dir.path(), "ball.fbk", &testmesh::uv_sphere(40, 40, 0.5).gltf, &["prisms"], None);
+    let masses = Pack::open(&pack).unwrap().spring_topology(TopologyKind::PRISMS).unwrap().mass_kg.len();
+    let allowed = furbake_runtime::MAX_MASS_UPDATES_PER_STEP / masses as u64;
+    assert!(allowed < 10_000, "{masses} masses must make the budget bind");
+    let mut world =
+        World::new(scene(dir.path(), &pack, "[effects.gravity]\nacceleration_m_per_s2 = [1e9, 0.0, 0.0]\n")).unwrap();
+    let started = std::time::Instant::now();
+    let err = world.step().expect_err("the step needs more substeps than the budget allows").to_string();
+    assert!(err.contains(&format!("(allowed: {allowed})")), "{err}");
+    assert!(started.elapsed().as_secs() < 10, "refused after {:?}", started.elapsed());
+    // Ordinary gravity still steps.
+    let mut world = World::new(scene(dir.path(), &pack, "[effects.gravity]\n")).unwrap();
+    world.step().unwrap();
+}

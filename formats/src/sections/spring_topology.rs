@@ -377,6 +377,12 @@ impl Section for SpringTopology {
                 return Err(FormatError::invalid(format!("{what} {i} joins mass {} to itself", ends[2 * i])));
             }
         }
+        // A link is built between two rest positions with their distance as its length, so a
+        // stored length that disagrees is corruption — and a far-too-short one makes every step
+        // of the implicit solvers split into thousands of substeps (their limit scales with the
+        // shortest link).
+        check_link_lengths(&pos, &s_ends, &s_rest, "spring")?;
+        check_link_lengths(&pos, &t_ends, &t_len, "stick")?;
         for (i, e) in shell.chunks_exact(2).enumerate() {
             let ok =
                 (e[0] == NO_MASS && e[1] == NO_MASS) || ((e[0] as usize) < nm && (e[1] as usize) < nm && e[0] != e[1]);
@@ -426,6 +432,33 @@ impl Section for SpringTopology {
             "normal_fallbacks": self.stats.normal_fallbacks,
         })
     }
+}
+
+/// Relative tolerance between a link's stored length and the distance of its ends' rest
+/// positions (a bake writes them from the same `f32` positions: measured ≤ 3e-6).
+pub const LINK_LENGTH_TOLERANCE: f64 = 1e-3;
+
+/// Fails unless every link's stored length equals the distance between its ends' rest positions
+/// within [`LINK_LENGTH_TOLERANCE`] (plus `f32` rounding of the coordinates). `ends` were checked
+/// against the mass count, so the lookups are in range.
+fn check_link_lengths(pos: &[f32], ends: &[u32], lengths: &[f32], what: &str) -> Result<()> {
+    let at = |m: u32| {
+        let k = 3 * m as usize;
+        [pos[k] as f64, pos[k + 1] as f64, pos[k + 2] as f64]
+    };
+    for (i, (e, &len)) in ends.chunks_exact(2).zip(lengths).enumerate() {
+        let (a, b) = (at(e[0]), at(e[1]));
+        let d = ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt();
+        let scale = a.iter().chain(&b).fold(0.0f64, |m, x| m.max(x.abs()));
+        let slack = LINK_LENGTH_TOLERANCE * d + 8.0 * f32::EPSILON as f64 * scale;
+        if (len as f64 - d).abs() > slack {
+            return Err(FormatError::invalid(format!(
+                "{what} {i} is {len} m long but its masses {} and {} rest {d} m apart",
+                e[0], e[1]
+            )));
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -534,6 +567,12 @@ mod tests {
         t.mass_anchored[0] = 7;
         cases.push(("anchored flag 7", t));
         let mut t = sample();
+        t.spring_rest_lengths_m[2] = 1e-6;
+        cases.push(("spring far shorter than its masses' distance", t));
+        let mut t = sample();
+        t.stick_lengths_m[0] = 0.5;
+        cases.push(("stick longer than its masses' distance", t));
+        let mut t = sample();
         t.shell_vertex_masses[2] = [NO_MASS, 1];
         cases.push(("half-mapped shell vertex", t));
         let mut t = sample();
@@ -597,6 +636,22 @@ mod tests {
             .array::<u8>(&t.mass_anchored)
             .finish();
         assert!(SpringTopology::decode(&bytes).expect_err("lying count").is_bad_file());
+    }
+
+    #[test]
+    fn a_spring_far_shorter_than_its_rest_positions_is_refused() {
+        // Cause: a stored rest length was checked only for range, so a pack with one spring of
+        // 1e-6 m between masses 11 m apart verified, and the implicit solver's rotation limit
+        // (which scales with the shortest link) split the first 0.02 s step into 10,000
+        // substeps: 6 s for one step of the Fox (found by furbake-fuzz, packs seed 1 case 6517).
+        let mut t = sample();
+        t.spring_rest_lengths_m[2] = 1e-6;
+        let err = SpringTopology::decode(&t.encode()).unwrap_err();
+        assert!(err.to_string().contains("spring 2 is 0.000001 m long"), "{err}");
+        // Rounding of the positions is not corruption.
+        let mut t = sample();
+        t.spring_rest_lengths_m[2] = 1.0 + 2e-6;
+        assert!(SpringTopology::decode(&t.encode()).is_ok());
     }
 
     #[test]
