@@ -18,13 +18,17 @@
 use std::path::Path;
 use std::sync::Arc;
 
+use furbake_formats::sections::animation_clips::AnimationClips;
 use furbake_formats::sections::blade_field::BladeField;
 use furbake_formats::sections::fin_atlas::FinAtlas;
 use furbake_formats::sections::fin_edges::FinEdges;
 use furbake_formats::sections::keyframe_table::KeyframeTable;
 use furbake_formats::sections::manifest::BakeManifest;
+use furbake_formats::sections::morph_targets::MorphTargets;
 use furbake_formats::sections::shell_atlas::ShellAtlas;
+use furbake_formats::sections::skeleton::Skeleton;
 use furbake_formats::sections::skin_mesh::SkinMesh;
+use furbake_formats::sections::skin_weights::SkinWeights;
 use furbake_formats::sections::spring_topology::SpringTopology;
 use furbake_formats::sections::triangle_uv_map::TriangleUvMap;
 use furbake_formats::{HEADER_SIZE, Pack, PackSections, SectionKind, TABLE_ENTRY_SIZE, check_consistency};
@@ -509,6 +513,10 @@ pub fn verify(pack: &Pack) -> Result<usize, (PackOutcome, String)> {
     let mut fins: Option<FinAtlas> = None;
     let mut uv_map: Option<TriangleUvMap> = None;
     let mut fin_edges: Option<FinEdges> = None;
+    let mut skeleton: Option<Skeleton> = None;
+    let mut skin_weights: Option<SkinWeights> = None;
+    let mut morph_targets: Option<MorphTargets> = None;
+    let mut clips: Option<AnimationClips> = None;
     let (mut topologies, mut fields, mut tables) = (Vec::new(), Vec::new(), Vec::new());
     let rejected = |e: furbake_formats::FormatError| (PackOutcome::SectionRejected, e.to_string());
     for (i, e) in pack.sections().iter().enumerate() {
@@ -522,6 +530,10 @@ pub fn verify(pack: &Pack) -> Result<usize, (PackOutcome, String)> {
             SectionKind::SPRING_TOPOLOGY => topologies.push(pack.decode::<SpringTopology>(i).map_err(rejected)?),
             SectionKind::BLADE_FIELD => fields.push(pack.decode::<BladeField>(i).map_err(rejected)?),
             SectionKind::KEYFRAME_TABLE => tables.push(pack.decode::<KeyframeTable>(i).map_err(rejected)?),
+            SectionKind::SKELETON => skeleton = skeleton.or(Some(pack.decode(i).map_err(rejected)?)),
+            SectionKind::SKIN_WEIGHTS => skin_weights = skin_weights.or(Some(pack.decode(i).map_err(rejected)?)),
+            SectionKind::MORPH_TARGETS => morph_targets = morph_targets.or(Some(pack.decode(i).map_err(rejected)?)),
+            SectionKind::ANIMATION_CLIPS => clips = clips.or(Some(pack.decode(i).map_err(rejected)?)),
             _ => {}
         }
     }
@@ -537,6 +549,10 @@ pub fn verify(pack: &Pack) -> Result<usize, (PackOutcome, String)> {
         topologies: &topologies,
         blade_fields: &blade_fields,
         keyframe_tables: &keyframe_tables,
+        skeleton: skeleton.as_ref(),
+        skin_weights: skin_weights.as_ref(),
+        morph_targets: morph_targets.as_ref(),
+        clips: clips.as_ref(),
     };
     check_consistency(pack.sections(), &sections).map_err(|e| (PackOutcome::Inconsistent, e.to_string()))
 }
