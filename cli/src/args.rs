@@ -105,7 +105,7 @@ pub struct BakeArgs {
     #[arg(long, value_name = "DIR")]
     pub png_dir: Option<PathBuf>,
     /// Also read external buffers and images from inside DIR (besides the glTF's own directory),
-    /// e.g. textures in a shared folder named as `../shared/fur.png`. URIs stay relative to the
+    /// e.g. textures in a shared folder named as `../textures/fur.png`. URIs stay relative to the
     /// glTF; a file outside both, a symlink leading out of them, an absolute path or a scheme is
     /// refused (exit 1).
     #[arg(long, value_name = "DIR")]

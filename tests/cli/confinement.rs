@@ -154,11 +154,11 @@ fn a_directory_and_a_short_buffer_file_exit_1() {
 #[test]
 fn asset_root_reads_a_texture_from_a_sibling_shared_folder() {
     let tree = Tree::new();
-    let shared = tree.dir.path().join("shared");
+    let shared = tree.dir.path().join("textures");
     std::fs::create_dir(&shared).unwrap();
     write_png(&shared.join("fur.png"));
-    let doc = with_image("../shared/fur.png");
-    tree.assert_refused(&tree.bake(&doc, &[]), "../shared/fur.png");
+    let doc = with_image("../textures/fur.png");
+    tree.assert_refused(&tree.bake(&doc, &[]), "../textures/fur.png");
     let root = tree.dir.path().to_str().unwrap().to_owned();
     assert_ok(&tree.bake(&doc, &["--asset-root", &root]), "bake with --asset-root");
     assert!(tree.pack().exists());

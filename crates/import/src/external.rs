@@ -417,7 +417,7 @@ mod tests {
             checked += 1;
         }
         assert_eq!(checked, 8);
-        assert_eq!(relative_path("../shared/a.png").unwrap(), Path::new("../shared/a.png"));
+        assert_eq!(relative_path("../common/a.png").unwrap(), Path::new("../common/a.png"));
     }
 
     #[test]
@@ -425,7 +425,7 @@ mod tests {
         let base = Path::new("/r/models");
         assert_eq!(join_lexically(base, Path::new("./a/../b.bin")), Path::new("/r/models/b.bin"));
         assert_eq!(join_lexically(base, Path::new("../../../../etc/passwd")), Path::new("/etc/passwd"));
-        assert!(inside(&join_lexically(base, Path::new("../shared/t.png")), &[PathBuf::from("/r")]));
+        assert!(inside(&join_lexically(base, Path::new("../common/t.png")), &[PathBuf::from("/r")]));
         assert!(!inside(Path::new("/r/modelsX/a"), &[PathBuf::from("/r/models")]));
     }
 }

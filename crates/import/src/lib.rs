@@ -83,7 +83,7 @@ pub fn import_gltf(path: &Path, settings: &ImportSettings) -> Result<ImportedMes
 
 /// Imports the glTF file at `path`, reading external buffers and images from inside its own
 /// directory *or* inside `asset_root` (for pipelines that keep textures in shared folders, e.g.
-/// `../shared/fur.png` with `asset_root` the folder above both). URIs are still resolved relative
+/// `../textures/fur.png` with `asset_root` the folder above both). URIs are still resolved relative
 /// to the glTF's directory. `asset_root` must be an existing directory
 /// ([`ImportError::AssetRoot`] otherwise, checked before the file is read).
 pub fn import_gltf_with_asset_root(

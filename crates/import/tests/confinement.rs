@@ -222,13 +222,13 @@ fn a_missing_image_stays_a_warning_and_an_image_inside_the_root_colours_the_fur(
 
 #[test]
 fn the_asset_root_widens_the_confinement_to_a_shared_folder() {
-    // project/models/m.gltf uses ../shared/fur.png: refused by default, read with the project
+    // project/models/m.gltf uses ../textures/fur.png: refused by default, read with the project
     // folder as asset root; escaping the project folder stays refused.
     let tree = Tree::new();
-    let shared = tree.dir.path().join("shared");
+    let shared = tree.dir.path().join("textures");
     std::fs::create_dir(&shared).unwrap();
     write_png(&shared.join("fur.png"));
-    let uri = "../shared/fur.png";
+    let uri = "../textures/fur.png";
     let gltf = tree.write_gltf(&with_external_image(uri));
     let problem = refusal(import_gltf(&gltf, &ImportSettings::default()), ExternalRef::Image(0), uri);
     assert_eq!(kind(&problem), "outside");

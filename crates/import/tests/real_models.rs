@@ -1,4 +1,5 @@
-//! Imports every real fixture in /work/shared/fixtures/real and checks topology counts, bounds,
+//! Imports every real fixture of the shared fixture set (`FURBAKE_FIXTURES`, see tests/common)
+//! and checks topology counts, bounds,
 //! transforms, vertex colours and input hashes against values read independently from the files
 //! (accessor min/max in their JSON, the SHA-256 column of LICENSES.md).
 

@@ -210,8 +210,9 @@ fn the_player_loops_clamps_and_cross_fades() {
     assert_eq!(err, AnimationError::UnknownClip { name: "Dance".into(), known: "Bend, Step, Cubic, Morph".into() });
 }
 
+/// A real model bundled in the repository's `fixtures/real/` (licences beside them).
 fn fixture(name: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/fixtures/real").join(name)
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/real").join(name)
 }
 
 /// Poses a real character at `t` of `clip` and checks the skin: finite, every vertex inside the

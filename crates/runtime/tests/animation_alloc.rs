@@ -34,7 +34,7 @@ static GLOBAL: Counting = Counting;
 
 #[test]
 fn a_frame_of_animation_allocates_nothing() {
-    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/fixtures/real/Fox.glb");
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/real/Fox.glb");
     let fox = import_gltf(&path, &ImportSettings::default()).unwrap();
     let a = &fox.animation;
     let (sk, weights, clips) = (a.skeleton.as_ref().unwrap(), a.skin_weights.as_ref(), a.clips.as_ref().unwrap());
