@@ -23,7 +23,7 @@ use furbake_grass::ForceScene;
 use furbake_sim::{FrameMotion, LocalForce, Wind};
 use glam::{Mat4, Quat, Vec2, Vec3};
 
-use crate::scene::{Collider, Effects, Interaction, WindSource};
+use crate::scene::{Collider, Effect, Effects, Interaction, WindSource};
 
 /// Mean wind force on one free fur mass per m/s of wind speed, newtons (world units). With the
 /// default hair (1e-4 kg per hair) a 2 m/s breeze pushes a tip with 1e-4 N, furbake-sim's default
@@ -126,26 +126,27 @@ pub(crate) fn point_source_wind(s: &WindSource, p: Vec3) -> Vec3 {
     wp / d * (s.power / d.max(POINT_SOURCE_MIN_DISTANCE_M).powf(s.falloff_exponent))
 }
 
-/// Which force effects are on this step (events switch them; see `crate::scene::Event`).
+/// Which force effects are on this step (events switch them; see `crate::scene::Event`): one
+/// flag per entry of [`Effect::FORCES`], in that order.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) struct ForcesOn {
-    pub(crate) gravity: bool,
-    pub(crate) wind: bool,
-    pub(crate) wind_sources: bool,
-    pub(crate) object_motion: bool,
-    pub(crate) interaction: bool,
-    pub(crate) collisions: bool,
-}
+pub(crate) struct ForcesOn([bool; Effect::FORCES.len()]);
 
 impl ForcesOn {
-    pub(crate) const ALL: ForcesOn = ForcesOn {
-        gravity: true,
-        wind: true,
-        wind_sources: true,
-        object_motion: true,
-        interaction: true,
-        collisions: true,
-    };
+    pub(crate) const ALL: ForcesOn = ForcesOn([true; Effect::FORCES.len()]);
+
+    /// True when force `effect` is switched on (false for effects that are not forces).
+    pub(crate) fn has(self, effect: Effect) -> bool {
+        Effect::FORCES.iter().position(|&f| f == effect).is_some_and(|i| self.0[i])
+    }
+
+    /// Switches `effects` (every force when empty) on or off.
+    pub(crate) fn set(&mut self, effects: &[Effect], value: bool) {
+        for (flag, force) in self.0.iter_mut().zip(Effect::FORCES) {
+            if effects.is_empty() || effects.contains(&force) {
+                *flag = value;
+            }
+        }
+    }
 }
 
 /// Fur wind in the mesh frame: the global wind plus every point source evaluated at the pack's
@@ -153,10 +154,10 @@ impl ForcesOn {
 /// uniformly), as furbake-sim's travelling-gust wind.
 pub(crate) fn fur_wind(effects: &Effects, on: ForcesOn, origin: Vec3, frame: &MeshFrame) -> Wind {
     let mut v = Vec3::ZERO;
-    if on.wind {
+    if on.has(Effect::Wind) {
         v += effects.wind.map_or(Vec3::ZERO, |w| Vec3::from(w.velocity_m_per_s));
     }
-    if on.wind_sources {
+    if on.has(Effect::WindSources) {
         for s in &effects.wind_sources {
             v += point_source_wind(s, origin);
         }
@@ -187,12 +188,12 @@ pub(crate) fn grass_force_scene(effects: &Effects, on: ForcesOn, t: f64, frame: 
     out.sources.clear();
     out.colliders.clear();
     out.blockers.clear();
-    if let (Some(w), true) = (effects.wind, on.wind) {
+    if let (Some(w), true) = (effects.wind, on.has(Effect::Wind)) {
         let gust = 1.0 + w.gust_amplitude * (std::f64::consts::TAU * w.gust_frequency_hz as f64 * t).sin() as f32;
         let v = frame.rotation.inverse() * Vec3::from(w.velocity_m_per_s);
         out.global_wind = Vec2::new(v.x, v.z) * (GRASS_FORCE_PER_M_PER_S * gust);
     }
-    if on.wind_sources {
+    if on.has(Effect::WindSources) {
         for s in &effects.wind_sources {
             out.sources.push(furbake_grass::WindSource {
                 position_m: frame.point(Vec3::from(s.position)),
@@ -202,7 +203,7 @@ pub(crate) fn grass_force_scene(effects: &Effects, on: ForcesOn, t: f64, frame: 
             });
         }
     }
-    if on.collisions {
+    if on.has(Effect::Collisions) {
         for c in &effects.collisions {
             out.colliders.push(match *c {
                 Collider::Sphere { center, radius_m } => furbake_grass::Collider::Sphere {

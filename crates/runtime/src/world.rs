@@ -143,6 +143,9 @@ struct WorldPack {
     teleported_m: Vec3,
     fur: Option<FurState>,
     grass: Option<GrassState>,
+    /// Model matrix and mesh frame at the start of the current step (computed once per step,
+    /// read by every fur stage).
+    step_frame: (Mat4, MeshFrame),
 }
 
 impl WorldPack {
@@ -248,7 +251,9 @@ impl World {
             } else {
                 None
             };
-            world_packs.push(WorldPack { scene: sp, pack, teleported_m: Vec3::ZERO, fur, grass });
+            let model = sp.model_at(0.0);
+            let step_frame = (model, MeshFrame::of(model));
+            world_packs.push(WorldPack { scene: sp, pack, teleported_m: Vec3::ZERO, fur, grass, step_frame });
         }
         let interaction_point_m = scene.effects.interaction.and_then(|i| i.position).map(Vec3::from);
         let stats = vec![(0, Duration::ZERO); stages.len()];
@@ -336,17 +341,7 @@ impl World {
 
     /// True when force `effect` is declared and not switched off by an event.
     pub fn force_is_on(&self, effect: Effect) -> bool {
-        let on = self.forces_on;
-        self.scene.effects.has(effect)
-            && match effect {
-                Effect::Gravity => on.gravity,
-                Effect::Wind => on.wind,
-                Effect::WindSources => on.wind_sources,
-                Effect::ObjectMotion => on.object_motion,
-                Effect::Interaction => on.interaction,
-                Effect::Collisions => on.collisions,
-                _ => false,
-            }
+        self.scene.effects.has(effect) && self.forces_on.has(effect)
     }
 
     /// The fur state of pack `index`; `None` when the pack has no fur.
@@ -418,6 +413,10 @@ impl World {
         let dt = self.scene.time_step_s as f64;
         let t = self.time_s;
         self.apply_events(t)?;
+        for p in &mut self.packs {
+            let model = p.model_at(t);
+            p.step_frame = (model, MeshFrame::of(model));
+        }
         for k in 0..self.stages.len() {
             let (kind, pack) = (self.stages[k].kind, self.stages[k].pack);
             let started = Instant::now();
@@ -450,8 +449,8 @@ impl World {
                         sim.simulator.teleport(frame.vector(offset).to_array());
                     }
                 }
-                Event::ForcesOff { effects, .. } => set_forces(&mut self.forces_on, effects, false),
-                Event::ForcesOn { effects, .. } => set_forces(&mut self.forces_on, effects, true),
+                Event::ForcesOff { effects, .. } => self.forces_on.set(effects, false),
+                Event::ForcesOn { effects, .. } => self.forces_on.set(effects, true),
             }
             self.next_event += 1;
         }
@@ -465,32 +464,35 @@ impl World {
         }
         let (effects, on) = (&self.scene.effects, self.forces_on);
         let p = &mut self.packs[index];
-        let model = p.model_at(t);
+        let (model, mesh_frame) = p.step_frame;
         // Only fur stages remain; the planner builds them only for packs with a simulation.
         let Some(fur) = p.fur.as_mut() else { return Ok(()) };
         let Some(sim) = fur.sim.as_mut() else { return Ok(()) };
         match kind {
             StageKind::FurObjectMotion => {
-                sim.forces.motion = match (effects.object_motion, on.object_motion) {
+                sim.forces.motion = match (effects.object_motion, on.has(Effect::ObjectMotion)) {
                     (Some(m), true) => {
                         let motion = frame::path_motion(|t| p.scene.model_at(t), t, dt);
-                        frame::frame_motion(&motion, &MeshFrame::of(model), m.inertia_scale)
+                        frame::frame_motion(&motion, &mesh_frame, m.inertia_scale)
                     }
                     _ => FrameMotion::default(),
                 };
             }
             StageKind::FurGravity => {
-                let g = effects.gravity.filter(|_| on.gravity).map_or([0.0; 3], |g| g.acceleration_m_per_s2);
-                sim.forces.gravity_m_per_s2 = MeshFrame::of(model).vector(Vec3::from(g)).to_array();
+                let g =
+                    effects.gravity.filter(|_| on.has(Effect::Gravity)).map_or([0.0; 3], |g| g.acceleration_m_per_s2);
+                sim.forces.gravity_m_per_s2 = mesh_frame.vector(Vec3::from(g)).to_array();
             }
             StageKind::FurWind => {
                 let origin = model.transform_point3(Vec3::ZERO);
-                sim.forces.wind = Some(frame::fur_wind(effects, on, origin, &MeshFrame::of(model)));
+                sim.forces.wind = Some(frame::fur_wind(effects, on, origin, &mesh_frame));
             }
             StageKind::FurInteraction => {
                 sim.forces.local.clear();
-                if let (Some(it), Some(point), true) = (effects.interaction, self.interaction_point_m, on.interaction) {
-                    sim.forces.local.push(frame::interaction_force(&it, point, &MeshFrame::of(model)));
+                if let (Some(it), Some(point), true) =
+                    (effects.interaction, self.interaction_point_m, on.has(Effect::Interaction))
+                {
+                    sim.forces.local.push(frame::interaction_force(&it, point, &mesh_frame));
                 }
             }
             StageKind::FurSolver => {
@@ -524,24 +526,6 @@ impl World {
         g.field.update(&g.scene);
         for (out, f) in g.corner_forces.iter_mut().zip(&g.field.corner_forces) {
             *out = f.to_array();
-        }
-    }
-}
-
-/// Switches `effects` (all forces when empty) on or off.
-fn set_forces(on: &mut ForcesOn, effects: &[Effect], value: bool) {
-    let all = effects.is_empty();
-    let pick = |e: Effect| all || effects.contains(&e);
-    for (flag, effect) in [
-        (&mut on.gravity, Effect::Gravity),
-        (&mut on.wind, Effect::Wind),
-        (&mut on.wind_sources, Effect::WindSources),
-        (&mut on.object_motion, Effect::ObjectMotion),
-        (&mut on.interaction, Effect::Interaction),
-        (&mut on.collisions, Effect::Collisions),
-    ] {
-        if pick(effect) {
-            *flag = value;
         }
     }
 }
