@@ -93,6 +93,18 @@ impl GuardState {
         }
     }
 
+    /// After the skin moved (the tips' rest directions changed): a kept scale vector that now
+    /// points past the guard's angle from its tip's direction is replaced by that direction, so
+    /// a frozen vector never shows fur inside the posed surface.
+    pub fn follow_rest_directions(&mut self, model: &SimModel, p: &GuardParams) {
+        let cos_a = if p.enabled { p.threshold_angle_deg.to_radians().cos() } else { -1.0 };
+        for (s, t) in self.scale.iter_mut().zip(&model.tips) {
+            if t.n.dot(*s) < cos_a {
+                *s = t.n;
+            }
+        }
+    }
+
     /// Makes the state a solver pass wrote into `scale_next`, `frozen_next` current.
     pub fn commit(&mut self) {
         std::mem::swap(&mut self.scale, &mut self.scale_next);

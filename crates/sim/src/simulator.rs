@@ -14,6 +14,7 @@ use crate::clusters::Clusters;
 use crate::forces::{ForceEval, ForceSet};
 use crate::model::{NONE, SimModel};
 use crate::shell::{GuardParams, GuardState};
+use crate::skin::{BindPose, SkinMove, SkinTransform};
 use crate::solvers::{self, ImplicitScratch, ReferenceScratch, Step, sum_over};
 
 /// Which solver advances the state.
@@ -196,6 +197,10 @@ pub struct Simulator {
     rotation_next: Option<f64>,
     /// Per free mass `2 L sqrt(ε m / k)` (see [`Simulator::stretch_limited_step_s`]).
     stretch_reach: Vec<f32>,
+    /// The bind pose, once the skin has been posed ([`Simulator::pose_skin`]).
+    bind: Option<BindPose>,
+    /// Some anchored mass has a velocity (the skin moves): its links' damping does work.
+    anchors_moving: bool,
     /// Largest stiffest-link `k / m` over the free masses, 1/s².
     stiff_k_over_m: f64,
     /// The state was just set (start, teleport, `set_state`): no velocity history to estimate
@@ -233,6 +238,8 @@ impl Simulator {
             stable_dt: None,
             rotation_next: None,
             stretch_reach,
+            bind: None,
+            anchors_moving: false,
             stiff_k_over_m,
             fresh: true,
             last_h: 0.0,
@@ -375,6 +382,54 @@ impl Simulator {
         if self.settings.track_energy {
             self.budget_j += self.energy().total_j() - before;
         }
+    }
+
+    /// Shell vertices (scale vectors; [`Simulator::pose_skin`] takes one transform per shell
+    /// vertex): welded skin vertices, or triangle corners for a separable topology.
+    pub fn shell_vertex_count(&self) -> usize {
+        self.model.shell_tip.len()
+    }
+
+    /// Poses the topology on the animated skin for the step of `dt_s` seconds that follows:
+    /// `transforms` has one [`SkinTransform`] per shell vertex (bind pose → now). Anchored masses
+    /// take their posed positions, with the velocity of that motion over `dt_s`; free masses'
+    /// rest positions and rest directions follow (see [`crate::skin`]). When an anchor would move
+    /// faster than `cut_speed_m_per_s` the fur is carried along instead (a cut). Work done on the
+    /// fur by the move is added to the energy budget. Fails, changing nothing, on a wrong count,
+    /// a non-finite transform or a bad `dt_s`.
+    pub fn pose_skin(
+        &mut self,
+        transforms: &[SkinTransform],
+        dt_s: f64,
+        cut_speed_m_per_s: f32,
+    ) -> Result<SkinMove, SimError> {
+        if !(dt_s.is_finite() && dt_s > 0.0) {
+            return Err(SimError::Parameter { name: "dt_s", what: format!("{dt_s} (must be finite and positive)") });
+        }
+        if cut_speed_m_per_s.is_nan() || cut_speed_m_per_s < 0.0 {
+            return Err(SimError::Parameter { name: "cut_speed_m_per_s", what: format!("{cut_speed_m_per_s}") });
+        }
+        BindPose::check(&self.model, transforms).map_err(|what| SimError::Parameter { name: "transforms", what })?;
+        let before = if self.settings.track_energy { self.energy().total_j() } else { 0.0 };
+        let bind = self.bind.get_or_insert_with(|| BindPose::new(&self.model));
+        let moved = bind.pose(
+            &mut self.model,
+            transforms,
+            dt_s,
+            cut_speed_m_per_s,
+            &mut self.x,
+            &mut self.x_next,
+            &mut self.v,
+            &mut self.v_next,
+        );
+        self.guard.follow_rest_directions(&self.model, &self.settings.guard);
+        self.rotation_next = None;
+        self.fresh = true;
+        self.anchors_moving = !moved.cut && moved.max_anchor_speed_m_per_s > 0.0;
+        if self.settings.track_energy {
+            self.budget_j += self.energy().total_j() - before;
+        }
+        Ok(moved)
     }
 
     /// Advances by `dt_s` seconds.
@@ -529,6 +584,13 @@ impl Simulator {
             let p = m.rest_parent[k];
             if p != NONE && fe.restoring_w != 0.0 {
                 f += crate::forces::restoring_force(self.x[p as usize], self.x[k], m.rest_n[k], fe.restoring_w);
+            }
+            if self.anchors_moving {
+                // A moving skin drags through the damping of its links (`c · v_anchor`; the
+                // `−c · v_k` part only dissipates).
+                for l in m.adj_of(k).iter().filter(|l| l.other as usize >= m.n_free) {
+                    f += self.v[l.other as usize] * l.c;
+                }
             }
             // Over the whole displacement, projections included (a teleport's projection is
             // booked with the teleport itself).
