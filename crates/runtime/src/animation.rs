@@ -16,6 +16,8 @@
 //!    `p' = (Σ wᵢ·Mᵢ)·p`; normals by the inverse transpose of the blended matrix (its cofactor
 //!    matrix times the sign of its determinant, defined even when it is singular), renormalised.
 
+use std::sync::Arc;
+
 use furbake_formats::sections::animation_clips::{
     AnimationClip, AnimationClips, ChannelTarget, ClipChannel, Interpolation,
 };
@@ -23,7 +25,8 @@ use furbake_formats::sections::morph_targets::{MorphGroup, MorphTargets};
 use furbake_formats::sections::skeleton::Skeleton;
 use furbake_formats::sections::skin_mesh::SkinMesh;
 use furbake_formats::sections::skin_weights::SkinWeights;
-use glam::{Mat3, Mat4, Quat, Vec3};
+use furbake_sim::SkinTransform;
+use glam::{Mat4, Quat, Vec3};
 
 /// Why an animation call cannot proceed. Blame: the caller (a clip name the pack lacks, buffers
 /// sized for another pack); the sections themselves were validated when decoded.
@@ -370,6 +373,80 @@ pub fn skinning_matrices(skeleton: &Skeleton, world: &[Mat4], out: &mut [Mat4]) 
     Ok(())
 }
 
+/// The [`SkinTransform`] of skin vertex `i`: the blended skinning matrix `Σ wᵢ·Mᵢ` (identity
+/// without `weights`) and the morph offset `Σ wₜ·Δpₜ` (zero without `morphs`). Sizes must have
+/// been checked by the caller ([`morph_and_skin`], [`Animator`]).
+fn vertex_transform(
+    i: usize,
+    weights: Option<&SkinWeights>,
+    morphs: Option<(&MorphTargets, &[f32])>,
+    skinning: &[Mat4],
+) -> SkinTransform {
+    let mut offset = Vec3::ZERO;
+    if let Some((m, mw)) = morphs {
+        let v = m.vertex_count as usize;
+        for (t, &wt) in mw.iter().enumerate() {
+            if wt != 0.0 {
+                offset += wt * Vec3::from(m.position_deltas[t * v + i]);
+            }
+        }
+    }
+    let matrix = match weights {
+        Some(w) => {
+            let mut blended = Mat4::ZERO;
+            for (b, wi) in w.influences(i) {
+                if wi != 0.0 {
+                    blended += skinning[b as usize] * wi;
+                }
+            }
+            blended
+        }
+        None => Mat4::IDENTITY,
+    };
+    SkinTransform::new(matrix, offset)
+}
+
+/// Applies `t` (vertex `i`'s transform) to its bind position and normal: `p' = M(p + Δp)`,
+/// `n' = normalize(N(n + Σ wₜ·Δnₜ))`; a collapsed normal (a joint scaled to zero) keeps the
+/// bind normal rather than NaN.
+fn pose_vertex(
+    mesh: &SkinMesh,
+    i: usize,
+    t: &SkinTransform,
+    morphs: Option<(&MorphTargets, &[f32])>,
+) -> ([f32; 3], [f32; 3]) {
+    let p = t.matrix.transform_point3(Vec3::from(mesh.positions[i]) + t.morph_offset_m);
+    let mut n = Vec3::from(mesh.normals[i]);
+    if let Some((m, mw)) = morphs.filter(|(m, _)| !m.normal_deltas.is_empty()) {
+        let v = m.vertex_count as usize;
+        for (k, &wt) in mw.iter().enumerate() {
+            if wt != 0.0 {
+                n += wt * Vec3::from(m.normal_deltas[k * v + i]);
+            }
+        }
+    }
+    let n = (t.normal_matrix * n).try_normalize().unwrap_or(Vec3::from(mesh.normals[i]));
+    (p.to_array(), n.to_array())
+}
+
+fn check_skin_inputs(
+    mesh: &SkinMesh,
+    weights: Option<&SkinWeights>,
+    morphs: Option<(&MorphTargets, &[f32])>,
+    skinning: &[Mat4],
+) -> Result<(), AnimationError> {
+    let v = mesh.positions.len();
+    if let Some(w) = weights {
+        check_len("skin weights vertices", v, w.vertex_count())?;
+        check_len("skinning matrices", w.bind_count as usize, skinning.len())?;
+    }
+    if let Some((m, mw)) = morphs {
+        check_len("morph target vertices", v, m.vertex_count as usize)?;
+        check_len("morph weights", m.target_count(), mw.len())?;
+    }
+    Ok(())
+}
+
 /// Morphs then skins every skin vertex into `positions` and `normals` (one per skin vertex):
 /// `p' = (Σ wᵢ·Mᵢ)(p + Σ wₜ·Δpₜ)`, `n' = normalize(cof(Σ wᵢ·Mᵢ)·(n + Σ wₜ·Δnₜ))`. Without
 /// `weights` only the morph is applied; without `morphs` only the skinning.
@@ -384,43 +461,153 @@ pub fn morph_and_skin(
     let v = mesh.positions.len();
     check_len("output positions", v, positions.len())?;
     check_len("output normals", v, normals.len())?;
-    if let Some(w) = weights {
-        check_len("skin weights vertices", v, w.vertex_count())?;
-        check_len("skinning matrices", w.bind_count as usize, skinning.len())?;
-    }
-    if let Some((m, mw)) = morphs {
-        check_len("morph target vertices", v, m.vertex_count as usize)?;
-        check_len("morph weights", m.target_count(), mw.len())?;
-    }
+    check_skin_inputs(mesh, weights, morphs, skinning)?;
     for i in 0..v {
-        let mut p = Vec3::from(mesh.positions[i]);
-        let mut n = Vec3::from(mesh.normals[i]);
-        if let Some((m, mw)) = morphs {
-            for (t, &wt) in mw.iter().enumerate() {
-                if wt != 0.0 {
-                    p += wt * Vec3::from(m.position_deltas[t * v + i]);
-                    if !m.normal_deltas.is_empty() {
-                        n += wt * Vec3::from(m.normal_deltas[t * v + i]);
-                    }
-                }
-            }
-        }
-        if let Some(w) = weights {
-            let mut blended = Mat4::ZERO;
-            for (b, wi) in w.influences(i) {
-                if wi != 0.0 {
-                    blended += skinning[b as usize] * wi;
-                }
-            }
-            p = blended.transform_point3(p);
-            let m3 = Mat3::from_mat4(blended);
-            let (c0, c1, c2) = (m3.x_axis, m3.y_axis, m3.z_axis);
-            let cofactor = Mat3::from_cols(c1.cross(c2), c2.cross(c0), c0.cross(c1));
-            n = cofactor * n * m3.determinant().signum();
-        }
-        positions[i] = p.to_array();
-        // A collapsed normal (a joint scaled to zero) keeps the rest normal rather than NaN.
-        normals[i] = n.try_normalize().unwrap_or(Vec3::from(mesh.normals[i])).to_array();
+        let t = vertex_transform(i, weights, morphs, skinning);
+        (positions[i], normals[i]) = pose_vertex(mesh, i, &t, morphs);
     }
     Ok(())
+}
+
+/// One pack's animation as a [`crate::World`] runs it: the pack's animation sections, a clip
+/// player, and every buffer of a frame — pose, joint and skinning matrices, a [`SkinTransform`]
+/// per skin vertex (what the fur simulation poses its masses with) and the skinned positions and
+/// normals. Built once; [`Animator::update`] allocates nothing.
+#[derive(Debug)]
+pub struct Animator {
+    clips: Arc<AnimationClips>,
+    skeleton: Option<Arc<Skeleton>>,
+    weights: Option<Arc<SkinWeights>>,
+    morphs: Option<Arc<MorphTargets>>,
+    mesh: Arc<SkinMesh>,
+    player: AnimationPlayer,
+    pose: Pose,
+    world: Vec<Mat4>,
+    skinning: Vec<Mat4>,
+    transforms: Vec<SkinTransform>,
+    positions: Vec<[f32; 3]>,
+    normals: Vec<[f32; 3]>,
+}
+
+impl Animator {
+    /// Reads `pack`'s skin mesh and animation sections and starts clip `clip` at `start_s` with
+    /// `speed` and `looping`, posed at once. Fails when the pack has no clips or none named
+    /// `clip` (the caller's error, [`AnimationError::UnknownClip`]), or on a bad section.
+    pub fn new(
+        pack: &crate::Pack,
+        clip: &str,
+        speed: f32,
+        looping: bool,
+        start_s: f32,
+    ) -> Result<Animator, crate::RuntimeError> {
+        let clips = pack
+            .animation_clips()?
+            .ok_or_else(|| AnimationError::UnknownClip { name: clip.to_string(), known: "no clips".into() });
+        let clips = clips.map_err(|source| crate::RuntimeError::Animation { path: pack.display_path(), source })?;
+        let (skeleton, weights, morphs) = (pack.skeleton()?, pack.skin_weights()?, pack.morph_targets()?);
+        let mesh = pack.skin_mesh()?;
+        let player = AnimationPlayer::new(&clips, clip, speed, looping, skeleton.as_deref(), morphs.as_deref())
+            .map_err(|source| crate::RuntimeError::Animation { path: pack.display_path(), source })?;
+        let pose = Pose::rest(skeleton.as_deref(), morphs.as_deref());
+        let joints = skeleton.as_ref().map_or(0, |s| s.joint_count());
+        let binds = skeleton.as_ref().map_or(0, |s| s.bind_count());
+        let v = mesh.positions.len();
+        let mut a = Animator {
+            world: vec![Mat4::IDENTITY; joints],
+            skinning: vec![Mat4::IDENTITY; binds],
+            transforms: vec![SkinTransform::IDENTITY; v],
+            positions: mesh.positions.clone(),
+            normals: mesh.normals.clone(),
+            clips,
+            skeleton,
+            weights,
+            morphs,
+            mesh,
+            player,
+            pose,
+        };
+        // The sections were checked against each other when decoded (`check_consistency`); a
+        // mismatch here is reported, not assumed away.
+        let err = |source| crate::RuntimeError::Animation { path: pack.display_path(), source };
+        check_skin_inputs(
+            &a.mesh,
+            a.weights.as_deref(),
+            a.morphs.as_deref().map(|m| (m, a.pose.morph_weights.as_slice())),
+            &a.skinning,
+        )
+        .map_err(err)?;
+        a.player.seek(&a.clips, start_s);
+        a.update().map_err(err)?;
+        Ok(a)
+    }
+
+    /// Fails unless the pack has a clip named `name`.
+    pub fn check_clip(&self, name: &str) -> Result<(), AnimationError> {
+        clip_index(&self.clips, name).map(|_| ())
+    }
+
+    /// Advances the player by `dt_s` seconds of scene time (not yet posed: see [`Animator::update`]).
+    pub fn advance(&mut self, dt_s: f32) {
+        self.player.advance(&self.clips, dt_s);
+    }
+
+    /// Switches to clip `name`, cross-fading over `fade_s` seconds (0: at once).
+    pub fn play(&mut self, name: &str, fade_s: f32) -> Result<(), AnimationError> {
+        self.player.play(&self.clips, name, fade_s)
+    }
+
+    /// Poses the skin at the player's current time: pose, joint and skinning matrices, vertex
+    /// transforms, skinned positions and normals.
+    pub fn update(&mut self) -> Result<(), AnimationError> {
+        let groups = self.morphs.as_ref().map_or(&[][..], |m| m.groups.as_slice());
+        self.player.pose(&self.clips, groups, &mut self.pose)?;
+        if let Some(s) = &self.skeleton {
+            joint_world_matrices(s, &self.pose, &mut self.world)?;
+            skinning_matrices(s, &self.world, &mut self.skinning)?;
+        }
+        let weights = self.weights.as_deref();
+        let morphs = self.morphs.as_deref().map(|m| (m, self.pose.morph_weights.as_slice()));
+        for i in 0..self.transforms.len() {
+            let t = vertex_transform(i, weights, morphs, &self.skinning);
+            (self.positions[i], self.normals[i]) = pose_vertex(&self.mesh, i, &t, morphs);
+            self.transforms[i] = t;
+        }
+        Ok(())
+    }
+
+    /// The clip playing now.
+    pub fn playback(&self) -> ClipPlayback {
+        self.player.current()
+    }
+
+    /// The name of clip `index`.
+    pub fn clip_name(&self, index: usize) -> &str {
+        self.clips.clips.get(index).map_or("", |c| c.name.as_str())
+    }
+
+    /// Per skin vertex: bind pose → now.
+    pub fn transforms(&self) -> &[SkinTransform] {
+        &self.transforms
+    }
+
+    /// Skinned positions per skin vertex, mesh frame, metres.
+    pub fn positions(&self) -> &[[f32; 3]] {
+        &self.positions
+    }
+
+    /// Skinned unit normals per skin vertex, mesh frame.
+    pub fn normals(&self) -> &[[f32; 3]] {
+        &self.normals
+    }
+
+    /// Skinning matrices (`world(joint) × inverseBind`, one per bind) of the current pose; empty
+    /// without a skeleton. With [`Animator::morph_weights`] this is what a GPU skinning pass takes.
+    pub fn skinning_matrices(&self) -> &[Mat4] {
+        &self.skinning
+    }
+
+    /// Morph weights of the current pose (one per morph target; empty without morph targets).
+    pub fn morph_weights(&self) -> &[f32] {
+        &self.pose.morph_weights
+    }
 }

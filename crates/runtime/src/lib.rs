@@ -85,7 +85,7 @@ use std::path::PathBuf;
 use furbake_formats::FormatError;
 use furbake_sim::{SimError, TopologyKind};
 
-pub use animation::{AnimationError, AnimationPlayer, ClipPlayback, Pose};
+pub use animation::{AnimationError, AnimationPlayer, Animator, ClipPlayback, Pose};
 pub use frame::{
     FUR_GUST_WAVELENGTH_M, FUR_WIND_N_PER_M_PER_S, GRASS_COLLIDER_FALLOFF, GRASS_COLLIDER_STRENGTH,
     GRASS_FORCE_PER_M_PER_S,
@@ -124,6 +124,16 @@ pub enum RuntimeError {
         wanted: Vec<TopologyKind>,
         /// The kinds the pack holds.
         found: Vec<TopologyKind>,
+    },
+    /// A pack cannot play what the scene asks (no clips, or no clip of that name). Blame: the
+    /// scene.
+    #[error("{path}: animation: {source}", path = path.display())]
+    Animation {
+        /// The pack file.
+        path: PathBuf,
+        /// What the player reported.
+        #[source]
+        source: AnimationError,
     },
     /// The caller passed something inconsistent (e.g. a pack list that does not match the scene).
     #[error("{what}")]

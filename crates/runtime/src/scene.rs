@@ -201,13 +201,30 @@ pub enum Event {
         #[serde(default)]
         effects: Vec<Effect>,
     },
+    /// The pack switches to clip `clip` from its start, cross-fading from the clip playing over
+    /// `fade_s` seconds (0: at once). Speed and looping stay as the pack's `animation` says
+    /// (speed 1, looping, when the pack has none).
+    PlayClip {
+        /// Scene time, seconds, ≥ 0.
+        at_s: f64,
+        /// The pack's scene name.
+        pack: String,
+        /// Name of a clip in the pack.
+        clip: String,
+        /// Cross-fade length, seconds, in [0, 60]. Default 0.
+        #[serde(default)]
+        fade_s: f32,
+    },
 }
 
 impl Event {
     /// The event's scene time, seconds.
     pub fn at_s(&self) -> f64 {
         match self {
-            Event::Teleport { at_s, .. } | Event::ForcesOff { at_s, .. } | Event::ForcesOn { at_s, .. } => *at_s,
+            Event::Teleport { at_s, .. }
+            | Event::ForcesOff { at_s, .. }
+            | Event::ForcesOn { at_s, .. }
+            | Event::PlayClip { at_s, .. } => *at_s,
         }
     }
 }
@@ -290,6 +307,42 @@ pub struct ScenePack {
     /// at the first key, after the last at the last.
     #[serde(default)]
     pub motion: Vec<MotionKey>,
+    /// The clip the pack's skeleton and morph targets play
+    /// (`animation = { clip = "Walk", speed = 1.0, loop = true }`); absent = the bind pose.
+    /// `play_clip` events switch clips later.
+    #[serde(default)]
+    pub animation: Option<PackAnimation>,
+}
+
+/// What a pack's animation plays from time 0 (the fur thesis's future work, §3.4.1: the skin's
+/// own motion drives the fur's anchored masses).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PackAnimation {
+    /// Name of a clip in the pack (`furbake inspect` lists them).
+    pub clip: String,
+    /// Playback speed, in [-100, 100] (1 = real time; negative plays backwards). Default 1.
+    #[serde(default = "one")]
+    pub speed: f32,
+    /// Whether the clip wraps around at its end (else it holds its last pose). Default true.
+    #[serde(default = "yes", rename = "loop")]
+    pub looping: bool,
+    /// Clip time at scene time 0, seconds, ≥ 0. Default 0.
+    #[serde(default)]
+    pub start_s: f32,
+    /// A skin point moving faster than this between two steps is a cut (a jump in the
+    /// animation): the fur is carried along with the skin instead of being dragged, m/s, > 0.
+    /// Default 50.
+    #[serde(default = "default_cut_speed")]
+    pub cut_speed_m_per_s: f32,
+}
+
+fn yes() -> bool {
+    true
+}
+
+fn default_cut_speed() -> f32 {
+    50.0
 }
 
 /// Translation, Euler rotation (XYZ, degrees) and uniform scale.
@@ -709,6 +762,15 @@ impl Scene {
                 last = key.time_s;
                 check_transform(&key.transform(), &format!("{g}."))?;
             }
+            if let Some(a) = &p.animation {
+                let g = |k: &str| format!("packs[{i}].animation.{k}");
+                if a.clip.is_empty() {
+                    return Err((g("clip"), "must name a clip".into()));
+                }
+                range(a.speed, -100.0, 100.0, &g("speed"))?;
+                range(a.start_s, 0.0, 1e6, &g("start_s"))?;
+                range(a.cut_speed_m_per_s, 1e-3, 1e9, &g("cut_speed_m_per_s"))?;
+            }
         }
         let e = &self.effects;
         if let Some(g) = &e.gravity {
@@ -770,6 +832,21 @@ impl Scene {
                         return Err((f("pack"), format!("no pack is named \"{pack}\"")));
                     }
                     finite3(offset_m, &f("offset_m"))?;
+                }
+                Event::PlayClip { pack, clip, fade_s, .. } => {
+                    if !self.packs.iter().any(|p| &p.name == pack) {
+                        return Err((f("pack"), format!("no pack is named \"{pack}\"")));
+                    }
+                    if clip.is_empty() {
+                        return Err((f("clip"), "must name a clip".into()));
+                    }
+                    if self.packs.iter().any(|p| &p.name == pack && p.animation.is_none()) {
+                        return Err((
+                            f("pack"),
+                            format!("pack \"{pack}\" has no `animation = {{ clip = ... }}` to switch from"),
+                        ));
+                    }
+                    range(*fade_s, 0.0, 60.0, &f("fade_s"))?;
                 }
                 Event::ForcesOff { effects, .. } | Event::ForcesOn { effects, .. } => {
                     for effect in effects {

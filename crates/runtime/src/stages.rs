@@ -7,11 +7,12 @@
 //!
 //! | name                | per   | built when the scene declares                     | does |
 //! |---------------------|-------|---------------------------------------------------|------|
+//! | `animation`         | pack  | an `animation` for the pack                       | advances its clip player, skins the mesh (morph, then linear blend skinning) and poses the fur's anchored masses on it |
 //! | `fur_object_motion` | fur   | object motion and the pack has motion keys        | differentiates the motion path into frame accelerations (inertial forces) |
 //! | `fur_gravity`       | fur   | gravity                                           | gravity in the mesh frame |
 //! | `fur_wind`          | fur   | wind or wind sources                              | the travelling-gust wind force in the mesh frame |
 //! | `fur_interaction`   | fur   | interaction                                       | the brush as a local force |
-//! | `fur_solver`        | fur   | any of the five above or the wrong-side guard     | one solver step, the guard (§3.4.3) at its end |
+//! | `fur_solver`        | fur   | any of the five above, the wrong-side guard, or an animation | one solver step, the guard (§3.4.3) at its end |
 //! | `fur_scale_vectors` | fur   | same as `fur_solver`                              | scale vectors per shell vertex (eq. 3.35) for the renderer |
 //! | `grass_forces`      | grass | wind, wind sources, collisions or windless areas  | the cluster-corner force field (grass thesis §3.2.2, eq. 4.1, ch. 5) |
 //!
@@ -33,6 +34,8 @@ use crate::scene::{Effect, Effects, SolverChoice};
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum StageKind {
+    /// The pack's clip player, skinning and the fur's posed anchors.
+    Animation,
     /// Frame accelerations from the motion path.
     FurObjectMotion,
     /// Gravity in the mesh frame.
@@ -51,7 +54,8 @@ pub enum StageKind {
 
 impl StageKind {
     /// Every stage kind, in run order.
-    pub const ALL: [StageKind; 7] = [
+    pub const ALL: [StageKind; 8] = [
+        StageKind::Animation,
         StageKind::FurObjectMotion,
         StageKind::FurGravity,
         StageKind::FurWind,
@@ -64,6 +68,7 @@ impl StageKind {
     /// The stable name (see the module table).
     pub fn name(self) -> &'static str {
         match self {
+            StageKind::Animation => "animation",
             StageKind::FurObjectMotion => "fur_object_motion",
             StageKind::FurGravity => "fur_gravity",
             StageKind::FurWind => "fur_wind",
@@ -93,6 +98,8 @@ pub struct PackRole {
     pub moving: bool,
     /// The pack holds at least one spring topology.
     pub topology: bool,
+    /// The scene gives the pack an animation.
+    pub animated: bool,
 }
 
 /// One planned stage.
@@ -113,6 +120,9 @@ pub fn plan_stages(effects: &Effects, roles: &[PackRole]) -> Vec<PlannedStage> {
     let mut plan = Vec::new();
     for (pack, role) in roles.iter().enumerate() {
         let mut push = |kind, effects: Vec<Effect>| plan.push(PlannedStage { kind, pack, effects });
+        if role.animated {
+            push(StageKind::Animation, Vec::new());
+        }
         if role.fur && (role.topology || !role.grass) {
             let moving = effects.object_motion.is_some() && role.moving;
             let on = |pairs: &[(bool, Effect)]| pairs.iter().filter(|(on, _)| *on).map(|&(_, e)| e).collect::<Vec<_>>();
@@ -133,7 +143,8 @@ pub fn plan_stages(effects: &Effects, roles: &[PackRole]) -> Vec<PlannedStage> {
             if effects.wrong_side_guard.is_some() {
                 physics.push(Effect::WrongSideGuard);
             }
-            if !physics.is_empty() {
+            // An animated skin moves its fur by itself: the solver runs even with no force.
+            if !physics.is_empty() || (role.animated && role.topology) {
                 if effects.parting.is_some() {
                     physics.push(Effect::Parting);
                 }

@@ -18,11 +18,13 @@ use furbake_formats::sections::spring_topology::NO_MASS;
 use furbake_formats::{PackSections, SectionKind, check_consistency};
 use furbake_grass::{ForceField, ForceScene};
 use furbake_sim::{
-    ForceSet, FrameMotion, GuardParams, SimError, Simulator, SolverKind, SolverSettings, StepStats, TopologyKind,
+    ForceSet, FrameMotion, GuardParams, SimError, Simulator, SkinTransform, SolverKind, SolverSettings, StepStats,
+    TopologyKind,
 };
 use glam::{Mat4, Vec3};
 use serde::Serialize;
 
+use crate::animation::Animator;
 use crate::frame::{self, ForcesOn, MeshFrame};
 use crate::scene::{Effect, Event, Scene, ScenePack};
 use crate::stages::{
@@ -125,9 +127,48 @@ struct FurSim {
 
 struct FurState {
     sim: Option<FurSim>,
+    /// Rest direction per shell vertex (the posed normals when animated): the scale vector where
+    /// the simulation gives none.
     rest: Vec<[f32; 3]>,
     scale_vectors: Vec<[f32; 3]>,
     layout: ShellVertexLayout,
+    /// Skin vertex of every shell vertex (per-corner layouts; empty per vertex).
+    corner_vertices: Vec<u32>,
+    /// Per shell vertex, the skin's transform (per-corner layouts; reused every step).
+    shell_transforms: Vec<SkinTransform>,
+}
+
+impl FurState {
+    /// Poses the fur on `anim`'s skin for the step of `dt_s` that follows (anchors, rest
+    /// directions, and the rest scale vectors of fur that is not simulated).
+    fn follow(
+        &mut self,
+        anim: &Animator,
+        dt_s: f64,
+        cut_speed: f32,
+        path: &std::path::Path,
+    ) -> Result<(), RuntimeError> {
+        let normals = anim.normals();
+        if self.corner_vertices.is_empty() {
+            self.rest.copy_from_slice(normals);
+        } else {
+            for ((r, t), &v) in self.rest.iter_mut().zip(&mut self.shell_transforms).zip(&self.corner_vertices) {
+                *r = normals[v as usize];
+                *t = anim.transforms()[v as usize];
+            }
+        }
+        match &mut self.sim {
+            Some(sim) => {
+                let transforms =
+                    if self.corner_vertices.is_empty() { anim.transforms() } else { &self.shell_transforms[..] };
+                sim.simulator
+                    .pose_skin(transforms, dt_s, cut_speed)
+                    .map_err(|source| RuntimeError::Simulation { path: path.to_path_buf(), source })?;
+            }
+            None => self.scale_vectors.copy_from_slice(&self.rest),
+        }
+        Ok(())
+    }
 }
 
 struct GrassState {
@@ -143,6 +184,8 @@ struct WorldPack {
     teleported_m: Vec3,
     fur: Option<FurState>,
     grass: Option<GrassState>,
+    /// The pack's animation, when the scene gives it one.
+    anim: Option<Animator>,
     /// Model matrix and mesh frame at the start of the current step (computed once per step,
     /// read by every fur stage).
     step_frame: (Mat4, MeshFrame),
@@ -229,14 +272,43 @@ impl World {
                 grass: p.has(SectionKind::BLADE_FIELD),
                 moving: sp.motion.len() > 1,
                 topology: p.has(SectionKind::SPRING_TOPOLOGY),
+                animated: sp.animation.is_some(),
             })
             .collect();
         let stages = plan_stages(&scene.effects, &roles);
         let mut world_packs = Vec::with_capacity(packs.len());
         for (i, (sp, pack)) in packs.into_iter().enumerate() {
             let planned = |k: StageKind| stages.iter().any(|s| s.pack == i && s.kind == k);
+            let anim = match &sp.animation {
+                Some(a) => {
+                    let animator = Animator::new(&pack, &a.clip, a.speed, a.looping, a.start_s)?;
+                    // Every clip an event switches to must exist now, not mid-run.
+                    for e in &scene.events {
+                        if let Event::PlayClip { pack: name, clip, .. } = e {
+                            if *name == sp.name {
+                                animator
+                                    .check_clip(clip)
+                                    .map_err(|source| RuntimeError::Animation { path: pack.display_path(), source })?;
+                            }
+                        }
+                    }
+                    Some(animator)
+                }
+                None => None,
+            };
             let fur = if roles[i].fur {
-                Some(build_fur(&scene, &pack, planned(StageKind::FurSolver), options)?)
+                let mut fur = build_fur(&scene, &pack, planned(StageKind::FurSolver), options)?;
+                if let Some(a) = &anim {
+                    // The fur starts in the bind pose: the first pose is a cut (speed 0).
+                    fur.follow(a, scene.time_step_s as f64, 0.0, &sp.path)?;
+                    if let Some(sim) = &fur.sim {
+                        sim.simulator
+                            .write_scale_vectors(&mut fur.scale_vectors)
+                            .map_err(|source| RuntimeError::Simulation { path: sp.path.clone(), source })?;
+                        fill_rest(&mut fur.scale_vectors, &fur.rest);
+                    }
+                }
+                Some(fur)
             } else {
                 None
             };
@@ -253,7 +325,7 @@ impl World {
             };
             let model = sp.model_at(0.0);
             let step_frame = (model, MeshFrame::of(model));
-            world_packs.push(WorldPack { scene: sp, pack, teleported_m: Vec3::ZERO, fur, grass, step_frame });
+            world_packs.push(WorldPack { scene: sp, pack, teleported_m: Vec3::ZERO, fur, grass, anim, step_frame });
         }
         let interaction_point_m = scene.effects.interaction.and_then(|i| i.position).map(Vec3::from);
         let stats = vec![(0, Duration::ZERO); stages.len()];
@@ -355,6 +427,12 @@ impl World {
         })
     }
 
+    /// The animation of pack `index` — clip, skinning matrices, morph weights, skinned positions
+    /// and normals of the latest step; `None` when the scene gives the pack none.
+    pub fn animation(&self, index: usize) -> Option<&Animator> {
+        self.packs[index].anim.as_ref()
+    }
+
     /// The grass state of pack `index`; `None` when the pack has no blades or no stage pushes
     /// them (they stay in their rest pose: zero corner forces).
     pub fn grass(&self, index: usize) -> Option<GrassFrame<'_>> {
@@ -369,8 +447,8 @@ impl World {
         let model = p.model_at(self.time_s);
         let (scale, rotation, origin) = model.to_scale_rotation_translation();
         let mesh = p.pack.skin_mesh()?;
-        let skin_positions_m =
-            mesh.positions.iter().map(|&x| model.transform_point3(Vec3::from(x)).to_array()).collect();
+        let skin = p.anim.as_ref().map_or(&mesh.positions[..], |a| a.positions());
+        let skin_positions_m = skin.iter().map(|&x| model.transform_point3(Vec3::from(x)).to_array()).collect();
         let mut state = PackState {
             name: p.scene.name.clone(),
             skin_positions_m,
@@ -449,6 +527,17 @@ impl World {
                         sim.simulator.teleport(frame.vector(offset).to_array());
                     }
                 }
+                Event::PlayClip { pack, clip, fade_s, .. } => {
+                    let i = self.pack_index(pack).ok_or_else(|| RuntimeError::Parameter {
+                        what: format!("play_clip names pack {pack:?}, which the scene does not have"),
+                    })?;
+                    let p = &mut self.packs[i];
+                    let path = p.pack.display_path();
+                    let anim = p.anim.as_mut().ok_or_else(|| RuntimeError::Parameter {
+                        what: format!("play_clip: pack {pack:?} has no animation in the scene"),
+                    })?;
+                    anim.play(clip, *fade_s).map_err(|source| RuntimeError::Animation { path, source })?;
+                }
                 Event::ForcesOff { effects, .. } => self.forces_on.set(effects, false),
                 Event::ForcesOn { effects, .. } => self.forces_on.set(effects, true),
             }
@@ -460,6 +549,18 @@ impl World {
     fn run_stage(&mut self, kind: StageKind, index: usize, t: f64, dt: f64) -> Result<(), RuntimeError> {
         if kind == StageKind::GrassForces {
             self.update_grass(index, t + dt);
+            return Ok(());
+        }
+        if kind == StageKind::Animation {
+            let p = &mut self.packs[index];
+            let Some(anim) = p.anim.as_mut() else { return Ok(()) };
+            anim.advance(dt as f32);
+            let path = p.pack.display_path();
+            anim.update().map_err(|source| RuntimeError::Animation { path, source })?;
+            let cut = p.scene.animation.as_ref().map_or(f32::INFINITY, |a| a.cut_speed_m_per_s);
+            if let Some(fur) = p.fur.as_mut() {
+                fur.follow(anim, dt, cut, &p.scene.path)?;
+            }
             return Ok(());
         }
         let (effects, on) = (&self.scene.effects, self.forces_on);
@@ -505,13 +606,9 @@ impl World {
                 let path = &p.scene.path;
                 let err = |source: SimError| RuntimeError::Simulation { path: path.clone(), source };
                 sim.simulator.write_scale_vectors(&mut fur.scale_vectors).map_err(err)?;
-                for (s, n) in fur.scale_vectors.iter_mut().zip(&fur.rest) {
-                    if *s == [0.0; 3] {
-                        *s = *n;
-                    }
-                }
+                fill_rest(&mut fur.scale_vectors, &fur.rest);
             }
-            StageKind::GrassForces => unreachable!("handled above"),
+            StageKind::GrassForces | StageKind::Animation => unreachable!("handled above"),
         }
         Ok(())
     }
@@ -541,6 +638,8 @@ fn build_fur(scene: &Scene, pack: &Pack, simulate: bool, options: WorldOptions) 
             scale_vectors: per_vertex.clone(),
             rest: per_vertex,
             layout: ShellVertexLayout::PerVertex,
+            corner_vertices: Vec::new(),
+            shell_transforms: Vec::new(),
         });
     }
     let parting = scene.effects.parting.is_some();
@@ -592,15 +691,24 @@ fn build_fur(scene: &Scene, pack: &Pack, simulate: bool, options: WorldOptions) 
         ..ForceSet::none()
     };
     let mut scale_vectors = simulator.scale_vectors();
-    for (s, n) in scale_vectors.iter_mut().zip(&rest) {
-        if *s == [0.0; 3] {
-            *s = *n;
-        }
-    }
+    fill_rest(&mut scale_vectors, &rest);
+    let corner_vertices: Vec<u32> =
+        if kind.is_separable() { mesh.triangles.iter().flatten().copied().collect() } else { Vec::new() };
     Ok(FurState {
         sim: Some(FurSim { simulator, topology: kind, forces, last: StepStats::default() }),
         scale_vectors,
         rest,
         layout,
+        shell_transforms: vec![SkinTransform::IDENTITY; corner_vertices.len()],
+        corner_vertices,
     })
+}
+
+/// Where a shell vertex has no scale vector (no fur: `[0, 0, 0]`), its rest direction.
+fn fill_rest(scale_vectors: &mut [[f32; 3]], rest: &[[f32; 3]]) {
+    for (s, n) in scale_vectors.iter_mut().zip(rest) {
+        if *s == [0.0; 3] {
+            *s = *n;
+        }
+    }
 }

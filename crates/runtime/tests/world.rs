@@ -376,7 +376,7 @@ max = [-0.5, 1.0, 1.0]
 #[test]
 fn each_effect_alone_plans_exactly_its_stages() {
     use furbake_runtime::stages::{PackRole, plan_stages};
-    let fur_and_grass = PackRole { fur: true, grass: true, moving: true, topology: true };
+    let fur_and_grass = PackRole { fur: true, grass: true, moving: true, topology: true, animated: false };
     let base = "[[packs]]\nname = \"p\"\npath = \"p.fbk\"\n";
     let solver = ["fur_solver", "fur_scale_vectors"];
     let cases: [(&str, &[&str]); 10] = [

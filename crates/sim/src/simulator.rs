@@ -422,6 +422,10 @@ impl Simulator {
             &mut self.v,
             &mut self.v_next,
         );
+        // Rigid links snap onto their moved anchors at once, as a teleport's do, so the work of
+        // dragging them is measured with the move (the solver's projections then see static
+        // anchors).
+        solvers::project_sticks(&self.model, &mut self.x, &mut self.v);
         self.guard.follow_rest_directions(&self.model, &self.settings.guard);
         self.rotation_next = None;
         self.fresh = true;
@@ -590,6 +594,11 @@ impl Simulator {
                 // `−c · v_k` part only dissipates).
                 for l in m.adj_of(k).iter().filter(|l| l.other as usize >= m.n_free) {
                     f += self.v[l.other as usize] * l.c;
+                }
+                // The stick solver damps a rigid link towards its parent's velocity.
+                let p = m.parent[k];
+                if p != NONE && p as usize >= m.n_free {
+                    f += self.v[p as usize] * m.parent_c[k];
                 }
             }
             // Over the whole displacement, projections included (a teleport's projection is

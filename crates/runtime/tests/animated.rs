@@ -1,0 +1,200 @@
+//! Animated characters in a running [`World`] (the fur thesis's future work, §3.4.1): the bundled
+//! Fox plays its clips, its anchored masses sit on the skinned surface, its fur lags behind the
+//! moving legs, clip switches (with and without a cross-fade) and every solver stay stable, and a
+//! scene that names a clip the pack lacks fails up front.
+
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+use furbake_bake::{BakeSettings, NoProgress, bake};
+use furbake_formats::sections::spring_topology::NO_MASS;
+use furbake_import::{ImportSettings, import_gltf};
+use furbake_runtime::{RuntimeError, Scene, StageKind, World, WorldOptions};
+use furbake_sim::TopologyKind;
+use glam::Vec3;
+
+/// The Fox (fixtures/real, CC-BY 4.0, licence beside it) baked once with three topologies.
+fn fox_dir() -> &'static Path {
+    static DIR: OnceLock<tempfile::TempDir> = OnceLock::new();
+    DIR.get_or_init(|| {
+        let dir = tempfile::tempdir().unwrap();
+        let fox = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/real/Fox.glb");
+        let imported = import_gltf(&fox, &ImportSettings::default()).unwrap();
+        let mut settings = BakeSettings::preset("fur").unwrap();
+        (settings.volume.resolution, settings.volume.layers) = (16, 4);
+        settings.topologies = vec!["prisms".into(), "separable-spring-sticks".into(), "sticks".into()];
+        let baked = bake(&imported, "Fox.glb", &settings, &mut NoProgress).unwrap();
+        baked.to_writer().write_atomic(&dir.path().join("fox.fbk")).unwrap();
+        dir
+    })
+    .path()
+}
+
+/// A scene of the Fox: `body` follows its `[[packs]]` entry; a leading `solver = ...` line goes
+/// above it, where top-level keys belong.
+fn scene(body: &str) -> Scene {
+    let (top, body) = match body.strip_prefix("solver") {
+        Some(rest) => rest.split_once('\n').map_or((body, ""), |(line, tail)| (line, tail)),
+        None => ("", body),
+    };
+    let top = if top.is_empty() { String::new() } else { format!("solver{top}\n") };
+    let text = format!("time_step_s = 0.01\n{top}[[packs]]\nname = \"fox\"\npath = \"fox.fbk\"\n{body}");
+    Scene::from_toml_str(&text, Path::new("t.toml"), fox_dir()).unwrap()
+}
+
+fn world(body: &str) -> World {
+    World::with_options(scene(body), WorldOptions { step_statistics: true }).unwrap()
+}
+
+fn diagonal(positions: &[[f32; 3]]) -> f32 {
+    let lo = positions.iter().fold(Vec3::INFINITY, |a, &p| a.min(Vec3::from(p)));
+    let hi = positions.iter().fold(Vec3::NEG_INFINITY, |a, &p| a.max(Vec3::from(p)));
+    lo.distance(hi)
+}
+
+/// Steps `w` `n` times, checking after each step: finite state, energy within its budget (the
+/// moving skin's work is in the budget), and no scale vector more than the guard's angle from
+/// its posed normal (no fur inside the surface). Returns the peak energy.
+fn run_checked(w: &mut World, n: usize, what: &str) -> f64 {
+    let mut peak = 0.0f64;
+    for step in 0..n {
+        w.step().unwrap_or_else(|e| panic!("{what}: step {step}: {e}"));
+        let fur = w.fur(0).unwrap();
+        let e = fur.last_step.energy.total_j();
+        peak = peak.max(e);
+        let eps = match fur.simulation.map(|s| s.1.name()) {
+            Some("explicit" | "stick") => 0.67,
+            _ => 0.05,
+        };
+        assert!(
+            e <= fur.last_step.energy_budget_j + eps * peak + 1e-9,
+            "{what}: step {step}: energy {e} J over budget"
+        );
+        let normals = w.animation(0).unwrap().normals();
+        let mesh = w.pack(0).skin_mesh().unwrap();
+        let corner_normal = |i: usize| match fur.layout {
+            furbake_runtime::ShellVertexLayout::PerVertex => normals[i],
+            furbake_runtime::ShellVertexLayout::PerCorner => normals[mesh.triangles[i / 3][i % 3] as usize],
+        };
+        for (i, s) in fur.scale_vectors.iter().enumerate() {
+            let s = Vec3::from(*s);
+            assert!(s.is_finite() && (s.length() - 1.0).abs() < 1e-3, "{what}: step {step}: scale vector {i} = {s}");
+            // The guard's default angle is 80°: n·s ≥ cos 80° ≈ 0.17.
+            let d = s.dot(Vec3::from(corner_normal(i)));
+            assert!(d >= 0.17, "{what}: step {step}: scale vector {i} is {d} off its posed normal");
+        }
+    }
+    peak
+}
+
+#[test]
+fn the_walk_drives_the_anchored_masses_and_the_fur_lags_behind() {
+    let mut w = world("[packs.animation]\nclip = \"Walk\"\n[effects.wrong_side_guard]\n");
+    assert_eq!(w.stages()[0].kind, StageKind::Animation);
+    assert!(w.has_stage(StageKind::FurSolver), "an animated skin moves its fur without any force");
+    let bind = w.pack(0).skin_mesh().unwrap().positions.clone();
+    let diag = diagonal(&bind);
+    run_checked(&mut w, 50, "walk");
+    let anim = w.animation(0).unwrap();
+    assert_eq!(anim.clip_name(anim.playback().clip), "Walk");
+    assert!((anim.playback().time_s - 0.5).abs() < 1e-4, "clip time {}", anim.playback().time_s);
+
+    // The skin: what pack_state reports is the skinned mesh, and the legs moved.
+    let state = w.pack_state(0).unwrap();
+    assert_eq!(state.skin_positions_m, anim.positions());
+    let moved = bind.iter().zip(anim.positions()).map(|(a, b)| Vec3::from(*a).distance(Vec3::from(*b)));
+    assert!(moved.fold(0.0, f32::max) > 0.05 * diag, "the walk moves the legs");
+
+    // Every anchored mass sits where the skin's transform puts its rest position.
+    let topo = w.pack(0).spring_topology(TopologyKind::PRISMS).unwrap();
+    let mut anchors = 0;
+    for (v, &[root, _]) in topo.shell_vertex_masses.iter().enumerate() {
+        if root == NO_MASS || topo.mass_anchored[root as usize] == 0 {
+            continue;
+        }
+        let t = anim.transforms()[v];
+        let want = t.matrix.transform_point3(Vec3::from(topo.mass_rest_positions[root as usize]) + t.morph_offset_m);
+        let got = Vec3::from(state.mass_positions_m[root as usize]);
+        assert!(got.distance(want) < 1e-5 * diag.max(1.0), "anchor {root}: {got} vs {want}");
+        anchors += 1;
+    }
+    assert!(anchors > 100, "{anchors} anchors checked");
+
+    // The fur lags: some tip is well away from where the posed skin would hold it at rest.
+    let mut lag = 0.0f32;
+    for (v, &[_, tip]) in topo.shell_vertex_masses.iter().enumerate() {
+        if tip == NO_MASS {
+            continue;
+        }
+        let t = anim.transforms()[v];
+        let rest = t.matrix.transform_point3(Vec3::from(topo.mass_rest_positions[tip as usize]) + t.morph_offset_m);
+        lag = lag.max(rest.distance(Vec3::from(state.mass_positions_m[tip as usize])));
+    }
+    let fur_length = topo.params.fur_length_m;
+    assert!(lag > 0.05 * fur_length, "the fur follows the legs with a lag: largest {lag} m of {fur_length} m fur");
+}
+
+/// The hard cases of issue 11 on the real Fox, for every solver: the Run clip at full speed, a
+/// switch to another clip without a cross-fade, back with one, and a separable topology.
+#[test]
+fn run_and_clip_switches_stay_stable_for_every_solver() {
+    let events = "[[events]]\nkind = \"play_clip\"\nat_s = 0.2\npack = \"fox\"\nclip = \"Survey\"\n\
+                  [[events]]\nkind = \"play_clip\"\nat_s = 0.35\npack = \"fox\"\nclip = \"Run\"\nfade_s = 0.1\n";
+    for (solver, extra) in [
+        ("explicit", ""),
+        ("implicit", ""),
+        ("reference", ""),
+        ("implicit", "[effects.parting]\n"),
+        ("stick", "[effects.parting]\n"),
+    ] {
+        let body = format!(
+            "solver = \"{solver}\"\n[packs.animation]\nclip = \"Run\"\n[effects.wrong_side_guard]\n[effects.gravity]\n{extra}{events}"
+        );
+        let mut w = world(&body);
+        let what = format!("{solver} {extra}");
+        run_checked(&mut w, 50, &what);
+        let anim = w.animation(0).unwrap();
+        assert_eq!(anim.clip_name(anim.playback().clip), "Run", "{what}");
+        assert!((anim.playback().time_s - 0.15).abs() < 1e-4, "{what}: Run restarted at 0.35 s");
+    }
+}
+
+#[test]
+fn clip_time_speed_and_start_are_the_scenes() {
+    // Speed 0 holds the clip at start_s: the pose of a chosen clip time.
+    let mut w = world("[packs.animation]\nclip = \"Walk\"\nspeed = 0.0\nstart_s = 0.4\n[effects.gravity]\n");
+    let at_start = w.animation(0).unwrap().positions().to_vec();
+    for _ in 0..5 {
+        w.step().unwrap();
+    }
+    assert_eq!(w.animation(0).unwrap().positions(), &at_start[..]);
+    assert_eq!(w.animation(0).unwrap().playback().time_s, 0.4);
+    // Looping off clamps at the end; looping on wraps.
+    let duration = w.pack(0).animation_clips().unwrap().unwrap().by_name("Walk").unwrap().duration_s;
+    let mut once = world(&format!("[packs.animation]\nclip = \"Walk\"\nloop = false\nstart_s = {}\n", duration - 0.02));
+    let mut looped = world(&format!("[packs.animation]\nclip = \"Walk\"\nstart_s = {}\n", duration - 0.02));
+    for _ in 0..5 {
+        once.step().unwrap();
+        looped.step().unwrap();
+    }
+    assert_eq!(once.animation(0).unwrap().playback().time_s, duration);
+    assert!((looped.animation(0).unwrap().playback().time_s - 0.03).abs() < 1e-4);
+}
+
+#[test]
+fn a_clip_the_pack_lacks_fails_before_the_first_step() {
+    let err = World::new(scene("[packs.animation]\nclip = \"Dance\"\n")).unwrap_err();
+    assert!(matches!(err, RuntimeError::Animation { .. }), "{err}");
+    let msg = err.to_string();
+    assert!(msg.contains("fox.fbk") && msg.contains("Dance") && msg.contains("Walk"), "{msg}");
+    let event = "[packs.animation]\nclip = \"Walk\"\n[[events]]\nkind = \"play_clip\"\nat_s = 1.0\npack = \"fox\"\nclip = \"Jump\"\n";
+    let msg = World::new(scene(event)).unwrap_err().to_string();
+    assert!(msg.contains("Jump"), "{msg}");
+    // Switching clips needs an animation to switch from; bad values name their key.
+    let text = "[[packs]]\nname = \"fox\"\npath = \"fox.fbk\"\n[[events]]\nkind = \"play_clip\"\nat_s = 1.0\npack = \"fox\"\nclip = \"Run\"\n";
+    let msg = Scene::from_toml_str(text, Path::new("t.toml"), fox_dir()).unwrap_err().to_string();
+    assert!(msg.contains("events[0].pack") && msg.contains("animation"), "{msg}");
+    let text = "[[packs]]\nname = \"fox\"\npath = \"fox.fbk\"\nanimation = { clip = \"Run\", speed = 1e9 }\n";
+    let msg = Scene::from_toml_str(text, Path::new("t.toml"), fox_dir()).unwrap_err().to_string();
+    assert!(msg.contains("packs[0].animation.speed"), "{msg}");
+}
