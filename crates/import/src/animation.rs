@@ -277,6 +277,7 @@ impl Rig {
             self.warnings.push(format!("{}: JOINTS_2/WEIGHTS_2 and beyond ignored (at most 8 influences)", reader.at));
         }
         let mut out = Vec::with_capacity(n);
+        let mut zero_weight = 0u32;
         for (v, &used) in referenced.iter().enumerate().take(n) {
             let mut list: Vec<(u32, f64)> = Vec::with_capacity(MAX_INFLUENCES);
             for (joints, weights) in &sets {
@@ -316,12 +317,12 @@ impl Rig {
             }
             let sum: f64 = list.iter().map(|(_, w)| w).sum();
             if sum <= 0.0 || !sum.is_finite() {
+                // No joint moves it (weights all zero): a reported repair, not a refusal — the
+                // vertex is bound wholly to the skin's first joint, as if renormalised onto it,
+                // so it follows the skeleton instead of collapsing to the origin.
                 if used {
-                    return Err(Rig::error(
-                        file,
-                        at(),
-                        format!("vertex {v}: its weights sum to {} (no joint moves it)", sum + 0.0),
-                    ));
+                    self.stats.renormalised_vertices += 1;
+                    zero_weight += 1;
                 }
                 out.push([(binds[0], 1.0), (0, 0.0), (0, 0.0), (0, 0.0), (0, 0.0), (0, 0.0), (0, 0.0), (0, 0.0)]);
                 continue;
@@ -337,6 +338,13 @@ impl Rig {
             out.push(inf);
         }
         self.stats.skinned_vertices += n as u32;
+        if zero_weight > 0 {
+            self.warnings.push(format!(
+                "{}: {zero_weight} vertices have weights that sum to 0; bound to the skin's first joint \
+                 (counted in renormalised_vertices)",
+                reader.at
+            ));
+        }
         Ok(out)
     }
 

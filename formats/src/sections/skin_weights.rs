@@ -37,7 +37,8 @@ pub struct SkinWeights {
 /// Repairs and counts of the skin-weight import.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct SkinWeightStats {
-    /// Input vertices whose weights did not sum to 1 (±1e-3) and were renormalised.
+    /// Input vertices whose weights did not sum to 1 (±1e-3) and were renormalised; a vertex whose
+    /// weights sum to 0 is bound wholly to its skin's first joint and counted here too.
     pub renormalised_vertices: u32,
     /// Influences dropped: a `JOINTS_2`/`WEIGHTS_2` set or beyond, or negative weights.
     pub dropped_influences: u32,
