@@ -18,8 +18,8 @@ use furbake_formats::sections::spring_topology::NO_MASS;
 use furbake_formats::{PackSections, SectionKind, check_consistency};
 use furbake_grass::{ForceField, ForceScene};
 use furbake_sim::{
-    ForceSet, FrameMotion, GuardParams, SimError, Simulator, SkinTransform, SolverKind, SolverSettings, StepStats,
-    TopologyKind,
+    ForceSet, FrameMotion, GuardParams, SimError, Simulator, SkinMove, SkinTransform, SolverKind, SolverSettings,
+    StepStats, TopologyKind,
 };
 use glam::{Mat4, Vec3};
 use serde::Serialize;
@@ -74,6 +74,9 @@ pub struct FurFrame<'a> {
     /// Statistics of the latest solver step (default before the first step or without one;
     /// energies only with [`WorldOptions::step_statistics`]).
     pub last_step: StepStats,
+    /// The latest pose of the animated skin: its fastest anchor and whether that was a cut
+    /// (default without an animation).
+    pub skin_move: SkinMove,
 }
 
 /// The grass state of one pack after the latest step.
@@ -123,6 +126,7 @@ struct FurSim {
     topology: TopologyKind,
     forces: ForceSet,
     last: StepStats,
+    last_move: SkinMove,
 }
 
 struct FurState {
@@ -161,7 +165,8 @@ impl FurState {
             Some(sim) => {
                 let transforms =
                     if self.corner_vertices.is_empty() { anim.transforms() } else { &self.shell_transforms[..] };
-                sim.simulator
+                sim.last_move = sim
+                    .simulator
                     .pose_skin(transforms, dt_s, cut_speed)
                     .map_err(|source| RuntimeError::Simulation { path: path.to_path_buf(), source })?;
             }
@@ -424,6 +429,7 @@ impl World {
             layout: f.layout,
             simulation: f.sim.as_ref().map(|s| (s.topology, s.simulator.settings().kind)),
             last_step: f.sim.as_ref().map(|s| s.last).unwrap_or_default(),
+            skin_move: f.sim.as_ref().map(|s| s.last_move).unwrap_or_default(),
         })
     }
 
@@ -557,7 +563,10 @@ impl World {
             anim.advance(dt as f32);
             let path = p.pack.display_path();
             anim.update().map_err(|source| RuntimeError::Animation { path, source })?;
-            let cut = p.scene.animation.as_ref().map_or(f32::INFINITY, |a| a.cut_speed_m_per_s);
+            // The cut speed is in world metres per second; the skin moves in the mesh frame,
+            // which the pack's uniform scale maps to the world.
+            let scale = p.step_frame.0.to_scale_rotation_translation().0.x;
+            let cut = p.scene.animation.as_ref().map_or(f32::INFINITY, |a| a.cut_speed_m_per_s) / scale;
             if let Some(fur) = p.fur.as_mut() {
                 fur.follow(anim, dt, cut, &p.scene.path)?;
             }
@@ -695,7 +704,13 @@ fn build_fur(scene: &Scene, pack: &Pack, simulate: bool, options: WorldOptions) 
     let corner_vertices: Vec<u32> =
         if kind.is_separable() { mesh.triangles.iter().flatten().copied().collect() } else { Vec::new() };
     Ok(FurState {
-        sim: Some(FurSim { simulator, topology: kind, forces, last: StepStats::default() }),
+        sim: Some(FurSim {
+            simulator,
+            topology: kind,
+            forces,
+            last: StepStats::default(),
+            last_move: SkinMove::default(),
+        }),
         scale_vectors,
         rest,
         layout,

@@ -30,7 +30,7 @@ fn fox_dir() -> &'static Path {
     .path()
 }
 
-/// A scene of the Fox: `body` follows its `[[packs]]` entry; a leading `solver = ...` line goes
+/// A scene of the Fox (modelled in centimetres, placed at scale 0.01): `body` follows its `[[packs]]` entry; a leading `solver = ...` line goes
 /// above it, where top-level keys belong.
 fn scene(body: &str) -> Scene {
     let (top, body) = match body.strip_prefix("solver") {
@@ -38,7 +38,7 @@ fn scene(body: &str) -> Scene {
         None => ("", body),
     };
     let top = if top.is_empty() { String::new() } else { format!("solver{top}\n") };
-    let text = format!("time_step_s = 0.01\n{top}[[packs]]\nname = \"fox\"\npath = \"fox.fbk\"\n{body}");
+    let text = format!("time_step_s = 0.01\n{top}[[packs]]\nname = \"fox\"\npath = \"fox.fbk\"\nscale = 0.01\n{body}");
     Scene::from_toml_str(&text, Path::new("t.toml"), fox_dir()).unwrap()
 }
 
@@ -95,13 +95,19 @@ fn the_walk_drives_the_anchored_masses_and_the_fur_lags_behind() {
     let bind = w.pack(0).skin_mesh().unwrap().positions.clone();
     let diag = diagonal(&bind);
     run_checked(&mut w, 50, "walk");
+    let skin = w.fur(0).unwrap().skin_move;
+    assert!(!skin.cut && skin.max_anchor_speed_m_per_s > 0.0, "a walk is no cut: {skin:?}");
     let anim = w.animation(0).unwrap();
     assert_eq!(anim.clip_name(anim.playback().clip), "Walk");
     assert!((anim.playback().time_s - 0.5).abs() < 1e-4, "clip time {}", anim.playback().time_s);
 
     // The skin: what pack_state reports is the skinned mesh, and the legs moved.
     let state = w.pack_state(0).unwrap();
-    assert_eq!(state.skin_positions_m, anim.positions());
+    let model = w.model_matrix(0);
+    let world = |p: Vec3| model.transform_point3(p);
+    for (got, p) in state.skin_positions_m.iter().zip(anim.positions()) {
+        assert!(Vec3::from(*got).distance(world(Vec3::from(*p))) < 1e-6, "pack_state reports the skinned skin");
+    }
     let moved = bind.iter().zip(anim.positions()).map(|(a, b)| Vec3::from(*a).distance(Vec3::from(*b)));
     assert!(moved.fold(0.0, f32::max) > 0.05 * diag, "the walk moves the legs");
 
@@ -115,7 +121,7 @@ fn the_walk_drives_the_anchored_masses_and_the_fur_lags_behind() {
         let t = anim.transforms()[v];
         let want = t.matrix.transform_point3(Vec3::from(topo.mass_rest_positions[root as usize]) + t.morph_offset_m);
         let got = Vec3::from(state.mass_positions_m[root as usize]);
-        assert!(got.distance(want) < 1e-5 * diag.max(1.0), "anchor {root}: {got} vs {want}");
+        assert!(got.distance(world(want)) < 1e-6 * diag, "anchor {root}: {got} vs {}", world(want));
         anchors += 1;
     }
     assert!(anchors > 100, "{anchors} anchors checked");
@@ -128,10 +134,33 @@ fn the_walk_drives_the_anchored_masses_and_the_fur_lags_behind() {
         }
         let t = anim.transforms()[v];
         let rest = t.matrix.transform_point3(Vec3::from(topo.mass_rest_positions[tip as usize]) + t.morph_offset_m);
-        lag = lag.max(rest.distance(Vec3::from(state.mass_positions_m[tip as usize])));
+        lag = lag.max(world(rest).distance(Vec3::from(state.mass_positions_m[tip as usize])) / 0.01);
     }
     let fur_length = topo.params.fur_length_m;
     assert!(lag > 0.05 * fur_length, "the fur follows the legs with a lag: largest {lag} m of {fur_length} m fur");
+}
+
+/// The cut speed is in world metres per second: the Fox is modelled in centimetres, and at a scene
+/// scale of 0.01 its walk (under 2 m/s at the feet) is no cut, while a 1 m/s cut speed is.
+#[test]
+fn the_cut_speed_is_in_world_units() {
+    let at = |cut: f32| {
+        let text = format!(
+            "time_step_s = 0.01\n[[packs]]\nname = \"fox\"\npath = \"fox.fbk\"\nscale = 0.01\n\
+             animation = {{ clip = \"Run\", cut_speed_m_per_s = {cut} }}\n"
+        );
+        let mut w = World::new(Scene::from_toml_str(&text, Path::new("t.toml"), fox_dir()).unwrap()).unwrap();
+        let mut cuts = 0;
+        for _ in 0..30 {
+            w.step().unwrap();
+            cuts += u32::from(w.fur(0).unwrap().skin_move.cut);
+        }
+        (cuts, w.fur(0).unwrap().skin_move.max_anchor_speed_m_per_s)
+    };
+    let (cuts, mesh_speed) = at(50.0);
+    assert_eq!(cuts, 0, "running is no cut at 50 m/s (fastest anchor {mesh_speed} cm/s)");
+    assert!(mesh_speed > 100.0, "the feet move over 1 m/s: {mesh_speed} cm/s");
+    assert!(at(1.0).0 > 0, "at a 1 m/s cut speed some steps of the run are cuts");
 }
 
 /// The hard cases of issue 11 on the real Fox, for every solver: the Run clip at full speed, a
