@@ -26,6 +26,7 @@ pub mod blades;
 mod renderer;
 pub mod scene;
 pub mod shaders;
+mod skinning;
 
 use std::path::Path;
 
@@ -38,6 +39,7 @@ pub use blades::{BladeRenderer, BladeSettings};
 pub use furbake_runtime::ShellVertexLayout;
 pub use renderer::{COLOR_FORMAT, DEPTH_FORMAT, FurRenderer, RenderSettings, RenderTarget, ShellBlend};
 pub use scene::{BladeForces, PackInput, PackRenderers, SceneFrame, SceneObject, SceneRenderer};
+pub use skinning::{PosedVertices, SkinningPass};
 
 /// The fixed GPU (or, on lavapipe, host) memory of one fur or blade renderer beyond its data —
 /// pipelines, bind groups, uniform buffers. Measured on lavapipe: a scene of 50 Fox entries took

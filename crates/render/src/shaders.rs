@@ -1,7 +1,7 @@
 //! The WGSL sources (in the workspace's `shaders/` folder, embedded with `include_str!`) and the
-//! Rust mirrors of their uniform structs. The unit tests parse and validate every shader with
-//! naga and check each `#[repr(C)]` struct's size and member offsets against naga's layout of
-//! the WGSL struct of the same name, so the two can never drift apart silently.
+//! Rust mirrors of their uniform and storage structs. The unit tests parse and validate every
+//! shader with naga and check each `#[repr(C)]` struct's size and member offsets against naga's
+//! layout of the WGSL struct of the same name, so the two can never drift apart silently.
 
 /// Skin: Lambert-lit vertex colour (fur thesis §3.2). Like the shell and fin shaders it is
 /// `fur_common.wgsl` (uniforms, effect switches, bindings 0–3, `shell_offset`, `lambert`)
@@ -16,6 +16,10 @@ pub const SHELL_WGSL: &str =
 /// Fins on fin edges (§3.2, fig. 3.16).
 pub const FIN_WGSL: &str =
     concat!(include_str!("../../../shaders/fur_common.wgsl"), include_str!("../../../shaders/fin.wgsl"));
+/// The skinning pass (glTF 2.0 "Morph Targets", "Skins"): the `cs_skin` compute entry point that
+/// morphs and skins every welded vertex of an animated pack once per frame
+/// ([`crate::SkinningPass`]). Stands alone (no `fur_common.wgsl`).
+pub const SKINNING_WGSL: &str = include_str!("../../../shaders/skinning.wgsl");
 
 /// Per-frame uniforms (`Frame` in every shader; binding 0).
 #[repr(C)]
@@ -59,6 +63,33 @@ pub struct FurUniforms {
     pub scale_layout: u32,
     /// Padding to 16 bytes.
     pub pad1: u32,
+}
+
+/// The skinning pass's counts (`SkinningParams` in `skinning.wgsl`; binding 0), written once.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct SkinningParams {
+    /// Welded skin vertices.
+    pub vertex_count: u32,
+    /// Influence slots per vertex: 4 or 8 (`SkinWeights::influences_per_vertex`); 0 without
+    /// skin weights.
+    pub influences_per_vertex: u32,
+    /// Morph targets; 0 without them.
+    pub target_count: u32,
+    /// Padding to 16 bytes.
+    pub pad0: u32,
+}
+
+/// One welded skin vertex (`SkinnedVertex` in `skinning.wgsl` and `fur_common.wgsl`): the bind
+/// pose the skinning pass reads and the posed vertex it writes, which the skin, shell and fin
+/// shaders read by welded vertex index.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct SkinnedVertex {
+    /// Position in metres (xyz; w = 1).
+    pub position: [f32; 4],
+    /// Unit normal (xyz; w = 0).
+    pub normal: [f32; 4],
 }
 
 /// One corner of a skin/shell triangle (vertex buffer 0 of the skin and shell pipelines).
@@ -138,7 +169,12 @@ mod tests {
         assert_eq!(members, [("position".to_string(), 0), ("normal".to_string(), 16)]);
     }
 
-    const SHADERS: [(&str, &str); 3] = [("skin.wgsl", SKIN_WGSL), ("shell.wgsl", SHELL_WGSL), ("fin.wgsl", FIN_WGSL)];
+    const SHADERS: [(&str, &str); 4] = [
+        ("skin.wgsl", SKIN_WGSL),
+        ("shell.wgsl", SHELL_WGSL),
+        ("fin.wgsl", FIN_WGSL),
+        ("skinning.wgsl", SKINNING_WGSL),
+    ];
 
     #[test]
     fn every_shader_parses_and_validates() {
@@ -150,7 +186,7 @@ mod tests {
         entry_points.sort();
         assert_eq!(
             entry_points,
-            ["cs_shell_positions", "fs_fin", "fs_shell", "fs_skin", "vs_fin", "vs_shell", "vs_skin"]
+            ["cs_shell_positions", "cs_skin", "fs_fin", "fs_shell", "fs_skin", "vs_fin", "vs_shell", "vs_skin"]
         );
     }
 
@@ -205,6 +241,21 @@ mod tests {
             ("pad1", offset_of!(FurUniforms, pad1)),
         ];
         assert_eq!(check_layout("Fur", size_of::<FurUniforms>(), &fur), 3, "Fur is in all three shaders");
+        let params = [
+            ("vertex_count", offset_of!(SkinningParams, vertex_count)),
+            ("influences_per_vertex", offset_of!(SkinningParams, influences_per_vertex)),
+            ("target_count", offset_of!(SkinningParams, target_count)),
+            ("pad0", offset_of!(SkinningParams, pad0)),
+        ];
+        assert_eq!(check_layout("SkinningParams", size_of::<SkinningParams>(), &params), 1, "in skinning.wgsl");
+    }
+
+    #[test]
+    fn storage_structs_match_the_shaders() {
+        use std::mem::{offset_of, size_of};
+        let skinned =
+            [("position", offset_of!(SkinnedVertex, position)), ("normal", offset_of!(SkinnedVertex, normal))];
+        assert_eq!(check_layout("SkinnedVertex", size_of::<SkinnedVertex>(), &skinned), 1, "in skinning.wgsl");
     }
 
     #[test]
