@@ -4,8 +4,9 @@
 //! layout of the WGSL struct of the same name, so the two can never drift apart silently.
 
 /// Skin: Lambert-lit vertex colour (fur thesis §3.2). Like the shell and fin shaders it is
-/// `fur_common.wgsl` (uniforms, effect switches, bindings 0–3, `shell_offset`, `lambert`)
-/// followed by its own file: WGSL has no includes, so the shared part is prepended here.
+/// `fur_common.wgsl` (uniforms, effect switches, bindings 0–3 and 8, `posed_vertex`,
+/// `shell_offset`, `lambert`) followed by its own file: WGSL has no includes, so the shared part
+/// is prepended here.
 pub const SKIN_WGSL: &str =
     concat!(include_str!("../../../shaders/fur_common.wgsl"), include_str!("../../../shaders/skin.wgsl"));
 /// Shells: extrusion, eq. 3.36 shearing, shell alpha, self-shadow, Lambert (§3.2, §3.4.2); also
@@ -92,6 +93,21 @@ pub struct SkinnedVertex {
     pub normal: [f32; 4],
 }
 
+/// One input vertex of the shell readback probe (`ProbeVertex` in `shell.wgsl`, read by
+/// `cs_shell_positions`; [`crate::FurRenderer::shell_positions`]).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct ProbeVertex {
+    /// Bind-pose position in metres (xyz; w unused).
+    pub position: [f32; 4],
+    /// Bind-pose unit normal (xyz; w unused).
+    pub normal: [f32; 4],
+    /// Welded vertex index (where an animated pack's posed root is read).
+    pub vertex_index: u32,
+    /// Padding to the struct's 16-byte alignment.
+    pub pad: [u32; 3],
+}
+
 /// One corner of a skin/shell triangle (vertex buffer 0 of the skin and shell pipelines).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
@@ -134,6 +150,9 @@ pub struct FinVertex {
     /// `3 × triangle + corner` of this edge end in the furry triangle the fin grows from (into
     /// the scale-vector buffer when it holds one vector per triangle corner).
     pub corner_index: u32,
+    /// Welded vertex indices of that triangle's corners: an animated pack's fin computes its
+    /// face normal from their posed positions.
+    pub face_vertices: [u32; 3],
 }
 
 /// Vertex attributes of [`SurfaceVertex`], locations 0–6 as in `skin.wgsl` / `shell.wgsl`.
@@ -141,10 +160,10 @@ pub const SURFACE_ATTRIBUTES: [wgpu::VertexAttribute; 7] = wgpu::vertex_attr_arr
     0 => Float32x3, 1 => Float32x3, 2 => Float32x4, 3 => Float32x2, 4 => Uint32, 5 => Uint32, 6 => Uint32
 ];
 
-/// Vertex attributes of [`FinVertex`], locations 0–7 as in `fin.wgsl`.
-pub const FIN_ATTRIBUTES: [wgpu::VertexAttribute; 8] = wgpu::vertex_attr_array![
+/// Vertex attributes of [`FinVertex`], locations 0–8 as in `fin.wgsl`.
+pub const FIN_ATTRIBUTES: [wgpu::VertexAttribute; 9] = wgpu::vertex_attr_array![
     0 => Float32x3, 1 => Float32x3, 2 => Float32x3, 3 => Float32x4, 4 => Float32, 5 => Float32, 6 => Uint32,
-    7 => Uint32
+    7 => Uint32, 8 => Uint32x3
 ];
 
 #[cfg(test)]
@@ -160,13 +179,24 @@ mod tests {
         (module, info)
     }
 
-    /// The probe vertex of `cs_shell_positions` (two `vec4<f32>`).
+    /// The probe vertex of `cs_shell_positions` (two `vec4<f32>`, the welded index, padding).
     #[test]
     fn the_shell_probe_vertex_matches_the_shader() {
+        use std::mem::{offset_of, size_of};
         let (module, _) = validated("shell.wgsl", SHELL_WGSL);
         let (span, members) = wgsl_struct(&module, "ProbeVertex").expect("shell.wgsl declares ProbeVertex");
-        assert_eq!(span as usize, std::mem::size_of::<[[f32; 4]; 2]>());
-        assert_eq!(members, [("position".to_string(), 0), ("normal".to_string(), 16)]);
+        assert_eq!(span as usize, size_of::<ProbeVertex>());
+        let pad = offset_of!(ProbeVertex, pad);
+        let rust = [
+            ("position", offset_of!(ProbeVertex, position)),
+            ("normal", offset_of!(ProbeVertex, normal)),
+            ("vertex_index", offset_of!(ProbeVertex, vertex_index)),
+            ("pad0", pad),
+            ("pad1", pad + 4),
+            ("pad2", pad + 8),
+        ];
+        let got: Vec<(&str, usize)> = members.iter().map(|(n, o)| (n.as_str(), *o as usize)).collect();
+        assert_eq!(got, rust);
     }
 
     const SHADERS: [(&str, &str); 4] = [
@@ -255,7 +285,8 @@ mod tests {
         use std::mem::{offset_of, size_of};
         let skinned =
             [("position", offset_of!(SkinnedVertex, position)), ("normal", offset_of!(SkinnedVertex, normal))];
-        assert_eq!(check_layout("SkinnedVertex", size_of::<SkinnedVertex>(), &skinned), 1, "in skinning.wgsl");
+        // Written by skinning.wgsl, read by the three fur shaders (fur_common.wgsl).
+        assert_eq!(check_layout("SkinnedVertex", size_of::<SkinnedVertex>(), &skinned), 4);
     }
 
     #[test]
@@ -284,9 +315,10 @@ mod tests {
             offset_of!(FinVertex, height),
             offset_of!(FinVertex, vertex_index),
             offset_of!(FinVertex, corner_index),
+            offset_of!(FinVertex, face_vertices),
         ];
         let got: Vec<usize> = FIN_ATTRIBUTES.iter().map(|a| a.offset as usize).collect();
         assert_eq!(got, fin);
-        assert_eq!(FIN_ATTRIBUTES[7].offset as usize + 4, size_of::<FinVertex>());
+        assert_eq!(FIN_ATTRIBUTES[8].offset as usize + 12, size_of::<FinVertex>());
     }
 }

@@ -7,7 +7,10 @@
 //! with eight influences, mirrored and non-uniformly scaled joints and three morph targets (with
 //! and without normal deltas, one at weight 0), morph-only and skin-only; a joint scaled to zero
 //! (its vertices collapse, normals fall back to the bind normal, nothing is NaN); typed errors for
-//! bad poses.
+//! bad poses; and a baked Fox drawn by a [`FurRenderer`], whose shells grow from the skinned
+//! vertices with their scale vectors turned onto the posed normals (the `shell_positions` probe
+//! against the CPU, per vertex at rest and per corner tilted) and whose posed frame differs from
+//! the bind pose.
 //!
 //! Tolerances, and why: the GPU evaluates the reference's f32 formula in the same order, so the
 //! only differences are fused multiply-adds and the driver's `length`/division (Vulkan allows a
@@ -19,11 +22,17 @@
 use std::path::Path;
 use std::sync::OnceLock;
 
+use furbake_bake::{BakeSettings, NoProgress, bake};
+use furbake_formats::SectionKind;
 use furbake_formats::sections::morph_targets::{MorphGroup, MorphTargets};
 use furbake_formats::sections::skin_mesh::SkinMesh;
 use furbake_formats::sections::skin_weights::SkinWeights;
 use furbake_import::{ImportSettings, ImportedMesh, import_gltf};
-use furbake_render::{HeadlessGpu, RenderError, SkinningPass};
+use furbake_render::{
+    FurAsset, FurRenderer, HeadlessGpu, RenderError, RenderSettings, RenderTarget, ShellVertexLayout, SkinningPass,
+    View, read_back,
+};
+use furbake_runtime::Pack;
 use furbake_runtime::animation::{AnimationPlayer, Pose, joint_world_matrices, morph_and_skin, skinning_matrices};
 use glam::{Mat4, Quat, Vec3};
 
@@ -390,6 +399,132 @@ fn bad_poses_and_sections_are_typed_errors() {
     let err = SkinningPass::new(&g.device, &mesh, None, None).err().unwrap();
     assert!(matches!(err, RenderError::Parameter { .. }), "{err}");
     g.check().unwrap();
+}
+
+/// The Fox baked (16 layers of 32² shells) into a pack, and that pack opened.
+fn fox_pack() -> &'static (tempfile::TempDir, Pack) {
+    static PACK: OnceLock<(tempfile::TempDir, Pack)> = OnceLock::new();
+    PACK.get_or_init(|| {
+        let mut settings = BakeSettings::preset("fur").unwrap();
+        settings.volume.layers = 16;
+        settings.volume.resolution = 32;
+        let baked = bake(fox(), "fox", &settings, &mut NoProgress).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("fox.fbk");
+        baked.to_writer().write_atomic(&path).unwrap();
+        let pack = Pack::open(&path).unwrap();
+        (dir, pack)
+    })
+}
+
+/// `s` turned by the shortest-arc rotation taking unit `from` to unit `to` (Rodrigues, in f64).
+/// Not glam's `Quat::from_rotation_arc`: that one snaps rotations below ~5e-4 rad to identity,
+/// while a vertex of the Fox turns by 6e-4 rad, which over the fur's height is a 1e-5 × diagonal
+/// error.
+fn shortest_arc(s: Vec3, from: Vec3, to: Vec3) -> Vec3 {
+    let (s, a, b) = (s.as_dvec3(), from.as_dvec3(), to.as_dvec3());
+    let (c, axis) = (a.dot(b), a.cross(b));
+    (s * c + axis.cross(s) + axis * (axis.dot(s) / (1.0 + c))).as_vec3()
+}
+
+#[test]
+fn the_fur_renderer_grows_every_shell_from_the_skinned_vertices() {
+    let g = gpu();
+    let pack = &fox_pack().1;
+    let asset = FurAsset::from_pack(pack, true).unwrap();
+    assert!(asset.is_animated() && asset.skin_weights().is_some());
+    assert!(pack.kinds_read().contains(&SectionKind::SKIN_WEIGHTS));
+    assert!(!pack.kinds_read().contains(&SectionKind::ANIMATION_CLIPS), "the renderer never reads clips");
+    let settings = RenderSettings { shell_layers: Some(4), ..Default::default() };
+    let renderer = FurRenderer::new(&g.device, &g.queue, &asset, &settings).unwrap();
+    let skinning = renderer.skinning().expect("an animated asset has a skinning pass");
+    assert_eq!(skinning.vertex_count() as usize, asset.mesh().positions.len());
+
+    let (palette, morph_weights) = pose_of(fox(), "Run", 0.3, |_| {});
+    renderer.set_pose(&g.queue, &palette, &morph_weights).unwrap();
+    let mesh = asset.mesh();
+    let cpu = cpu_skin(mesh, asset.skin_weights(), asset.morph_targets(), &palette, &morph_weights);
+    let (v, layers) = (mesh.positions.len(), renderer.drawn_layers());
+    let (length, k) = (asset.shells().fur_length_m, settings.shear_exponent);
+    let diagonal = diagonal(mesh);
+    // The skinned root's tolerance, plus the normal's and the scale vector's angles over the
+    // shell's height and shear (≤ 2 fur lengths each), plus the driver's pow on t^k (physics.rs).
+    let tolerance = POSITION_TOLERANCE
+        + (4.0 * NORMAL_TOLERANCE_RAD + f64::from(k) * 2f64.powi(-20) * 2.0) * f64::from(length) / diagonal;
+    // Scale vectors in the bind-pose mesh frame, per welded vertex or per triangle corner: the
+    // rest pose (s = bind normal) and every s tilted about 30° off its normal.
+    let bind_normal = |i: usize| Vec3::from(mesh.normals[i]).normalize();
+    let tilted = |i: usize| {
+        let n = bind_normal(i);
+        (n + 0.6 * n.cross(Vec3::X).try_normalize().unwrap_or(Vec3::Z)).normalize()
+    };
+    let per_vertex: Vec<u32> = (0..v as u32).collect();
+    let per_corner: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
+    let layouts = [
+        ("rest, per vertex", ShellVertexLayout::PerVertex, &per_vertex, false),
+        ("tilted, per corner", ShellVertexLayout::PerCorner, &per_corner, true),
+    ];
+    let mut checked = 0;
+    for (what, layout, welded, tilt) in layouts {
+        let bind_s: Vec<Vec3> =
+            welded.iter().map(|&i| if tilt { tilted(i as usize) } else { bind_normal(i as usize) }).collect();
+        let raw: Vec<[f32; 3]> = bind_s.iter().map(|s| s.to_array()).collect();
+        renderer.set_shell_scale_vectors(&g.queue, &raw, layout).unwrap();
+        let shells = renderer.shell_positions(&g.device, &g.queue, &asset).unwrap();
+        assert_eq!(shells.len(), welded.len() * layers as usize, "{what}");
+        let mut worst = 0.0f64;
+        for layer in 0..layers {
+            for (c, &i) in welded.iter().enumerate() {
+                let (p, n) = (Vec3::from(cpu[i as usize].0), Vec3::from(cpu[i as usize].1));
+                // fur_common.wgsl `posed_scale_vector`: s turned by the shortest arc from the
+                // bind normal to the posed normal (no vertex of this pose turns inside out).
+                let nb = bind_normal(i as usize);
+                assert!(nb.dot(n) > -0.999, "{what}: vertex {i} turned inside out");
+                let s = shortest_arc(bind_s[c], nb, n);
+                let expected = furbake_sim::shell_vertex_position(p, n, s, layer + 1, layers, length, k).as_dvec3();
+                let got = Vec3::from(shells[layer as usize * welded.len() + c]).as_dvec3();
+                let err = got.distance(expected) / diagonal;
+                assert!(err <= tolerance, "{what}, layer {layer}, shell vertex {c}: GPU {got} vs CPU {expected}");
+                worst = worst.max(err);
+                checked += 1;
+            }
+        }
+        println!("posed shells, {what}: {} positions, worst error {worst:.2e} × diagonal", shells.len());
+    }
+    assert_eq!(checked, (v + per_corner.len()) * layers as usize);
+    renderer.set_scale_vectors(&g.queue, &mesh.normals).unwrap();
+
+    // The frame: bind pose and posed differ, both drawn (the fins' posed face normals, the skin
+    // and the shells all compile and run with SKINNED).
+    let target = RenderTarget::new(&g.device, 128, 128).unwrap();
+    let view = View::framing(asset.bounding_sphere().0, asset.bounding_sphere().1 * 1.3);
+    let draw = |palette: &[Mat4]| {
+        renderer.set_pose(&g.queue, palette, &morph_weights).unwrap();
+        renderer.render(&g.device, &g.queue, &target, &view);
+        read_back(&g.device, &g.queue, &target).unwrap()
+    };
+    let bind_pose = draw(&vec![Mat4::IDENTITY; palette.len()]);
+    let running = draw(&palette);
+    g.check().unwrap();
+    let bg = bind_pose.get_pixel(0, 0).0;
+    let drawn = |img: &image::RgbaImage| img.pixels().filter(|p| p.0 != bg).count();
+    let changed = bind_pose.pixels().zip(running.pixels()).filter(|(a, b)| a != b).count();
+    println!("bind pose {} px, running {} px, {changed} px changed", drawn(&bind_pose), drawn(&running));
+    assert!(drawn(&bind_pose) > 1000 && drawn(&running) > 1000);
+    assert!(changed > 200, "the pose changed only {changed} pixels");
+    running.save(std::env::temp_dir().join("furbake_fox_running.png")).unwrap();
+
+    // A static asset has no pass and refuses a pose.
+    let fins = Some((pack.fin_atlas().unwrap(), pack.fin_edges().unwrap()));
+    let still =
+        FurAsset::new(pack.skin_mesh().unwrap(), pack.shell_atlas().unwrap(), pack.triangle_uv_map().unwrap(), fins)
+            .unwrap();
+    assert!(!still.is_animated());
+    let static_renderer = FurRenderer::new(&g.device, &g.queue, &still, &settings).unwrap();
+    assert!(static_renderer.skinning().is_none());
+    let err = static_renderer.set_pose(&g.queue, &palette, &morph_weights).unwrap_err();
+    assert!(matches!(err, RenderError::Parameter { .. }), "{err}");
+    assert!(asset.gpu_bytes(true) > still.gpu_bytes(true) + 64 * mesh.positions.len() as u64);
 }
 
 /// Milliseconds per frame of `frames` frames that each write a pose from `poses`, record the
