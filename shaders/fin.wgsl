@@ -4,8 +4,11 @@
 // (u along the edge in texture repeats, v from tip (0) to root (1)), faded by how much the
 // surface faces the viewer: fins fill the gaps between shells where the surface is seen
 // edge-on, and vanish where the shells already read well.
-// Prepended at load time: fur_common.wgsl (uniforms, switches, bindings 0–3, SurfaceIn,
-// shell_offset, lambert).
+// An animated pack's fins stand on the skinning pass's posed vertices, and their face normal is
+// computed here from the posed corners of the triangle they grow from (a bind-pose face normal
+// would fade them by the wrong facing once the skin moves).
+// Prepended at load time: fur_common.wgsl (uniforms, switches, bindings 0–3 and 8, SurfaceIn,
+// posed_vertex, posed_scale_vector, shell_offset, lambert).
 
 @group(0) @binding(6) var fin_alpha: texture_2d<f32>;
 @group(0) @binding(7) var fin_sampler: sampler;
@@ -25,6 +28,8 @@ struct FinIn {
     @location(6) vertex_index: u32,
     // 3·triangle + corner of this edge end in the furry triangle the fin grows from.
     @location(7) corner_index: u32,
+    // Welded vertex indices of that triangle's corners (its posed face normal when SKINNED).
+    @location(8) face_vertices: vec3<u32>,
 };
 
 struct FinOut {
@@ -37,18 +42,37 @@ struct FinOut {
     @location(5) height: f32,
 };
 
+// Normal (not necessarily unit) of the furry triangle a fin grows from: the bind-pose face normal
+// from the vertex attributes, or when SKINNED the cross product of its posed edges (the CPU's
+// (j − i) × (k − i)), falling back to the posed vertex normal `n` where the posed triangle has
+// collapsed.
+fn fin_face_normal(v: FinIn, n: vec3<f32>) -> vec3<f32> {
+    if !SKINNED {
+        return v.face_normal;
+    }
+    let i = skinned[v.face_vertices.x].position.xyz;
+    let j = skinned[v.face_vertices.y].position.xyz;
+    let k = skinned[v.face_vertices.z].position.xyz;
+    let face = cross(j - i, k - i);
+    if dot(face, face) > 0.0 {
+        return face;
+    }
+    return n;
+}
+
 @vertex
 fn vs_fin(v: FinIn) -> FinOut {
-    let n = normalize(v.normal);
-    let s = scale_vectors[scale_index(v.vertex_index, v.corner_index)].xyz;
-    let world = to_world(v.position + shell_offset(n, s, v.height));
+    let root = posed_vertex(v.vertex_index, v.position, v.normal);
+    let n = normalize(root.normal.xyz);
+    let s = posed_scale_vector(scale_vectors[scale_index(v.vertex_index, v.corner_index)].xyz, v.normal, n);
+    let world = to_world(root.position.xyz + shell_offset(n, s, v.height));
     var out: FinOut;
     out.clip = frame.view_proj * vec4<f32>(world, 1.0);
     out.normal = normal_to_world(n);
     out.color = v.color;
     out.uv = vec2<f32>(v.along_m / fur.fin_repeat_m, 1.0 - v.height);
     out.world = world;
-    out.face_normal = normal_to_world(v.face_normal);
+    out.face_normal = normal_to_world(fin_face_normal(v, n));
     out.height = v.height;
     return out;
 }

@@ -1,9 +1,9 @@
 // fur_common.wgsl — what the skin, shell and fin shaders share: the frame and fur uniforms (each
 // checked against its #[repr(C)] Rust twin in crates/render/src/shaders.rs), the effect switches
 // (pipeline-overridable constants, set from the scene's effects), the bindings of group 0, the
-// surface vertex layout, the eq. 3.36 shell offset, the object→world model transform and Lambert
-// shading. The renderer prepends this
-// file to each of them (WGSL has no includes).
+// surface vertex layout, the posed root of a vertex (the bind pose, or the skinning pass's output
+// for an animated pack), the eq. 3.36 shell offset, the object→world model transform and Lambert
+// shading. The renderer prepends this file to each of them (WGSL has no includes).
 
 struct Frame {
     view_proj: mat4x4<f32>,
@@ -44,6 +44,11 @@ override SHADOW: bool = true;
 override SHEAR: bool = true;
 // true: alpha-blended output; false: alpha-tested (opaque) output.
 override ALPHA_BLEND: bool = true;
+// The pack is animated (skin weights or morph targets, glTF 2.0 "Skins", "Morph Targets"): the
+// skinning pass (skinning.wgsl) writes this frame's posed welded vertices into `skinned`, and
+// every stage reads its roots there by welded vertex index (no re-skinning per shell layer).
+// false: the bind pose from the vertex attributes, exactly as for an unanimated pack.
+override SKINNED: bool = false;
 
 @group(0) @binding(0) var<uniform> frame: Frame;
 @group(0) @binding(1) var<uniform> fur: Fur;
@@ -51,6 +56,17 @@ override ALPHA_BLEND: bool = true;
 // vector s (eq. 3.35); w unused.
 @group(0) @binding(2) var<storage, read> scale_vectors: array<vec4<f32>>;
 @group(0) @binding(3) var<storage, read> shadow: array<f32>;
+
+// One welded skin vertex as posed by the skinning pass: xyz position in metres (w = 1), xyz unit
+// normal (w = 0). The same struct as skinning.wgsl's.
+struct SkinnedVertex {
+    position: vec4<f32>,
+    normal: vec4<f32>,
+};
+
+// This frame's posed welded vertices (the skinning pass's output), read only when SKINNED; a
+// one-entry placeholder otherwise.
+@group(0) @binding(8) var<storage, read> skinned: array<SkinnedVertex>;
 
 struct SurfaceIn {
     @location(0) position: vec3<f32>,
@@ -68,6 +84,35 @@ struct SurfaceIn {
 // `corner_index`, for the buffer's current layout (Fur.scale_layout).
 fn scale_index(vertex_index: u32, corner_index: u32) -> u32 {
     return select(vertex_index, corner_index, fur.scale_layout == 1u);
+}
+
+// The root of welded vertex `vertex_index` this frame: its skinned position and normal when
+// SKINNED, else the bind pose `position` and `normal` from the vertex attributes.
+fn posed_vertex(vertex_index: u32, position: vec3<f32>, normal: vec3<f32>) -> SkinnedVertex {
+    if SKINNED {
+        return skinned[vertex_index];
+    }
+    return SkinnedVertex(vec4<f32>(position, 1.0), vec4<f32>(normal, 0.0));
+}
+
+// A scale vector s (eq. 3.35) carried onto the posed skin. The physics simulates in the pack's
+// mesh frame, the bind pose (docs/design.md "Runtime: scenes and stages"), so when SKINNED, s is
+// turned by the shortest-arc rotation that takes the bind normal `bind_normal` to the posed unit
+// normal `posed_normal`: the rest pose s = n stays unsheared on the posed skin, and a shear keeps
+// its angle to the surface. Unchanged when not SKINNED.
+fn posed_scale_vector(s: vec3<f32>, bind_normal: vec3<f32>, posed_normal: vec3<f32>) -> vec3<f32> {
+    if !SKINNED {
+        return s;
+    }
+    let a = normalize(bind_normal);
+    let c = dot(a, posed_normal);
+    if c < -0.9999 {
+        // Turned (nearly) inside out: no unique shortest arc; mirror across the tangent plane.
+        return s - 2.0 * dot(s, a) * a;
+    }
+    // Rodrigues' rotation with axis·sin θ = a × b and cos θ = a·b.
+    let axis = cross(a, posed_normal);
+    return s * c + cross(axis, s) + axis * (dot(axis, s) / (1.0 + c));
 }
 
 // Offset of a point at relative height t in [0, 1] above a vertex with unit normal n and scale

@@ -6,9 +6,12 @@
 // no shear), one per welded vertex or — separable topologies, parted fur (§3.4.1) — one per
 // triangle corner, so two triangles sharing a vertex can shear apart. Fragment: alpha from the shell texture array, colour = vertex colour ×
 // tint × per-layer self-shadow factor × Lambert.
-// Prepended at load time: fur_common.wgsl (uniforms, switches, bindings 0–3, SurfaceIn,
-// shell_offset, to_world, lambert). Also a compute entry point, `cs_shell_positions`, that reads
-// back `shell_vertex` for tests.
+// An animated pack's shells grow from the skinning pass's posed vertices (fur_common.wgsl
+// `posed_vertex`; its scale vectors turned with the normal, `posed_scale_vector`), so every layer
+// reads one skinned root instead of re-skinning.
+// Prepended at load time: fur_common.wgsl (uniforms, switches, bindings 0–3 and 8, SurfaceIn,
+// posed_vertex, shell_offset, to_world, lambert). Also a compute entry point,
+// `cs_shell_positions`, that reads back `shell_vertex` for tests.
 
 @group(0) @binding(4) var shell_alpha: texture_2d_array<f32>;
 @group(0) @binding(5) var repeat_sampler: sampler;
@@ -21,24 +24,26 @@ struct ShellOut {
     @location(3) @interpolate(flat) slice: u32,
 };
 
-// Object-space position of a skin vertex (position, normal, scale-vector index) on shell `layer`
-// (0 = innermost, t = (layer + 1)/drawn_layers): the extrusion and eq. 3.36 shear. Used by the
-// draw (`vs_shell`) and by the readback probe (`cs_shell_positions`), so tests compare exactly
-// what is drawn with the CPU reference `furbake_sim::shell_vertex_position`.
-fn shell_vertex(position: vec3<f32>, normal: vec3<f32>, scale_at: u32, layer: u32) -> vec3<f32> {
+// Object-space position of a skin vertex (welded index, bind position and normal, scale-vector
+// index) on shell `layer` (0 = innermost, t = (layer + 1)/drawn_layers): the extrusion and
+// eq. 3.36 shear from the vertex's posed root. Used by the draw (`vs_shell`) and by the readback
+// probe (`cs_shell_positions`), so tests compare exactly what is drawn with the CPU reference
+// `furbake_sim::shell_vertex_position`.
+fn shell_vertex(vertex_index: u32, position: vec3<f32>, normal: vec3<f32>, scale_at: u32, layer: u32) -> vec3<f32> {
     let t = f32(layer + 1u) / f32(fur.drawn_layers);
-    let n = normalize(normal);
-    let s = scale_vectors[scale_at].xyz;
-    return position + shell_offset(n, s, t);
+    let root = posed_vertex(vertex_index, position, normal);
+    let n = normalize(root.normal.xyz);
+    let s = posed_scale_vector(scale_vectors[scale_at].xyz, normal, n);
+    return root.position.xyz + shell_offset(n, s, t);
 }
 
 @vertex
 fn vs_shell(v: SurfaceIn, @builtin(instance_index) layer: u32) -> ShellOut {
     let scale_at = scale_index(v.vertex_index, v.corner_index);
-    let world = to_world(shell_vertex(v.position, v.normal, scale_at, layer));
+    let world = to_world(shell_vertex(v.vertex_index, v.position, v.normal, scale_at, layer));
     var out: ShellOut;
     out.clip = frame.view_proj * vec4<f32>(world, 1.0);
-    out.normal = normal_to_world(v.normal);
+    out.normal = normal_to_world(posed_vertex(v.vertex_index, v.position, v.normal).normal.xyz);
     out.color = v.color;
     out.uv = v.uv;
     out.slice = min(fur.atlas_layers - 1u, (layer * fur.atlas_layers) / fur.drawn_layers);
@@ -69,11 +74,16 @@ fn fs_shell(in: ShellOut) -> @location(0) vec4<f32> {
     return vec4<f32>(rgb, 1.0);
 }
 
-// Readback probe: one shell vertex (xyz of each; w unused), in the scale-vector buffer's order
-// (welded vertices, or triangle corners when Fur.scale_layout = 1).
+// Readback probe: one shell vertex (bind position and normal, xyz of each; w unused, and its
+// welded vertex index for the posed root), in the scale-vector buffer's order (welded vertices,
+// or triangle corners when Fur.scale_layout = 1).
 struct ProbeVertex {
     position: vec4<f32>,
     normal: vec4<f32>,
+    vertex_index: u32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
 };
 
 @group(1) @binding(0) var<storage, read> probe_vertices: array<ProbeVertex>;
@@ -91,5 +101,5 @@ fn cs_shell_positions(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(nu
     let v = i % count;
     let layer = i / count;
     let p = probe_vertices[v];
-    probe_out[i] = vec4<f32>(shell_vertex(p.position.xyz, p.normal.xyz, v, layer), 1.0);
+    probe_out[i] = vec4<f32>(shell_vertex(p.vertex_index, p.position.xyz, p.normal.xyz, v, layer), 1.0);
 }

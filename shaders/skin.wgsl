@@ -2,8 +2,8 @@
 // first"). Lambert diffuse (Lambert's cosine law, §3.2) with an ambient term, colour from the
 // vertex colour; under fur the skin takes the innermost layer's self-shadow factor, so gaps
 // between hairs read as the dark bottom of the coat.
-// Prepended at load time: fur_common.wgsl (uniforms, switches, bindings 0–3, SurfaceIn,
-// shell_offset, lambert).
+// Prepended at load time: fur_common.wgsl (uniforms, switches, bindings 0–3 and 8, SurfaceIn,
+// posed_vertex, shell_offset, lambert).
 
 struct SkinOut {
     @builtin(position) clip: vec4<f32>,
@@ -15,8 +15,9 @@ struct SkinOut {
 @vertex
 fn vs_skin(v: SurfaceIn) -> SkinOut {
     var out: SkinOut;
-    out.clip = frame.view_proj * vec4<f32>(to_world(v.position), 1.0);
-    out.normal = normal_to_world(v.normal);
+    let root = posed_vertex(v.vertex_index, v.position, v.normal);
+    out.clip = frame.view_proj * vec4<f32>(to_world(root.position.xyz), 1.0);
+    out.normal = normal_to_world(root.normal.xyz);
     out.color = v.color;
     out.flags = v.flags;
     return out;

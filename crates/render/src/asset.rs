@@ -3,14 +3,18 @@
 //! corners de-indexed (the shell UV map is per triangle corner, fur thesis §3.2, fig. 3.18–3.19),
 //! fin quads on the fin edges (§3.2, fig. 3.16), the shell vertices in either scale-vector
 //! layout (per welded vertex, or per triangle corner for parted fur, §3.4.1), and the
-//! box-filtered mip chain of the shell and fin atlases.
+//! box-filtered mip chain of the shell and fin atlases. An animated pack also brings its skin
+//! weights and morph targets (glTF 2.0 "Skins", "Morph Targets"), which the renderer's skinning
+//! pass ([`crate::SkinningPass`]) uploads.
 
 use std::sync::Arc;
 
 use furbake_formats::sections::fin_atlas::FinAtlas;
 use furbake_formats::sections::fin_edges::FinEdges;
+use furbake_formats::sections::morph_targets::MorphTargets;
 use furbake_formats::sections::shell_atlas::ShellAtlas;
 use furbake_formats::sections::skin_mesh::SkinMesh;
+use furbake_formats::sections::skin_weights::SkinWeights;
 use furbake_formats::sections::triangle_uv_map::TriangleUvMap;
 use furbake_runtime::{Pack, ShellVertexLayout};
 use glam::Vec3;
@@ -25,11 +29,15 @@ pub struct FurAsset {
     shells: Arc<ShellAtlas>,
     uv_map: Arc<TriangleUvMap>,
     fins: Option<(Arc<FinAtlas>, Arc<FinEdges>)>,
+    skin_weights: Option<Arc<SkinWeights>>,
+    morph_targets: Option<Arc<MorphTargets>>,
 }
 
 impl FurAsset {
-    /// Reads exactly the skin mesh, shell atlas, triangle UV map and — when `with_fins` and the
-    /// pack has both — the fin atlas and fin edges. No other section of the pack is touched.
+    /// Reads exactly the skin mesh, shell atlas, triangle UV map, — when `with_fins` and the
+    /// pack has both — the fin atlas and fin edges, and the skin weights and morph targets when
+    /// the pack has them (an animated pack; the renderer skins it on the GPU). No other section
+    /// of the pack is touched: the skeleton and clips belong to whoever poses it.
     pub fn from_pack(pack: &Pack, with_fins: bool) -> Result<FurAsset, RenderError> {
         use furbake_formats::SectionKind;
         let fins = if with_fins && pack.has(SectionKind::FIN_ATLAS) && pack.has(SectionKind::FIN_EDGES) {
@@ -37,7 +45,34 @@ impl FurAsset {
         } else {
             None
         };
-        FurAsset::new(pack.skin_mesh()?, pack.shell_atlas()?, pack.triangle_uv_map()?, fins)
+        FurAsset::new(pack.skin_mesh()?, pack.shell_atlas()?, pack.triangle_uv_map()?, fins)?
+            .with_animation(pack.skin_weights()?, pack.morph_targets()?)
+    }
+
+    /// This asset with skin weights and morph targets (either may be `None`): checked against the
+    /// skin (one influence set and one morph delta per welded vertex) by the formats' consistency
+    /// check. With either present, [`crate::FurRenderer`] skins the asset on the GPU and takes a
+    /// pose each frame ([`crate::FurRenderer::set_pose`]).
+    pub fn with_animation(
+        self,
+        skin_weights: Option<Arc<SkinWeights>>,
+        morph_targets: Option<Arc<MorphTargets>>,
+    ) -> Result<FurAsset, RenderError> {
+        let sections = furbake_formats::PackSections {
+            mesh: Some(&self.mesh),
+            skin_weights: skin_weights.as_deref(),
+            morph_targets: morph_targets.as_deref(),
+            ..Default::default()
+        };
+        if let Err(e) = furbake_formats::check_consistency(&[], &sections) {
+            return Err(RenderError::InvalidAsset {
+                what: match e {
+                    furbake_formats::FormatError::Invalid { what, .. } => what,
+                    e => e.to_string(),
+                },
+            });
+        }
+        Ok(FurAsset { skin_weights, morph_targets, ..self })
     }
 
     /// Checks that the sections belong together (one UV triple per triangle, one normal and colour
@@ -91,11 +126,12 @@ impl FurAsset {
                 e => e.to_string(),
             });
         }
-        Ok(FurAsset { mesh, shells, uv_map, fins })
+        Ok(FurAsset { mesh, shells, uv_map, fins, skin_weights: None, morph_targets: None })
     }
 
     /// Bytes of GPU memory a [`crate::FurRenderer`] of this asset allocates for its data (skin
-    /// corners, scale vectors, the shell atlas with its mip chain, fins when `with_fins`), not
+    /// corners, scale vectors, the shell atlas with its mip chain, fins when `with_fins`, and for
+    /// an animated asset the skinning pass's buffers, [`crate::SkinningPass::gpu_bytes`]), not
     /// counting the renderer's fixed cost ([`crate::RENDERER_OVERHEAD_BYTES`]). Computed from the
     /// sections' sizes alone, before anything is uploaded.
     pub fn gpu_bytes(&self, with_fins: bool) -> u64 {
@@ -110,7 +146,11 @@ impl FurAsset {
             bytes += mips(atlas.width as u64 * atlas.height as u64)
                 + 6 * edges.vertices.len() as u64 * std::mem::size_of::<FinVertex>() as u64;
         }
-        bytes
+        bytes.saturating_add(crate::SkinningPass::gpu_bytes(
+            &self.mesh,
+            self.skin_weights.as_deref(),
+            self.morph_targets.as_deref(),
+        ))
     }
 
     /// The skin.
@@ -131,6 +171,22 @@ impl FurAsset {
     /// The fin atlas and edges, when loaded.
     pub fn fins(&self) -> Option<(&FinAtlas, &FinEdges)> {
         self.fins.as_ref().map(|(a, e)| (&**a, &**e))
+    }
+
+    /// The skin weights, when the pack has them (a skinned character).
+    pub fn skin_weights(&self) -> Option<&SkinWeights> {
+        self.skin_weights.as_deref()
+    }
+
+    /// The morph targets, when the pack has them.
+    pub fn morph_targets(&self) -> Option<&MorphTargets> {
+        self.morph_targets.as_deref()
+    }
+
+    /// Whether the asset is animated (skin weights or morph targets): its renderer runs a
+    /// skinning pass each frame. A static asset draws its bind pose and pays nothing for it.
+    pub fn is_animated(&self) -> bool {
+        self.skin_weights.is_some() || self.morph_targets.is_some()
     }
 
     /// A sphere holding the skin and its fur: centre of the skin's bounding box, radius = the
@@ -199,6 +255,7 @@ impl FurAsset {
                 height,
                 vertex_index: v,
                 corner_index: corner_of(v),
+                face_vertices: m.triangles[t as usize],
             };
             let (a0, b0, a1, b1) =
                 (corner(a, 0.0, 0.0), corner(b, length, 0.0), corner(a, 0.0, 1.0), corner(b, length, 1.0));

@@ -19,13 +19,17 @@
 //! innermost first), then the fins on the pack's fin edges; [`read_back`] copies the colour
 //! target into an [`image::RgbaImage`]. Several packs in one frame, each with its model matrix
 //! and this frame's physics (scale vectors, blade corner forces), from a runtime scene's camera
-//! and light: [`scene`] ([`SceneRenderer`], [`SceneFrame`]).
+//! and light: [`scene`] ([`SceneRenderer`], [`SceneFrame`]). An animated pack (skin weights or
+//! morph targets, glTF 2.0 "Skins", "Morph Targets") is morphed and skinned on the GPU once per
+//! frame by a [`SkinningPass`] that its renderer owns ([`FurRenderer::set_pose`]); skin, shells
+//! and fins read the posed vertices it writes.
 
 mod asset;
 pub mod blades;
 mod renderer;
 pub mod scene;
 pub mod shaders;
+mod skinning;
 
 use std::path::Path;
 
@@ -38,6 +42,7 @@ pub use blades::{BladeRenderer, BladeSettings};
 pub use furbake_runtime::ShellVertexLayout;
 pub use renderer::{COLOR_FORMAT, DEPTH_FORMAT, FurRenderer, RenderSettings, RenderTarget, ShellBlend};
 pub use scene::{BladeForces, PackInput, PackRenderers, SceneFrame, SceneObject, SceneRenderer};
+pub use skinning::{PosedVertices, SkinningPass};
 
 /// The fixed GPU (or, on lavapipe, host) memory of one fur or blade renderer beyond its data —
 /// pipelines, bind groups, uniform buffers. Measured on lavapipe: a scene of 50 Fox entries took
@@ -378,7 +383,8 @@ pub fn render_image(
 /// What `furbake preview` calls: opens the pack at `pack_path`, creates a headless device, frames
 /// the furry mesh automatically (three-quarter view) and renders it with the default settings,
 /// plus its grass blades when it has a blade field. Reads only the skin mesh, shell atlas, UV
-/// map, fin atlas and fin edges (and the blade field and keyframe table when present).
+/// map, fin atlas and fin edges (and the blade field and keyframe table, skin weights and morph
+/// targets when present; an animated pack is drawn in its bind pose).
 pub fn render_preview(pack_path: &Path, width: u32, height: u32) -> Result<image::RgbaImage, RenderError> {
     render_pack(pack_path, width, height, None, &RenderSettings::default())
 }

@@ -6,6 +6,10 @@
 //! topology lets the fur part, §3.4.1 — the shaders pick the index by a uniform); then draws
 //! skin, shells innermost to outermost (one instanced draw, instance = layer) and fins into a
 //! [`RenderTarget`]. Effects are switched with WGSL `override` constants at pipeline creation.
+//! An animated asset (skin weights or morph targets) also owns a [`SkinningPass`]: each frame
+//! [`FurRenderer::encode`] records its dispatch before the render pass, and the skin, shell and
+//! fin shaders (compiled with `SKINNED`) read their roots from its output instead of the vertex
+//! attributes; a static asset's shaders are compiled without it and draw exactly as before.
 //! Every function takes the `wgpu::Device` and `wgpu::Queue` it works on.
 
 use std::sync::atomic::{AtomicU32, Ordering};
@@ -16,10 +20,10 @@ use wgpu::util::DeviceExt;
 
 use crate::asset::{FurAsset, mip_chain};
 use crate::shaders::{
-    FIN_ATTRIBUTES, FIN_WGSL, FinVertex, FrameUniforms, FurUniforms, SHELL_WGSL, SKIN_WGSL, SURFACE_ATTRIBUTES,
-    SurfaceVertex,
+    FIN_ATTRIBUTES, FIN_WGSL, FinVertex, FrameUniforms, FurUniforms, ProbeVertex, SHELL_WGSL, SKIN_WGSL,
+    SURFACE_ATTRIBUTES, SkinnedVertex, SurfaceVertex,
 };
-use crate::{RenderError, View};
+use crate::{RenderError, SkinningPass, View};
 
 /// Colour format of [`RenderTarget`]s (sRGB-encoded 8-bit RGBA; shaders write linear colour).
 pub const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
@@ -183,6 +187,10 @@ pub struct FurRenderer {
     skin_pipeline: wgpu::RenderPipeline,
     shell_pipeline: wgpu::RenderPipeline,
     fin_pipeline: wgpu::RenderPipeline,
+    /// The GPU skinning of an animated asset; `None` for a static one.
+    skinning: Option<SkinningPass>,
+    /// What binding 8 (`skinned`) holds: the skinning pass's output, or a placeholder.
+    posed_vertices: wgpu::Buffer,
 }
 
 impl FurRenderer {
@@ -220,6 +228,12 @@ impl FurRenderer {
         let res = shells.params.resolution;
         check("shell resolution", res as usize, limits.max_texture_dimension_2d as u64)?;
         check("shell layers", shells.layers(), limits.max_texture_array_layers as u64)?;
+        // An animated asset: one skinning pass writes the posed vertices every stage reads.
+        let skinning = if asset.is_animated() {
+            Some(SkinningPass::new(device, asset.mesh(), asset.skin_weights(), asset.morph_targets())?)
+        } else {
+            None
+        };
 
         let frame_buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("furbake frame uniforms"),
@@ -264,6 +278,15 @@ impl FurRenderer {
             bytemuck::cast_slice(if corners.is_empty() { &placeholder[..] } else { &corners }),
             wgpu::BufferUsages::VERTEX,
         );
+        // A static asset's shaders never read binding 8; it still needs a (one-entry) buffer.
+        let posed_vertices = match &skinning {
+            Some(pass) => pass.skinned_buffer().clone(),
+            None => init(
+                "furbake no skinned vertices",
+                bytemuck::bytes_of(&SkinnedVertex::default()),
+                wgpu::BufferUsages::STORAGE,
+            ),
+        };
 
         let shell_view =
             upload_r8_array(device, queue, "furbake shell atlas", res, res, shells.layers() as u32, &shells.alpha);
@@ -309,6 +332,7 @@ impl FurRenderer {
                 wgpu::BindGroupEntry { binding: 5, resource: wgpu::BindingResource::Sampler(&repeat_sampler) },
                 wgpu::BindGroupEntry { binding: 6, resource: wgpu::BindingResource::TextureView(&fin_view) },
                 wgpu::BindGroupEntry { binding: 7, resource: wgpu::BindingResource::Sampler(&fin_sampler) },
+                wgpu::BindGroupEntry { binding: 8, resource: posed_vertices.as_entire_binding() },
             ],
         });
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -316,9 +340,10 @@ impl FurRenderer {
             bind_group_layouts: &[Some(&layout)],
             immediate_size: 0,
         });
-        let skin_pipeline = pipeline(device, &pipeline_layout, settings, Stage::Skin);
-        let shell_pipeline = pipeline(device, &pipeline_layout, settings, Stage::Shell);
-        let fin_pipeline = pipeline(device, &pipeline_layout, settings, Stage::Fin);
+        let skinned = skinning.is_some();
+        let skin_pipeline = pipeline(device, &pipeline_layout, settings, Stage::Skin, skinned);
+        let shell_pipeline = pipeline(device, &pipeline_layout, settings, Stage::Shell, skinned);
+        let fin_pipeline = pipeline(device, &pipeline_layout, settings, Stage::Fin, skinned);
 
         let fins = (!fin_vertices.is_empty()).then(|| {
             let buffer = init("furbake fin quads", bytemuck::cast_slice(&fin_vertices), wgpu::BufferUsages::VERTEX);
@@ -343,7 +368,37 @@ impl FurRenderer {
             skin_pipeline,
             shell_pipeline,
             fin_pipeline,
+            skinning,
+            posed_vertices,
         })
+    }
+
+    /// Writes this frame's pose of an animated asset: one skinning matrix per bind
+    /// (`world(joint) × inverseBind`, `furbake_runtime::animation::skinning_matrices`; empty
+    /// without skin weights) and one weight per morph target (empty without morph targets). The
+    /// next [`FurRenderer::encode`] or [`FurRenderer::render`] skins the asset with it before
+    /// drawing. Scale vectors stay in the bind-pose mesh frame the physics simulates in; the
+    /// shaders turn each with its vertex's normal. A static asset, a wrong count or a non-finite
+    /// value is a [`RenderError::Parameter`] and changes nothing. No allocation (see
+    /// [`SkinningPass::set_pose`]).
+    pub fn set_pose(
+        &self,
+        queue: &wgpu::Queue,
+        skinning_matrices: &[Mat4],
+        morph_weights: &[f32],
+    ) -> Result<(), RenderError> {
+        match &self.skinning {
+            Some(pass) => pass.set_pose(queue, skinning_matrices, morph_weights),
+            None => Err(RenderError::Parameter {
+                what: "set_pose on a static asset (the pack has no skin weights or morph targets)".into(),
+            }),
+        }
+    }
+
+    /// The skinning pass of an animated asset (`None` for a static one): its counts, its output
+    /// buffer, and its readback for tests.
+    pub fn skinning(&self) -> Option<&SkinningPass> {
+        self.skinning.as_ref()
     }
 
     /// Replaces the per-vertex scale vectors (eq. 3.35, one unit vector per skin vertex), e.g.
@@ -439,9 +494,10 @@ impl FurRenderer {
     /// Writes `frame` (camera, light and this object's model matrix, e.g. from
     /// [`View::uniforms_with_model`]) into this renderer's uniform buffer and records its pass into
     /// `encoder`: skin, shells, fins, after clearing colour (to the linear RGBA `clear`) and depth,
-    /// or over what the target holds when `clear` is `None`. Nothing is submitted; the uniform
-    /// write lands before the encoder's commands when they are submitted on the same queue, so
-    /// each renderer can be encoded once per submission.
+    /// or over what the target holds when `clear` is `None`. An animated asset's skinning dispatch
+    /// is recorded first (one per frame; the three stages read its output). Nothing is submitted;
+    /// the uniform write lands before the encoder's commands when they are submitted on the same
+    /// queue, so each renderer can be encoded once per submission.
     pub fn encode(
         &self,
         queue: &wgpu::Queue,
@@ -451,6 +507,9 @@ impl FurRenderer {
         clear: Option<[f32; 4]>,
     ) {
         queue.write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(frame));
+        if let Some(skinning) = &self.skinning {
+            skinning.encode(encoder);
+        }
         let mut pass = crate::renderer::begin_target_pass(encoder, target, "furbake fur pass", clear);
         pass.set_bind_group(0, &self.bind_group, &[]);
         if self.surface_corners > 0 {
@@ -477,7 +536,9 @@ impl FurRenderer {
     /// the vertices are those of the current [`FurRenderer::scale_layout`]
     /// ([`FurAsset::shell_vertices`]: welded vertices, or `3 × triangle + corner`). `asset`
     /// must be the one this renderer was built from (its skin positions and normals are the
-    /// input). For tests against `furbake_sim::shell_vertex_position`; waits for the GPU.
+    /// input). An animated asset's shells grow from its posed vertices: the skinning dispatch
+    /// with the pose last written runs first, so this is the GPU truth of the drawn shells. For
+    /// tests against `furbake_sim::shell_vertex_position`; waits for the GPU.
     pub fn shell_positions(
         &self,
         device: &wgpu::Device,
@@ -506,8 +567,21 @@ impl FurRenderer {
             return Err(RenderError::Limit { what: "shell probe bytes", value: count * 16, limit });
         }
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let probe: Vec<[[f32; 4]; 2]> =
-            vertices.iter().map(|(p, n)| [[p[0], p[1], p[2], 1.0], [n[0], n[1], n[2], 0.0]]).collect();
+        // The welded vertex of each shell vertex (where its posed root is read).
+        let welded: Vec<u32> = match self.scale_layout() {
+            ShellVertexLayout::PerVertex => (0..mesh.positions.len() as u32).collect(),
+            ShellVertexLayout::PerCorner => mesh.triangles.iter().flatten().copied().collect(),
+        };
+        let probe: Vec<ProbeVertex> = vertices
+            .iter()
+            .zip(welded)
+            .map(|((p, n), vertex_index)| ProbeVertex {
+                position: [p[0], p[1], p[2], 1.0],
+                normal: [n[0], n[1], n[2], 0.0],
+                vertex_index,
+                pad: [0; 3],
+            })
+            .collect();
         let input = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("furbake shell probe vertices"),
             contents: bytemuck::cast_slice(&probe),
@@ -529,10 +603,19 @@ impl FurRenderer {
             label: Some("furbake shell probe"),
             source: wgpu::ShaderSource::Wgsl(SHELL_WGSL.into()),
         });
-        let constants: &[(&str, f64)] = &[("SHEAR", if self.settings.shearing { 1.0 } else { 0.0 })];
+        let flag = |on: bool| if on { 1.0 } else { 0.0 };
+        let constants: &[(&str, f64)] =
+            &[("SHEAR", flag(self.settings.shearing)), ("SKINNED", flag(self.skinning.is_some()))];
+        // An explicit layout: `skinned` (binding 8) is bound whether or not SKINNED reads it.
+        let probe_layouts = probe_bind_group_layouts(device);
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("furbake shell probe"),
+            bind_group_layouts: &[Some(&probe_layouts[0]), Some(&probe_layouts[1])],
+            immediate_size: 0,
+        });
         let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
             label: Some("furbake shell probe"),
-            layout: None,
+            layout: Some(&pipeline_layout),
             module: &module,
             entry_point: Some("cs_shell_positions"),
             compilation_options: wgpu::PipelineCompilationOptions {
@@ -543,15 +626,16 @@ impl FurRenderer {
         });
         let shared = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("furbake shell probe uniforms"),
-            layout: &pipeline.get_bind_group_layout(0),
+            layout: &probe_layouts[0],
             entries: &[
                 wgpu::BindGroupEntry { binding: 1, resource: self.fur_buffer.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 2, resource: self.scale_buffer.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 8, resource: self.posed_vertices.as_entire_binding() },
             ],
         });
         let io = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("furbake shell probe io"),
-            layout: &pipeline.get_bind_group_layout(1),
+            layout: &probe_layouts[1],
             entries: &[
                 wgpu::BindGroupEntry { binding: 0, resource: input.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 1, resource: output.as_entire_binding() },
@@ -562,6 +646,9 @@ impl FurRenderer {
         let (x, y) = if groups <= max { (groups, 1) } else { (max, groups.div_ceil(max)) };
         let mut encoder =
             device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("furbake shell probe") });
+        if let Some(skinning) = &self.skinning {
+            skinning.encode(&mut encoder);
+        }
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("furbake shell probe"),
@@ -601,6 +688,31 @@ enum Stage {
     Skin,
     Shell,
     Fin,
+}
+
+/// Group 0 (the fur uniforms, scale vectors and posed vertices `cs_shell_positions` reads) and
+/// group 1 (probe input and output) of the shell readback probe.
+fn probe_bind_group_layouts(device: &wgpu::Device) -> [wgpu::BindGroupLayout; 2] {
+    let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer { ty, has_dynamic_offset: false, min_binding_size: None },
+        count: None,
+    };
+    let read = wgpu::BufferBindingType::Storage { read_only: true };
+    let layout = |label, entries: &[wgpu::BindGroupLayoutEntry]| {
+        device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some(label), entries })
+    };
+    [
+        layout(
+            "furbake shell probe uniforms",
+            &[entry(1, wgpu::BufferBindingType::Uniform), entry(2, read), entry(8, read)],
+        ),
+        layout(
+            "furbake shell probe io",
+            &[entry(0, read), entry(1, wgpu::BufferBindingType::Storage { read_only: false })],
+        ),
+    ]
 }
 
 fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
@@ -652,6 +764,8 @@ fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
             sampler(5),
             texture(6, wgpu::TextureViewDimension::D2),
             sampler(7),
+            // The posed vertices of an animated asset, read by the vertex shaders.
+            wgpu::BindGroupLayoutEntry { visibility: wgpu::ShaderStages::VERTEX, ..storage(8) },
         ],
     })
 }
@@ -661,6 +775,7 @@ fn pipeline(
     layout: &wgpu::PipelineLayout,
     settings: &RenderSettings,
     stage: Stage,
+    skinned: bool,
 ) -> wgpu::RenderPipeline {
     let (label, source, vs, fs) = match stage {
         Stage::Skin => ("furbake skin", SKIN_WGSL, "vs_skin", "fs_skin"),
@@ -677,10 +792,11 @@ fn pipeline(
     let all = [
         ("LAMBERT", flag(settings.lambert)),
         ("SHADOW", flag(settings.self_shadow)),
+        ("SKINNED", flag(skinned)),
         ("SHEAR", flag(settings.shearing)),
         ("ALPHA_BLEND", flag(blend)),
     ];
-    let constants: &[(&str, f64)] = if stage == Stage::Skin { &all[..2] } else { &all };
+    let constants: &[(&str, f64)] = if stage == Stage::Skin { &all[..3] } else { &all };
     let options = wgpu::PipelineCompilationOptions { constants, zero_initialize_workgroup_memory: false };
     let surface_layout = wgpu::VertexBufferLayout {
         array_stride: std::mem::size_of::<SurfaceVertex>() as u64,

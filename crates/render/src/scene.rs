@@ -284,9 +284,11 @@ pub struct SceneRenderer {
 impl SceneRenderer {
     /// Uploads every pack of `world`'s scene from the packs the world opened (decoded sections are
     /// shared through the packs' caches, so nothing the world read is read again): its fur (skin
-    /// mesh + shell atlas + UV map, fins when present) and its blade field, with the shader
-    /// features the scene's effects need ([`RenderSettings::for_scene`]). A pack with neither fur
-    /// nor blades is an [`RenderError::InvalidAsset`].
+    /// mesh + shell atlas + UV map, fins, skin weights and morph targets when present; an animated
+    /// pack's renderer owns a skinning pass, posed through [`FurRenderer::set_pose`] and in its
+    /// bind pose until then) and its blade field, with the shader features the scene's effects
+    /// need ([`RenderSettings::for_scene`]). A pack with neither fur nor blades is an
+    /// [`RenderError::InvalidAsset`].
     pub fn new(device: &wgpu::Device, queue: &wgpu::Queue, world: &World) -> Result<SceneRenderer, RenderError> {
         let scene = world.scene();
         let settings = RenderSettings::for_scene(scene);

@@ -1,11 +1,12 @@
 //! The WGSL sources (in the workspace's `shaders/` folder, embedded with `include_str!`) and the
-//! Rust mirrors of their uniform structs. The unit tests parse and validate every shader with
-//! naga and check each `#[repr(C)]` struct's size and member offsets against naga's layout of
-//! the WGSL struct of the same name, so the two can never drift apart silently.
+//! Rust mirrors of their uniform and storage structs. The unit tests parse and validate every
+//! shader with naga and check each `#[repr(C)]` struct's size and member offsets against naga's
+//! layout of the WGSL struct of the same name, so the two can never drift apart silently.
 
 /// Skin: Lambert-lit vertex colour (fur thesis §3.2). Like the shell and fin shaders it is
-/// `fur_common.wgsl` (uniforms, effect switches, bindings 0–3, `shell_offset`, `lambert`)
-/// followed by its own file: WGSL has no includes, so the shared part is prepended here.
+/// `fur_common.wgsl` (uniforms, effect switches, bindings 0–3 and 8, `posed_vertex`,
+/// `shell_offset`, `lambert`) followed by its own file: WGSL has no includes, so the shared part
+/// is prepended here.
 pub const SKIN_WGSL: &str =
     concat!(include_str!("../../../shaders/fur_common.wgsl"), include_str!("../../../shaders/skin.wgsl"));
 /// Shells: extrusion, eq. 3.36 shearing, shell alpha, self-shadow, Lambert (§3.2, §3.4.2); also
@@ -16,6 +17,10 @@ pub const SHELL_WGSL: &str =
 /// Fins on fin edges (§3.2, fig. 3.16).
 pub const FIN_WGSL: &str =
     concat!(include_str!("../../../shaders/fur_common.wgsl"), include_str!("../../../shaders/fin.wgsl"));
+/// The skinning pass (glTF 2.0 "Morph Targets", "Skins"): the `cs_skin` compute entry point that
+/// morphs and skins every welded vertex of an animated pack once per frame
+/// ([`crate::SkinningPass`]). Stands alone (no `fur_common.wgsl`).
+pub const SKINNING_WGSL: &str = include_str!("../../../shaders/skinning.wgsl");
 
 /// Per-frame uniforms (`Frame` in every shader; binding 0).
 #[repr(C)]
@@ -61,6 +66,48 @@ pub struct FurUniforms {
     pub pad1: u32,
 }
 
+/// The skinning pass's counts (`SkinningParams` in `skinning.wgsl`; binding 0), written once.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct SkinningParams {
+    /// Welded skin vertices.
+    pub vertex_count: u32,
+    /// Influence slots per vertex: 4 or 8 (`SkinWeights::influences_per_vertex`); 0 without
+    /// skin weights.
+    pub influences_per_vertex: u32,
+    /// Morph targets; 0 without them.
+    pub target_count: u32,
+    /// Padding to 16 bytes.
+    pub pad0: u32,
+}
+
+/// One welded skin vertex (`SkinnedVertex` in `skinning.wgsl` and `fur_common.wgsl`): the bind
+/// pose the skinning pass reads and the posed vertex it writes, which the skin, shell and fin
+/// shaders read by welded vertex index.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct SkinnedVertex {
+    /// Position in metres (xyz; w = 1).
+    pub position: [f32; 4],
+    /// Unit normal (xyz; w = 0).
+    pub normal: [f32; 4],
+}
+
+/// One input vertex of the shell readback probe (`ProbeVertex` in `shell.wgsl`, read by
+/// `cs_shell_positions`; [`crate::FurRenderer::shell_positions`]).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct ProbeVertex {
+    /// Bind-pose position in metres (xyz; w unused).
+    pub position: [f32; 4],
+    /// Bind-pose unit normal (xyz; w unused).
+    pub normal: [f32; 4],
+    /// Welded vertex index (where an animated pack's posed root is read).
+    pub vertex_index: u32,
+    /// Padding to the struct's 16-byte alignment.
+    pub pad: [u32; 3],
+}
+
 /// One corner of a skin/shell triangle (vertex buffer 0 of the skin and shell pipelines).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
@@ -103,6 +150,9 @@ pub struct FinVertex {
     /// `3 × triangle + corner` of this edge end in the furry triangle the fin grows from (into
     /// the scale-vector buffer when it holds one vector per triangle corner).
     pub corner_index: u32,
+    /// Welded vertex indices of that triangle's corners: an animated pack's fin computes its
+    /// face normal from their posed positions.
+    pub face_vertices: [u32; 3],
 }
 
 /// Vertex attributes of [`SurfaceVertex`], locations 0–6 as in `skin.wgsl` / `shell.wgsl`.
@@ -110,10 +160,10 @@ pub const SURFACE_ATTRIBUTES: [wgpu::VertexAttribute; 7] = wgpu::vertex_attr_arr
     0 => Float32x3, 1 => Float32x3, 2 => Float32x4, 3 => Float32x2, 4 => Uint32, 5 => Uint32, 6 => Uint32
 ];
 
-/// Vertex attributes of [`FinVertex`], locations 0–7 as in `fin.wgsl`.
-pub const FIN_ATTRIBUTES: [wgpu::VertexAttribute; 8] = wgpu::vertex_attr_array![
+/// Vertex attributes of [`FinVertex`], locations 0–8 as in `fin.wgsl`.
+pub const FIN_ATTRIBUTES: [wgpu::VertexAttribute; 9] = wgpu::vertex_attr_array![
     0 => Float32x3, 1 => Float32x3, 2 => Float32x3, 3 => Float32x4, 4 => Float32, 5 => Float32, 6 => Uint32,
-    7 => Uint32
+    7 => Uint32, 8 => Uint32x3
 ];
 
 #[cfg(test)]
@@ -129,16 +179,32 @@ mod tests {
         (module, info)
     }
 
-    /// The probe vertex of `cs_shell_positions` (two `vec4<f32>`).
+    /// The probe vertex of `cs_shell_positions` (two `vec4<f32>`, the welded index, padding).
     #[test]
     fn the_shell_probe_vertex_matches_the_shader() {
+        use std::mem::{offset_of, size_of};
         let (module, _) = validated("shell.wgsl", SHELL_WGSL);
         let (span, members) = wgsl_struct(&module, "ProbeVertex").expect("shell.wgsl declares ProbeVertex");
-        assert_eq!(span as usize, std::mem::size_of::<[[f32; 4]; 2]>());
-        assert_eq!(members, [("position".to_string(), 0), ("normal".to_string(), 16)]);
+        assert_eq!(span as usize, size_of::<ProbeVertex>());
+        let pad = offset_of!(ProbeVertex, pad);
+        let rust = [
+            ("position", offset_of!(ProbeVertex, position)),
+            ("normal", offset_of!(ProbeVertex, normal)),
+            ("vertex_index", offset_of!(ProbeVertex, vertex_index)),
+            ("pad0", pad),
+            ("pad1", pad + 4),
+            ("pad2", pad + 8),
+        ];
+        let got: Vec<(&str, usize)> = members.iter().map(|(n, o)| (n.as_str(), *o as usize)).collect();
+        assert_eq!(got, rust);
     }
 
-    const SHADERS: [(&str, &str); 3] = [("skin.wgsl", SKIN_WGSL), ("shell.wgsl", SHELL_WGSL), ("fin.wgsl", FIN_WGSL)];
+    const SHADERS: [(&str, &str); 4] = [
+        ("skin.wgsl", SKIN_WGSL),
+        ("shell.wgsl", SHELL_WGSL),
+        ("fin.wgsl", FIN_WGSL),
+        ("skinning.wgsl", SKINNING_WGSL),
+    ];
 
     #[test]
     fn every_shader_parses_and_validates() {
@@ -150,7 +216,7 @@ mod tests {
         entry_points.sort();
         assert_eq!(
             entry_points,
-            ["cs_shell_positions", "fs_fin", "fs_shell", "fs_skin", "vs_fin", "vs_shell", "vs_skin"]
+            ["cs_shell_positions", "cs_skin", "fs_fin", "fs_shell", "fs_skin", "vs_fin", "vs_shell", "vs_skin"]
         );
     }
 
@@ -205,6 +271,22 @@ mod tests {
             ("pad1", offset_of!(FurUniforms, pad1)),
         ];
         assert_eq!(check_layout("Fur", size_of::<FurUniforms>(), &fur), 3, "Fur is in all three shaders");
+        let params = [
+            ("vertex_count", offset_of!(SkinningParams, vertex_count)),
+            ("influences_per_vertex", offset_of!(SkinningParams, influences_per_vertex)),
+            ("target_count", offset_of!(SkinningParams, target_count)),
+            ("pad0", offset_of!(SkinningParams, pad0)),
+        ];
+        assert_eq!(check_layout("SkinningParams", size_of::<SkinningParams>(), &params), 1, "in skinning.wgsl");
+    }
+
+    #[test]
+    fn storage_structs_match_the_shaders() {
+        use std::mem::{offset_of, size_of};
+        let skinned =
+            [("position", offset_of!(SkinnedVertex, position)), ("normal", offset_of!(SkinnedVertex, normal))];
+        // Written by skinning.wgsl, read by the three fur shaders (fur_common.wgsl).
+        assert_eq!(check_layout("SkinnedVertex", size_of::<SkinnedVertex>(), &skinned), 4);
     }
 
     #[test]
@@ -233,9 +315,10 @@ mod tests {
             offset_of!(FinVertex, height),
             offset_of!(FinVertex, vertex_index),
             offset_of!(FinVertex, corner_index),
+            offset_of!(FinVertex, face_vertices),
         ];
         let got: Vec<usize> = FIN_ATTRIBUTES.iter().map(|a| a.offset as usize).collect();
         assert_eq!(got, fin);
-        assert_eq!(FIN_ATTRIBUTES[7].offset as usize + 4, size_of::<FinVertex>());
+        assert_eq!(FIN_ATTRIBUTES[8].offset as usize + 12, size_of::<FinVertex>());
     }
 }
