@@ -8,7 +8,7 @@
 // computed here from the posed corners of the triangle they grow from (a bind-pose face normal
 // would fade them by the wrong facing once the skin moves).
 // Prepended at load time: fur_common.wgsl (uniforms, switches, bindings 0–3 and 8, SurfaceIn,
-// posed_vertex, posed_scale_vector, shell_offset, lambert).
+// posed_vertex, shell_offset, lambert).
 
 @group(0) @binding(6) var fin_alpha: texture_2d<f32>;
 @group(0) @binding(7) var fin_sampler: sampler;
@@ -64,7 +64,7 @@ fn fin_face_normal(v: FinIn, n: vec3<f32>) -> vec3<f32> {
 fn vs_fin(v: FinIn) -> FinOut {
     let root = posed_vertex(v.vertex_index, v.position, v.normal);
     let n = normalize(root.normal.xyz);
-    let s = posed_scale_vector(scale_vectors[scale_index(v.vertex_index, v.corner_index)].xyz, v.normal, n);
+    let s = scale_vectors[scale_index(v.vertex_index, v.corner_index)].xyz;
     let world = to_world(root.position.xyz + shell_offset(n, s, v.height));
     var out: FinOut;
     out.clip = frame.view_proj * vec4<f32>(world, 1.0);

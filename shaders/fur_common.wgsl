@@ -95,26 +95,6 @@ fn posed_vertex(vertex_index: u32, position: vec3<f32>, normal: vec3<f32>) -> Sk
     return SkinnedVertex(vec4<f32>(position, 1.0), vec4<f32>(normal, 0.0));
 }
 
-// A scale vector s (eq. 3.35) carried onto the posed skin. The physics simulates in the pack's
-// mesh frame, the bind pose (docs/design.md "Runtime: scenes and stages"), so when SKINNED, s is
-// turned by the shortest-arc rotation that takes the bind normal `bind_normal` to the posed unit
-// normal `posed_normal`: the rest pose s = n stays unsheared on the posed skin, and a shear keeps
-// its angle to the surface. Unchanged when not SKINNED.
-fn posed_scale_vector(s: vec3<f32>, bind_normal: vec3<f32>, posed_normal: vec3<f32>) -> vec3<f32> {
-    if !SKINNED {
-        return s;
-    }
-    let a = normalize(bind_normal);
-    let c = dot(a, posed_normal);
-    if c < -0.9999 {
-        // Turned (nearly) inside out: no unique shortest arc; mirror across the tangent plane.
-        return s - 2.0 * dot(s, a) * a;
-    }
-    // Rodrigues' rotation with axis·sin θ = a × b and cos θ = a·b.
-    let axis = cross(a, posed_normal);
-    return s * c + cross(axis, s) + axis * (dot(axis, s) / (1.0 + c));
-}
-
 // Offset of a point at relative height t in [0, 1] above a vertex with unit normal n and scale
 // vector s: vertical displacement along n plus the horizontal shear h(t) = t^k (s − n) of
 // eq. 3.36, both in units of the fur length.

@@ -7,8 +7,9 @@
 // triangle corner, so two triangles sharing a vertex can shear apart. Fragment: alpha from the shell texture array, colour = vertex colour ×
 // tint × per-layer self-shadow factor × Lambert.
 // An animated pack's shells grow from the skinning pass's posed vertices (fur_common.wgsl
-// `posed_vertex`; its scale vectors turned with the normal, `posed_scale_vector`), so every layer
-// reads one skinned root instead of re-skinning.
+// `posed_vertex`), so every layer reads one skinned root instead of re-skinning; its scale
+// vectors are already in the posed mesh frame (the runtime poses the physics on the skinned
+// surface, docs/design.md "Animated skins in the runtime").
 // Prepended at load time: fur_common.wgsl (uniforms, switches, bindings 0–3 and 8, SurfaceIn,
 // posed_vertex, shell_offset, to_world, lambert). Also a compute entry point,
 // `cs_shell_positions`, that reads back `shell_vertex` for tests.
@@ -33,7 +34,7 @@ fn shell_vertex(vertex_index: u32, position: vec3<f32>, normal: vec3<f32>, scale
     let t = f32(layer + 1u) / f32(fur.drawn_layers);
     let root = posed_vertex(vertex_index, position, normal);
     let n = normalize(root.normal.xyz);
-    let s = posed_scale_vector(scale_vectors[scale_at].xyz, normal, n);
+    let s = scale_vectors[scale_at].xyz;
     return root.position.xyz + shell_offset(n, s, t);
 }
 

@@ -265,11 +265,21 @@ pub struct PackInput<'a> {
     pub scale_layout: ShellVertexLayout,
     /// Grass forces.
     pub blade_forces: Option<BladeForces<'a>>,
+    /// The skin's pose this frame: skinning matrices (one per bind, `world(joint) ×
+    /// inverseBind`) and morph weights (`furbake_runtime::Animator::skinning_matrices` and
+    /// `morph_weights`), for a pack whose renderer has a skinning pass. `None`: the last pose.
+    pub pose: Option<(&'a [Mat4], &'a [f32])>,
 }
 
 impl Default for PackInput<'_> {
     fn default() -> Self {
-        PackInput { model: None, scale_vectors: None, scale_layout: ShellVertexLayout::PerVertex, blade_forces: None }
+        PackInput {
+            model: None,
+            scale_vectors: None,
+            scale_layout: ShellVertexLayout::PerVertex,
+            blade_forces: None,
+            pose: None,
+        }
     }
 }
 
@@ -341,6 +351,7 @@ impl SceneRenderer {
     }
 
     /// Draws `world`'s current state (see the module doc): every pack at its model matrix, its
+    /// skin in the world's pose (an animated pack's skinning matrices and morph weights), its
     /// fur with the world's scale vectors, its blades with the world's corner forces — and, when
     /// a wind source with delayed attenuation acts, that source evaluated per blade on the GPU.
     /// `world` must be the one this renderer was built from (same packs, same order).
@@ -363,7 +374,10 @@ impl SceneRenderer {
             .map(|(i, drawn)| {
                 let fur = world.fur(i).filter(|_| drawn.fur.is_some());
                 let grass = world.grass(i).filter(|_| drawn.blades.is_some());
+                let skinned = drawn.fur.as_ref().is_some_and(|f| f.skinning().is_some());
+                let pose = world.animation(i).filter(|_| skinned).map(|a| (a.skinning_matrices(), a.morph_weights()));
                 PackInput {
+                    pose,
                     model: Some(world.model_matrix(i)),
                     scale_vectors: fur.map(|f| f.scale_vectors),
                     scale_layout: fur.map_or(ShellVertexLayout::PerVertex, |f| f.layout),
@@ -399,6 +413,9 @@ impl SceneRenderer {
             let input = inputs.get(i).copied().unwrap_or_default();
             let model = input.model.unwrap_or(pack.model);
             if let Some(renderer) = &pack.fur {
+                if let Some((matrices, weights)) = input.pose {
+                    renderer.set_pose(queue, matrices, weights)?;
+                }
                 objects.push(SceneObject::Fur {
                     renderer,
                     model,

@@ -8,7 +8,7 @@
 //! and without normal deltas, one at weight 0), morph-only and skin-only; a joint scaled to zero
 //! (its vertices collapse, normals fall back to the bind normal, nothing is NaN); typed errors for
 //! bad poses; and a baked Fox drawn by a [`FurRenderer`], whose shells grow from the skinned
-//! vertices with their scale vectors turned onto the posed normals (the `shell_positions` probe
+//! vertices with scale vectors given in the posed frame (the `shell_positions` probe
 //! against the CPU, per vertex at rest and per corner tilted) and whose posed frame differs from
 //! the bind pose.
 //!
@@ -417,16 +417,6 @@ fn fox_pack() -> &'static (tempfile::TempDir, Pack) {
     })
 }
 
-/// `s` turned by the shortest-arc rotation taking unit `from` to unit `to` (Rodrigues, in f64).
-/// Not glam's `Quat::from_rotation_arc`: that one snaps rotations below ~5e-4 rad to identity,
-/// while a vertex of the Fox turns by 6e-4 rad, which over the fur's height is a 1e-5 × diagonal
-/// error.
-fn shortest_arc(s: Vec3, from: Vec3, to: Vec3) -> Vec3 {
-    let (s, a, b) = (s.as_dvec3(), from.as_dvec3(), to.as_dvec3());
-    let (c, axis) = (a.dot(b), a.cross(b));
-    (s * c + axis.cross(s) + axis * (axis.dot(s) / (1.0 + c))).as_vec3()
-}
-
 #[test]
 fn the_fur_renderer_grows_every_shell_from_the_skinned_vertices() {
     let g = gpu();
@@ -451,11 +441,12 @@ fn the_fur_renderer_grows_every_shell_from_the_skinned_vertices() {
     // shell's height and shear (≤ 2 fur lengths each), plus the driver's pow on t^k (physics.rs).
     let tolerance = POSITION_TOLERANCE
         + (4.0 * NORMAL_TOLERANCE_RAD + f64::from(k) * 2f64.powi(-20) * 2.0) * f64::from(length) / diagonal;
-    // Scale vectors in the bind-pose mesh frame, per welded vertex or per triangle corner: the
-    // rest pose (s = bind normal) and every s tilted about 30° off its normal.
-    let bind_normal = |i: usize| Vec3::from(mesh.normals[i]).normalize();
+    // Scale vectors in the posed mesh frame (the runtime poses the physics on the skinned
+    // surface), per welded vertex or per triangle corner: the rest pose (s = posed normal) and
+    // every s tilted about 30° off its normal.
+    let posed_normal = |i: usize| Vec3::from(cpu[i].1).normalize();
     let tilted = |i: usize| {
-        let n = bind_normal(i);
+        let n = posed_normal(i);
         (n + 0.6 * n.cross(Vec3::X).try_normalize().unwrap_or(Vec3::Z)).normalize()
     };
     let per_vertex: Vec<u32> = (0..v as u32).collect();
@@ -466,9 +457,9 @@ fn the_fur_renderer_grows_every_shell_from_the_skinned_vertices() {
     ];
     let mut checked = 0;
     for (what, layout, welded, tilt) in layouts {
-        let bind_s: Vec<Vec3> =
-            welded.iter().map(|&i| if tilt { tilted(i as usize) } else { bind_normal(i as usize) }).collect();
-        let raw: Vec<[f32; 3]> = bind_s.iter().map(|s| s.to_array()).collect();
+        let posed_s: Vec<Vec3> =
+            welded.iter().map(|&i| if tilt { tilted(i as usize) } else { posed_normal(i as usize) }).collect();
+        let raw: Vec<[f32; 3]> = posed_s.iter().map(|s| s.to_array()).collect();
         renderer.set_shell_scale_vectors(&g.queue, &raw, layout).unwrap();
         let shells = renderer.shell_positions(&g.device, &g.queue, &asset).unwrap();
         assert_eq!(shells.len(), welded.len() * layers as usize, "{what}");
@@ -476,11 +467,7 @@ fn the_fur_renderer_grows_every_shell_from_the_skinned_vertices() {
         for layer in 0..layers {
             for (c, &i) in welded.iter().enumerate() {
                 let (p, n) = (Vec3::from(cpu[i as usize].0), Vec3::from(cpu[i as usize].1));
-                // fur_common.wgsl `posed_scale_vector`: s turned by the shortest arc from the
-                // bind normal to the posed normal (no vertex of this pose turns inside out).
-                let nb = bind_normal(i as usize);
-                assert!(nb.dot(n) > -0.999, "{what}: vertex {i} turned inside out");
-                let s = shortest_arc(bind_s[c], nb, n);
+                let s = posed_s[c];
                 let expected = furbake_sim::shell_vertex_position(p, n, s, layer + 1, layers, length, k).as_dvec3();
                 let got = Vec3::from(shells[layer as usize * welded.len() + c]).as_dvec3();
                 let err = got.distance(expected) / diagonal;
@@ -581,4 +568,51 @@ fn skinning_pass_time() {
         let (with, without) = (frame_ms(pass, poses, frames, true), frame_ms(pass, poses, frames, false));
         println!("| {what} | {} | {with:.3} | {without:.3} | {:.3} |", pass.vertex_count(), with - without);
     }
+}
+
+/// End to end: a runtime `World` playing the Run clip, drawn by a `SceneRenderer` — the skinning
+/// pass's posed vertices after `render_world` are the world's CPU `Animator` positions, and the
+/// frame differs from the same world in its bind pose.
+#[test]
+fn a_world_playing_a_clip_is_drawn_in_the_worlds_pose() {
+    use furbake_render::{RenderTarget, SceneRenderer};
+    use furbake_runtime::{Scene, World};
+    let g = gpu();
+    let dir = fox_pack().0.path();
+    let world_with = |animation: &str| {
+        let text = format!("time_step_s = 0.01\n[[packs]]\nname = \"fox\"\npath = \"fox.fbk\"\n{animation}\n");
+        World::new(Scene::from_toml_str(&text, Path::new("t.toml"), dir).unwrap()).unwrap()
+    };
+    let target = RenderTarget::new(&g.device, 96, 96).unwrap();
+    let draw = |world: &World| {
+        let renderer = SceneRenderer::new(&g.device, &g.queue, world).unwrap();
+        renderer.render_world(&g.device, &g.queue, &target, world).unwrap();
+        let image = read_back(&g.device, &g.queue, &target).unwrap();
+        let pass = renderer.packs[0].fur.as_ref().unwrap().skinning().expect("the Fox is skinned");
+        (image, pass.read_back(&g.device, &g.queue).unwrap())
+    };
+    let running = world_with("animation = { clip = \"Run\", speed = 0.0, start_s = 0.3 }");
+    let (run_image, posed) = draw(&running);
+    let (bind_image, bind) = draw(&world_with(""));
+    g.check().unwrap();
+    let mesh = running.pack(0).skin_mesh().unwrap();
+    let diag = diagonal(&mesh);
+    let cpu = running.animation(0).unwrap().positions();
+    let worst = posed
+        .positions
+        .iter()
+        .zip(cpu)
+        .map(|(a, b)| Vec3::from(*a).as_dvec3().distance(Vec3::from(*b).as_dvec3()) / diag)
+        .fold(0.0, f64::max);
+    println!("world pose on the GPU: worst {worst:.2e} × diagonal");
+    assert!(worst <= POSITION_TOLERANCE, "GPU pose vs the world's Animator: {worst:e} × diagonal");
+    let bind_worst = bind
+        .positions
+        .iter()
+        .zip(&mesh.positions)
+        .map(|(a, b)| Vec3::from(*a).as_dvec3().distance(Vec3::from(*b).as_dvec3()) / diag)
+        .fold(0.0, f64::max);
+    assert!(bind_worst <= POSITION_TOLERANCE, "without an animation the pass keeps the bind pose: {bind_worst:e}");
+    let changed = run_image.pixels().zip(bind_image.pixels()).filter(|(a, b)| a != b).count();
+    assert!(changed > 100, "the running frame changed only {changed} pixels");
 }
