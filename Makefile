@@ -1,7 +1,7 @@
 # furbake — the two commands of the README, plus helpers.
 # `make demo`: bake the bundled Fox (fur) and the thesis's grass patch (shells + 400 blades/m²),
 #              inspect, verify, extract PNG atlases and render preview PNGs into out/demo; then
-#              animate both in a windy runtime scene (8 frames into out/demo/frames) and print
+#              animate both in a windy runtime scene (24 frames into out/demo/frames) and print
 #              its per-stage simulation timings.
 # `make test`: the whole test suite (unit, integration, render tests on lavapipe, doc tests).
 
@@ -36,9 +36,9 @@ demo: deps build
 	$(FURBAKE) preview $(OUT)/grass-patch.fbk -o $(OUT)/grass-patch-preview.png --size 640x480
 # The runtime scene: pack paths are relative to the scene file, so it goes beside the packs.
 	cp fixtures/scenes/demo_fox_and_grass.toml $(OUT)/fox_and_grass.toml
-	$(FURBAKE) preview $(OUT)/fox_and_grass.toml --frames 8 --size 320x240 --out-dir $(OUT)/frames
+	$(FURBAKE) preview $(OUT)/fox_and_grass.toml --frames 24 --size 320x240 --out-dir $(OUT)/frames
 	$(FURBAKE) simulate $(OUT)/fox_and_grass.toml --frames 120
-	@echo "demo done: open $(OUT)/fox-preview.png, $(OUT)/grass-patch-preview.png, $(OUT)/fox-png/shells_grid.png and $(OUT)/frames/frame_0000.png … frame_0007.png"
+	@echo "demo done: open $(OUT)/fox-preview.png, $(OUT)/grass-patch-preview.png, $(OUT)/fox-png/shells_grid.png and $(OUT)/frames/frame_0000.png … frame_0023.png"
 
 test: deps
 	$(CARGO) test --workspace
