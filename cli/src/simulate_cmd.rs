@@ -67,7 +67,7 @@ pub fn run(args: SimulateArgs, quiet: bool) -> Result<(), Failure> {
         None => frames.div_ceil(MAX_STEP_RECORDS).max(1),
     };
     let wants_report = args.json || args.output.is_some();
-    let options = WorldOptions { step_statistics: wants_report };
+    let options = WorldOptions { step_statistics: wants_report, ..WorldOptions::default() };
     let mut world = World::with_options(scene, options).map_err(|e| failure::runtime(e, path))?;
     let simulated: Vec<usize> =
         (0..world.pack_count()).filter(|&i| world.fur(i).is_some_and(|f| f.simulation.is_some())).collect();

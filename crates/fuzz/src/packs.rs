@@ -591,22 +591,23 @@ pub fn run_pack(bytes: &[u8], scene: Scene, steps: u32) -> (PackOutcome, Option<
         Err((o, _)) => o,
     };
     // The runtime reads only what its stages need, so it also meets packs that `verify` refuses.
-    let world = match World::with_packs(scene, vec![pack], WorldOptions { step_statistics: true }) {
-        Err(_) => WorldOutcome::Refused,
-        Ok(mut world) => {
-            let mut out = WorldOutcome::Stepped;
-            for _ in 0..steps {
-                if world.step().is_err() {
-                    out = WorldOutcome::StepFailed;
-                    break;
+    let world =
+        match World::with_packs(scene, vec![pack], WorldOptions { step_statistics: true, ..WorldOptions::default() }) {
+            Err(_) => WorldOutcome::Refused,
+            Ok(mut world) => {
+                let mut out = WorldOutcome::Stepped;
+                for _ in 0..steps {
+                    if world.step().is_err() {
+                        out = WorldOutcome::StepFailed;
+                        break;
+                    }
                 }
+                if out == WorldOutcome::Stepped {
+                    let _ = world.pack_state(0);
+                }
+                out
             }
-            if out == WorldOutcome::Stepped {
-                let _ = world.pack_state(0);
-            }
-            out
-        }
-    };
+        };
     (outcome, Some(world))
 }
 

@@ -40,6 +40,14 @@ pub enum AnimationError {
         /// The clips the pack has, comma-separated.
         known: String,
     },
+    /// A value out of range (not finite, or beyond its documented bound).
+    #[error("{what} = {value} is out of range")]
+    Value {
+        /// Which value.
+        what: &'static str,
+        /// The value given.
+        value: f32,
+    },
     /// A buffer or section does not have the size the others imply.
     #[error("{what}: {got} elements, expected {expected}")]
     SizeMismatch {
@@ -50,6 +58,10 @@ pub enum AnimationError {
         /// Elements given.
         got: usize,
     },
+}
+
+fn finite(what: &'static str, value: f32) -> Result<(), AnimationError> {
+    if value.is_finite() { Ok(()) } else { Err(AnimationError::Value { what, value }) }
 }
 
 fn check_len(what: &'static str, expected: usize, got: usize) -> Result<(), AnimationError> {
@@ -293,6 +305,16 @@ impl AnimationPlayer {
         self.current.speed = 1.0;
         self.current.advance(time_s, d);
         self.current.speed = speed;
+    }
+
+    /// Sets the playback speed of the current clip (1 = real time; negative plays backwards).
+    pub fn set_speed(&mut self, speed: f32) {
+        self.current.speed = speed;
+    }
+
+    /// Sets whether the current clip wraps around at its end.
+    pub fn set_looping(&mut self, looping: bool) {
+        self.current.looping = looping;
     }
 
     /// Advances by `dt_s` seconds of scene time.
@@ -544,6 +566,29 @@ impl Animator {
     /// Fails unless the pack has a clip named `name`.
     pub fn check_clip(&self, name: &str) -> Result<(), AnimationError> {
         clip_index(&self.clips, name).map(|_| ())
+    }
+
+    /// Moves the current clip to `time_s` (wrapped or clamped to it; posed at the next step).
+    pub fn seek(&mut self, time_s: f32) -> Result<(), AnimationError> {
+        finite("clip time", time_s)?;
+        self.player.seek(&self.clips, time_s);
+        Ok(())
+    }
+
+    /// Sets the playback speed (1 = real time, negative plays backwards; finite, |speed| ≤ 100 as
+    /// a scene's `animation.speed`).
+    pub fn set_speed(&mut self, speed: f32) -> Result<(), AnimationError> {
+        finite("speed", speed)?;
+        if speed.abs() > 100.0 {
+            return Err(AnimationError::Value { what: "speed", value: speed });
+        }
+        self.player.set_speed(speed);
+        Ok(())
+    }
+
+    /// Sets whether the current clip loops.
+    pub fn set_looping(&mut self, looping: bool) {
+        self.player.set_looping(looping);
     }
 
     /// Advances the player by `dt_s` seconds of scene time (not yet posed: see [`Animator::update`]).

@@ -635,10 +635,9 @@ pub enum Effect {
 }
 
 impl Effects {
-    /// The declared effects, in a fixed order.
-    pub fn enabled(&self) -> Vec<Effect> {
-        let mut out = Vec::new();
-        let flags = [
+    /// Every effect with whether it is declared, in a fixed order (allocates nothing).
+    pub fn declared(&self) -> [(bool, Effect); 9] {
+        [
             (self.gravity.is_some(), Effect::Gravity),
             (self.wind.is_some(), Effect::Wind),
             (!self.wind_sources.is_empty(), Effect::WindSources),
@@ -648,18 +647,17 @@ impl Effects {
             (!self.windless_areas.is_empty(), Effect::WindlessAreas),
             (self.parting.is_some(), Effect::Parting),
             (self.wrong_side_guard.is_some(), Effect::WrongSideGuard),
-        ];
-        for (on, effect) in flags {
-            if on {
-                out.push(effect);
-            }
-        }
-        out
+        ]
+    }
+
+    /// The declared effects, in a fixed order.
+    pub fn enabled(&self) -> Vec<Effect> {
+        self.declared().into_iter().filter(|(on, _)| *on).map(|(_, e)| e).collect()
     }
 
     /// True when `effect` is declared.
     pub fn has(&self, effect: Effect) -> bool {
-        self.enabled().contains(&effect)
+        self.declared().iter().any(|&(on, e)| on && e == effect)
     }
 }
 
@@ -710,6 +708,65 @@ impl Scene {
     /// The effects the scene declares.
     pub fn effects(&self) -> Vec<Effect> {
         self.effects.enabled()
+    }
+
+    /// The checks of the effects' values (part of validating a scene; also what
+    /// `World::update_effects` runs on a host's edit).
+    pub(crate) fn check_effects(&self) -> Result<(), (String, String)> {
+        let e = &self.effects;
+        if let Some(g) = &e.gravity {
+            finite3(&g.acceleration_m_per_s2, "effects.gravity.acceleration_m_per_s2")?;
+        }
+        if let Some(w) = &e.wind {
+            finite3(&w.velocity_m_per_s, "effects.wind.velocity_m_per_s")?;
+            range(w.gust_amplitude, 0.0, 1.0, "effects.wind.gust_amplitude")?;
+            range(w.gust_frequency_hz, 0.0, 1000.0, "effects.wind.gust_frequency_hz")?;
+        }
+        for (i, s) in e.wind_sources.iter().enumerate() {
+            let f = |k: &str| format!("effects.wind_sources[{i}].{k}");
+            finite3(&s.position, &f("position"))?;
+            range(s.power, 0.0, f32::MAX, &f("power"))?;
+            range(s.falloff_exponent, 0.0, 16.0, &f("falloff_exponent"))?;
+        }
+        if let Some(m) = &e.object_motion {
+            range(m.inertia_scale, 0.0, f32::MAX, "effects.object_motion.inertia_scale")?;
+        }
+        if let Some(it) = &e.interaction {
+            if let Some(p) = &it.position {
+                finite3(p, "effects.interaction.position")?;
+            }
+            positive(it.radius_m, "effects.interaction.radius_m")?;
+            range(it.strength_n, 0.0, f32::MAX, "effects.interaction.strength_n")?;
+        }
+        for (i, c) in e.collisions.iter().enumerate() {
+            let f = |k: &str| format!("effects.collisions[{i}].{k}");
+            match c {
+                Collider::Sphere { center, radius_m } => {
+                    finite3(center, &f("center"))?;
+                    positive(*radius_m, &f("radius_m"))?;
+                }
+                Collider::Ellipsoid { center, radii_m } => {
+                    finite3(center, &f("center"))?;
+                    for &r in radii_m {
+                        positive(r, &f("radii_m"))?;
+                    }
+                }
+            }
+        }
+        for (i, a) in e.windless_areas.iter().enumerate() {
+            let f = |k: &str| format!("effects.windless_areas[{i}].{k}");
+            finite3(&a.min, &f("min"))?;
+            finite3(&a.max, &f("max"))?;
+            if (0..3).any(|k| a.max[k] < a.min[k]) {
+                return Err((f("max"), "must be ≥ min on every axis".into()));
+            }
+        }
+        if let Some(g) = &e.wrong_side_guard {
+            range(g.restoring_weight_n, 0.0, f32::MAX, "effects.wrong_side_guard.restoring_weight_n")?;
+            range(g.max_angle_deg, 1e-3, 89.9, "effects.wrong_side_guard.max_angle_deg")?;
+            range(g.impulse_m_per_s, 0.0, f32::MAX, "effects.wrong_side_guard.impulse_m_per_s")?;
+        }
+        Ok(())
     }
 
     fn validate(&self) -> Result<(), (String, String)> {
@@ -772,54 +829,8 @@ impl Scene {
                 range(a.cut_speed_m_per_s, 1e-3, 1e9, &g("cut_speed_m_per_s"))?;
             }
         }
+        self.check_effects()?;
         let e = &self.effects;
-        if let Some(g) = &e.gravity {
-            finite3(&g.acceleration_m_per_s2, "effects.gravity.acceleration_m_per_s2")?;
-        }
-        if let Some(w) = &e.wind {
-            finite3(&w.velocity_m_per_s, "effects.wind.velocity_m_per_s")?;
-            range(w.gust_amplitude, 0.0, 1.0, "effects.wind.gust_amplitude")?;
-            range(w.gust_frequency_hz, 0.0, 1000.0, "effects.wind.gust_frequency_hz")?;
-        }
-        for (i, s) in e.wind_sources.iter().enumerate() {
-            let f = |k: &str| format!("effects.wind_sources[{i}].{k}");
-            finite3(&s.position, &f("position"))?;
-            range(s.power, 0.0, f32::MAX, &f("power"))?;
-            range(s.falloff_exponent, 0.0, 16.0, &f("falloff_exponent"))?;
-        }
-        if let Some(m) = &e.object_motion {
-            range(m.inertia_scale, 0.0, f32::MAX, "effects.object_motion.inertia_scale")?;
-        }
-        if let Some(it) = &e.interaction {
-            if let Some(p) = &it.position {
-                finite3(p, "effects.interaction.position")?;
-            }
-            positive(it.radius_m, "effects.interaction.radius_m")?;
-            range(it.strength_n, 0.0, f32::MAX, "effects.interaction.strength_n")?;
-        }
-        for (i, c) in e.collisions.iter().enumerate() {
-            let f = |k: &str| format!("effects.collisions[{i}].{k}");
-            match c {
-                Collider::Sphere { center, radius_m } => {
-                    finite3(center, &f("center"))?;
-                    positive(*radius_m, &f("radius_m"))?;
-                }
-                Collider::Ellipsoid { center, radii_m } => {
-                    finite3(center, &f("center"))?;
-                    for &r in radii_m {
-                        positive(r, &f("radii_m"))?;
-                    }
-                }
-            }
-        }
-        for (i, a) in e.windless_areas.iter().enumerate() {
-            let f = |k: &str| format!("effects.windless_areas[{i}].{k}");
-            finite3(&a.min, &f("min"))?;
-            finite3(&a.max, &f("max"))?;
-            if (0..3).any(|k| a.max[k] < a.min[k]) {
-                return Err((f("max"), "must be ≥ min on every axis".into()));
-            }
-        }
         for (i, event) in self.events.iter().enumerate() {
             let f = |k: &str| format!("events[{i}].{k}");
             let at = event.at_s();
@@ -859,11 +870,6 @@ impl Scene {
                     }
                 }
             }
-        }
-        if let Some(g) = &e.wrong_side_guard {
-            range(g.restoring_weight_n, 0.0, f32::MAX, "effects.wrong_side_guard.restoring_weight_n")?;
-            range(g.max_angle_deg, 1e-3, 89.9, "effects.wrong_side_guard.max_angle_deg")?;
-            range(g.impulse_m_per_s, 0.0, f32::MAX, "effects.wrong_side_guard.impulse_m_per_s")?;
         }
         Ok(())
     }

@@ -26,7 +26,7 @@ use serde::Serialize;
 
 use crate::animation::Animator;
 use crate::frame::{self, ForcesOn, MeshFrame};
-use crate::scene::{Effect, Event, Scene, ScenePack};
+use crate::scene::{Effect, Effects, Event, Scene, ScenePack};
 use crate::stages::{
     NON_SEPARABLE_PREFERENCE, PackRole, PlannedStage, SEPARABLE_PREFERENCE, StageKind, StageStats, choose_solver,
     choose_topology, plan_stages,
@@ -59,6 +59,10 @@ pub struct WorldOptions {
     /// Compute energy, its budget and the largest displacement every solver step (the statistics
     /// in [`FurFrame::last_step`]; costs a pass over the masses per step). Default false.
     pub step_statistics: bool,
+    /// The host places packs frame by frame ([`World::set_model_matrix`]) instead of, or on top
+    /// of, the scene's motion paths: with `object_motion` declared, every fur pack gets its
+    /// inertial-force stage, whether or not the scene gives it motion keys. Default false.
+    pub host_placement: bool,
 }
 
 /// The fur state of one pack after the latest step.
@@ -182,8 +186,38 @@ struct GrassState {
     corner_forces: Vec<[f32; 2]>,
 }
 
+/// The placements a host gave one pack ([`World::set_model_matrix`]), newest last: scene time
+/// and model matrix. Three keys are what the central differences of [`frame::path_motion`] read.
+#[derive(Clone, Copy, Debug)]
+struct HostTrack {
+    keys: [(f64, Mat4); 3],
+}
+
+impl HostTrack {
+    /// The key nearest to `t` (a later one on a tie).
+    fn at(&self, t: f64) -> Mat4 {
+        let mut best = self.keys[2];
+        for k in self.keys.iter().rev() {
+            if (k.0 - t).abs() < (best.0 - t).abs() {
+                best = *k;
+            }
+        }
+        best.1
+    }
+
+    /// Adds the placement at `t`: replaces the newest key when it has the same time.
+    fn push(&mut self, t: f64, m: Mat4) {
+        if self.keys[2].0 != t {
+            self.keys.rotate_left(1);
+        }
+        self.keys[2] = (t, m);
+    }
+}
+
 struct WorldPack {
     scene: ScenePack,
+    /// Placements from the host, once it gave one (the scene's motion path before that).
+    host: Option<HostTrack>,
     pack: Arc<Pack>,
     /// Sum of the teleports applied so far, world metres (on top of the motion path).
     teleported_m: Vec3,
@@ -197,9 +231,18 @@ struct WorldPack {
 }
 
 impl WorldPack {
-    /// Model matrix at `t`: teleports on top of the motion path on top of the placement.
+    /// Model matrix at `t`: teleports on top of the motion (the host's placements, else the
+    /// scene's motion path on top of its placement).
     fn model_at(&self, t: f64) -> Mat4 {
-        Mat4::from_translation(self.teleported_m) * self.scene.model_at(t)
+        Mat4::from_translation(self.teleported_m) * self.motion_at(t)
+    }
+
+    /// The pack's motion at `t` without teleports (what inertial forces differentiate).
+    fn motion_at(&self, t: f64) -> Mat4 {
+        match &self.host {
+            Some(track) => track.at(t),
+            None => self.scene.model_at(t),
+        }
     }
 }
 
@@ -214,6 +257,9 @@ pub struct World {
     events: Vec<Event>,
     next_event: usize,
     forces_on: ForcesOn,
+    /// The effects before the host's last edit (restored when it is refused; its lists keep their
+    /// capacity, so edits do not allocate).
+    effects_backup: Effects,
     interaction_point_m: Option<Vec3>,
     time_s: f64,
     steps: u64,
@@ -275,7 +321,7 @@ impl World {
             .map(|(sp, p)| PackRole {
                 fur: p.has(SectionKind::SHELL_ATLAS) || p.has(SectionKind::SPRING_TOPOLOGY),
                 grass: p.has(SectionKind::BLADE_FIELD),
-                moving: sp.motion.len() > 1,
+                moving: sp.motion.len() > 1 || options.host_placement,
                 topology: p.has(SectionKind::SPRING_TOPOLOGY),
                 animated: sp.animation.is_some(),
             })
@@ -330,12 +376,22 @@ impl World {
             };
             let model = sp.model_at(0.0);
             let step_frame = (model, MeshFrame::of(model));
-            world_packs.push(WorldPack { scene: sp, pack, teleported_m: Vec3::ZERO, fur, grass, anim, step_frame });
+            world_packs.push(WorldPack {
+                scene: sp,
+                host: None,
+                pack,
+                teleported_m: Vec3::ZERO,
+                fur,
+                grass,
+                anim,
+                step_frame,
+            });
         }
         let interaction_point_m = scene.effects.interaction.and_then(|i| i.position).map(Vec3::from);
         let stats = vec![(0, Duration::ZERO); stages.len()];
         let mut events = scene.events.clone();
         events.sort_by(|a, b| a.at_s().total_cmp(&b.at_s()));
+        let effects_backup = scene.effects.clone();
         let mut world = World {
             scene,
             packs: world_packs,
@@ -344,6 +400,7 @@ impl World {
             events,
             next_event: 0,
             forces_on: ForcesOn::ALL,
+            effects_backup,
             interaction_point_m,
             time_s: 0.0,
             steps: 0,
@@ -472,7 +529,7 @@ impl World {
         state.topology = Some(sim.topology.to_string());
         // World velocity of a mass: the frame's own velocity at that point plus the mass's
         // velocity relative to the frame, rotated and scaled into world units.
-        let motion = frame::path_motion(|t| p.scene.model_at(t), self.time_s, self.scene.time_step_s as f64);
+        let motion = frame::path_motion(|t| p.motion_at(t), self.time_s, self.scene.time_step_s as f64);
         let positions = sim.simulator.positions();
         let velocities = sim.simulator.velocities();
         for (x, v) in positions.iter().zip(&velocities) {
@@ -482,6 +539,79 @@ impl World {
             state.mass_velocities_m_per_s.push(vw.to_array());
         }
         Ok(state)
+    }
+
+    /// Places pack `index` at `model` (rotation, translation, positive uniform scale; world
+    /// metres) for the end of the next step, replacing the scene's motion path from now on — a
+    /// game's transform update. The inertial forces of `object_motion` come from the change
+    /// between the placements the host gives, step after step (build the world with
+    /// [`WorldOptions::host_placement`] so a pack without motion keys has that stage); the first
+    /// placement continues from where the scene had the pack. Teleports still add on top.
+    pub fn set_model_matrix(&mut self, index: usize, model: Mat4) -> Result<(), RuntimeError> {
+        let p = self.packs.get_mut(index).ok_or_else(|| RuntimeError::Parameter {
+            what: format!("pack {index} of a scene of {}", self.scene.packs.len()),
+        })?;
+        let (scale, _, _) = model.to_scale_rotation_translation();
+        let uniform = (scale.x - scale.y).abs() <= 1e-4 * scale.x && (scale.x - scale.z).abs() <= 1e-4 * scale.x;
+        if !(model.is_finite() && scale.x > 0.0 && uniform && model.determinant() > 0.0) {
+            return Err(RuntimeError::Parameter {
+                what: format!(
+                    "pack {:?}: the model matrix must be finite: rotation, translation and a positive uniform scale",
+                    p.scene.name
+                ),
+            });
+        }
+        let (t, dt) = (self.time_s, self.scene.time_step_s as f64);
+        let track = p.host.get_or_insert_with(|| {
+            let (before, now) = (p.scene.model_at(t - dt), p.scene.model_at(t));
+            HostTrack { keys: [(t - dt, before), (t, now), (t, now)] }
+        });
+        track.push(t + dt, model);
+        Ok(())
+    }
+
+    /// The effects the world runs with (the scene's, as the host last changed them).
+    pub fn effects(&self) -> &Effects {
+        &self.scene.effects
+    }
+
+    /// Lets the host change the declared effects' values for the next steps — wind, wind
+    /// sources, gravity, colliders moving with the game's objects, the interaction brush: `edit`
+    /// changes them in place, then they are validated as a scene's are. The stage plan was built
+    /// from what the scene declared, so an edit may change values but not which effects are
+    /// declared (declare it in the scene, even at zero strength, to drive it from the host). A
+    /// refused edit leaves the previous effects in place. Allocates nothing once the lists have
+    /// reached their size.
+    pub fn update_effects(&mut self, edit: impl FnOnce(&mut Effects)) -> Result<(), RuntimeError> {
+        self.effects_backup.clone_from(&self.scene.effects);
+        edit(&mut self.scene.effects);
+        let declared = |e: &Effects| e.declared().map(|(on, _)| on);
+        let problem = if declared(&self.scene.effects) != declared(&self.effects_backup) {
+            Some("an edit may change effects' values, not which effects are declared".to_string())
+        } else {
+            self.scene.check_effects().err().map(|(field, what)| format!("{field}: {what}"))
+        };
+        match problem {
+            None => {
+                self.interaction_point_m = self
+                    .scene
+                    .effects
+                    .interaction
+                    .and_then(|i| i.position)
+                    .map(Vec3::from)
+                    .or(self.interaction_point_m);
+                Ok(())
+            }
+            Some(what) => {
+                std::mem::swap(&mut self.scene.effects, &mut self.effects_backup);
+                Err(RuntimeError::Parameter { what })
+            }
+        }
+    }
+
+    /// The animation of pack `index`, for the host to drive (switch clips, seek, change speed).
+    pub fn animation_mut(&mut self, index: usize) -> Option<&mut Animator> {
+        self.packs.get_mut(index)?.anim.as_mut()
     }
 
     /// Moves the interaction brush to `point_m` (world metres), or lifts it (`None`). Has an
@@ -575,16 +705,14 @@ impl World {
         let (effects, on) = (&self.scene.effects, self.forces_on);
         let p = &mut self.packs[index];
         let (model, mesh_frame) = p.step_frame;
+        let path = (kind == StageKind::FurObjectMotion).then(|| frame::path_motion(|t| p.motion_at(t), t, dt));
         // Only fur stages remain; the planner builds them only for packs with a simulation.
         let Some(fur) = p.fur.as_mut() else { return Ok(()) };
         let Some(sim) = fur.sim.as_mut() else { return Ok(()) };
         match kind {
             StageKind::FurObjectMotion => {
-                sim.forces.motion = match (effects.object_motion, on.has(Effect::ObjectMotion)) {
-                    (Some(m), true) => {
-                        let motion = frame::path_motion(|t| p.scene.model_at(t), t, dt);
-                        frame::frame_motion(&motion, &mesh_frame, m.inertia_scale)
-                    }
+                sim.forces.motion = match (effects.object_motion, on.has(Effect::ObjectMotion), path) {
+                    (Some(m), true, Some(motion)) => frame::frame_motion(&motion, &mesh_frame, m.inertia_scale),
                     _ => FrameMotion::default(),
                 };
             }

@@ -43,7 +43,7 @@ fn scene(body: &str) -> Scene {
 }
 
 fn world(body: &str) -> World {
-    World::with_options(scene(body), WorldOptions { step_statistics: true }).unwrap()
+    World::with_options(scene(body), WorldOptions { step_statistics: true, ..WorldOptions::default() }).unwrap()
 }
 
 fn diagonal(positions: &[[f32; 3]]) -> f32 {
@@ -226,4 +226,21 @@ fn a_clip_the_pack_lacks_fails_before_the_first_step() {
     let text = "[[packs]]\nname = \"fox\"\npath = \"fox.fbk\"\nanimation = { clip = \"Run\", speed = 1e9 }\n";
     let msg = Scene::from_toml_str(text, Path::new("t.toml"), fox_dir()).unwrap_err().to_string();
     assert!(msg.contains("packs[0].animation.speed"), "{msg}");
+}
+
+/// A host drives the animation directly: switch clip, seek, change speed; bad values are typed
+/// errors that change nothing.
+#[test]
+fn the_host_drives_the_animation() {
+    let mut w = world("[packs.animation]\nclip = \"Walk\"\n");
+    let a = w.animation_mut(0).unwrap();
+    a.play("Run", 0.0).unwrap();
+    a.seek(0.25).unwrap();
+    a.set_speed(0.0).unwrap();
+    assert!(a.set_speed(f32::NAN).is_err() && a.set_speed(1e3).is_err() && a.seek(f32::INFINITY).is_err());
+    assert!(a.play("Dance", 0.0).is_err());
+    w.step().unwrap();
+    let anim = w.animation(0).unwrap();
+    assert_eq!(anim.clip_name(anim.playback().clip), "Run");
+    assert_eq!(anim.playback().time_s, 0.25);
 }

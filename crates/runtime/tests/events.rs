@@ -38,7 +38,7 @@ fn a_teleport_moves_the_pack_and_leaves_its_fur_behind() {
     ball(dir.path());
     let events = "[effects.wrong_side_guard]\n[[events]]\nkind = \"teleport\"\nat_s = 0.05\npack = \"ball\"\n\
                   offset_m = [0.01, 0.0, 0.0]\n";
-    let mut w = world(dir.path(), events, WorldOptions { step_statistics: true });
+    let mut w = world(dir.path(), events, WorldOptions { step_statistics: true, ..WorldOptions::default() });
     let rest = w.fur(0).unwrap().scale_vectors.to_vec();
     for _ in 0..5 {
         w.step().unwrap();
@@ -101,7 +101,8 @@ fn the_scene_picks_the_reference_solver_and_implicit_iterations() {
         let text =
             format!("time_step_s = 0.01\n{solver}[[packs]]\nname = \"ball\"\npath = \"ball.fbk\"\n[effects.gravity]\n");
         let scene = Scene::from_toml_str(&text, Path::new("t.toml"), dir.path()).unwrap();
-        let mut w = World::with_options(scene, WorldOptions { step_statistics: true }).unwrap();
+        let mut w =
+            World::with_options(scene, WorldOptions { step_statistics: true, ..WorldOptions::default() }).unwrap();
         for _ in 0..5 {
             w.step().unwrap();
         }
