@@ -440,7 +440,7 @@ impl ScenePack {
 
 /// The effects a scene declares. Every field defaults to "absent"; the runtime builds a stage
 /// only for what is present.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Effects {
     /// Constant acceleration on every mass.
@@ -464,6 +464,39 @@ pub struct Effects {
     pub parting: Option<Parting>,
     /// The wrong-side-scale guard (fur thesis §3.4.3).
     pub wrong_side_guard: Option<WrongSideGuard>,
+}
+
+impl Clone for Effects {
+    fn clone(&self) -> Self {
+        let mut out = Effects::default();
+        out.clone_from(self);
+        out
+    }
+
+    /// Field by field, the lists through `Vec::clone_from`, so copying effects into effects of
+    /// the same sizes allocates nothing (`World::update_effects` does it every frame).
+    fn clone_from(&mut self, source: &Self) {
+        let Effects {
+            gravity,
+            wind,
+            wind_sources,
+            object_motion,
+            interaction,
+            collisions,
+            windless_areas,
+            parting,
+            wrong_side_guard,
+        } = source;
+        self.gravity = *gravity;
+        self.wind = *wind;
+        self.wind_sources.clone_from(wind_sources);
+        self.object_motion = *object_motion;
+        self.interaction = *interaction;
+        self.collisions.clone_from(collisions);
+        self.windless_areas.clone_from(windless_areas);
+        self.parting = *parting;
+        self.wrong_side_guard = *wrong_side_guard;
+    }
 }
 
 /// Gravity.
@@ -724,9 +757,9 @@ impl Scene {
         }
         for (i, s) in e.wind_sources.iter().enumerate() {
             let f = |k: &str| format!("effects.wind_sources[{i}].{k}");
-            finite3(&s.position, &f("position"))?;
-            range(s.power, 0.0, f32::MAX, &f("power"))?;
-            range(s.falloff_exponent, 0.0, 16.0, &f("falloff_exponent"))?;
+            finite3(&s.position, "").map_err(|(_, w)| (f("position"), w))?;
+            range(s.power, 0.0, f32::MAX, "").map_err(|(_, w)| (f("power"), w))?;
+            range(s.falloff_exponent, 0.0, 16.0, "").map_err(|(_, w)| (f("falloff_exponent"), w))?;
         }
         if let Some(m) = &e.object_motion {
             range(m.inertia_scale, 0.0, f32::MAX, "effects.object_motion.inertia_scale")?;
@@ -742,21 +775,21 @@ impl Scene {
             let f = |k: &str| format!("effects.collisions[{i}].{k}");
             match c {
                 Collider::Sphere { center, radius_m } => {
-                    finite3(center, &f("center"))?;
-                    positive(*radius_m, &f("radius_m"))?;
+                    finite3(center, "").map_err(|(_, w)| (f("center"), w))?;
+                    positive(*radius_m, "").map_err(|(_, w)| (f("radius_m"), w))?;
                 }
                 Collider::Ellipsoid { center, radii_m } => {
-                    finite3(center, &f("center"))?;
+                    finite3(center, "").map_err(|(_, w)| (f("center"), w))?;
                     for &r in radii_m {
-                        positive(r, &f("radii_m"))?;
+                        positive(r, "").map_err(|(_, w)| (f("radii_m"), w))?;
                     }
                 }
             }
         }
         for (i, a) in e.windless_areas.iter().enumerate() {
             let f = |k: &str| format!("effects.windless_areas[{i}].{k}");
-            finite3(&a.min, &f("min"))?;
-            finite3(&a.max, &f("max"))?;
+            finite3(&a.min, "").map_err(|(_, w)| (f("min"), w))?;
+            finite3(&a.max, "").map_err(|(_, w)| (f("max"), w))?;
             if (0..3).any(|k| a.max[k] < a.min[k]) {
                 return Err((f("max"), "must be ≥ min on every axis".into()));
             }

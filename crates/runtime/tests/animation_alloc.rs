@@ -1,6 +1,7 @@
 //! The animation CPU reference allocates nothing per frame once its buffers exist: a counting
 //! global allocator (per thread, so other tests running in parallel do not count) watches one
-//! frame of advance → pose → joint matrices → skinning matrices → morph-then-skin on the Fox.
+//! frame of advance → pose → joint matrices → skinning matrices → morph-then-skin on the Fox, a
+//! world's `Animator` update, and a host's per-frame edit of the effects.
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
@@ -57,4 +58,44 @@ fn a_frame_of_animation_allocates_nothing() {
     assert_eq!(after - before, 0, "allocations during 10 frames");
     assert!(p.iter().flatten().all(|x| x.is_finite()));
     assert!(before > 0, "the counter counts (the import allocated)");
+}
+
+#[test]
+fn an_animator_update_and_a_host_effects_edit_allocate_nothing() {
+    use furbake_bake::{BakeSettings, NoProgress, bake};
+    use furbake_runtime::{Scene, World, scene::Collider};
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/real/Fox.glb");
+    let fox = import_gltf(&path, &ImportSettings::default()).unwrap();
+    let mut settings = BakeSettings::preset("fur").unwrap();
+    (settings.volume.resolution, settings.volume.layers) = (16, 4);
+    settings.topologies = vec!["prisms".into()];
+    let dir = tempfile::tempdir().unwrap();
+    bake(&fox, "Fox.glb", &settings, &mut NoProgress)
+        .unwrap()
+        .to_writer()
+        .write_atomic(&dir.path().join("fox.fbk"))
+        .unwrap();
+    let text = "[[packs]]\nname = \"fox\"\npath = \"fox.fbk\"\nanimation = { clip = \"Run\" }\n\
+                [effects.wind]\nvelocity_m_per_s = [1.0, 0.0, 0.0]\n[[effects.collisions]]\nshape = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius_m = 0.5\n";
+    let mut world = World::new(Scene::from_toml_str(text, "t.toml".as_ref(), dir.path()).unwrap()).unwrap();
+    let frame = |world: &mut World, k: f32| {
+        let a = world.animation_mut(0).unwrap();
+        a.advance(1.0 / 60.0);
+        a.update().unwrap();
+        world
+            .update_effects(|e| {
+                e.wind.as_mut().unwrap().velocity_m_per_s = [k, 0.0, 0.0];
+                if let Collider::Sphere { center, .. } = &mut e.collisions[0] {
+                    center[0] = k;
+                }
+            })
+            .unwrap();
+    };
+    frame(&mut world, 0.5); // the first edit sizes the backup's lists
+    let before = ALLOCATIONS.with(Cell::get);
+    for k in 0..10 {
+        frame(&mut world, k as f32 * 0.1);
+    }
+    let allocated = ALLOCATIONS.with(Cell::get) - before;
+    assert_eq!(allocated, 0, "ten frames of animation and effect edits allocated {allocated} times");
 }
