@@ -356,7 +356,7 @@ fn check_memory_budget(scene: &Scene, path: &Path, kept: RunOutputs, max_memory:
     if need <= max_memory {
         return Ok(());
     }
-    parts.sort_by(|a, b| b.bytes.cmp(&a.bytes));
+    parts.sort_by_key(|p| std::cmp::Reverse(p.bytes));
     let largest = &parts[0];
     Err(Failure::Usage(anyhow!(
         "{}: the run needs about {}, above --max-memory {}; most of it ({}) is {}: {}",

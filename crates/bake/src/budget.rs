@@ -419,7 +419,7 @@ fn peak(parts: Vec<Part>) -> MemoryEstimate {
         .filter(|(_, b)| *b > 0)
         .map(|(p, bytes)| MemoryPart { name: p.name, key: p.key, value: p.value, bytes })
         .collect();
-    out.sort_by(|a, b| b.bytes.cmp(&a.bytes));
+    out.sort_by_key(|p| std::cmp::Reverse(p.bytes));
     MemoryEstimate { peak_at, parts: out }
 }
 
@@ -481,8 +481,8 @@ mod tests {
         let mut checked = 0;
         for name in crate::settings::topology_names() {
             let kind = TopologyKind::from_name(name).unwrap();
-            let mut params = furbake_formats::sections::spring_topology::TopologyParams::default();
-            params.chain_layers = 16;
+            let params =
+                furbake_formats::sections::spring_topology::TopologyParams { chain_layers: 16, ..Default::default() };
             let built = furbake_sim::build_topology(&input.mesh, kind, &params).unwrap();
             let chain = match kind {
                 TopologyKind::CHAIN => 16,
