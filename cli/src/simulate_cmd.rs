@@ -476,7 +476,7 @@ fn estimate_run_memory(scene: &Scene, kept: RunOutputs) -> Result<Vec<RunPart>, 
                 let corners = peek_record(&pack.display_path(), &entry)
                     .and_then(|h| h.meta_u32(16).zip(h.meta_u32(20)))
                     .map_or(entry.length / 40, |(x, z)| (u64::from(x) + 1) * (u64::from(z) + 1));
-                own += corners * BYTES_PER_GRASS_CORNER;
+                own = own.saturating_add(corners.saturating_mul(BYTES_PER_GRASS_CORNER));
             }
         }
         if kept.state_out {
@@ -610,7 +610,12 @@ fn peek_record(path: &Path, entry: &SectionEntry) -> Option<RecordHead> {
         return None;
     }
     let table = read_at(8, 24 * arrays)?;
-    let counts = table.chunks_exact(24).map(|e| u64::from_le_bytes(e[16..24].try_into().unwrap_or([0; 8]))).collect();
+    // Not validated yet (the world does that when it decodes): a count is capped at the payload's
+    // length, so a lying head cannot overflow the estimate.
+    let counts = table
+        .chunks_exact(24)
+        .map(|e| u64::from_le_bytes(e[16..24].try_into().unwrap_or([0; 8])).min(entry.length))
+        .collect();
     let meta = read_at(8 + 24 * arrays, meta_len.min(META_BYTES))?;
     Some(RecordHead { counts, meta })
 }
