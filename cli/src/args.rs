@@ -110,6 +110,11 @@ pub struct BakeArgs {
     /// refused (exit 1).
     #[arg(long, value_name = "DIR")]
     pub asset_root: Option<PathBuf>,
+    /// Most memory the bake may take, estimated from the settings and the imported mesh before
+    /// any stage runs (bytes, or with a K, M or G suffix: powers of 1024). A plan above it exits 2
+    /// naming the setting that drives most of it. Default 2G.
+    #[arg(long, value_name = "SIZE", default_value = "2G", value_parser = parse_bytes)]
+    pub max_memory: u64,
 }
 
 /// `furbake inspect`
@@ -222,6 +227,15 @@ fn parse_bytes(s: &str) -> Result<u64, String> {
         .ok_or_else(|| format!("{s:?} is not a size: a positive whole number of bytes, or with K, M or G"))
 }
 
+/// Bytes as people read them in a message: `512 bytes`, `12 KiB`, `340 MiB` (rounded up).
+pub fn format_bytes(bytes: u64) -> String {
+    match bytes {
+        0..1024 => format!("{bytes} bytes"),
+        1024..0x10_0000 => format!("{} KiB", bytes.div_ceil(1024)),
+        _ => format!("{} MiB", bytes.div_ceil(1 << 20)),
+    }
+}
+
 const PREVIEW_HELP: &str =
     "A pack renders one still image with -o. A runtime scene renders a still with -o (after --settle \
 seconds of simulation, default 0.5), or with --frames N --out-dir DIR an animation: the world steps once (the scene's \
@@ -263,6 +277,12 @@ pub struct SimulateArgs {
     /// 100,000 steps; the last step is always recorded).
     #[arg(long, value_name = "N")]
     pub record_every: Option<u64>,
+    /// Most memory the run may take, estimated from the scene and its packs' section tables
+    /// before the world is built (bytes, or with a K, M or G suffix: powers of 1024): decoded
+    /// sections, solver state, kept step records and the `--state-out` text. A run above it exits
+    /// 2 naming what drives most of it. Default 2G.
+    #[arg(long, value_name = "SIZE", default_value = "2G", value_parser = parse_bytes)]
+    pub max_memory: u64,
     /// Retired (`simulate PACK --scene SIM.toml`): exits 2 saying how to write a runtime scene.
     #[arg(long, hide = true)]
     pub scene: Option<std::path::PathBuf>,

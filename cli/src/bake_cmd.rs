@@ -1,14 +1,16 @@
-//! `furbake bake`: flags → validated [`BakeSettings`] plan → import → bake → atomic write.
+//! `furbake bake`: flags → validated [`BakeSettings`] plan → import → memory budget → bake →
+//! atomic write.
 
 use std::io::IsTerminal;
 use std::path::Path;
 
 use anyhow::{Context, anyhow};
-use furbake_bake::{BakeSettings, Progress, Stage, bake, settings::dotted_override};
-use furbake_import::{ImportError, import_gltf, import_gltf_with_asset_root};
+use furbake_bake::validate::check_against_mesh;
+use furbake_bake::{BakeSettings, Progress, Stage, bake, estimate_bake_memory, settings::dotted_override};
+use furbake_import::{ImportError, ImportedMesh, import_gltf, import_gltf_with_asset_root};
 use indicatif::{ProgressBar, ProgressStyle};
 
-use crate::args::BakeArgs;
+use crate::args::{BakeArgs, format_bytes};
 use crate::failure::{Classify, Failure};
 
 /// Stage two of argument parsing: the preset, the config file, `--set` and the named flags,
@@ -86,6 +88,55 @@ fn check_output_paths(args: &BakeArgs) -> Result<(), Failure> {
     Ok(())
 }
 
+/// Refuses a plan whose estimated peak memory ([`estimate_bake_memory`]) is above
+/// `--max-memory`, after the limits that need the mesh ([`check_against_mesh`]) and before any
+/// stage runs: exit 2, naming the mesh, the estimate, the budget and the setting behind the
+/// largest part.
+fn check_memory_budget(args: &BakeArgs, settings: &BakeSettings, imported: &ImportedMesh) -> Result<(), Failure> {
+    check_against_mesh(settings, &imported.mesh).usage()?;
+    let estimate = estimate_bake_memory(settings, imported);
+    let need = estimate.total_bytes();
+    if need <= args.max_memory {
+        return Ok(());
+    }
+    let budget = format!("--max-memory {}", format_bytes(args.max_memory));
+    let head = format!(
+        "{}: the bake needs about {} at its peak ({}), above {budget}",
+        args.mesh.display(),
+        format_bytes(need),
+        estimate.peak_at
+    );
+    let Some(part) = estimate.largest() else {
+        return Err(Failure::Usage(anyhow!("{head}; raise --max-memory")));
+    };
+    let share = format_bytes(part.bytes);
+    Err(Failure::Usage(match &part.key {
+        Some(key) => anyhow!(
+            "{head}; most of it ({share}) is the {}, driven by {key} = {}: lower {key}{} or raise --max-memory",
+            part.name,
+            part.value,
+            flag_for(key).map(|f| format!(" ({f})")).unwrap_or_default(),
+        ),
+        None => anyhow!(
+            "{head}; most of it ({share}) is the {} ({}), which only the mesh's size drives: bake a smaller \
+             mesh or raise --max-memory",
+            part.name,
+            part.value
+        ),
+    }))
+}
+
+/// The named flag that sets a settings key, when there is one.
+fn flag_for(key: &str) -> Option<&'static str> {
+    Some(match key {
+        "volume.layers" => "--layers",
+        "volume.resolution" => "--resolution",
+        "blades.field.density_per_m2" => "--blades",
+        "topologies" => "--topology",
+        _ => return None,
+    })
+}
+
 struct Bar(Option<ProgressBar>);
 
 impl Progress for Bar {
@@ -124,6 +175,7 @@ pub fn run(args: BakeArgs, quiet: bool) -> Result<(), Failure> {
         }
         Err(e) => return Err(Failure::Input(e.into())),
     };
+    check_memory_budget(&args, &settings, &imported)?;
     let mut progress = Bar(bar);
     progress.stage_done_import();
     let name = file_name(&args.mesh);

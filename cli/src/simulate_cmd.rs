@@ -7,17 +7,25 @@
 //! displacement, substeps, CG iterations, guard triggers). `--state-out` writes the final state
 //! of every pack in world space (README "`simulate --state-out`").
 //!
+//! Before the world is built, the run's memory is estimated from the scene and its packs' section
+//! tables ([`estimate_run_memory`]) and a run above `--max-memory` exits 2 naming what drives it.
+//!
 //! The former `simulate PACK --scene SIM.toml` form is retired: it and a furbake-sim scene file
 //! exit 2 with a one-line message saying how to write the scene now.
 
-use std::path::Path;
+use std::fs::File;
+use std::io::{Read, Seek, SeekFrom};
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::anyhow;
-use furbake_runtime::{PackState, Scene, World, WorldOptions};
+use furbake_formats::{SectionEntry, SectionKind};
+use furbake_runtime::stages::{PackRole, StageKind, choose_topology, plan_stages};
+use furbake_runtime::{Pack, PackState, RuntimeError, Scene, World, WorldOptions};
+use furbake_sim::TopologyKind;
 use serde::Serialize;
 
-use crate::args::SimulateArgs;
+use crate::args::{SimulateArgs, format_bytes};
 use crate::failure::{self, Classify, Failure};
 
 /// Scene time a scene without `duration_s` runs for when `--frames` is not given, seconds.
@@ -67,6 +75,8 @@ pub fn run(args: SimulateArgs, quiet: bool) -> Result<(), Failure> {
         None => frames.div_ceil(MAX_STEP_RECORDS).max(1),
     };
     let wants_report = args.json || args.output.is_some();
+    let kept = RunOutputs { frames, record_every, report: wants_report, state_out: args.state_out.is_some() };
+    check_memory_budget(&scene, path, kept, args.max_memory)?;
     let options = WorldOptions { step_statistics: wants_report, ..WorldOptions::default() };
     let mut world = World::with_options(scene, options).map_err(|e| failure::runtime(e, path))?;
     let simulated: Vec<usize> =
@@ -288,4 +298,324 @@ fn stage_table(r: &SceneReport) -> String {
         if r.frames > 0 { total_ms * 1e3 / r.frames as f64 } else { 0.0 }
     ));
     out
+}
+
+// ---------------------------------------------------------------------------------------------
+// Memory budget
+// ---------------------------------------------------------------------------------------------
+
+/// Solver bytes per mass of the simulated topology: position, velocity and their next values,
+/// rest state and the model's per-mass arrays (`Vec3A`s and indices), fitted to measurements
+/// (docs/design.md "Memory budget").
+const SOLVER_BYTES_PER_MASS: u64 = 160;
+/// Solver bytes per spring or stick (both ends' adjacency entries, weights, the energy list and
+/// the implicit solver's scratch), fitted with [`SOLVER_BYTES_PER_MASS`].
+const SOLVER_BYTES_PER_LINK: u64 = 136;
+/// Per shell vertex of a fur pack: its rest direction and scale vector (`[f32; 3]` each).
+const BYTES_PER_SHELL_VERTEX: u64 = 24;
+/// Per triangle corner of a separable topology: the skin transform it follows (`Mat4`, `Mat3`,
+/// `Vec3`: 112 bytes) and its skin vertex.
+const BYTES_PER_PARTING_CORNER: u64 = 112 + 4;
+/// Per skin vertex of an animated pack: its skin transform and posed position and normal.
+const BYTES_PER_ANIMATED_VERTEX: u64 = 112 + 2 * 12;
+/// Per cluster corner of a grass pack with a force stage: the field's and the frame's `(x, z)`.
+const BYTES_PER_GRASS_CORNER: u64 = 16;
+/// One kept step record: the struct with its pack name, and its text in the pretty JSON report
+/// (about 440 bytes) held twice while it is written, measured.
+const BYTES_PER_STEP_RECORD: u64 = 1100;
+/// One `[x, y, z]` of `--state-out`: the world-space copy and its pretty JSON text (about 80
+/// bytes) held twice while it is written, measured.
+const BYTES_PER_STATE_VECTOR: u64 = 180;
+
+/// What a run keeps besides its world.
+#[derive(Clone, Copy, Debug)]
+struct RunOutputs {
+    frames: u64,
+    record_every: u64,
+    /// The JSON report is asked for (`--json` or `-o`): step records are kept.
+    report: bool,
+    /// `--state-out` is asked for.
+    state_out: bool,
+}
+
+/// One part of a run's estimated memory.
+#[derive(Debug)]
+struct RunPart {
+    /// What it is, for the message.
+    what: String,
+    /// What to change to shrink it.
+    advice: String,
+    bytes: u64,
+}
+
+/// Refuses a run whose estimated memory ([`estimate_run_memory`]) is above `max_memory`: exit 2
+/// naming the scene, the estimate, the budget and what drives the largest part.
+fn check_memory_budget(scene: &Scene, path: &Path, kept: RunOutputs, max_memory: u64) -> Result<(), Failure> {
+    let mut parts = estimate_run_memory(scene, kept).map_err(|e| failure::runtime(e, path))?;
+    let need: u64 = parts.iter().map(|p| p.bytes).sum();
+    if need <= max_memory {
+        return Ok(());
+    }
+    parts.sort_by_key(|p| std::cmp::Reverse(p.bytes));
+    let largest = &parts[0];
+    Err(Failure::Usage(anyhow!(
+        "{}: the run needs about {}, above --max-memory {}; most of it ({}) is {}: {}",
+        path.display(),
+        format_bytes(need),
+        format_bytes(max_memory),
+        format_bytes(largest.bytes),
+        largest.what,
+        largest.advice
+    )))
+}
+
+/// Estimates what running `scene` holds, before the world is built: per scene entry, the
+/// sections its stages decode (counted once per file, as the world shares them; a decoded
+/// section is about as large as its payload, and the largest payload is held once more while it
+/// is decoded), its solver state, shell vertices, animation and grass corners; the step records
+/// kept for the report; the `--state-out` text. Reads only the packs' section tables and the
+/// heads of the sections whose counts it needs (the record layout of docs/format.md); the stages
+/// are planned as the world plans them ([`plan_stages`], [`choose_topology`]). A pack that cannot
+/// be opened fails as the world would.
+fn estimate_run_memory(scene: &Scene, kept: RunOutputs) -> Result<Vec<RunPart>, RuntimeError> {
+    let mut files: Vec<(PathBuf, Pack, Vec<bool>)> = Vec::new();
+    let mut file_of = Vec::with_capacity(scene.packs.len());
+    for sp in &scene.packs {
+        let key = std::fs::canonicalize(&sp.path).unwrap_or_else(|_| sp.path.clone());
+        let index = match files.iter().position(|(k, _, _)| *k == key) {
+            Some(i) => i,
+            None => {
+                let pack = Pack::open(&sp.path)?;
+                let read = vec![false; pack.sections().len()];
+                files.push((key, pack, read));
+                files.len() - 1
+            }
+        };
+        file_of.push(index);
+    }
+    let roles: Vec<PackRole> = scene
+        .packs
+        .iter()
+        .zip(&file_of)
+        .map(|(sp, &f)| {
+            let p = &files[f].1;
+            PackRole {
+                fur: p.has(SectionKind::SHELL_ATLAS) || p.has(SectionKind::SPRING_TOPOLOGY),
+                grass: p.has(SectionKind::BLADE_FIELD),
+                moving: sp.motion.len() > 1,
+                topology: p.has(SectionKind::SPRING_TOPOLOGY),
+                animated: sp.animation.is_some(),
+            }
+        })
+        .collect();
+    let stages = plan_stages(&scene.effects, &roles);
+    let parting = scene.effects.parting.is_some();
+    let mut parts = Vec::new();
+    let (mut simulated, mut state_vectors) = (0u64, 0u64);
+    let (mut largest_payload, mut reading_entry) = (0u64, 0usize);
+    for (i, sp) in scene.packs.iter().enumerate() {
+        let planned = |k: StageKind| stages.iter().any(|s| s.pack == i && s.kind == k);
+        let (_, pack, read) = &mut files[file_of[i]];
+        let mut sections = SectionReads { pack: &*pack, read, bytes: 0, largest: 0 };
+        let mesh = sections.first(SectionKind::SKIN_MESH).map(|e| peek_record(&pack.display_path(), &e));
+        let (vertices, triangles) = match &mesh {
+            Some(Some(head)) => (head.count(0) / 3, head.count(3) / 3),
+            Some(None) => (sections.length(SectionKind::SKIN_MESH) / 40, 0),
+            None => (0, 0),
+        };
+        let mut own = 0;
+        let mut masses = 0;
+        if roles[i].fur {
+            sections.decode(SectionKind::SKIN_MESH);
+            let topology = if planned(StageKind::FurSolver) {
+                let kinds = pack.topology_kinds()?;
+                let available: Vec<TopologyKind> = kinds.iter().map(|&(_, k)| k).collect();
+                choose_topology(&available, parting)
+                    .and_then(|kind| kinds.iter().find(|&&(_, k)| k == kind).map(|&(index, _)| (kind, index)))
+            } else {
+                None
+            };
+            match topology {
+                Some((kind, index)) => {
+                    let entry = pack.sections()[index];
+                    sections.decode_index(index);
+                    let counts = peek_record(&pack.display_path(), &entry)
+                        .map(|h| (h.count(1), h.count(3) / 2 + h.count(7) / 2, h.count(9) / 2));
+                    let (m, links, shell) = counts.unwrap_or((entry.length / 17, 0, vertices));
+                    masses = m;
+                    own += m * SOLVER_BYTES_PER_MASS + links * SOLVER_BYTES_PER_LINK + shell * BYTES_PER_SHELL_VERTEX;
+                    if kind.is_separable() {
+                        own += shell * BYTES_PER_PARTING_CORNER;
+                    }
+                    simulated += 1;
+                    state_vectors += 2 * m + shell;
+                }
+                None => {
+                    own += vertices * BYTES_PER_SHELL_VERTEX;
+                    state_vectors += vertices;
+                }
+            }
+        }
+        if roles[i].animated {
+            sections.decode(SectionKind::SKIN_MESH);
+            for kind in [
+                SectionKind::SKELETON,
+                SectionKind::SKIN_WEIGHTS,
+                SectionKind::MORPH_TARGETS,
+                SectionKind::ANIMATION_CLIPS,
+            ] {
+                sections.decode(kind);
+            }
+            own += vertices * BYTES_PER_ANIMATED_VERTEX;
+        }
+        if planned(StageKind::GrassForces) {
+            if let Some(entry) = sections.first(SectionKind::BLADE_FIELD) {
+                sections.decode(SectionKind::BLADE_FIELD);
+                // The blade field's metadata starts with its cluster grid: origin and cell size
+                // (`[f32; 2]` each), then `cells_x` and `cells_z` (`u32`).
+                let corners = peek_record(&pack.display_path(), &entry)
+                    .and_then(|h| h.meta_u32(16).zip(h.meta_u32(20)))
+                    .map_or(entry.length / 40, |(x, z)| (u64::from(x) + 1) * (u64::from(z) + 1));
+                own = own.saturating_add(corners.saturating_mul(BYTES_PER_GRASS_CORNER));
+            }
+        }
+        if kept.state_out {
+            // `--state-out` reports every pack's skin.
+            sections.decode(SectionKind::SKIN_MESH);
+            state_vectors += vertices;
+        }
+        let shared = sections.bytes;
+        if sections.largest > largest_payload {
+            (largest_payload, reading_entry) = (sections.largest, i);
+        }
+        let what = match masses {
+            0 => {
+                format!("pack entry `{}` ({}, {vertices} vertices, {triangles} triangles)", sp.name, sp.path.display())
+            }
+            m => format!("pack entry `{}` ({}, {m} simulated masses)", sp.name, sp.path.display()),
+        };
+        parts.push(RunPart {
+            what,
+            advice: "place fewer or smaller packs in the scene, or raise --max-memory".into(),
+            bytes: shared + own,
+        });
+    }
+    if let Some(part) = parts.get_mut(reading_entry) {
+        part.bytes += largest_payload;
+    }
+    if kept.report && simulated > 0 {
+        let per_pack = kept.frames.div_ceil(kept.record_every) + 1;
+        parts.push(RunPart {
+            what: format!(
+                "the report's step records ({per_pack} for each of {simulated} simulated pack{}: --frames {} with \
+                 --record-every {})",
+                if simulated == 1 { "" } else { "s" },
+                kept.frames,
+                kept.record_every
+            ),
+            advice: "raise --record-every, lower --frames, or raise --max-memory".into(),
+            bytes: per_pack * simulated * BYTES_PER_STEP_RECORD,
+        });
+    }
+    if kept.state_out {
+        parts.push(RunPart {
+            what: format!("the --state-out text ({state_vectors} vectors)"),
+            advice: "leave out --state-out or raise --max-memory".into(),
+            bytes: state_vectors * BYTES_PER_STATE_VECTOR,
+        });
+    }
+    Ok(parts)
+}
+
+/// The sections of one pack file the world will decode, each counted once per file.
+struct SectionReads<'a> {
+    pack: &'a Pack,
+    /// Per table entry: already counted (by this or an earlier scene entry on the same file).
+    read: &'a mut Vec<bool>,
+    /// Payload bytes newly counted for this scene entry.
+    bytes: u64,
+    /// The largest payload newly counted.
+    largest: u64,
+}
+
+impl SectionReads<'_> {
+    /// The first table entry of `kind`.
+    fn first(&self, kind: SectionKind) -> Option<SectionEntry> {
+        self.pack.find(kind).next().map(|i| self.pack.sections()[i])
+    }
+
+    /// The payload length of the first section of `kind` (0 when there is none).
+    fn length(&self, kind: SectionKind) -> u64 {
+        self.first(kind).map_or(0, |e| e.length)
+    }
+
+    /// Counts the first section of `kind`, when there is one.
+    fn decode(&mut self, kind: SectionKind) {
+        if let Some(i) = self.pack.find(kind).next() {
+            self.decode_index(i);
+        }
+    }
+
+    /// Counts table entry `index`.
+    fn decode_index(&mut self, index: usize) {
+        if !std::mem::replace(&mut self.read[index], true) {
+            let length = self.pack.sections()[index].length;
+            self.bytes += length;
+            self.largest = self.largest.max(length);
+        }
+    }
+}
+
+/// The head of a record section (docs/format.md "the record layout"): its arrays' element counts
+/// and the first bytes of its metadata.
+struct RecordHead {
+    counts: Vec<u64>,
+    meta: Vec<u8>,
+}
+
+impl RecordHead {
+    /// Element count of array `i` (0 when there is no such array).
+    fn count(&self, i: usize) -> u64 {
+        self.counts.get(i).copied().unwrap_or(0)
+    }
+
+    /// The little-endian `u32` at byte `at` of the metadata.
+    fn meta_u32(&self, at: usize) -> Option<u32> {
+        Some(u32::from_le_bytes(self.meta.get(at..at + 4)?.try_into().ok()?))
+    }
+}
+
+/// Reads the head of the record at `entry` in the file at `path`: at most 64 arrays and 64 bytes
+/// of metadata, inside the section. `None` when anything does not fit or cannot be read (the
+/// estimate then falls back on the payload length, and the world reports a bad section when it
+/// decodes it).
+fn peek_record(path: &Path, entry: &SectionEntry) -> Option<RecordHead> {
+    const MAX_ARRAYS: u64 = 64;
+    const META_BYTES: u64 = 64;
+    let mut file = File::open(path).ok()?;
+    let mut read_at = |at: u64, len: u64| -> Option<Vec<u8>> {
+        let end = at.checked_add(len)?;
+        if end > entry.length {
+            return None;
+        }
+        file.seek(SeekFrom::Start(entry.offset.checked_add(at)?)).ok()?;
+        let mut buf = vec![0u8; len as usize];
+        file.read_exact(&mut buf).ok()?;
+        Some(buf)
+    };
+    let head = read_at(0, 8)?;
+    let meta_len = u64::from(u32::from_le_bytes(head[0..4].try_into().ok()?));
+    let arrays = u64::from(u32::from_le_bytes(head[4..8].try_into().ok()?));
+    if arrays > MAX_ARRAYS {
+        return None;
+    }
+    let table = read_at(8, 24 * arrays)?;
+    // Not validated yet (the world does that when it decodes): a count is capped at the payload's
+    // length, so a lying head cannot overflow the estimate.
+    let counts = table
+        .chunks_exact(24)
+        .map(|e| u64::from_le_bytes(e[16..24].try_into().unwrap_or([0; 8])).min(entry.length))
+        .collect();
+    let meta = read_at(8 + 24 * arrays, meta_len.min(META_BYTES))?;
+    Some(RecordHead { counts, meta })
 }

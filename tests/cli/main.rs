@@ -12,6 +12,7 @@ mod file_modes;
 mod fuzz_gltf;
 mod golden;
 mod hermetic;
+mod memory_budget;
 mod plan_first;
 mod preview_scene;
 mod simulate_scene;

@@ -6,7 +6,8 @@
 //! grow the hair volume and slice it into shell and fin atlases (fur thesis §3.1), map every
 //! triangle on its own (§3.2), find the fin edges (§3.2), carry the imported skeleton, skin
 //! weights, morph targets and clips through (glTF 2.0 "Skins", "Morph Targets", "Animations"),
-//! and record the manifest.
+//! and record the manifest. [`estimate_bake_memory`] tells a caller, before any stage runs, about
+//! how much memory a plan will take on a mesh ([`budget`]), so it can refuse a plan over budget.
 //!
 //! ```
 //! use furbake_bake::{BakeSettings, bake, NoProgress};
@@ -23,6 +24,7 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+pub mod budget;
 pub mod fin_edges;
 pub mod rng;
 pub mod settings;
@@ -42,6 +44,7 @@ use furbake_formats::sections::spring_topology::{SpringTopology, TopologyKind};
 use furbake_formats::sections::triangle_uv_map::TriangleUvMap;
 use furbake_import::{ImportedAnimation, ImportedMesh};
 
+pub use budget::{MemoryEstimate, MemoryPart, estimate_bake_memory};
 pub use settings::{BakeSettings, BladeSettings, ShellSettings};
 pub use validate::SettingsError;
 

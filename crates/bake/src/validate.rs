@@ -422,7 +422,7 @@ pub fn check_against_mesh(s: &BakeSettings, mesh: &SkinMesh) -> Result<(), Setti
 }
 
 /// Area of the furry triangles (m²) and the xz bounds of their vertices.
-fn furry_area_and_xz_bounds(mesh: &SkinMesh) -> (f64, [f64; 2], [f64; 2]) {
+pub(crate) fn furry_area_and_xz_bounds(mesh: &SkinMesh) -> (f64, [f64; 2], [f64; 2]) {
     let mut area = 0.0;
     let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
     for (t, tri) in mesh.triangles.iter().enumerate() {
