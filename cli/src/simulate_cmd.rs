@@ -14,7 +14,7 @@
 //! exit 2 with a one-line message saying how to write the scene now.
 
 use std::fs::File;
-use std::io::{Read, Seek, SeekFrom};
+use std::io::{Read, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -32,8 +32,9 @@ use crate::failure::{self, Classify, Failure};
 const DEFAULT_SCENE_TIME_S: f64 = 2.0;
 /// Most frames one run may take (a typo guard: 10⁷ steps is hours of scene time).
 const MAX_FRAMES: u64 = 10_000_000;
-/// Most step records a report keeps per pack; longer runs record every k-th step (the report's
-/// `record_every`), so memory stays bounded whatever `--frames` is.
+/// Most step records a report writes per pack by default; longer runs record every k-th step
+/// (the report's `record_every`), so the report's size stays bounded whatever `--frames` is (its
+/// records are streamed, never kept, so memory does not grow with it either).
 const MAX_STEP_RECORDS: u64 = 100_000;
 
 /// Runs `furbake simulate`.
@@ -75,23 +76,50 @@ pub fn run(args: SimulateArgs, quiet: bool) -> Result<(), Failure> {
         None => frames.div_ceil(MAX_STEP_RECORDS).max(1),
     };
     let wants_report = args.json || args.output.is_some();
-    let kept = RunOutputs { frames, record_every, report: wants_report, state_out: args.state_out.is_some() };
+    let kept = RunOutputs { state_out: args.state_out.is_some() };
     check_memory_budget(&scene, path, kept, args.max_memory)?;
     let options = WorldOptions { step_statistics: wants_report, ..WorldOptions::default() };
     let mut world = World::with_options(scene, options).map_err(|e| failure::runtime(e, path))?;
-    let simulated: Vec<usize> =
-        (0..world.pack_count()).filter(|&i| world.fur(i).is_some_and(|f| f.simulation.is_some())).collect();
-    let mut steps = Vec::new();
-    let started = Instant::now();
-    for step in 0..frames {
-        world.step().map_err(|e| failure::runtime(e, path))?;
-        if wants_report && (step % record_every == 0 || step + 1 == frames) {
-            for &i in &simulated {
-                steps.push(StepRecord::of(&world, i, step));
+    // The report streams — its head, each step record as it is taken, then its tail — into the
+    // -o file (named only once the run succeeds) and to stdout with --json; nothing is kept.
+    let head =
+        ReportHead { scene: path.display().to_string(), frames, time_step_s: world.scene().time_step_s, record_every };
+    let mut failed: Option<Failure> = None;
+    let mut wall_s = 0.0;
+    let mut produce = |sink: &mut dyn Write| -> std::io::Result<()> {
+        match run_streaming(&mut world, path, &head, wants_report, sink) {
+            Ok(w) => {
+                wall_s = w;
+                Ok(())
+            }
+            Err(Streamed::Io(e)) => Err(e),
+            Err(Streamed::Run(f)) => {
+                failed = Some(f);
+                Err(std::io::Error::other("the run failed"))
             }
         }
+    };
+    let written = match &args.output {
+        Some(out) => furbake_formats::write_file_atomic_from(out, &mut |file| {
+            if args.json { produce(&mut Tee { file, stdout: std::io::stdout().lock() }) } else { produce(file) }
+        })
+        .map_err(|e| match e {
+            furbake_formats::FormatError::Io { source, .. } => source,
+            other => std::io::Error::other(other.to_string()),
+        }),
+        None if args.json => produce(&mut std::io::stdout().lock()),
+        None => produce(&mut std::io::sink()),
+    };
+    if let Some(f) = failed {
+        return Err(f);
     }
-    let wall_s = started.elapsed().as_secs_f64();
+    written.map_err(|e| match e.kind() {
+        std::io::ErrorKind::BrokenPipe => Failure::StdoutClosed,
+        _ => Failure::Input(anyhow!(
+            "cannot write the report{}: {e}",
+            args.output.as_ref().map_or(String::new(), |o| format!(" to {}", o.display()))
+        )),
+    })?;
     if let Some(out) = &args.state_out {
         let packs = (0..world.pack_count())
             .map(|i| world.pack_state(i))
@@ -101,24 +129,15 @@ pub fn run(args: SimulateArgs, quiet: bool) -> Result<(), Failure> {
         let json = serde_json::to_string_pretty(&state).expect("the state is plain serde data");
         furbake_formats::write_file_atomic(out, format!("{json}\n").as_bytes()).input()?;
     }
-    let report = build_report(&world, path, frames, wall_s, record_every, steps);
-    if wants_report {
-        let json = serde_json::to_string_pretty(&report).expect("the report is plain serde data");
-        if let Some(out) = &args.output {
-            furbake_formats::write_file_atomic(out, format!("{json}\n").as_bytes()).input()?;
-        }
-        if args.json {
-            crate::stdout::line(&json)?;
-        }
-    }
+    let tail = report_tail(&world, wall_s);
     if !args.json {
-        crate::stdout::write(&stage_table(&report))?;
+        crate::stdout::write(&stage_table(&tail, frames))?;
     }
     if !quiet {
         eprintln!(
             "simulated {} for {frames} steps of {dt} s ({:.3} s scene time) in {wall_s:.3} s wall",
             path.display(),
-            report.scene_time_s,
+            tail.scene_time_s,
         );
     }
     Ok(())
@@ -192,20 +211,96 @@ impl StepRecord {
     }
 }
 
-/// The JSON report of a scene run.
+/// The JSON report of a scene run, as streamed: the head's fields, `"steps": [ … ]` (one record
+/// per simulated pack per recorded step, in step order, written as they are taken), then the
+/// tail's fields.
 #[derive(Serialize)]
-struct SceneReport {
+struct ReportHead {
     scene: String,
     frames: u64,
     time_step_s: f32,
+    /// Steps between two step records (the last step is always recorded).
+    record_every: u64,
+}
+
+/// The fields known once the run has ended.
+#[derive(Serialize)]
+struct ReportTail {
     scene_time_s: f64,
     wall_s: f64,
     packs: Vec<PackRow>,
     stages: Vec<StageRow>,
-    /// Steps between two step records (the last step is always recorded).
-    record_every: u64,
-    /// One record per simulated pack per recorded step, in step order.
-    steps: Vec<StepRecord>,
+}
+
+/// Why a streamed run stopped.
+enum Streamed {
+    /// Writing the report failed.
+    Io(std::io::Error),
+    /// The run itself failed.
+    Run(Failure),
+}
+
+impl From<std::io::Error> for Streamed {
+    fn from(e: std::io::Error) -> Self {
+        Streamed::Io(e)
+    }
+}
+
+/// The report written to the -o file and to stdout at once.
+struct Tee<'a, S: Write> {
+    file: &'a mut dyn Write,
+    stdout: S,
+}
+
+impl<S: Write> Write for Tee<'_, S> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.file.write_all(buf)?;
+        self.stdout.write_all(buf)?;
+        Ok(buf.len())
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.file.flush()?;
+        self.stdout.flush()
+    }
+}
+
+/// Runs `head.frames` steps of `world`, streaming the report into `sink` when `report` (else
+/// writing nothing); returns the wall time of the steps, seconds.
+fn run_streaming(
+    world: &mut World,
+    path: &Path,
+    head: &ReportHead,
+    report: bool,
+    sink: &mut dyn Write,
+) -> Result<f64, Streamed> {
+    let json = |e: serde_json::Error| Streamed::Io(std::io::Error::other(e));
+    let simulated: Vec<usize> =
+        (0..world.pack_count()).filter(|&i| world.fur(i).is_some_and(|f| f.simulation.is_some())).collect();
+    let (frames, record_every) = (head.frames, head.record_every);
+    if report {
+        let text = serde_json::to_string_pretty(head).map_err(json)?;
+        // The head without its closing brace, then the steps array.
+        write!(sink, "{},\n  \"steps\": [", text.trim_end().trim_end_matches('}').trim_end())?;
+    }
+    let mut first = true;
+    let started = Instant::now();
+    for step in 0..frames {
+        world.step().map_err(|e| Streamed::Run(failure::runtime(e, path)))?;
+        if report && (step % record_every == 0 || step + 1 == frames) {
+            for &i in &simulated {
+                sink.write_all(if first { b"\n    " } else { b",\n    " })?;
+                serde_json::to_writer(&mut *sink, &StepRecord::of(world, i, step)).map_err(json)?;
+                first = false;
+            }
+        }
+    }
+    let wall_s = started.elapsed().as_secs_f64();
+    if report {
+        let tail = serde_json::to_string_pretty(&report_tail(world, wall_s)).map_err(json)?;
+        // The tail's fields after the steps array, closing the one object.
+        writeln!(sink, "\n  ],{}", tail.trim_start().trim_start_matches('{'))?;
+    }
+    Ok(wall_s)
 }
 
 /// What `--state-out` writes.
@@ -224,14 +319,8 @@ fn looks_like_a_pack(path: &Path) -> bool {
     std::fs::File::open(path).and_then(|mut f| f.read_exact(&mut magic)).is_ok() && magic == furbake_formats::MAGIC
 }
 
-fn build_report(
-    world: &World,
-    path: &Path,
-    frames: u64,
-    wall_s: f64,
-    record_every: u64,
-    steps: Vec<StepRecord>,
-) -> SceneReport {
+/// The report's fields known once the run has ended.
+fn report_tail(world: &World, wall_s: f64) -> ReportTail {
     let packs = (0..world.pack_count())
         .map(|i| {
             let sp = &world.scene().packs[i];
@@ -259,20 +348,11 @@ fn build_report(
             mean_us: s.mean().as_secs_f64() * 1e6,
         })
         .collect();
-    SceneReport {
-        scene: path.display().to_string(),
-        frames,
-        time_step_s: world.scene().time_step_s,
-        scene_time_s: world.time_s(),
-        wall_s,
-        packs,
-        stages,
-        record_every,
-        steps,
-    }
+    ReportTail { scene_time_s: world.time_s(), wall_s, packs, stages }
 }
 
-fn stage_table(r: &SceneReport) -> String {
+/// The per-stage table printed without `--json` (`frames` steps ran).
+fn stage_table(r: &ReportTail, frames: u64) -> String {
     let mut out = String::new();
     let pack_w = r.stages.iter().map(|s| s.pack.len()).chain([4]).max().unwrap_or(4);
     out.push_str(&format!(
@@ -293,9 +373,9 @@ fn stage_table(r: &SceneReport) -> String {
         "{:<18}  {:<pack_w$}  {:>8}  {:>11.3}  {:>10.2}\n",
         "all stages",
         "",
-        r.frames,
+        frames,
         total_ms,
-        if r.frames > 0 { total_ms * 1e3 / r.frames as f64 } else { 0.0 }
+        if frames > 0 { total_ms * 1e3 / frames as f64 } else { 0.0 }
     ));
     out
 }
@@ -320,9 +400,6 @@ const BYTES_PER_PARTING_CORNER: u64 = 112 + 4;
 const BYTES_PER_ANIMATED_VERTEX: u64 = 112 + 2 * 12;
 /// Per cluster corner of a grass pack with a force stage: the field's and the frame's `(x, z)`.
 const BYTES_PER_GRASS_CORNER: u64 = 16;
-/// One kept step record: the struct with its pack name, and its text in the pretty JSON report
-/// (about 440 bytes) held twice while it is written, measured.
-const BYTES_PER_STEP_RECORD: u64 = 1100;
 /// One `[x, y, z]` of `--state-out`: the world-space copy and its pretty JSON text (about 80
 /// bytes) held twice while it is written, measured.
 const BYTES_PER_STATE_VECTOR: u64 = 180;
@@ -330,10 +407,6 @@ const BYTES_PER_STATE_VECTOR: u64 = 180;
 /// What a run keeps besides its world.
 #[derive(Clone, Copy, Debug)]
 struct RunOutputs {
-    frames: u64,
-    record_every: u64,
-    /// The JSON report is asked for (`--json` or `-o`): step records are kept.
-    report: bool,
     /// `--state-out` is asked for.
     state_out: bool,
 }
@@ -411,7 +484,7 @@ fn estimate_run_memory(scene: &Scene, kept: RunOutputs) -> Result<Vec<RunPart>, 
     let stages = plan_stages(&scene.effects, &roles);
     let parting = scene.effects.parting.is_some();
     let mut parts = Vec::new();
-    let (mut simulated, mut state_vectors) = (0u64, 0u64);
+    let mut state_vectors = 0u64;
     let (mut largest_payload, mut reading_entry) = (0u64, 0usize);
     for (i, sp) in scene.packs.iter().enumerate() {
         let planned = |k: StageKind| stages.iter().any(|s| s.pack == i && s.kind == k);
@@ -447,7 +520,6 @@ fn estimate_run_memory(scene: &Scene, kept: RunOutputs) -> Result<Vec<RunPart>, 
                     if kind.is_separable() {
                         own += shell * BYTES_PER_PARTING_CORNER;
                     }
-                    simulated += 1;
                     state_vectors += 2 * m + shell;
                 }
                 None => {
@@ -502,20 +574,6 @@ fn estimate_run_memory(scene: &Scene, kept: RunOutputs) -> Result<Vec<RunPart>, 
     }
     if let Some(part) = parts.get_mut(reading_entry) {
         part.bytes += largest_payload;
-    }
-    if kept.report && simulated > 0 {
-        let per_pack = kept.frames.div_ceil(kept.record_every) + 1;
-        parts.push(RunPart {
-            what: format!(
-                "the report's step records ({per_pack} for each of {simulated} simulated pack{}: --frames {} with \
-                 --record-every {})",
-                if simulated == 1 { "" } else { "s" },
-                kept.frames,
-                kept.record_every
-            ),
-            advice: "raise --record-every, lower --frames, or raise --max-memory".into(),
-            bytes: per_pack * simulated * BYTES_PER_STEP_RECORD,
-        });
     }
     if kept.state_out {
         parts.push(RunPart {

@@ -38,7 +38,27 @@ const TEMP_SUFFIX: &str = ".tmp";
 /// (an unnamed `O_TMPFILE` on Linux, a named temporary file elsewhere) and for the permissions
 /// (`0o666` minus the umask).
 pub fn write_file_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    write_atomic_with(path, bytes, Method::Best, &mut |_| {}).map(|_| ())
+    write_atomic_with(path, &mut |w| w.write_all(bytes), Method::Best, &mut |_| {}).map(|_| ())
+}
+
+/// As [`write_file_atomic`], with the contents streamed: `fill` writes them (through a buffer)
+/// into the file that gets the name `path` only once `fill` has returned `Ok` — a long-running
+/// producer (a report written step by step) keeps nothing in memory, and an error from `fill`
+/// (or a killed process) leaves `path` as it was and no temporary file. `fill` runs exactly once.
+pub fn write_file_atomic_from(path: &Path, fill: &mut dyn FnMut(&mut dyn Write) -> std::io::Result<()>) -> Result<()> {
+    write_atomic_with(path, fill, Method::Best, &mut |_| {}).map(|_| ())
+}
+
+/// The contents of a file being written atomically.
+type Fill<'a> = &'a mut dyn FnMut(&mut dyn Write) -> std::io::Result<()>;
+
+/// Runs `fill` into `file` through a buffer, then syncs it.
+fn fill_file(file: &mut std::fs::File, fill: Fill) -> std::io::Result<()> {
+    let mut buffered = std::io::BufWriter::with_capacity(1 << 16, &mut *file);
+    fill(&mut buffered)?;
+    buffered.flush()?;
+    drop(buffered);
+    file.sync_all()
 }
 
 /// How a file was (or is to be) written.
@@ -57,7 +77,7 @@ pub(crate) enum Method {
 /// (tests list the directory at that moment). Returns the method used.
 pub(crate) fn write_atomic_with(
     path: &Path,
-    bytes: &[u8],
+    fill: Fill,
     method: Method,
     written: &mut dyn FnMut(&Path),
 ) -> Result<Method> {
@@ -68,10 +88,22 @@ pub(crate) fn write_atomic_with(
     };
     #[cfg(target_os = "linux")]
     if method != Method::Named {
-        match unnamed::write(&dir, path, bytes, written) {
+        match unnamed::write(&dir, path, &mut *fill, written) {
             Ok(()) => return Ok(Method::Unnamed),
             Err(unnamed::Error::Unsupported(e)) if method == Method::Unnamed => return Err(io(e)),
             Err(unnamed::Error::Unsupported(_)) => {}
+            Err(unnamed::Error::Unlinkable(_, e)) if method == Method::Unnamed => return Err(io(e)),
+            // Written but not linkable here: the named fallback copies the unnamed file's
+            // contents (`fill` has run and must not run twice).
+            Err(unnamed::Error::Unlinkable(mut file, _)) => {
+                use std::io::{Seek, SeekFrom};
+                let mut copy = |w: &mut dyn Write| {
+                    file.seek(SeekFrom::Start(0))?;
+                    std::io::copy(&mut file, w).map(|_| ())
+                };
+                write_named(&dir, path, &mut copy, written).map_err(io)?;
+                return Ok(Method::Named);
+            }
             Err(unnamed::Error::Failed(e)) => return Err(io(e)),
         }
     }
@@ -79,13 +111,13 @@ pub(crate) fn write_atomic_with(
     if method == Method::Unnamed {
         return Err(io(std::io::Error::new(std::io::ErrorKind::Unsupported, "O_TMPFILE is Linux-only")));
     }
-    write_named(&dir, path, bytes, written).map_err(io)?;
+    write_named(&dir, path, fill, written).map_err(io)?;
     Ok(Method::Named)
 }
 
 /// The fallback: a named temporary file (unpredictable name, `O_EXCL`, mode `0o666` before the
 /// umask) renamed into place; dropping it on any error (the `?`s) removes it.
-fn write_named(dir: &Path, path: &Path, bytes: &[u8], written: &mut dyn FnMut(&Path)) -> std::io::Result<()> {
+fn write_named(dir: &Path, path: &Path, fill: Fill, written: &mut dyn FnMut(&Path)) -> std::io::Result<()> {
     let mut builder = tempfile::Builder::new();
     builder.prefix(TEMP_PREFIX).suffix(TEMP_SUFFIX);
     #[cfg(unix)]
@@ -94,8 +126,7 @@ fn write_named(dir: &Path, path: &Path, bytes: &[u8], written: &mut dyn FnMut(&P
         builder.permissions(std::fs::Permissions::from_mode(ORDINARY_FILE_MODE));
     }
     let mut tmp = builder.tempfile_in(dir)?;
-    tmp.write_all(bytes)?;
-    tmp.as_file().sync_all()?;
+    fill_file(tmp.as_file_mut(), fill)?;
     written(dir);
     tmp.persist(path).map_err(|e| e.error)?;
     Ok(())
@@ -108,18 +139,20 @@ mod unnamed {
 
     use std::ffi::CString;
     use std::fs::{File, OpenOptions};
-    use std::io::Write;
     use std::os::fd::AsRawFd;
     use std::os::unix::ffi::OsStrExt;
     use std::os::unix::fs::OpenOptionsExt;
     use std::path::Path;
 
-    use super::{ORDINARY_FILE_MODE, TEMP_PREFIX, TEMP_SUFFIX};
+    use super::{Fill, ORDINARY_FILE_MODE, TEMP_PREFIX, TEMP_SUFFIX, fill_file};
 
     pub(super) enum Error {
         /// This file system or kernel cannot do it: fall back to a named temporary file (nothing
         /// was left behind).
         Unsupported(std::io::Error),
+        /// The contents were written, but no link form is permitted here: the caller copies
+        /// them from the file into a named temporary file.
+        Unlinkable(File, std::io::Error),
         /// A real failure (no space, no permission to write the directory, …).
         Failed(std::io::Error),
     }
@@ -128,15 +161,14 @@ mod unnamed {
         matches!(e.raw_os_error(), Some(libc::EOPNOTSUPP | libc::EISDIR | libc::EINVAL))
     }
 
-    pub(super) fn write(dir: &Path, path: &Path, bytes: &[u8], written: &mut dyn FnMut(&Path)) -> Result<(), Error> {
+    pub(super) fn write(dir: &Path, path: &Path, fill: Fill, written: &mut dyn FnMut(&Path)) -> Result<(), Error> {
         let mut file = OpenOptions::new()
             .write(true)
             .mode(ORDINARY_FILE_MODE)
             .custom_flags(libc::O_TMPFILE)
             .open(dir)
             .map_err(|e| if unsupported(&e) { Error::Unsupported(e) } else { Error::Failed(e) })?;
-        file.write_all(bytes).map_err(Error::Failed)?;
-        file.sync_all().map_err(Error::Failed)?;
+        fill_file(&mut file, fill).map_err(Error::Failed)?;
         written(dir);
         // The unnamed file gets a temporary name (a link cannot replace an existing file), which
         // the rename then moves over the target at once; on any error dropping `linked` removes
@@ -152,9 +184,9 @@ mod unnamed {
         let linked = match linked {
             Ok(linked) => linked,
             // Neither link form is permitted here (no CAP_DAC_READ_SEARCH and no /proc): the
-            // named fallback writes the bytes again.
+            // named fallback copies the contents from the unnamed file.
             Err(e) if matches!(refused, Some(Some(libc::EPERM | libc::ENOENT | libc::EACCES))) => {
-                return Err(Error::Unsupported(e));
+                return Err(Error::Unlinkable(file, e));
             }
             Err(e) => return Err(Error::Failed(e)),
         };
@@ -223,7 +255,9 @@ mod tests {
         let target = dir.path().join("pack.fbk");
         std::fs::write(&target, b"old").unwrap();
         let mut seen = Vec::new();
-        let used = write_atomic_with(&target, &[7u8; 1 << 20], Method::Best, &mut |d| seen = names(d)).unwrap();
+        let used =
+            write_atomic_with(&target, &mut |w| w.write_all(&[7u8; 1 << 20]), Method::Best, &mut |d| seen = names(d))
+                .unwrap();
         #[cfg(target_os = "linux")]
         assert_eq!(used == Method::Unnamed, supports_o_tmpfile(dir.path()), "{used:?}");
         match used {
@@ -238,6 +272,34 @@ mod tests {
     }
 
     #[cfg(target_os = "linux")]
+    /// A streamed write gets its name only when the producer succeeds; a producer's error
+    /// leaves the old file and no temporary one, and the producer runs once.
+    #[test]
+    fn a_streamed_write_is_named_only_when_the_producer_succeeds() {
+        let dir = tempfile::tempdir().unwrap();
+        let target = dir.path().join("report.json");
+        std::fs::write(&target, b"old").unwrap();
+        let mut runs = 0;
+        let err = write_file_atomic_from(&target, &mut |w| {
+            runs += 1;
+            w.write_all(b"half a report")?;
+            Err(std::io::Error::other("the simulation failed"))
+        });
+        assert!(err.is_err());
+        assert_eq!((runs, std::fs::read(&target).unwrap()), (1, b"old".to_vec()));
+        assert_eq!(names(dir.path()), ["report.json"]);
+        write_file_atomic_from(&target, &mut |w| {
+            for k in 0..10_000 {
+                writeln!(w, "record {k}")?;
+            }
+            Ok(())
+        })
+        .unwrap();
+        let text = std::fs::read_to_string(&target).unwrap();
+        assert!(text.starts_with("record 0\n") && text.ends_with("record 9999\n"));
+        assert_eq!(names(dir.path()), ["report.json"]);
+    }
+
     #[test]
     fn an_unnamed_file_can_be_linked_through_proc() {
         // The form an unprivileged process uses where `AT_EMPTY_PATH` is refused (tests often run
@@ -262,7 +324,8 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let target = dir.path().join("a.json");
         let mut seen = Vec::new();
-        let used = write_atomic_with(&target, b"{}", Method::Named, &mut |d| seen = names(d)).unwrap();
+        let used =
+            write_atomic_with(&target, &mut |w| w.write_all(b"{}"), Method::Named, &mut |d| seen = names(d)).unwrap();
         assert_eq!(used, Method::Named);
         assert_eq!(seen.len(), 1, "the named temporary file is visible mid-write: {seen:?}");
         assert!(seen[0].starts_with(TEMP_PREFIX) && seen[0].ends_with(TEMP_SUFFIX), "{seen:?}");
@@ -272,7 +335,10 @@ mod tests {
         std::fs::create_dir(&blocker).unwrap();
         let mut failed = 0;
         for method in [Method::Named, Method::Best] {
-            assert!(write_atomic_with(&blocker, b"x", method, &mut |_| {}).is_err(), "{method:?}");
+            assert!(
+                write_atomic_with(&blocker, &mut |w| w.write_all(b"x"), method, &mut |_| {}).is_err(),
+                "{method:?}"
+            );
             assert_eq!(names(dir.path()), ["a.json", "blocker"], "{method:?}");
             failed += 1;
         }

@@ -31,7 +31,7 @@ mod pack;
 pub mod record;
 pub mod sections;
 
-pub use atomic::write_file_atomic;
+pub use atomic::{write_file_atomic, write_file_atomic_from};
 pub use consistency::{PackSections, check_consistency};
 pub use container::{
     ALIGN, AlignedBytes, HEADER_SIZE, MAGIC, MAX_SECTIONS, PackWriter, SectionEntry, TABLE_ENTRY_SIZE, VERSION_MAJOR,

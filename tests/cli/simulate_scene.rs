@@ -225,3 +225,35 @@ fn every_fixture_scene_runs_in_the_one_runtime() {
         ["demo_fox_and_grass.toml", "fur_wind_gust.toml", "runtime_everything.toml", "runtime_fox_in_wind.toml"]
     );
 }
+
+/// The report streams: every recorded step is written as it is taken (nothing is kept, so a long
+/// run's memory does not grow with it), `-o` and `--json` get the same bytes, and a run that fails
+/// mid-way leaves no `-o` file.
+#[test]
+fn simulate_streams_its_report() {
+    let dir = tempfile::tempdir().unwrap();
+    bake_patch(dir.path());
+    let scene = write_scene(dir.path(), "gravity.toml", "[effects.gravity]\n");
+    let file = dir.path().join("report.json");
+    let out = furbake(&["simulate", s(&scene), "--frames", "3000", "--record-every", "1", "--json", "-o", s(&file)]);
+    assert_ok(&out, "a streamed report");
+    assert_eq!(std::fs::read(&file).unwrap(), out.stdout, "-o and --json get the same document");
+    let report = json_of(&out);
+    for key in ["scene", "frames", "time_step_s", "record_every", "steps", "scene_time_s", "wall_s", "packs", "stages"]
+    {
+        assert!(report.get(key).is_some(), "no {key:?} in the report");
+    }
+    let steps = report["steps"].as_array().unwrap();
+    assert_eq!(steps.len(), 3000);
+    assert_eq!((steps[0]["step"].as_u64(), steps[2999]["step"].as_u64()), (Some(0), Some(2999)));
+    assert!(steps.iter().all(|r| r["energy_j"].as_f64().unwrap() <= r["energy_budget_j"].as_f64().unwrap() * 1.7));
+    // A run that fails (a gravity no step can take) writes no report file.
+    let failing =
+        write_scene(dir.path(), "crushing.toml", "[effects.gravity]\nacceleration_m_per_s2 = [0.0, -1e30, 0.0]\n");
+    let lost = dir.path().join("lost.json");
+    let out = furbake(&["simulate", s(&failing), "--frames", "50", "-o", s(&lost)]);
+    assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
+    assert!(!lost.exists(), "a failed run left its report");
+    let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
+    assert!(!names.iter().any(|n| n.to_string_lossy().ends_with(".tmp")), "{names:?}");
+}
