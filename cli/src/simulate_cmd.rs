@@ -445,8 +445,8 @@ fn check_memory_budget(scene: &Scene, path: &Path, kept: RunOutputs, max_memory:
 /// Estimates what running `scene` holds, before the world is built: per scene entry, the
 /// sections its stages decode (counted once per file, as the world shares them; a decoded
 /// section is about as large as its payload, and the largest payload is held once more while it
-/// is decoded), its solver state, shell vertices, animation and grass corners; the step records
-/// kept for the report; the `--state-out` text. Reads only the packs' section tables and the
+/// is decoded), its solver state, shell vertices, animation and grass corners; the `--state-out`
+/// text (the report's step records are streamed, never kept). Reads only the packs' section tables and the
 /// heads of the sections whose counts it needs (the record layout of docs/format.md); the stages
 /// are planned as the world plans them ([`plan_stages`], [`choose_topology`]). A pack that cannot
 /// be opened fails as the world would.
