@@ -450,7 +450,7 @@ impl BladeRenderer {
     }
 
     /// Centre and radius (metres) of a sphere holding every blade in any pose (roots grown by the
-    /// tallest blade's reference extent), for [`View::framing`] and the near/far planes.
+    /// tallest blade's reference extent), for [`crate::View::framing`] and the near/far planes.
     pub fn bounding_sphere(&self) -> ([f32; 3], f32) {
         self.bounds
     }

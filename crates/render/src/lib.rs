@@ -1,12 +1,98 @@
-//! furbake-render: draws baked fur and grass with wgpu, headless into an image — skin, shells
-//! innermost to outermost with the eq. 3.36 shearing in the vertex shader, and fins (fur thesis
-//! §3.2, §3.4.2), and instanced grass blades that select and decode their keyframe on the GPU
-//! (grass thesis §4.2–4.4, [`blades`]). Nothing else: packs are opened by `furbake-runtime`,
-//! physics lives in `furbake-sim`, the grass CPU reference in `furbake-grass`.
+//! furbake-render: draws baked fur and grass with wgpu — skin, shells innermost to outermost with
+//! the eq. 3.36 shearing in the vertex shader, and fins (fur thesis §3.2, §3.4.2), and instanced
+//! grass blades that select and decode their keyframe on the GPU (grass thesis §4.2–4.4,
+//! [`blades`]) — as middleware inside a host's renderer, or headless into an image. Nothing else:
+//! packs are opened by `furbake-runtime`, physics lives in `furbake-sim`, the grass CPU reference
+//! in `furbake-grass`.
 //!
-//! GPU functions take the `wgpu::Device` and `wgpu::Queue` to work on, so a game passes its own;
-//! [`HeadlessGpu`] makes one without a window (any adapter: a GPU, else a software one such as
-//! Mesa's lavapipe), and [`render_preview`] is the one-call path `furbake preview` uses:
+//! # Embedding in a wgpu renderer
+//!
+//! The host owns the device, its colour and depth attachments, MSAA and the frame; furbake draws
+//! in the host's render pass, depth-tested against the host's world (the pattern of wgpu's
+//! middleware guide and of egui-wgpu and glyphon). A renderer is built once for a [`TargetDesc`]
+//! — the pass's colour format and blend, depth format and comparison, sample count — with
+//! pipelines from a [`PipelineCache`] shared by every renderer of the host; each frame,
+//! `prepare` writes uniforms with `queue.write_buffer` and records compute work (the skinning of
+//! an animated pack) into the host's encoder, and `render(&self, &mut RenderPass)` draws. No
+//! library call submits or waits in a frame; the host submits. Resizing the host's attachments
+//! rebuilds nothing.
+//!
+//! ```
+//! # use std::sync::Arc;
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! use furbake_render::{FurAsset, FurRenderer, PipelineCache, RenderSettings, TargetDesc, View};
+//! use furbake_runtime::Pack;
+//! # let gpu = furbake_render::HeadlessGpu::new()?; // stands in for the engine's device
+//! # let (device, queue) = (&gpu.device, &gpu.queue);
+//! # let dir = tempfile::tempdir()?;
+//! # let fox_path = dir.path().join("fox.fbk");
+//! # {
+//! #     use furbake_import::{ImportSettings, import_gltf_slice, testmesh};
+//! #     let gltf = testmesh::uv_sphere(12, 16, 1.0).gltf;
+//! #     let mesh = import_gltf_slice(&gltf, "sphere.gltf", None, &ImportSettings::default())?;
+//! #     let mut settings = furbake_bake::BakeSettings::preset("fur")?;
+//! #     (settings.volume.layers, settings.volume.resolution) = (8, 32);
+//! #     let baked = furbake_bake::bake(&mesh, "sphere", &settings, &mut furbake_bake::NoProgress)?;
+//! #     baked.to_writer().write_atomic(&fox_path)?;
+//! # }
+//! // Once: the pass furbake draws into (the engine's HDR target, 4× MSAA, its depth buffer),
+//! // and the renderer of a pack.
+//! let target = TargetDesc::new(wgpu::TextureFormat::Rgba16Float)
+//!     .with_depth(wgpu::TextureFormat::Depth32Float, wgpu::CompareFunction::LessEqual)
+//!     .with_samples(4);
+//! let pipelines = PipelineCache::new(device); // one per device, shared by every renderer
+//! let asset = FurAsset::from_pack(&Pack::open(&fox_path)?, true)?;
+//! let fur = FurRenderer::new(&pipelines, queue, &asset, &RenderSettings::default(), &target)?;
+//!
+//! // The engine's attachments, any size.
+//! let attachment = |format| {
+//!     let size = wgpu::Extent3d { width: 96, height: 64, depth_or_array_layers: 1 };
+//!     let usage = wgpu::TextureUsages::RENDER_ATTACHMENT;
+//!     let desc = wgpu::TextureDescriptor { label: None, size, mip_level_count: 1, sample_count: 4,
+//!         dimension: wgpu::TextureDimension::D2, format, usage, view_formats: &[] };
+//!     device.create_texture(&desc).create_view(&Default::default())
+//! };
+//! let color = attachment(wgpu::TextureFormat::Rgba16Float);
+//! let depth = attachment(wgpu::TextureFormat::Depth32Float);
+//!
+//! // Every frame: the engine's camera and light (`FrameUniforms::new` takes its own matrix),
+//! // furbake's upload, the engine's pass with its own draws and then furbake's, one submit.
+//! let (center, radius) = asset.bounding_sphere();
+//! let frame = View::framing(center, radius).uniforms(96.0 / 64.0);
+//! let mut encoder = device.create_command_encoder(&Default::default());
+//! fur.prepare(queue, &mut encoder, &frame);
+//! {
+//!     let clear = wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::BLACK), store: wgpu::StoreOp::Store };
+//!     let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+//!         color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+//!             view: &color, depth_slice: None, resolve_target: None, ops: clear })],
+//!         depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+//!             view: &depth, depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0),
+//!             store: wgpu::StoreOp::Store }), stencil_ops: None }),
+//!         ..Default::default()
+//!     });
+//!     // ... the engine's own draws here ...
+//!     fur.render(&mut pass);
+//! }
+//! queue.submit([encoder.finish()]);
+//! # gpu.check()?;
+//! # Ok(()) }
+//! ```
+//!
+//! Grass blades work the same way ([`BladeRenderer::prepare`], [`BladeRenderer::render`]), and a
+//! whole `furbake_runtime::World` — every pack placed, posed and simulated — through
+//! [`SceneRenderer::for_target`], [`SceneRenderer::prepare_world`] and [`SceneRenderer::render`].
+//! `examples/host.rs` is a complete host: MSAA 4× HDR target, its own ground and box, the Fox and
+//! a grass field in the same pass, resolve and tonemap (`cargo run -p furbake-render --example
+//! host`).
+//!
+//! # Headless
+//!
+//! [`HeadlessGpu`] makes a device without a window (any adapter: a GPU, else a software one such
+//! as Mesa's lavapipe), [`RenderTarget`] is its offscreen colour + depth target
+//! ([`RenderTarget::desc`]), and [`read_back`] copies it into an [`image::RgbaImage`] — a small
+//! host of the same calls, which `furbake preview` and the tests use ([`render_preview`] is the
+//! one-call path):
 //!
 //! ```no_run
 //! let image = furbake_render::render_preview("fox.fbk".as_ref(), 512, 512)?;
@@ -14,15 +100,14 @@
 //! # Ok::<(), furbake_render::RenderError>(())
 //! ```
 //!
-//! The frame: [`FurRenderer::render`] clears the [`RenderTarget`], draws the skin (Lambert ×
-//! vertex colour), the shells as one instanced draw (instance = layer, so layers rasterise
-//! innermost first), then the fins on the pack's fin edges; [`read_back`] copies the colour
-//! target into an [`image::RgbaImage`]. Several packs in one frame, each with its model matrix
-//! and this frame's physics (scale vectors, blade corner forces), from a runtime scene's camera
-//! and light: [`scene`] ([`SceneRenderer`], [`SceneFrame`]). An animated pack (skin weights or
-//! morph targets, glTF 2.0 "Skins", "Morph Targets") is morphed and skinned on the GPU once per
-//! frame by a [`SkinningPass`] that its renderer owns ([`FurRenderer::set_pose`]); skin, shells
-//! and fins read the posed vertices it writes.
+//! The frame of a fur pack: the skin (Lambert × vertex colour), the shells as one instanced draw
+//! (instance = layer, so layers rasterise innermost first), then the fins on the pack's fin
+//! edges. Several packs in one frame, each with its model matrix and this frame's physics (scale
+//! vectors, blade corner forces), from a runtime scene's camera and light: [`scene`]
+//! ([`SceneRenderer`], [`SceneFrame`]). An animated pack (skin weights or morph targets, glTF 2.0
+//! "Skins", "Morph Targets") is morphed and skinned on the GPU once per frame by a
+//! [`SkinningPass`] that its renderer owns ([`FurRenderer::set_pose`]); skin, shells and fins read
+//! the posed vertices it writes.
 
 mod asset;
 pub mod blades;
@@ -58,7 +143,8 @@ pub use target::{ColorTarget, DepthTarget, TargetDesc};
 /// The fixed GPU (or, on lavapipe, host) memory of one fur or blade renderer beyond its data —
 /// pipelines, bind groups, uniform buffers. Measured on lavapipe: a scene of 50 Fox entries took
 /// 199 MB more resident memory than one (`/usr/bin/time -v furbake preview`, 64×64), about
-/// 4 MiB per entry of which ~0.5 MiB is data.
+/// 4 MiB per entry of which ~0.5 MiB is data. That was before renderers shared their pipelines
+/// ([`PipelineCache`]), so it is an upper bound now.
 pub const RENDERER_OVERHEAD_BYTES: u64 = 4 << 20;
 
 /// The command that installs a software Vulkan driver on Debian/Ubuntu machines without a GPU.

@@ -320,8 +320,8 @@ impl FurRenderer {
     /// Writes this frame's pose of an animated asset: one skinning matrix per bind
     /// (`world(joint) × inverseBind`, `furbake_runtime::animation::skinning_matrices`; empty
     /// without skin weights) and one weight per morph target (empty without morph targets). The
-    /// next [`FurRenderer::encode`] or [`FurRenderer::render`] skins the asset with it before
-    /// drawing. Scale vectors stay in the bind-pose mesh frame the physics simulates in; the
+    /// skinning dispatch the next [`FurRenderer::prepare`] records skins the asset with it before
+    /// [`FurRenderer::render`] draws. Scale vectors stay in the bind-pose mesh frame the physics simulates in; the
     /// shaders turn each with its vertex's normal. A static asset, a wrong count or a non-finite
     /// value is a [`RenderError::Parameter`] and changes nothing. No allocation (see
     /// [`SkinningPass::set_pose`]).

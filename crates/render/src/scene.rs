@@ -168,9 +168,11 @@ impl SceneFrame {
         view
     }
 
-    /// Uploads each object's physics input, then draws every object into `target` in one
-    /// submission (the first clears to [`SceneFrame::background`]; with no objects the target
-    /// is just cleared). Returns the view used. Fails before drawing anything on a bad input
+    /// The headless host's frame of borrowed objects: uploads each object's physics input,
+    /// prepares every object and draws them in order into `target` in one pass (cleared to
+    /// [`SceneFrame::background`]; with no objects the target is just cleared) and one
+    /// submission. Every renderer must be built for [`RenderTarget::desc`]. Returns the view
+    /// used. Fails before drawing anything on a bad input
     /// (a renderer listed twice, a degenerate model matrix); a wrong scale-vector or corner-force
     /// count or non-finite values fail before anything is drawn, though earlier objects' inputs
     /// may already be uploaded.
