@@ -115,7 +115,9 @@ impl Furbake {
     ) -> Result<Furbake, AnyError> {
         let settings = RenderSettings::default();
         let fox = FurRenderer::new(pipelines, queue, &FurAsset::from_pack(&packs.fox, true)?, &settings, target)?;
-        let patch = FurRenderer::new(pipelines, queue, &FurAsset::from_pack(&packs.grass, true)?, &settings, target)?;
+        // The patch's vertex colours are white: tinted to a dry-grass green.
+        let grass = RenderSettings { tint: [0.45, 0.6, 0.3], ..settings };
+        let patch = FurRenderer::new(pipelines, queue, &FurAsset::from_pack(&packs.grass, true)?, &grass, target)?;
         let blades = BladeRenderer::from_pack(pipelines, queue, &packs.grass, &BladeSettings::default(), target)?
             .ok_or("the grass patch has no blade field")?;
         Ok(Furbake { fox, patch, blades })

@@ -343,18 +343,20 @@ fn a_host_frame_neither_submits_nor_waits_inside_furbake() {
 
 // Tolerance of the host-versus-headless comparison: the two paths run the same shaders on the
 // same geometry from the same view, but the host blends into a 16-bit float target and the
-// headless host into an 8-bit sRGB one (each of the 16 blended shell layers rounds to 8 bits
-// there), and the host's tonemap compresses linear values above 0.8 (lit highlights): at 1× a
-// channel may differ by up to 10/255, and at most 1 % of the drawn pixels by more. With 4× MSAA
-// the thin grass blades and hair tips cover a fraction of a pixel, which MSAA averages and a
+// headless host into an 8-bit sRGB one, where each of the 16 blended shell layers re-rounds the
+// colour to 8 bits (the errors add up most in the dark, tinted grass), and the host's tonemap
+// compresses linear values above 0.8 (lit highlights): at 1× a channel may differ by up to
+// 16/255, and at most 1 % of the drawn pixels by more (measured on lavapipe: worst 15/255). With
+// 4× MSAA the thin grass blades and hair tips cover a fraction of a pixel, which MSAA averages and a
 // single sample takes all-or-nothing (a 1× frame shows a third of a blade's length as whole
 // pixels, MSAA all of it at a third of the colour), so the frames are compared as means of
 // 8×8-pixel squares averaged in linear light (what an MSAA resolve averages; both estimate the
 // same coverage, and 8×8 holds enough blade pixels for the 1× estimate to settle): a square's
-// channel mean may differ by up to 24/255, at most 2 % of the drawn squares by more (measured on
-// lavapipe: worst 20.6/255 at 8×8; 49/255 at 4×4, too few blade pixels per square). A broken
+// channel mean may differ by up to 24/255, at most 2 % of the drawn squares by more (measured:
+// worst 12/255 at 8×8, 21/255 with an untinted white patch; 49/255 at 4×4, where a square holds
+// too few blade pixels). A broken
 // frame — checked below with the Fox missing — changes far more.
-const CHANNEL_TOLERANCE: u8 = 10;
+const CHANNEL_TOLERANCE: u8 = 16;
 const BLOCK: u32 = 8;
 const BLOCK_TOLERANCE: f64 = 24.0;
 
