@@ -62,14 +62,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let asset = FurAsset::new(Arc::new(baked.mesh), Arc::new(baked.shells), Arc::new(baked.uv_map), fins)?;
         let (center, radius) = asset.bounding_sphere();
         let view = View::framing(center, radius);
-        let renderer = FurRenderer::new(&gpu.device, &gpu.queue, &asset, &RenderSettings::default())?;
+        let renderer =
+            FurRenderer::new(gpu.pipelines(), &gpu.queue, &asset, &RenderSettings::default(), &RenderTarget::desc())?;
         let mut cells = Vec::new();
         for (w, h) in [(256u32, 256u32), (1920, 1080)] {
             let target = RenderTarget::new(&gpu.device, w, h)?;
             let mut times = Vec::with_capacity(frames);
             for i in 0..frames + 2 {
                 let start = Instant::now();
-                renderer.render(&gpu.device, &gpu.queue, &target, &view);
+                renderer.render_to(&gpu.device, &gpu.queue, &target, &view)?;
                 gpu.device.poll(wgpu::PollType::wait_indefinitely())?;
                 if i >= 2 {
                     times.push(start.elapsed().as_secs_f64() * 1e3);
@@ -120,7 +121,14 @@ fn blades(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
         field.grid.corners(),
         t.elapsed().as_secs_f64()
     );
-    let blades = BladeRenderer::new(&gpu.device, &gpu.queue, &field, &table, &BladeSettings::default())?;
+    let blades = BladeRenderer::new(
+        gpu.pipelines(),
+        &gpu.queue,
+        &field,
+        &table,
+        &BladeSettings::default(),
+        &RenderTarget::desc(),
+    )?;
     let (center, radius) = blades.bounding_sphere();
     // Low over the field, looking across it (most blades in view, many small on screen).
     let mut view = View::framing(center, radius);
@@ -150,7 +158,7 @@ fn blades(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
         forces.update(&scene_at(i as f32 / 60.0));
         let updated = start.elapsed().as_secs_f64() * 1e3;
         blades.set_force_field(&gpu.queue, &forces)?;
-        blades.render(&gpu.device, &gpu.queue, &target, &view, Some([0.5, 0.6, 0.8, 1.0]));
+        blades.render_to(&gpu.device, &gpu.queue, &target, &view, Some([0.5, 0.6, 0.8, 1.0]))?;
         gpu.device.poll(wgpu::PollType::wait_indefinitely())?;
         if i >= 1 {
             update_ms.push(updated);

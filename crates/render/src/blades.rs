@@ -8,7 +8,9 @@
 //! and writes pack-frame vertex positions, which [`BladeRenderer::read_positions`] reads back
 //! (tests compare them with the CPU reference). The instanced draw (instance = blade) poses each
 //! vertex in the vertex shader with the same WGSL functions and shades it two-sided with Lambert
-//! diffuse into a [`RenderTarget`], over what is already there or after a clear.
+//! diffuse into the host's render pass ([`BladeRenderer::prepare`], [`BladeRenderer::render`]:
+//! middleware that never submits or waits, pipelines from a shared [`PipelineCache`] for the
+//! host's [`TargetDesc`]), depth-tested against what the host drew.
 //!
 //! Wind sources with delayed attenuation (§4.5, fig. 4.8) are evaluated per blade on the GPU when
 //! the forces come from [`BladeRenderer::set_force_scene`]. Not on the GPU: spherical
@@ -19,9 +21,8 @@ use furbake_formats::sections::keyframe_table::{Displacements, KeyframeTable, ST
 use furbake_grass::{ForceField, Interpolation};
 use wgpu::util::DeviceExt;
 
-use crate::renderer::{COLOR_FORMAT, DEPTH_FORMAT, RenderTarget};
 use crate::shaders::FrameUniforms;
-use crate::{RenderError, View};
+use crate::{PipelineCache, RenderError, TargetDesc};
 
 /// The blade shader: compute pass posing blades, instanced two-sided Lambert draw.
 pub const BLADES_WGSL: &str = include_str!("../../../shaders/blades.wgsl");
@@ -131,6 +132,8 @@ pub struct BladeRenderer {
     delayed_buffer: wgpu::Buffer,
     directions_buffer: wgpu::Buffer,
     delayed_capacity: u32,
+    /// `BladeParams::delayed_sources` as last uploaded.
+    delayed_count: std::sync::atomic::AtomicU32,
     grid: furbake_formats::sections::blade_field::ClusterGrid,
     /// Positions buffer and its compute bind group, created by the first compute pass.
     positions: std::sync::OnceLock<(wgpu::Buffer, wgpu::BindGroup)>,
@@ -138,6 +141,8 @@ pub struct BladeRenderer {
     indices: wgpu::Buffer,
     shared: wgpu::BindGroup,
     compute_pipeline: wgpu::ComputePipeline,
+    /// The pass this renderer draws into.
+    target: TargetDesc,
     draw_pipeline: wgpu::RenderPipeline,
 }
 
@@ -183,27 +188,36 @@ fn invalid(what: String) -> RenderError {
 }
 
 impl BladeRenderer {
-    /// Uploads `field` and `table` and builds the compute and draw pipelines. Fails on an
+    /// Uploads `field` and `table` and takes the compute pipeline and the draw pipeline for passes
+    /// like `target` from `pipelines` (created there on first use, shared). Fails on an
     /// inconsistent table or field (counts, symmetry, out-of-range indices), on spherical
-    /// interpolation, and when the blade instances, payload or corner forces are above the device's
-    /// storage binding limit.
+    /// interpolation, on a target this device cannot draw into
+    /// ([`RenderError::UnsupportedTarget`]), and when the blade instances, payload or corner
+    /// forces are above the device's storage binding limit.
     pub fn new(
-        device: &wgpu::Device,
+        pipelines: &PipelineCache,
         queue: &wgpu::Queue,
         field: &BladeField,
         table: &KeyframeTable,
         settings: &BladeSettings,
+        target: &TargetDesc,
     ) -> Result<BladeRenderer, RenderError> {
-        crate::gpu_scope(device, "creating the blade renderer", || Self::build(device, queue, field, table, settings))
+        let draw_pipeline = pipelines.blades(target)?;
+        crate::gpu_scope(pipelines.device(), "creating the blade renderer", || {
+            Self::build(pipelines, queue, field, table, settings, target, draw_pipeline)
+        })
     }
 
     fn build(
-        device: &wgpu::Device,
+        pipelines: &PipelineCache,
         _queue: &wgpu::Queue,
         field: &BladeField,
         table: &KeyframeTable,
         settings: &BladeSettings,
+        target: &TargetDesc,
+        draw_pipeline: wgpu::RenderPipeline,
     ) -> Result<BladeRenderer, RenderError> {
+        let device = pipelines.device();
         let interpolation = match settings.interpolation {
             Interpolation::Nearest => 0,
             Interpolation::Linear => 1,
@@ -362,45 +376,10 @@ impl BladeRenderer {
             wgpu::BufferUsages::INDEX,
         );
 
-        let all = wgpu::ShaderStages::COMPUTE | wgpu::ShaderStages::VERTEX_FRAGMENT;
-        let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: all,
-            ty: wgpu::BindingType::Buffer { ty, has_dynamic_offset: false, min_binding_size: None },
-            count: None,
-        };
-        let ro = wgpu::BufferBindingType::Storage { read_only: true };
-        let uniform = wgpu::BufferBindingType::Uniform;
-        let shared_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("furbake blade shared layout"),
-            entries: &[
-                entry(0, uniform),
-                entry(1, uniform),
-                entry(2, ro),
-                entry(3, ro),
-                entry(4, ro),
-                entry(5, ro),
-                entry(6, ro),
-                entry(7, ro),
-                entry(8, ro),
-            ],
-        });
-        let out_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("furbake blade positions out layout"),
-            entries: &[wgpu::BindGroupLayoutEntry {
-                binding: 0,
-                visibility: wgpu::ShaderStages::COMPUTE,
-                ty: wgpu::BindingType::Buffer {
-                    ty: wgpu::BufferBindingType::Storage { read_only: false },
-                    has_dynamic_offset: false,
-                    min_binding_size: None,
-                },
-                count: None,
-            }],
-        });
+        let layouts = pipelines.blade_layouts();
         let shared = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("furbake blade shared"),
-            layout: &shared_layout,
+            layout: &layouts.shared,
             entries: &[
                 wgpu::BindGroupEntry { binding: 0, resource: frame_buffer.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 1, resource: params_buffer.as_entire_binding() },
@@ -412,65 +391,6 @@ impl BladeRenderer {
                 wgpu::BindGroupEntry { binding: 7, resource: delayed_buffer.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 8, resource: directions_buffer.as_entire_binding() },
             ],
-        });
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("furbake blades"),
-            source: wgpu::ShaderSource::Wgsl(BLADES_WGSL.into()),
-        });
-        let compute_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("furbake blade compute layout"),
-            bind_group_layouts: &[Some(&shared_layout), Some(&out_layout)],
-            immediate_size: 0,
-        });
-        let draw_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("furbake blade draw layout"),
-            bind_group_layouts: &[Some(&shared_layout)],
-            immediate_size: 0,
-        });
-        let compute_pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("furbake blade poses"),
-            layout: Some(&compute_layout),
-            module: &module,
-            entry_point: Some("cs_blades"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
-        let draw_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("furbake blade draw"),
-            layout: Some(&draw_layout),
-            vertex: wgpu::VertexState {
-                module: &module,
-                entry_point: Some("vs_blade"),
-                compilation_options: Default::default(),
-                buffers: &[],
-            },
-            primitive: wgpu::PrimitiveState {
-                topology: wgpu::PrimitiveTopology::TriangleList,
-                front_face: wgpu::FrontFace::Ccw,
-                // Two-sided blades.
-                cull_mode: None,
-                ..Default::default()
-            },
-            depth_stencil: Some(wgpu::DepthStencilState {
-                format: DEPTH_FORMAT,
-                depth_write_enabled: Some(true),
-                depth_compare: Some(wgpu::CompareFunction::LessEqual),
-                stencil: Default::default(),
-                bias: Default::default(),
-            }),
-            multisample: Default::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &module,
-                entry_point: Some("fs_blade"),
-                compilation_options: Default::default(),
-                targets: &[Some(wgpu::ColorTargetState {
-                    format: COLOR_FORMAT,
-                    blend: None,
-                    write_mask: wgpu::ColorWrites::ALL,
-                })],
-            }),
-            multiview_mask: None,
-            cache: None,
         });
         Ok(BladeRenderer {
             params,
@@ -485,12 +405,15 @@ impl BladeRenderer {
             delayed_buffer,
             directions_buffer,
             delayed_capacity,
+            delayed_count: std::sync::atomic::AtomicU32::new(0),
             grid: field.grid,
             positions: std::sync::OnceLock::new(),
-            out_layout,
+            out_layout: layouts.out.clone(),
             indices,
             shared,
-            compute_pipeline,
+            // One per cache, independent of the target.
+            compute_pipeline: pipelines.blade_compute()?,
+            target: target.clone(),
             draw_pipeline,
         })
     }
@@ -499,10 +422,11 @@ impl BladeRenderer {
     /// `Ok(None)` when the pack has no blade field. A blade field without a keyframe table is an
     /// [`RenderError::Runtime`] (missing section).
     pub fn from_pack(
-        device: &wgpu::Device,
+        pipelines: &PipelineCache,
         queue: &wgpu::Queue,
         pack: &furbake_formats::Pack,
         settings: &BladeSettings,
+        target: &TargetDesc,
     ) -> Result<Option<BladeRenderer>, RenderError> {
         let Some(field) = pack.optional_section::<BladeField>()? else { return Ok(None) };
         let table = pack.section::<KeyframeTable>()?;
@@ -510,7 +434,7 @@ impl BladeRenderer {
             furbake_formats::PackSections { blade_fields: &[&field], keyframe_tables: &[&table], ..Default::default() };
         furbake_formats::check_consistency(pack.sections(), &sections)
             .map_err(|e| e.with_path(&pack.display_path()))?;
-        BladeRenderer::new(device, queue, &field, &table, settings).map(Some)
+        BladeRenderer::new(pipelines, queue, &field, &table, settings, target).map(Some)
     }
 
     /// Bytes of GPU memory a renderer of `field` and `table` allocates for its data (blade
@@ -526,7 +450,7 @@ impl BladeRenderer {
     }
 
     /// Centre and radius (metres) of a sphere holding every blade in any pose (roots grown by the
-    /// tallest blade's reference extent), for [`View::framing`] and the near/far planes.
+    /// tallest blade's reference extent), for [`crate::View::framing`] and the near/far planes.
     pub fn bounding_sphere(&self) -> ([f32; 3], f32) {
         self.bounds
     }
@@ -554,12 +478,17 @@ impl BladeRenderer {
     /// Writes this frame's cluster corner forces `(x, z)` (one per grid corner, force units, in
     /// the pack frame) and turns delayed-attenuation sources off for the frame.
     pub fn set_corner_forces(&self, queue: &wgpu::Queue, forces: &[[f32; 2]]) -> Result<(), RenderError> {
-        self.write_corner_forces(queue, forces)?;
+        self.write_corner_forces(queue, forces.iter().copied())?;
         self.write_delayed_count(queue, 0);
         Ok(())
     }
 
+    /// Writes `BladeParams::delayed_sources` when it changes (most frames it stays 0: one upload
+    /// fewer per frame).
     fn write_delayed_count(&self, queue: &wgpu::Queue, count: u32) {
+        if self.delayed_count.swap(count, std::sync::atomic::Ordering::Relaxed) == count {
+            return;
+        }
         let offset = std::mem::offset_of!(BladeParams, delayed_sources) as u64;
         queue.write_buffer(&self.params_buffer, offset, bytemuck::bytes_of(&count));
     }
@@ -601,8 +530,7 @@ impl BladeRenderer {
         {
             return Err(RenderError::Parameter { what: "delayed wind sources must be finite".into() });
         }
-        let forces: Vec<[f32; 2]> = field.corner_forces.iter().map(|f| f.to_array()).collect();
-        self.write_corner_forces(queue, &forces)?;
+        self.write_corner_forces(queue, field.corner_forces.iter().map(|f| f.to_array()))?;
         let corners = self.corner_count as usize;
         let mut directions = Vec::with_capacity(delayed.len() * corners);
         let mut sources = Vec::with_capacity(delayed.len());
@@ -633,17 +561,27 @@ impl BladeRenderer {
         Ok(())
     }
 
-    fn write_corner_forces(&self, queue: &wgpu::Queue, forces: &[[f32; 2]]) -> Result<(), RenderError> {
+    /// Checks and uploads one `(x, z)` force per grid corner, straight into the staging memory
+    /// (no allocation per frame).
+    fn write_corner_forces<I>(&self, queue: &wgpu::Queue, forces: I) -> Result<(), RenderError>
+    where
+        I: ExactSizeIterator<Item = [f32; 2]> + Clone,
+    {
         if forces.len() != self.corner_count as usize {
             return Err(RenderError::Parameter {
                 what: format!("{} corner forces for {} grid corners", forces.len(), self.corner_count),
             });
         }
-        if forces.iter().flatten().any(|c| !c.is_finite()) {
+        if forces.clone().flatten().any(|c| !c.is_finite()) {
             return Err(RenderError::Parameter { what: "corner forces must be finite".into() });
         }
-        if !forces.is_empty() {
-            queue.write_buffer(&self.force_buffer, 0, bytemuck::cast_slice(forces));
+        const FORCE_BYTES: usize = 8;
+        let Some(size) = wgpu::BufferSize::new((forces.len() * FORCE_BYTES) as u64) else { return Ok(()) };
+        let Some(mut view) = queue.write_buffer_with(&self.force_buffer, 0, size) else {
+            return Err(RenderError::Gpu { what: "the corner force upload was refused".into() });
+        };
+        for (i, f) in forces.enumerate() {
+            view.slice(i * FORCE_BYTES..(i + 1) * FORCE_BYTES).copy_from_slice(bytemuck::bytes_of(&f));
         }
         Ok(())
     }
@@ -651,8 +589,9 @@ impl BladeRenderer {
     /// Writes the corner forces of `field` (its `corner_forces`) with no delayed-attenuation
     /// sources; a field with delayed sources needs [`BladeRenderer::set_force_scene`].
     pub fn set_force_field(&self, queue: &wgpu::Queue, field: &ForceField) -> Result<(), RenderError> {
-        let forces: Vec<[f32; 2]> = field.corner_forces.iter().map(|f| f.to_array()).collect();
-        self.set_corner_forces(queue, &forces)
+        self.write_corner_forces(queue, field.corner_forces.iter().map(|f| f.to_array()))?;
+        self.write_delayed_count(queue, 0);
+        Ok(())
     }
 
     /// The positions buffer (`blades × vertices` `vec4<f32>`) and its bind group, created on first
@@ -704,49 +643,37 @@ impl BladeRenderer {
     }
 
     /// Poses every blade under the current corner forces and submits (see
-    /// [`BladeRenderer::read_positions`]).
+    /// [`BladeRenderer::read_positions`]). For tests and tools; a host records
+    /// [`BladeRenderer::encode_compute`] into its own encoder instead.
     pub fn compute(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<(), RenderError> {
         let mut encoder =
             device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("furbake blade poses") });
         self.encode_compute(&mut encoder, device)?;
-        queue.submit([encoder.finish()]);
+        crate::blocking::submit(queue, [encoder.finish()]);
         Ok(())
     }
 
-    /// Draws every blade instanced into `target` from `view`, posed in the vertex shader under the
-    /// current corner forces (no compute pass needed). `clear`: the linear
-    /// RGBA colour to clear to first (colour and depth), or `None` to draw over what the target
-    /// holds (e.g. after [`crate::FurRenderer::render`], depth-tested against it). Submits.
-    pub fn render(
-        &self,
-        device: &wgpu::Device,
-        queue: &wgpu::Queue,
-        target: &RenderTarget,
-        view: &View,
-        clear: Option<[f32; 4]>,
-    ) {
-        let frame = view.uniforms(target.aspect());
-        let mut encoder =
-            device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("furbake blade frame") });
-        self.encode_draw(queue, &mut encoder, target, &frame, clear);
-        queue.submit([encoder.finish()]);
+    /// The pass description this renderer's draw pipeline was built for.
+    pub fn target(&self) -> &TargetDesc {
+        &self.target
     }
 
-    /// Writes `frame` (camera, light and the field's model matrix, e.g. from
-    /// [`View::uniforms_with_model`]) into this renderer's uniform buffer and records the
-    /// instanced draw into `encoder` (clearing first when `clear` is `Some`, as
-    /// [`BladeRenderer::render`]). Nothing is submitted. The model matrix moves the drawn blades
-    /// only; [`BladeRenderer::read_positions`] stays in the pack frame.
-    pub fn encode_draw(
-        &self,
-        queue: &wgpu::Queue,
-        encoder: &mut wgpu::CommandEncoder,
-        target: &RenderTarget,
-        frame: &FrameUniforms,
-        clear: Option<[f32; 4]>,
-    ) {
+    /// Writes `frame` (the host's view-projection, eye and light, and the field's model matrix,
+    /// e.g. from [`crate::View::uniforms_with_model`] or [`FrameUniforms::new`]) into this
+    /// renderer's uniform buffer with `queue.write_buffer`. The draw poses every blade in its
+    /// vertex shader from the corner forces last written, so nothing is recorded into `encoder`
+    /// today (it is where a culling pass will go). Call once per frame before the host's render
+    /// pass; one model matrix per renderer per submission. The model matrix moves the drawn
+    /// blades only; [`BladeRenderer::read_positions`] stays in the pack frame. Does not submit,
+    /// wait or allocate.
+    pub fn prepare(&self, queue: &wgpu::Queue, _encoder: &mut wgpu::CommandEncoder, frame: &FrameUniforms) {
         queue.write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(frame));
-        let mut pass = crate::renderer::begin_target_pass(encoder, target, "furbake blade pass", clear);
+    }
+
+    /// Draws every blade instanced into the host's `pass`, whose attachments must match
+    /// [`BladeRenderer::target`]. Sets its own pipeline, bind group 0 and index buffer. Does not
+    /// submit, wait or allocate.
+    pub fn render(&self, pass: &mut wgpu::RenderPass<'_>) {
         if self.blade_count > 0 && self.index_count > 0 {
             pass.set_pipeline(&self.draw_pipeline);
             pass.set_bind_group(0, &self.shared, &[]);
@@ -775,8 +702,8 @@ impl BladeRenderer {
             label: Some("furbake blade positions readback"),
         });
         encoder.copy_buffer_to_buffer(positions, 0, &buffer, 0, n * 16);
-        queue.submit([encoder.finish()]);
-        crate::map_for_reading(device, &buffer, "blade positions readback")?;
+        crate::blocking::submit(queue, [encoder.finish()]);
+        crate::headless::map_for_reading(device, &buffer, "blade positions readback")?;
         let out = {
             let view = buffer.get_mapped_range(..).map_err(|e| RenderError::Gpu { what: e.to_string() })?;
             let words: &[[f32; 4]] = bytemuck::cast_slice(&view);

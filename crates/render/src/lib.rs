@@ -1,12 +1,98 @@
-//! furbake-render: draws baked fur and grass with wgpu, headless into an image — skin, shells
-//! innermost to outermost with the eq. 3.36 shearing in the vertex shader, and fins (fur thesis
-//! §3.2, §3.4.2), and instanced grass blades that select and decode their keyframe on the GPU
-//! (grass thesis §4.2–4.4, [`blades`]). Nothing else: packs are opened by `furbake-runtime`,
-//! physics lives in `furbake-sim`, the grass CPU reference in `furbake-grass`.
+//! furbake-render: draws baked fur and grass with wgpu — skin, shells innermost to outermost with
+//! the eq. 3.36 shearing in the vertex shader, and fins (fur thesis §3.2, §3.4.2), and instanced
+//! grass blades that select and decode their keyframe on the GPU (grass thesis §4.2–4.4,
+//! [`blades`]) — as middleware inside a host's renderer, or headless into an image. Nothing else:
+//! packs are opened by `furbake-runtime`, physics lives in `furbake-sim`, the grass CPU reference
+//! in `furbake-grass`.
 //!
-//! GPU functions take the `wgpu::Device` and `wgpu::Queue` to work on, so a game passes its own;
-//! [`HeadlessGpu`] makes one without a window (any adapter: a GPU, else a software one such as
-//! Mesa's lavapipe), and [`render_preview`] is the one-call path `furbake preview` uses:
+//! # Embedding in a wgpu renderer
+//!
+//! The host owns the device, its colour and depth attachments, MSAA and the frame; furbake draws
+//! in the host's render pass, depth-tested against the host's world (the pattern of wgpu's
+//! middleware guide and of egui-wgpu and glyphon). A renderer is built once for a [`TargetDesc`]
+//! — the pass's colour format and blend, depth format and comparison, sample count — with
+//! pipelines from a [`PipelineCache`] shared by every renderer of the host; each frame,
+//! `prepare` writes uniforms with `queue.write_buffer` and records compute work (the skinning of
+//! an animated pack) into the host's encoder, and `render(&self, &mut RenderPass)` draws. No
+//! library call submits or waits in a frame; the host submits. Resizing the host's attachments
+//! rebuilds nothing.
+//!
+//! ```
+//! # use std::sync::Arc;
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! use furbake_render::{FurAsset, FurRenderer, PipelineCache, RenderSettings, TargetDesc, View};
+//! use furbake_runtime::Pack;
+//! # let gpu = furbake_render::HeadlessGpu::new()?; // stands in for the engine's device
+//! # let (device, queue) = (&gpu.device, &gpu.queue);
+//! # let dir = tempfile::tempdir()?;
+//! # let fox_path = dir.path().join("fox.fbk");
+//! # {
+//! #     use furbake_import::{ImportSettings, import_gltf_slice, testmesh};
+//! #     let gltf = testmesh::uv_sphere(12, 16, 1.0).gltf;
+//! #     let mesh = import_gltf_slice(&gltf, "sphere.gltf", None, &ImportSettings::default())?;
+//! #     let mut settings = furbake_bake::BakeSettings::preset("fur")?;
+//! #     (settings.volume.layers, settings.volume.resolution) = (8, 32);
+//! #     let baked = furbake_bake::bake(&mesh, "sphere", &settings, &mut furbake_bake::NoProgress)?;
+//! #     baked.to_writer().write_atomic(&fox_path)?;
+//! # }
+//! // Once: the pass furbake draws into (the engine's HDR target, 4× MSAA, its depth buffer),
+//! // and the renderer of a pack.
+//! let target = TargetDesc::new(wgpu::TextureFormat::Rgba16Float)
+//!     .with_depth(wgpu::TextureFormat::Depth32Float, wgpu::CompareFunction::LessEqual)
+//!     .with_samples(4);
+//! let pipelines = PipelineCache::new(device); // one per device, shared by every renderer
+//! let asset = FurAsset::from_pack(&Pack::open(&fox_path)?, true)?;
+//! let fur = FurRenderer::new(&pipelines, queue, &asset, &RenderSettings::default(), &target)?;
+//!
+//! // The engine's attachments, any size.
+//! let attachment = |format| {
+//!     let size = wgpu::Extent3d { width: 96, height: 64, depth_or_array_layers: 1 };
+//!     let usage = wgpu::TextureUsages::RENDER_ATTACHMENT;
+//!     let desc = wgpu::TextureDescriptor { label: None, size, mip_level_count: 1, sample_count: 4,
+//!         dimension: wgpu::TextureDimension::D2, format, usage, view_formats: &[] };
+//!     device.create_texture(&desc).create_view(&Default::default())
+//! };
+//! let color = attachment(wgpu::TextureFormat::Rgba16Float);
+//! let depth = attachment(wgpu::TextureFormat::Depth32Float);
+//!
+//! // Every frame: the engine's camera and light (`FrameUniforms::new` takes its own matrix),
+//! // furbake's upload, the engine's pass with its own draws and then furbake's, one submit.
+//! let (center, radius) = asset.bounding_sphere();
+//! let frame = View::framing(center, radius).uniforms(96.0 / 64.0);
+//! let mut encoder = device.create_command_encoder(&Default::default());
+//! fur.prepare(queue, &mut encoder, &frame);
+//! {
+//!     let clear = wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::BLACK), store: wgpu::StoreOp::Store };
+//!     let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+//!         color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+//!             view: &color, depth_slice: None, resolve_target: None, ops: clear })],
+//!         depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+//!             view: &depth, depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0),
+//!             store: wgpu::StoreOp::Store }), stencil_ops: None }),
+//!         ..Default::default()
+//!     });
+//!     // ... the engine's own draws here ...
+//!     fur.render(&mut pass);
+//! }
+//! queue.submit([encoder.finish()]);
+//! # gpu.check()?;
+//! # Ok(()) }
+//! ```
+//!
+//! Grass blades work the same way ([`BladeRenderer::prepare`], [`BladeRenderer::render`]), and a
+//! whole `furbake_runtime::World` — every pack placed, posed and simulated — through
+//! [`SceneRenderer::for_target`], [`SceneRenderer::prepare_world`] and [`SceneRenderer::render`].
+//! `examples/host.rs` is a complete host: MSAA 4× HDR target, its own ground and box, the Fox and
+//! a grass field in the same pass, resolve and tonemap (`cargo run -p furbake-render --example
+//! host`).
+//!
+//! # Headless
+//!
+//! [`HeadlessGpu`] makes a device without a window (any adapter: a GPU, else a software one such
+//! as Mesa's lavapipe), [`RenderTarget`] is its offscreen colour + depth target
+//! ([`RenderTarget::desc`]), and [`read_back`] copies it into an [`image::RgbaImage`] — a small
+//! host of the same calls, which `furbake preview` and the tests use ([`render_preview`] is the
+//! one-call path):
 //!
 //! ```no_run
 //! let image = furbake_render::render_preview("fox.fbk".as_ref(), 512, 512)?;
@@ -14,40 +100,51 @@
 //! # Ok::<(), furbake_render::RenderError>(())
 //! ```
 //!
-//! The frame: [`FurRenderer::render`] clears the [`RenderTarget`], draws the skin (Lambert ×
-//! vertex colour), the shells as one instanced draw (instance = layer, so layers rasterise
-//! innermost first), then the fins on the pack's fin edges; [`read_back`] copies the colour
-//! target into an [`image::RgbaImage`]. Several packs in one frame, each with its model matrix
-//! and this frame's physics (scale vectors, blade corner forces), from a runtime scene's camera
-//! and light: [`scene`] ([`SceneRenderer`], [`SceneFrame`]). An animated pack (skin weights or
-//! morph targets, glTF 2.0 "Skins", "Morph Targets") is morphed and skinned on the GPU once per
-//! frame by a [`SkinningPass`] that its renderer owns ([`FurRenderer::set_pose`]); skin, shells
-//! and fins read the posed vertices it writes.
+//! The frame of a fur pack: the skin (Lambert × vertex colour), the shells as one instanced draw
+//! (instance = layer, so layers rasterise innermost first), then the fins on the pack's fin
+//! edges. Several packs in one frame, each with its model matrix and this frame's physics (scale
+//! vectors, blade corner forces), from a runtime scene's camera and light: [`scene`]
+//! ([`SceneRenderer`], [`SceneFrame`]). An animated pack (skin weights or morph targets, glTF 2.0
+//! "Skins", "Morph Targets") is morphed and skinned on the GPU once per frame by a
+//! [`SkinningPass`] that its renderer owns ([`FurRenderer::set_pose`]); skin, shells and fins read
+//! the posed vertices it writes.
 
 mod asset;
 pub mod blades;
+mod blocking;
+mod headless;
+mod pipelines;
 mod renderer;
 pub mod scene;
 pub mod shaders;
 mod skinning;
+mod target;
 
-use std::path::Path;
-
-use furbake_runtime::{Camera, Light, Pack, RuntimeError};
+use furbake_runtime::{Camera, Light, RuntimeError};
 use glam::Vec3;
 
 pub use asset::FurAsset;
 pub use blades::{BladeRenderer, BladeSettings};
+#[doc(hidden)]
+pub use blocking::blocking_calls_on_this_thread;
 /// How scale vectors are indexed (re-exported from `furbake_runtime`, which produces them).
 pub use furbake_runtime::ShellVertexLayout;
-pub use renderer::{COLOR_FORMAT, DEPTH_FORMAT, FurRenderer, RenderSettings, RenderTarget, ShellBlend};
+pub use headless::{
+    COLOR_FORMAT, DEPTH_FORMAT, HeadlessGpu, RenderTarget, read_back, read_back_texture, render_image, render_pack,
+    render_preview,
+};
+pub use pipelines::PipelineCache;
+pub use renderer::{FurRenderer, RenderSettings, ShellBlend};
 pub use scene::{BladeForces, PackInput, PackRenderers, SceneFrame, SceneObject, SceneRenderer};
+pub use shaders::FrameUniforms;
 pub use skinning::{PosedVertices, SkinningPass};
+pub use target::{ColorTarget, DepthTarget, TargetDesc};
 
 /// The fixed GPU (or, on lavapipe, host) memory of one fur or blade renderer beyond its data —
 /// pipelines, bind groups, uniform buffers. Measured on lavapipe: a scene of 50 Fox entries took
 /// 199 MB more resident memory than one (`/usr/bin/time -v furbake preview`, 64×64), about
-/// 4 MiB per entry of which ~0.5 MiB is data.
+/// 4 MiB per entry of which ~0.5 MiB is data. That was before renderers shared their pipelines
+/// ([`PipelineCache`]), so it is an upper bound now.
 pub const RENDERER_OVERHEAD_BYTES: u64 = 4 << 20;
 
 /// The command that installs a software Vulkan driver on Debian/Ubuntu machines without a GPU.
@@ -78,6 +175,14 @@ pub enum RenderError {
     #[error("invalid fur asset: {what}")]
     InvalidAsset {
         /// What is inconsistent.
+        what: String,
+    },
+    /// The host's render target cannot be drawn into on this device: a format that is not
+    /// renderable (or not blendable where shells blend), a sample count the format does not
+    /// support, a depth format without a depth aspect. Blame: the host's target description.
+    #[error("unsupported render target: {what}")]
+    UnsupportedTarget {
+        /// Which attachment, and what it lacks.
         what: String,
     },
     /// A caller-supplied value is out of range. Blame: the caller.
@@ -117,20 +222,6 @@ pub enum RenderError {
     },
 }
 
-/// A device and queue created without a window. wgpu's default reaction to an error outside an
-/// error scope is a panic, and a lost device only logs; this host records both instead, and
-/// [`HeadlessGpu::check`] turns them into typed errors, so no GPU failure aborts the process.
-pub struct HeadlessGpu {
-    /// The adapter's name, backend and driver (for logs and reports).
-    pub info: wgpu::AdapterInfo,
-    /// The device.
-    pub device: wgpu::Device,
-    /// Its queue.
-    pub queue: wgpu::Queue,
-    /// Errors wgpu raised outside any error scope, and a lost device, in order.
-    failures: std::sync::Arc<std::sync::Mutex<Vec<RenderError>>>,
-}
-
 /// Runs `f` inside error scopes for validation, out-of-memory and internal errors and returns
 /// the first error wgpu reported as a typed [`RenderError`] naming `what` was being done.
 /// (Popping a scope is bookkeeping on the device timeline, not a wait for the GPU.)
@@ -144,8 +235,11 @@ pub(crate) fn gpu_scope<T>(
     let internal = device.push_error_scope(wgpu::ErrorFilter::Internal);
     let result = f();
     // Scopes pop in reverse order of pushing.
-    let errors =
-        [pollster::block_on(internal.pop()), pollster::block_on(validation.pop()), pollster::block_on(oom.pop())];
+    let errors = [
+        crate::blocking::block_on(internal.pop()),
+        crate::blocking::block_on(validation.pop()),
+        crate::blocking::block_on(oom.pop()),
+    ];
     let value = result?;
     match errors.into_iter().flatten().next() {
         None => Ok(value),
@@ -153,68 +247,10 @@ pub(crate) fn gpu_scope<T>(
     }
 }
 
-fn typed_gpu_error(e: wgpu::Error, what: &str) -> RenderError {
+pub(crate) fn typed_gpu_error(e: wgpu::Error, what: &str) -> RenderError {
     match e {
         wgpu::Error::OutOfMemory { .. } => RenderError::OutOfMemory { what: format!("{what}: {e}") },
         e => RenderError::Gpu { what: format!("{what}: {e}") },
-    }
-}
-
-impl HeadlessGpu {
-    /// Requests a hardware adapter, then a fallback (software) one, and a device with no optional
-    /// features and the WebGPU default limits (the renderer uses only core features: R8 and
-    /// RGBA8 textures, Depth32Float, storage buffers in vertex shaders). Blocks (pollster).
-    pub fn new() -> Result<HeadlessGpu, RenderError> {
-        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle());
-        let mut errors = Vec::new();
-        let mut adapter = None;
-        for force_fallback_adapter in [false, true] {
-            let options = wgpu::RequestAdapterOptions {
-                power_preference: wgpu::PowerPreference::HighPerformance,
-                force_fallback_adapter,
-                compatible_surface: None,
-                ..Default::default()
-            };
-            match pollster::block_on(instance.request_adapter(&options)) {
-                Ok(a) => {
-                    adapter = Some(a);
-                    break;
-                }
-                Err(e) => errors.push(e.to_string()),
-            }
-        }
-        let adapter = adapter.ok_or_else(|| RenderError::NoAdapter { detail: errors.join("; ") })?;
-        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
-            label: Some("furbake headless device"),
-            required_features: wgpu::Features::empty(),
-            required_limits: wgpu::Limits::default(),
-            ..Default::default()
-        }))?;
-        let failures = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
-        let sink = std::sync::Arc::clone(&failures);
-        device.on_uncaptured_error(std::sync::Arc::new(move |e: wgpu::Error| {
-            let mut list = sink.lock().unwrap_or_else(|p| p.into_inner());
-            list.push(typed_gpu_error(e, "outside any error scope"));
-        }));
-        let sink = std::sync::Arc::clone(&failures);
-        device.set_device_lost_callback(move |reason, message| {
-            // Dropping the device at the end of a run also "loses" it; only other reasons count.
-            if reason != wgpu::DeviceLostReason::Destroyed {
-                let mut list = sink.lock().unwrap_or_else(|p| p.into_inner());
-                list.push(RenderError::DeviceLost { what: format!("{reason:?}: {message}") });
-            }
-        });
-        Ok(HeadlessGpu { info: adapter.get_info(), device, queue, failures })
-    }
-
-    /// The first GPU failure recorded since the last check (an error outside any error scope,
-    /// or a lost device), as a typed error; `Ok` when there was none.
-    pub fn check(&self) -> Result<(), RenderError> {
-        let mut list = self.failures.lock().unwrap_or_else(|p| p.into_inner());
-        if list.is_empty() {
-            return Ok(());
-        }
-        Err(list.remove(0))
     }
 }
 
@@ -297,6 +333,15 @@ impl View {
         view
     }
 
+    /// The view-projection matrix (wgpu clip space, depth in [0, 1] growing away from the eye,
+    /// near and far planes fitted around the bounding sphere) for a target of the given aspect
+    /// ratio — what a host draws its own geometry with so that it and the fur share one depth.
+    pub fn view_proj(&self, aspect: f32) -> glam::Mat4 {
+        let c = &self.camera;
+        let (eye, target, up) = (Vec3::from(c.eye), Vec3::from(c.target), Vec3::from(c.up));
+        renderer::view_proj(eye, target, up, c.fov_y_deg, aspect, self.bounds_center.into(), self.bounds_radius)
+    }
+
     /// The `Frame` uniforms for a target of the given aspect ratio (identity model matrix).
     pub fn uniforms(&self, aspect: f32) -> shaders::FrameUniforms {
         self.uniforms_with_model(aspect, glam::Mat4::IDENTITY)
@@ -305,126 +350,6 @@ impl View {
     /// The `Frame` uniforms for a target of the given aspect ratio and an object placed by
     /// `model` (object/pack frame → world; rotation, translation, uniform positive scale).
     pub fn uniforms_with_model(&self, aspect: f32, model: glam::Mat4) -> shaders::FrameUniforms {
-        let c = &self.camera;
-        let (eye, target, up) = (Vec3::from(c.eye), Vec3::from(c.target), Vec3::from(c.up));
-        let vp =
-            renderer::view_proj(eye, target, up, c.fov_y_deg, aspect, self.bounds_center.into(), self.bounds_radius);
-        let to_light = -Vec3::from(self.light.direction).normalize_or(Vec3::Y * -1.0);
-        let [r, g, b] = self.light.color;
-        shaders::FrameUniforms {
-            view_proj: vp.to_cols_array_2d(),
-            camera_pos: [eye.x, eye.y, eye.z, 1.0],
-            light_dir: [to_light.x, to_light.y, to_light.z, 0.0],
-            light_color: [r, g, b, self.light.ambient],
-            model: model.to_cols_array_2d(),
-        }
-    }
-}
-
-/// Copies `target`'s colour texture into an image (waits for the GPU).
-pub fn read_back(
-    device: &wgpu::Device,
-    queue: &wgpu::Queue,
-    target: &RenderTarget,
-) -> Result<image::RgbaImage, RenderError> {
-    let (w, h) = (target.width, target.height);
-    let row = w * 4;
-    let padded_row = row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
-    let buffer = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("furbake readback"),
-        size: padded_row as u64 * h as u64,
-        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-        mapped_at_creation: false,
-    });
-    let mut encoder =
-        device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("furbake readback") });
-    encoder.copy_texture_to_buffer(
-        wgpu::TexelCopyTextureInfo {
-            texture: &target.color,
-            mip_level: 0,
-            origin: wgpu::Origin3d::ZERO,
-            aspect: wgpu::TextureAspect::All,
-        },
-        wgpu::TexelCopyBufferInfo {
-            buffer: &buffer,
-            layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(padded_row), rows_per_image: Some(h) },
-        },
-        wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
-    );
-    queue.submit([encoder.finish()]);
-    map_for_reading(device, &buffer, "image readback")?;
-    let mut pixels = Vec::with_capacity(row as usize * h as usize);
-    {
-        let view = buffer.get_mapped_range(..).map_err(|e| RenderError::Gpu { what: e.to_string() })?;
-        for y in 0..h as usize {
-            let start = y * padded_row as usize;
-            pixels.extend_from_slice(&view[start..start + row as usize]);
-        }
-    }
-    buffer.unmap();
-    Ok(image::RgbaImage::from_raw(w, h, pixels).expect("w·h·4 bytes were copied"))
-}
-
-/// Renders one frame of `asset` at `width × height` from `view` and reads it back.
-pub fn render_image(
-    gpu: &HeadlessGpu,
-    asset: &FurAsset,
-    settings: &RenderSettings,
-    view: &View,
-    width: u32,
-    height: u32,
-) -> Result<image::RgbaImage, RenderError> {
-    let renderer = FurRenderer::new(&gpu.device, &gpu.queue, asset, settings)?;
-    let target = RenderTarget::new(&gpu.device, width, height)?;
-    renderer.render(&gpu.device, &gpu.queue, &target, view);
-    read_back(&gpu.device, &gpu.queue, &target)
-}
-
-/// What `furbake preview` calls: opens the pack at `pack_path`, creates a headless device, frames
-/// the furry mesh automatically (three-quarter view) and renders it with the default settings,
-/// plus its grass blades when it has a blade field. Reads only the skin mesh, shell atlas, UV
-/// map, fin atlas and fin edges (and the blade field and keyframe table, skin weights and morph
-/// targets when present; an animated pack is drawn in its bind pose).
-pub fn render_preview(pack_path: &Path, width: u32, height: u32) -> Result<image::RgbaImage, RenderError> {
-    render_pack(pack_path, width, height, None, &RenderSettings::default())
-}
-
-/// [`render_preview`] with a chosen view (`None`: framed automatically) and settings.
-pub fn render_pack(
-    pack_path: &Path,
-    width: u32,
-    height: u32,
-    view: Option<View>,
-    settings: &RenderSettings,
-) -> Result<image::RgbaImage, RenderError> {
-    let pack = Pack::open(pack_path)?;
-    let asset = FurAsset::from_pack(&pack, settings.fins)?;
-    let gpu = HeadlessGpu::new()?;
-    let view = view.unwrap_or_else(|| asset.auto_view(width as f32 / height.max(1) as f32));
-    let renderer = FurRenderer::new(&gpu.device, &gpu.queue, &asset, settings)?;
-    let target = RenderTarget::new(&gpu.device, width, height)?;
-    renderer.render(&gpu.device, &gpu.queue, &target, &view);
-    // Grass blades, when the pack has a blade field: drawn over the fur, depth-tested against it,
-    // in their rest pose (a still preview has no wind).
-    if let Some(blades) = BladeRenderer::from_pack(&gpu.device, &gpu.queue, &pack, &BladeSettings::default())? {
-        blades.render(&gpu.device, &gpu.queue, &target, &view, None);
-    }
-    let image = read_back(&gpu.device, &gpu.queue, &target)?;
-    gpu.check()?;
-    Ok(image)
-}
-
-/// Maps `buffer` (a `MAP_READ` buffer whose copy was already submitted) and waits until the map
-/// completes; `what` names the readback in errors.
-pub(crate) fn map_for_reading(device: &wgpu::Device, buffer: &wgpu::Buffer, what: &str) -> Result<(), RenderError> {
-    let (tx, rx) = std::sync::mpsc::channel();
-    buffer.map_async(wgpu::MapMode::Read, .., move |r| {
-        let _ = tx.send(r);
-    });
-    device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| RenderError::Gpu { what: e.to_string() })?;
-    match rx.recv() {
-        Ok(Ok(())) => Ok(()),
-        Ok(Err(e)) => Err(RenderError::Gpu { what: format!("{what}: mapping failed: {e}") }),
-        Err(_) => Err(RenderError::Gpu { what: format!("{what}: mapping never completed") }),
+        shaders::FrameUniforms::new(self.view_proj(aspect), Vec3::from(self.camera.eye), &self.light, model)
     }
 }

@@ -3,14 +3,18 @@
 //! per-layer shadow table, the fin atlas and fin quads, and a scale-vector buffer (eq. 3.35; the
 //! physics rewrites it through [`FurRenderer::set_scale_vectors`], one vector per welded vertex,
 //! or through [`FurRenderer::set_shell_scale_vectors`] one per triangle corner when a separable
-//! topology lets the fur part, §3.4.1 — the shaders pick the index by a uniform); then draws
-//! skin, shells innermost to outermost (one instanced draw, instance = layer) and fins into a
-//! [`RenderTarget`]. Effects are switched with WGSL `override` constants at pipeline creation.
-//! An animated asset (skin weights or morph targets) also owns a [`SkinningPass`]: each frame
-//! [`FurRenderer::encode`] records its dispatch before the render pass, and the skin, shell and
-//! fin shaders (compiled with `SKINNED`) read their roots from its output instead of the vertex
-//! attributes; a static asset's shaders are compiled without it and draw exactly as before.
-//! Every function takes the `wgpu::Device` and `wgpu::Queue` it works on.
+//! topology lets the fur part, §3.4.1 — the shaders pick the index by a uniform).
+//!
+//! A renderer is middleware in the host's frame: built for the host's pass ([`TargetDesc`], its
+//! pipelines from a shared [`PipelineCache`]), [`FurRenderer::prepare`] writes this frame's
+//! uniforms and records the skinning dispatch of an animated asset into the host's encoder, and
+//! [`FurRenderer::render`] draws skin, shells innermost to outermost (one instanced draw,
+//! instance = layer) and fins into the host's render pass, depth-tested against whatever the host
+//! drew. Neither submits nor waits (`crate::blocking`). Effects are switched with WGSL `override`
+//! constants at pipeline creation. An animated asset (skin weights or morph targets) owns a
+//! [`SkinningPass`]; the skin, shell and fin shaders (compiled with `SKINNED`) read their roots
+//! from its output instead of the vertex attributes; a static asset's shaders are compiled
+//! without it and draw exactly as before.
 
 use std::sync::atomic::{AtomicU32, Ordering};
 
@@ -19,16 +23,9 @@ use glam::{Mat4, Vec3};
 use wgpu::util::DeviceExt;
 
 use crate::asset::{FurAsset, mip_chain};
-use crate::shaders::{
-    FIN_ATTRIBUTES, FIN_WGSL, FinVertex, FrameUniforms, FurUniforms, ProbeVertex, SHELL_WGSL, SKIN_WGSL,
-    SURFACE_ATTRIBUTES, SkinnedVertex, SurfaceVertex,
-};
-use crate::{RenderError, SkinningPass, View};
-
-/// Colour format of [`RenderTarget`]s (sRGB-encoded 8-bit RGBA; shaders write linear colour).
-pub const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
-/// Depth format of [`RenderTarget`]s.
-pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+use crate::pipelines::{FurPipelines, FurSwitches};
+use crate::shaders::{FrameUniforms, FurUniforms, ProbeVertex, SHELL_WGSL, SkinnedVertex, SurfaceVertex};
+use crate::{PipelineCache, RenderError, SkinningPass, TargetDesc};
 
 /// How shell and fin fragments combine with what is behind them.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -110,61 +107,6 @@ impl RenderSettings {
     }
 }
 
-/// An offscreen colour + depth target of a given size.
-pub struct RenderTarget {
-    /// Colour texture ([`COLOR_FORMAT`], copyable to a buffer).
-    pub color: wgpu::Texture,
-    /// Depth texture ([`DEPTH_FORMAT`]).
-    pub depth: wgpu::Texture,
-    /// Width in pixels.
-    pub width: u32,
-    /// Height in pixels.
-    pub height: u32,
-}
-
-impl RenderTarget {
-    /// Creates a `width × height` target; fails when a side is 0 or above the device's limit.
-    pub fn new(device: &wgpu::Device, width: u32, height: u32) -> Result<RenderTarget, RenderError> {
-        let max = device.limits().max_texture_dimension_2d;
-        if width == 0 || height == 0 || width > max || height > max {
-            return Err(RenderError::Parameter {
-                what: format!("target size {width}×{height} (each side in 1..={max})"),
-            });
-        }
-        crate::gpu_scope(device, &format!("creating a {width}×{height} render target"), || {
-            Ok(Self::create(device, width, height))
-        })
-    }
-
-    fn create(device: &wgpu::Device, width: u32, height: u32) -> RenderTarget {
-        let size = wgpu::Extent3d { width, height, depth_or_array_layers: 1 };
-        let make = |label, format, usage| {
-            device.create_texture(&wgpu::TextureDescriptor {
-                label: Some(label),
-                size,
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format,
-                usage,
-                view_formats: &[],
-            })
-        };
-        let color = make(
-            "furbake color target",
-            COLOR_FORMAT,
-            wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-        );
-        let depth = make("furbake depth target", DEPTH_FORMAT, wgpu::TextureUsages::RENDER_ATTACHMENT);
-        RenderTarget { color, depth, width, height }
-    }
-
-    /// Width / height.
-    pub fn aspect(&self) -> f32 {
-        self.width as f32 / self.height as f32
-    }
-}
-
 /// One asset's GPU resources and pipelines.
 pub struct FurRenderer {
     settings: RenderSettings,
@@ -184,9 +126,9 @@ pub struct FurRenderer {
     furry_corners: u32,
     fins: Option<(wgpu::Buffer, u32)>,
     drawn_layers: u32,
-    skin_pipeline: wgpu::RenderPipeline,
-    shell_pipeline: wgpu::RenderPipeline,
-    fin_pipeline: wgpu::RenderPipeline,
+    /// The pass this renderer draws into.
+    target: TargetDesc,
+    pipelines: FurPipelines,
     /// The GPU skinning of an animated asset; `None` for a static one.
     skinning: Option<SkinningPass>,
     /// What binding 8 (`skinned`) holds: the skinning pass's output, or a placeholder.
@@ -194,23 +136,37 @@ pub struct FurRenderer {
 }
 
 impl FurRenderer {
-    /// Uploads `asset` and builds the pipelines for `settings`.
+    /// Uploads `asset` and takes the pipelines for `settings` drawn into passes like `target` from
+    /// `pipelines` (created there on first use, shared with every other renderer of that cache).
+    /// Fails on bad settings ([`RenderError::Parameter`]), a target this device cannot draw into
+    /// ([`RenderError::UnsupportedTarget`]; alpha-blended shells need a blendable colour format),
+    /// an asset above the device's limits, or a GPU error while creating resources. Uploads go
+    /// through `queue.write_texture` (no submission).
     pub fn new(
-        device: &wgpu::Device,
+        pipelines: &PipelineCache,
         queue: &wgpu::Queue,
         asset: &FurAsset,
         settings: &RenderSettings,
+        target: &TargetDesc,
     ) -> Result<FurRenderer, RenderError> {
         settings.validate()?;
-        crate::gpu_scope(device, "creating the fur renderer", || Self::build(device, queue, asset, settings))
+        let switches = FurSwitches::new(settings, asset.is_animated());
+        let stage_pipelines = pipelines.fur(target, switches)?;
+        let device = pipelines.device();
+        crate::gpu_scope(device, "creating the fur renderer", || {
+            Self::build(pipelines, queue, asset, settings, target, stage_pipelines)
+        })
     }
 
     fn build(
-        device: &wgpu::Device,
+        cache: &PipelineCache,
         queue: &wgpu::Queue,
         asset: &FurAsset,
         settings: &RenderSettings,
+        target: &TargetDesc,
+        pipelines: FurPipelines,
     ) -> Result<FurRenderer, RenderError> {
+        let device = cache.device();
         let shells = asset.shells();
         let (corners, furry_triangles) = asset.surface_vertices();
         let fin_vertices = if settings.fins { asset.fin_vertices() } else { Vec::new() };
@@ -319,10 +275,9 @@ impl FurRenderer {
         let repeat_sampler = sampler("furbake repeat sampler", wgpu::AddressMode::Repeat);
         let fin_sampler = sampler("furbake fin sampler", wgpu::AddressMode::ClampToEdge);
 
-        let layout = bind_group_layout(device);
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("furbake fur bind group"),
-            layout: &layout,
+            layout: cache.fur_layout(),
             entries: &[
                 wgpu::BindGroupEntry { binding: 0, resource: frame_buffer.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 1, resource: fur_buffer.as_entire_binding() },
@@ -335,16 +290,6 @@ impl FurRenderer {
                 wgpu::BindGroupEntry { binding: 8, resource: posed_vertices.as_entire_binding() },
             ],
         });
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("furbake fur pipeline layout"),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
-        let skinned = skinning.is_some();
-        let skin_pipeline = pipeline(device, &pipeline_layout, settings, Stage::Skin, skinned);
-        let shell_pipeline = pipeline(device, &pipeline_layout, settings, Stage::Shell, skinned);
-        let fin_pipeline = pipeline(device, &pipeline_layout, settings, Stage::Fin, skinned);
-
         let fins = (!fin_vertices.is_empty()).then(|| {
             let buffer = init("furbake fin quads", bytemuck::cast_slice(&fin_vertices), wgpu::BufferUsages::VERTEX);
             (buffer, fin_vertices.len() as u32)
@@ -365,9 +310,8 @@ impl FurRenderer {
             furry_corners: furry_triangles * 3,
             fins,
             drawn_layers,
-            skin_pipeline,
-            shell_pipeline,
-            fin_pipeline,
+            target: target.clone(),
+            pipelines,
             skinning,
             posed_vertices,
         })
@@ -376,8 +320,8 @@ impl FurRenderer {
     /// Writes this frame's pose of an animated asset: one skinning matrix per bind
     /// (`world(joint) × inverseBind`, `furbake_runtime::animation::skinning_matrices`; empty
     /// without skin weights) and one weight per morph target (empty without morph targets). The
-    /// next [`FurRenderer::encode`] or [`FurRenderer::render`] skins the asset with it before
-    /// drawing. Scale vectors stay in the bind-pose mesh frame the physics simulates in; the
+    /// skinning dispatch the next [`FurRenderer::prepare`] records skins the asset with it before
+    /// [`FurRenderer::render`] draws. Scale vectors stay in the bind-pose mesh frame the physics simulates in; the
     /// shaders turn each with its vertex's normal. A static asset, a wrong count or a non-finite
     /// value is a [`RenderError::Parameter`] and changes nothing. No allocation (see
     /// [`SkinningPass::set_pose`]).
@@ -436,11 +380,18 @@ impl FurRenderer {
             let fur = FurUniforms { scale_layout: code, ..self.fur_uniforms };
             queue.write_buffer(&self.fur_buffer, 0, bytemuck::bytes_of(&fur));
         }
-        if scale_vectors.is_empty() {
+        // Straight into the staging memory, padded to vec4 (no allocation per frame).
+        const VECTOR_BYTES: usize = 16;
+        let Some(size) = wgpu::BufferSize::new((scale_vectors.len() * VECTOR_BYTES) as u64) else {
             return Ok(());
+        };
+        let Some(mut view) = queue.write_buffer_with(&self.scale_buffer, 0, size) else {
+            return Err(RenderError::Gpu { what: "the scale vector upload was refused".into() });
+        };
+        for (i, s) in scale_vectors.iter().enumerate() {
+            view.slice(i * VECTOR_BYTES..(i + 1) * VECTOR_BYTES)
+                .copy_from_slice(bytemuck::bytes_of(&[s[0], s[1], s[2], 0.0f32]));
         }
-        let padded: Vec<[f32; 4]> = scale_vectors.iter().map(|s| [s[0], s[1], s[2], 0.0]).collect();
-        queue.write_buffer(&self.scale_buffer, 0, bytemuck::cast_slice(&padded));
         Ok(())
     }
 
@@ -481,48 +432,46 @@ impl FurRenderer {
         self.bounds
     }
 
-    /// Records and submits one frame into `target`: clear, skin, shells innermost to outermost,
-    /// fins. Returns once the work is submitted (not finished; see [`crate::read_back`]).
-    pub fn render(&self, device: &wgpu::Device, queue: &wgpu::Queue, target: &RenderTarget, view: &View) {
-        let frame = view.uniforms(target.aspect());
-        let mut encoder =
-            device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("furbake frame") });
-        self.encode(queue, &mut encoder, target, &frame, Some(self.settings.background));
-        queue.submit([encoder.finish()]);
+    /// The pass description this renderer's pipelines were built for.
+    pub fn target(&self) -> &TargetDesc {
+        &self.target
     }
 
-    /// Writes `frame` (camera, light and this object's model matrix, e.g. from
-    /// [`View::uniforms_with_model`]) into this renderer's uniform buffer and records its pass into
-    /// `encoder`: skin, shells, fins, after clearing colour (to the linear RGBA `clear`) and depth,
-    /// or over what the target holds when `clear` is `None`. An animated asset's skinning dispatch
-    /// is recorded first (one per frame; the three stages read its output). Nothing is submitted;
-    /// the uniform write lands before the encoder's commands when they are submitted on the same
-    /// queue, so each renderer can be encoded once per submission.
-    pub fn encode(
-        &self,
-        queue: &wgpu::Queue,
-        encoder: &mut wgpu::CommandEncoder,
-        target: &RenderTarget,
-        frame: &crate::shaders::FrameUniforms,
-        clear: Option<[f32; 4]>,
-    ) {
+    /// Writes `frame` (the host's view-projection, eye and light, and this object's model matrix,
+    /// e.g. from [`crate::View::uniforms_with_model`] or [`FrameUniforms::new`]) into this
+    /// renderer's uniform buffer with `queue.write_buffer`, and records an animated asset's
+    /// skinning dispatch (the pose last written by [`FurRenderer::set_pose`]) into `encoder`, in
+    /// its own compute pass. Call once per frame before the host begins the render pass that
+    /// [`FurRenderer::render`] draws into, on an encoder submitted on `queue`: the uniform write
+    /// lands before that submission's commands run. One model matrix per renderer per
+    /// submission. Does not submit or wait, and allocates nothing of its own (wgpu
+    /// allocates inside its calls; docs/performance.md).
+    pub fn prepare(&self, queue: &wgpu::Queue, encoder: &mut wgpu::CommandEncoder, frame: &FrameUniforms) {
         queue.write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(frame));
         if let Some(skinning) = &self.skinning {
             skinning.encode(encoder);
         }
-        let mut pass = crate::renderer::begin_target_pass(encoder, target, "furbake fur pass", clear);
+    }
+
+    /// Draws skin, shells and fins into the host's `pass`, whose attachments must match
+    /// [`FurRenderer::target`], with what the last [`FurRenderer::prepare`] wrote. Sets its own
+    /// pipelines, bind group 0 and vertex buffer 0 (the host re-sets its own afterwards); draws
+    /// nothing else. Does not submit or wait, and allocates nothing of its own (wgpu
+    /// allocates inside its calls; docs/performance.md).
+    pub fn render(&self, pass: &mut wgpu::RenderPass<'_>) {
         pass.set_bind_group(0, &self.bind_group, &[]);
         if self.surface_corners > 0 {
-            pass.set_pipeline(&self.skin_pipeline);
+            pass.set_pipeline(&self.pipelines.skin);
             pass.set_vertex_buffer(0, self.surface.slice(..));
             pass.draw(0..self.surface_corners, 0..1);
         }
         if self.furry_corners > 0 && self.drawn_layers > 0 {
-            pass.set_pipeline(&self.shell_pipeline);
+            pass.set_pipeline(&self.pipelines.shell);
+            pass.set_vertex_buffer(0, self.surface.slice(..));
             pass.draw(0..self.furry_corners, 0..self.drawn_layers);
         }
         if let Some((buffer, count)) = self.fins.as_ref().filter(|_| self.drawn_layers > 0) {
-            pass.set_pipeline(&self.fin_pipeline);
+            pass.set_pipeline(&self.pipelines.fin);
             pass.set_vertex_buffer(0, buffer.slice(..));
             pass.draw(0..*count, 0..1);
         }
@@ -660,11 +609,11 @@ impl FurRenderer {
             pass.dispatch_workgroups(x, y, 1);
         }
         encoder.copy_buffer_to_buffer(&output, 0, &readback, 0, count * 16);
-        queue.submit([encoder.finish()]);
-        if let Some(e) = pollster::block_on(scope.pop()) {
+        crate::blocking::submit(queue, [encoder.finish()]);
+        if let Some(e) = crate::blocking::block_on(scope.pop()) {
             return Err(RenderError::Gpu { what: e.to_string() });
         }
-        crate::map_for_reading(device, &readback, "shell probe readback")?;
+        crate::headless::map_for_reading(device, &readback, "shell probe readback")?;
         let out = {
             let view = readback.get_mapped_range(..).map_err(|e| RenderError::Gpu { what: e.to_string() })?;
             let words: &[[f32; 4]] = bytemuck::cast_slice(&view);
@@ -681,13 +630,6 @@ fn layout_code(layout: ShellVertexLayout) -> u32 {
         ShellVertexLayout::PerVertex => 0,
         ShellVertexLayout::PerCorner => 1,
     }
-}
-
-#[derive(Clone, Copy, PartialEq, Eq)]
-enum Stage {
-    Skin,
-    Shell,
-    Fin,
 }
 
 /// Group 0 (the fur uniforms, scale vectors and posed vertices `cs_shell_positions` reads) and
@@ -713,144 +655,6 @@ fn probe_bind_group_layouts(device: &wgpu::Device) -> [wgpu::BindGroupLayout; 2]
             &[entry(0, read), entry(1, wgpu::BufferBindingType::Storage { read_only: false })],
         ),
     ]
-}
-
-fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
-    let vf = wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT;
-    let uniform = |binding| wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: vf,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Uniform,
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    };
-    let storage = |binding| wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: vf,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only: true },
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    };
-    let texture = |binding, view_dimension| wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::FRAGMENT,
-        ty: wgpu::BindingType::Texture {
-            sample_type: wgpu::TextureSampleType::Float { filterable: true },
-            view_dimension,
-            multisampled: false,
-        },
-        count: None,
-    };
-    let sampler = |binding| wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::FRAGMENT,
-        ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
-        count: None,
-    };
-    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some("furbake fur bind group layout"),
-        entries: &[
-            uniform(0),
-            uniform(1),
-            storage(2),
-            storage(3),
-            texture(4, wgpu::TextureViewDimension::D2Array),
-            sampler(5),
-            texture(6, wgpu::TextureViewDimension::D2),
-            sampler(7),
-            // The posed vertices of an animated asset, read by the vertex shaders.
-            wgpu::BindGroupLayoutEntry { visibility: wgpu::ShaderStages::VERTEX, ..storage(8) },
-        ],
-    })
-}
-
-fn pipeline(
-    device: &wgpu::Device,
-    layout: &wgpu::PipelineLayout,
-    settings: &RenderSettings,
-    stage: Stage,
-    skinned: bool,
-) -> wgpu::RenderPipeline {
-    let (label, source, vs, fs) = match stage {
-        Stage::Skin => ("furbake skin", SKIN_WGSL, "vs_skin", "fs_skin"),
-        Stage::Shell => ("furbake shells", SHELL_WGSL, "vs_shell", "fs_shell"),
-        Stage::Fin => ("furbake fins", FIN_WGSL, "vs_fin", "fs_fin"),
-    };
-    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some(label),
-        source: wgpu::ShaderSource::Wgsl(source.into()),
-    });
-    let flag = |on: bool| if on { 1.0 } else { 0.0 };
-    let blend = settings.blend == ShellBlend::AlphaBlend;
-    // Overrides each shader declares (the skin has no shearing or blending switch).
-    let all = [
-        ("LAMBERT", flag(settings.lambert)),
-        ("SHADOW", flag(settings.self_shadow)),
-        ("SKINNED", flag(skinned)),
-        ("SHEAR", flag(settings.shearing)),
-        ("ALPHA_BLEND", flag(blend)),
-    ];
-    let constants: &[(&str, f64)] = if stage == Stage::Skin { &all[..3] } else { &all };
-    let options = wgpu::PipelineCompilationOptions { constants, zero_initialize_workgroup_memory: false };
-    let surface_layout = wgpu::VertexBufferLayout {
-        array_stride: std::mem::size_of::<SurfaceVertex>() as u64,
-        step_mode: wgpu::VertexStepMode::Vertex,
-        attributes: &SURFACE_ATTRIBUTES,
-    };
-    let fin_layout = wgpu::VertexBufferLayout {
-        array_stride: std::mem::size_of::<FinVertex>() as u64,
-        step_mode: wgpu::VertexStepMode::Vertex,
-        attributes: &FIN_ATTRIBUTES,
-    };
-    let buffers = [Some(if stage == Stage::Fin { fin_layout } else { surface_layout })];
-    let (blend_state, depth_write, cull) = match stage {
-        Stage::Skin => (None, true, Some(wgpu::Face::Back)),
-        // Shells cull nothing: back-facing shells near the silhouette are what makes it furry.
-        _ if blend => (Some(wgpu::BlendState::ALPHA_BLENDING), false, None),
-        _ => (None, true, None),
-    };
-    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-        label: Some(label),
-        layout: Some(layout),
-        vertex: wgpu::VertexState {
-            module: &module,
-            entry_point: Some(vs),
-            compilation_options: options.clone(),
-            buffers: &buffers,
-        },
-        primitive: wgpu::PrimitiveState {
-            topology: wgpu::PrimitiveTopology::TriangleList,
-            front_face: wgpu::FrontFace::Ccw,
-            cull_mode: cull,
-            ..Default::default()
-        },
-        depth_stencil: Some(wgpu::DepthStencilState {
-            format: DEPTH_FORMAT,
-            depth_write_enabled: Some(depth_write),
-            depth_compare: Some(wgpu::CompareFunction::LessEqual),
-            stencil: Default::default(),
-            bias: Default::default(),
-        }),
-        multisample: Default::default(),
-        fragment: Some(wgpu::FragmentState {
-            module: &module,
-            entry_point: Some(fs),
-            compilation_options: options,
-            targets: &[Some(wgpu::ColorTargetState {
-                format: COLOR_FORMAT,
-                blend: blend_state,
-                write_mask: wgpu::ColorWrites::ALL,
-            })],
-        }),
-        multiview_mask: None,
-        cache: None,
-    })
 }
 
 /// Uploads `layers` slices of `width × height` R8 texels with a full box-filtered mip chain.
@@ -910,40 +714,4 @@ pub(crate) fn view_proj(
     let far = (dist + radius * 1.5).max(1e-3);
     let near = (dist - radius * 1.5).max(far * 1e-4);
     Mat4::perspective_rh(fov_y_deg.to_radians(), aspect, near, far) * view
-}
-
-/// Begins a render pass into `target`'s colour and depth textures: cleared to `clear` (depth to
-/// 1) or, with `None`, drawing over what earlier passes left (the scene renderer's later objects).
-pub(crate) fn begin_target_pass<'e>(
-    encoder: &'e mut wgpu::CommandEncoder,
-    target: &RenderTarget,
-    label: &str,
-    clear: Option<[f32; 4]>,
-) -> wgpu::RenderPass<'e> {
-    let color_view = target.color.create_view(&Default::default());
-    let depth_view = target.depth.create_view(&Default::default());
-    let (color_load, depth_load) = match clear {
-        Some(c) => {
-            let [r, g, b, a] = c.map(f64::from);
-            (wgpu::LoadOp::Clear(wgpu::Color { r, g, b, a }), wgpu::LoadOp::Clear(1.0))
-        }
-        None => (wgpu::LoadOp::Load, wgpu::LoadOp::Load),
-    };
-    encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-        label: Some(label),
-        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-            view: &color_view,
-            depth_slice: None,
-            resolve_target: None,
-            ops: wgpu::Operations { load: color_load, store: wgpu::StoreOp::Store },
-        })],
-        depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-            view: &depth_view,
-            depth_ops: Some(wgpu::Operations { load: depth_load, store: wgpu::StoreOp::Store }),
-            stencil_ops: None,
-        }),
-        timestamp_writes: None,
-        occlusion_query_set: None,
-        multiview_mask: None,
-    })
 }

@@ -1,4 +1,4 @@
-//! Scene frames: several furry packs and grass blade fields drawn into one [`RenderTarget`] per
+//! Scene frames: several furry packs and grass blade fields drawn into one render pass per
 //! frame, each placed by its own model matrix, seen from the camera and lit by the light of a
 //! `furbake_runtime::Scene` (fur thesis §3.2 for the fur passes, grass thesis §4.2 for the blades).
 //! Physics is an input: per fur pack the frame's scale vectors (eq. 3.35, in the pack's mesh
@@ -9,15 +9,19 @@
 //!
 //! Two levels:
 //! - [`SceneFrame::render`] draws borrowed [`SceneObject`]s (a [`FurRenderer`] or a
-//!   [`BladeRenderer`] with a model matrix and optional per-frame physics input) in one
-//!   submission: the first object clears colour and depth, the others draw over it depth-tested.
+//!   [`BladeRenderer`] with a model matrix and optional per-frame physics input) into a headless
+//!   [`RenderTarget`] in one pass and one submission, cleared first.
 //! - [`SceneRenderer`] owns the renderers of every pack of a running `furbake_runtime::World`,
 //!   built from the world's own opened packs (their decoded sections are shared, nothing is read
-//!   twice) with the shader features the scene's effects need. [`SceneRenderer::render_world`]
-//!   draws the world's current state — model matrices, fur scale vectors in the world's layout,
-//!   grass corner forces plus the per-blade wind of delayed-attenuation sources (grass thesis
-//!   §4.2) — which is all a program that links the crates needs for the frame `furbake preview`
-//!   draws; [`SceneRenderer::render_frame`] takes explicit per-pack [`PackInput`]s instead.
+//!   twice) with the shader features the scene's effects need, all from one [`PipelineCache`]
+//!   for one [`TargetDesc`]. As middleware in a host's frame, [`SceneRenderer::prepare_world`]
+//!   uploads the world's current state — model matrices, skin poses, fur scale vectors in the
+//!   world's layout, grass corner forces plus the per-blade wind of delayed-attenuation sources
+//!   (grass thesis §4.2) — and records the skinning dispatches into the host's encoder, and
+//!   [`SceneRenderer::render`] draws every pack into the host's pass; neither submits or waits
+//!   ([`SceneRenderer::prepare`] takes explicit per-pack [`PackInput`]s instead of a world).
+//!   [`SceneRenderer::render_world`] and [`SceneRenderer::render_frame`] are the headless host of
+//!   those calls (`furbake preview`): one cleared [`RenderTarget`] pass per frame, submitted.
 
 use std::path::PathBuf;
 
@@ -26,7 +30,11 @@ use furbake_grass::{ForceField, ForceScene};
 use furbake_runtime::{Camera, Light, Scene, ShellVertexLayout, World};
 use glam::{Mat4, Vec3};
 
-use crate::{BladeRenderer, BladeSettings, FurAsset, FurRenderer, RenderError, RenderSettings, RenderTarget, View};
+use crate::shaders::FrameUniforms;
+use crate::{
+    BladeRenderer, BladeSettings, FurAsset, FurRenderer, PipelineCache, RenderError, RenderSettings, RenderTarget,
+    TargetDesc, View,
+};
 
 /// One grass field's forces for this frame.
 #[derive(Clone, Copy, Debug)]
@@ -79,17 +87,28 @@ impl SceneObject<'_> {
         }
     }
 
-    /// The object's bounding sphere in world space (centre moved by the model matrix, radius
-    /// grown by its largest axis scale).
+    /// The object's bounding sphere in world space.
     fn world_bounds(&self) -> (Vec3, f32) {
-        let (center, radius) = match self {
+        let sphere = match self {
             SceneObject::Fur { renderer, .. } => renderer.bounding_sphere(),
             SceneObject::Blades { renderer, .. } => renderer.bounding_sphere(),
         };
-        let m = self.model();
-        let scale = m.x_axis.truncate().length().max(m.y_axis.truncate().length()).max(m.z_axis.truncate().length());
-        (m.transform_point3(Vec3::from(center)), radius * scale)
+        world_bounds(sphere, self.model())
     }
+
+    fn target(&self) -> &TargetDesc {
+        match self {
+            SceneObject::Fur { renderer, .. } => renderer.target(),
+            SceneObject::Blades { renderer, .. } => renderer.target(),
+        }
+    }
+}
+
+/// A bounding sphere (`center`, `radius`, object frame) in world space: centre moved by the model
+/// matrix, radius grown by its largest axis scale.
+fn world_bounds((center, radius): ([f32; 3], f32), m: Mat4) -> (Vec3, f32) {
+    let scale = m.x_axis.truncate().length().max(m.y_axis.truncate().length()).max(m.z_axis.truncate().length());
+    (m.transform_point3(Vec3::from(center)), radius * scale)
 }
 
 /// Checks that `m` is finite and places an object (non-zero scale).
@@ -135,7 +154,12 @@ impl SceneFrame {
     /// objects' world bounding spheres; without a camera, the three-quarter framing
     /// ([`View::framing`]) of that union.
     pub fn view(&self, objects: &[SceneObject<'_>]) -> View {
-        let bounds = objects.iter().map(SceneObject::world_bounds).reduce(merge).unwrap_or((Vec3::ZERO, 1.0));
+        self.view_of(objects.iter().map(SceneObject::world_bounds).reduce(merge))
+    }
+
+    /// The view of this frame for everything inside `bounds` (world space; `None`: nothing).
+    fn view_of(&self, bounds: Option<(Vec3, f32)>) -> View {
+        let bounds = bounds.unwrap_or((Vec3::ZERO, 1.0));
         let mut view = View::framing(bounds.0.to_array(), bounds.1);
         view.light = self.light;
         if let Some(camera) = self.camera {
@@ -144,9 +168,11 @@ impl SceneFrame {
         view
     }
 
-    /// Uploads each object's physics input, then draws every object into `target` in one
-    /// submission (the first clears to [`SceneFrame::background`]; with no objects the target
-    /// is just cleared). Returns the view used. Fails before drawing anything on a bad input
+    /// The headless host's frame of borrowed objects: uploads each object's physics input,
+    /// prepares every object and draws them in order into `target` in one pass (cleared to
+    /// [`SceneFrame::background`]; with no objects the target is just cleared) and one
+    /// submission. Every renderer must be built for [`RenderTarget::desc`]. Returns the view
+    /// used. Fails before drawing anything on a bad input
     /// (a renderer listed twice, a degenerate model matrix); a wrong scale-vector or corner-force
     /// count or non-finite values fail before anything is drawn, though earlier objects' inputs
     /// may already be uploaded.
@@ -190,51 +216,32 @@ impl SceneFrame {
                 _ => {}
             }
         }
+        for object in objects {
+            target.check_renderer(object.target())?;
+        }
         let view = self.view(objects);
+        let frame = view.uniforms(target.aspect());
         let mut encoder =
             device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("furbake scene frame") });
-        if objects.is_empty() {
-            clear_pass(&mut encoder, target, self.background);
-        }
-        for (i, object) in objects.iter().enumerate() {
-            let clear = (i == 0).then_some(self.background);
-            let frame = view.uniforms_with_model(target.aspect(), object.model());
+        for object in objects {
+            let uniforms = frame.with_model(object.model());
             match object {
-                SceneObject::Fur { renderer, .. } => renderer.encode(queue, &mut encoder, target, &frame, clear),
-                SceneObject::Blades { renderer, .. } => {
-                    renderer.encode_draw(queue, &mut encoder, target, &frame, clear)
+                SceneObject::Fur { renderer, .. } => renderer.prepare(queue, &mut encoder, &uniforms),
+                SceneObject::Blades { renderer, .. } => renderer.prepare(queue, &mut encoder, &uniforms),
+            }
+        }
+        {
+            let mut pass = target.begin_pass(&mut encoder, "furbake scene frame", Some(self.background));
+            for object in objects {
+                match object {
+                    SceneObject::Fur { renderer, .. } => renderer.render(&mut pass),
+                    SceneObject::Blades { renderer, .. } => renderer.render(&mut pass),
                 }
             }
         }
-        queue.submit([encoder.finish()]);
+        crate::blocking::submit(queue, [encoder.finish()]);
         Ok(view)
     }
-}
-
-fn clear_pass(encoder: &mut wgpu::CommandEncoder, target: &RenderTarget, background: [f32; 4]) {
-    let [r, g, b, a] = background.map(f64::from);
-    let color_view = target.color.create_view(&Default::default());
-    let depth_view = target.depth.create_view(&Default::default());
-    encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-        label: Some("furbake scene clear"),
-        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-            view: &color_view,
-            depth_slice: None,
-            resolve_target: None,
-            ops: wgpu::Operations {
-                load: wgpu::LoadOp::Clear(wgpu::Color { r, g, b, a }),
-                store: wgpu::StoreOp::Store,
-            },
-        })],
-        depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-            view: &depth_view,
-            depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Store }),
-            stencil_ops: None,
-        }),
-        timestamp_writes: None,
-        occlusion_query_set: None,
-        multiview_mask: None,
-    });
 }
 
 /// The renderers of one scene pack.
@@ -289,17 +296,33 @@ pub struct SceneRenderer {
     pub frame: SceneFrame,
     /// One entry per `scene.packs`, in order.
     pub packs: Vec<PackRenderers>,
+    /// The pass every pack's renderers draw into.
+    target: TargetDesc,
 }
 
 impl SceneRenderer {
+    /// The headless host's scene renderer ([`SceneRenderer::for_target`] with a new
+    /// [`PipelineCache`] on `device` and [`RenderTarget::desc`]), what
+    /// [`SceneRenderer::render_world`] draws with.
+    pub fn new(device: &wgpu::Device, queue: &wgpu::Queue, world: &World) -> Result<SceneRenderer, RenderError> {
+        Self::for_target(&PipelineCache::new(device), queue, world, &RenderTarget::desc())
+    }
+
     /// Uploads every pack of `world`'s scene from the packs the world opened (decoded sections are
     /// shared through the packs' caches, so nothing the world read is read again): its fur (skin
     /// mesh + shell atlas + UV map, fins, skin weights and morph targets when present; an animated
-    /// pack's renderer owns a skinning pass, posed through [`FurRenderer::set_pose`] and in its
-    /// bind pose until then) and its blade field, with the shader features the scene's effects
-    /// need ([`RenderSettings::for_scene`]). A pack with neither fur nor blades is an
+    /// pack's renderer owns a skinning pass, posed from the world's animation by
+    /// [`SceneRenderer::prepare_world`] and in its bind pose until then) and its blade field, with
+    /// the shader features the scene's effects need ([`RenderSettings::for_scene`]), every
+    /// renderer drawing into passes like `target` with pipelines from `pipelines` (packs with the
+    /// same settings share them). A pack with neither fur nor blades is an
     /// [`RenderError::InvalidAsset`].
-    pub fn new(device: &wgpu::Device, queue: &wgpu::Queue, world: &World) -> Result<SceneRenderer, RenderError> {
+    pub fn for_target(
+        pipelines: &PipelineCache,
+        queue: &wgpu::Queue,
+        world: &World,
+        target: &TargetDesc,
+    ) -> Result<SceneRenderer, RenderError> {
         let scene = world.scene();
         let settings = RenderSettings::for_scene(scene);
         let mut packs = Vec::with_capacity(scene.packs.len());
@@ -307,11 +330,11 @@ impl SceneRenderer {
             let pack = world.pack(i);
             let fur = if pack.has(SectionKind::SKIN_MESH) && pack.has(SectionKind::SHELL_ATLAS) {
                 let asset = FurAsset::from_pack(pack, settings.fins)?;
-                Some(FurRenderer::new(device, queue, &asset, &settings)?)
+                Some(FurRenderer::new(pipelines, queue, &asset, &settings, target)?)
             } else {
                 None
             };
-            let blades = BladeRenderer::from_pack(device, queue, pack, &BladeSettings::default())?;
+            let blades = BladeRenderer::from_pack(pipelines, queue, pack, &BladeSettings::default(), target)?;
             if fur.is_none() && blades.is_none() {
                 return Err(RenderError::InvalidAsset {
                     what: format!("scene pack {:?} ({}) has neither fur nor grass blades", p.name, p.path.display()),
@@ -325,7 +348,7 @@ impl SceneRenderer {
                 model: p.transform().to_mat4(),
             });
         }
-        Ok(SceneRenderer { frame: SceneFrame::from_scene(scene), packs })
+        Ok(SceneRenderer { frame: SceneFrame::from_scene(scene), packs, target: target.clone() })
     }
 
     /// The GPU memory [`SceneRenderer::new`] would allocate for `world` — every entry's fur and
@@ -350,11 +373,134 @@ impl SceneRenderer {
         Ok(total)
     }
 
-    /// Draws `world`'s current state (see the module doc): every pack at its model matrix, its
-    /// skin in the world's pose (an animated pack's skinning matrices and morph weights), its
-    /// fur with the world's scale vectors, its blades with the world's corner forces — and, when
-    /// a wind source with delayed attenuation acts, that source evaluated per blade on the GPU.
-    /// `world` must be the one this renderer was built from (same packs, same order).
+    /// The pass description every pack's renderers were built for.
+    pub fn target(&self) -> &TargetDesc {
+        &self.target
+    }
+
+    /// The view of [`SceneRenderer::frame`] (the scene's camera, or the three-quarter framing of
+    /// everything when it has none, and its light) with near and far planes fitted around every
+    /// pack placed by `world`'s model matrices. Allocates nothing.
+    pub fn world_view(&self, world: &World) -> View {
+        self.fitted_view(|i| if i < world.pack_count() { world.model_matrix(i) } else { self.packs[i].model })
+    }
+
+    /// [`SceneRenderer::world_view`] for packs placed by `inputs` (the time-0 placement where an
+    /// input gives none or is missing).
+    pub fn view(&self, inputs: &[PackInput<'_>]) -> View {
+        self.fitted_view(|i| inputs.get(i).and_then(|input| input.model).unwrap_or(self.packs[i].model))
+    }
+
+    fn fitted_view(&self, model: impl Fn(usize) -> Mat4) -> View {
+        let mut bounds = None;
+        for (i, pack) in self.packs.iter().enumerate() {
+            let m = model(i);
+            let spheres = [
+                pack.fur.as_ref().map(FurRenderer::bounding_sphere),
+                pack.blades.as_ref().map(BladeRenderer::bounding_sphere),
+            ];
+            for sphere in spheres.into_iter().flatten() {
+                let b = world_bounds(sphere, m);
+                bounds = Some(bounds.map_or(b, |a| merge(a, b)));
+            }
+        }
+        self.frame.view_of(bounds)
+    }
+
+    fn check_world(&self, world: &World) -> Result<(), RenderError> {
+        if world.pack_count() != self.packs.len() {
+            return Err(RenderError::Parameter {
+                what: format!("a world of {} packs for a renderer of {}", world.pack_count(), self.packs.len()),
+            });
+        }
+        Ok(())
+    }
+
+    /// The middleware's per-frame upload for `world`'s current state (see the module doc): for
+    /// every pack, its model matrix, its skin in the world's pose (an animated pack's skinning
+    /// matrices and morph weights, dispatched into `encoder`), its fur with the world's scale
+    /// vectors, its blades with the world's corner forces — and, when a wind source with delayed
+    /// attenuation acts, that source evaluated per blade on the GPU. `frame` carries the host's
+    /// view-projection, eye and light (e.g. [`SceneRenderer::world_view`]'s
+    /// [`View::uniforms`]); its model matrix places the whole scene in the host's world
+    /// (identity: scene frame = world frame), each pack drawn at `frame.model × pack model`.
+    /// `world` must be the one this renderer was built from (same packs, same order). Call once
+    /// per frame before the host's render pass; then [`SceneRenderer::render`]. Uploads with
+    /// `queue.write_buffer*` only: does not submit or wait, and allocates nothing of its own
+    /// (except to build the message of an error; a frame with delayed-attenuation wind sources
+    /// allocates their per-corner directions). A bad input (a degenerate model matrix, wrong
+    /// counts, non-finite values) fails with earlier packs already uploaded; drop the encoder.
+    pub fn prepare_world(
+        &self,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+        world: &World,
+        frame: &FrameUniforms,
+    ) -> Result<(), RenderError> {
+        self.check_world(world)?;
+        for (i, drawn) in self.packs.iter().enumerate() {
+            let fur = world.fur(i).filter(|_| drawn.fur.is_some());
+            let grass = world.grass(i).filter(|_| drawn.blades.is_some());
+            let skinned = drawn.fur.as_ref().is_some_and(|f| f.skinning().is_some());
+            let pose = world.animation(i).filter(|_| skinned).map(|a| (a.skinning_matrices(), a.morph_weights()));
+            let input = PackInput {
+                pose,
+                model: Some(world.model_matrix(i)),
+                scale_vectors: fur.map(|f| f.scale_vectors),
+                scale_layout: fur.map_or(ShellVertexLayout::PerVertex, |f| f.layout),
+                blade_forces: grass.map(|g| {
+                    if g.has_delayed_sources() {
+                        BladeForces::Scene { field: g.field, scene: g.scene }
+                    } else {
+                        BladeForces::Corners(g.corner_forces)
+                    }
+                }),
+            };
+            prepare_pack(queue, encoder, drawn, &input, frame)?;
+        }
+        Ok(())
+    }
+
+    /// [`SceneRenderer::prepare_world`] with explicit inputs: `inputs[i]` belongs to `packs[i]`
+    /// (fewer inputs than packs: the rest keep their last physics and pose, at their time-0
+    /// placement).
+    pub fn prepare(
+        &self,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+        inputs: &[PackInput<'_>],
+        frame: &FrameUniforms,
+    ) -> Result<(), RenderError> {
+        if inputs.len() > self.packs.len() {
+            return Err(RenderError::Parameter {
+                what: format!("{} pack inputs for {} scene packs", inputs.len(), self.packs.len()),
+            });
+        }
+        for (i, pack) in self.packs.iter().enumerate() {
+            prepare_pack(queue, encoder, pack, &inputs.get(i).copied().unwrap_or_default(), frame)?;
+        }
+        Ok(())
+    }
+
+    /// Draws every pack into the host's `pass` (attachments matching
+    /// [`SceneRenderer::target`]) as the last prepare left it: fur before blades within a pack,
+    /// packs in scene order. Does not submit or wait, and allocates nothing of its own (wgpu
+    /// allocates inside its calls; docs/performance.md).
+    pub fn render(&self, pass: &mut wgpu::RenderPass<'_>) {
+        for pack in &self.packs {
+            if let Some(fur) = &pack.fur {
+                fur.render(pass);
+            }
+            if let Some(blades) = &pack.blades {
+                blades.render(pass);
+            }
+        }
+    }
+
+    /// The headless host's frame of `world`'s current state: [`SceneRenderer::world_view`],
+    /// [`SceneRenderer::prepare_world`], one pass into `target` cleared to the frame's background,
+    /// [`SceneRenderer::render`], submitted. Returns the view used. The renderer must be built for
+    /// [`RenderTarget::desc`] ([`SceneRenderer::new`]).
     pub fn render_world(
         &self,
         device: &wgpu::Device,
@@ -362,40 +508,15 @@ impl SceneRenderer {
         target: &RenderTarget,
         world: &World,
     ) -> Result<View, RenderError> {
-        if world.pack_count() != self.packs.len() {
-            return Err(RenderError::Parameter {
-                what: format!("a world of {} packs for a renderer of {}", world.pack_count(), self.packs.len()),
-            });
-        }
-        let inputs: Vec<PackInput<'_>> = self
-            .packs
-            .iter()
-            .enumerate()
-            .map(|(i, drawn)| {
-                let fur = world.fur(i).filter(|_| drawn.fur.is_some());
-                let grass = world.grass(i).filter(|_| drawn.blades.is_some());
-                let skinned = drawn.fur.as_ref().is_some_and(|f| f.skinning().is_some());
-                let pose = world.animation(i).filter(|_| skinned).map(|a| (a.skinning_matrices(), a.morph_weights()));
-                PackInput {
-                    pose,
-                    model: Some(world.model_matrix(i)),
-                    scale_vectors: fur.map(|f| f.scale_vectors),
-                    scale_layout: fur.map_or(ShellVertexLayout::PerVertex, |f| f.layout),
-                    blade_forces: grass.map(|g| {
-                        if g.has_delayed_sources() {
-                            BladeForces::Scene { field: g.field, scene: g.scene }
-                        } else {
-                            BladeForces::Corners(g.corner_forces)
-                        }
-                    }),
-                }
-            })
-            .collect();
-        self.render_frame(device, queue, target, &inputs)
+        self.check_world(world)?;
+        let view = self.world_view(world);
+        self.render_headless(device, queue, target, &view, |encoder, frame| {
+            self.prepare_world(queue, encoder, world, frame)
+        })?;
+        Ok(view)
     }
 
-    /// Draws one frame: `inputs[i]` belongs to `packs[i]` (fewer inputs than packs: the rest
-    /// redraw their last state). Fur before blades within a pack. Returns the view used.
+    /// [`SceneRenderer::render_world`] with explicit per-pack inputs ([`SceneRenderer::prepare`]).
     pub fn render_frame(
         &self,
         device: &wgpu::Device,
@@ -403,38 +524,74 @@ impl SceneRenderer {
         target: &RenderTarget,
         inputs: &[PackInput<'_>],
     ) -> Result<View, RenderError> {
-        if inputs.len() > self.packs.len() {
+        let view = self.view(inputs);
+        self.render_headless(device, queue, target, &view, |encoder, frame| {
+            self.prepare(queue, encoder, inputs, frame)
+        })?;
+        Ok(view)
+    }
+
+    fn render_headless(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        target: &RenderTarget,
+        view: &View,
+        prepare: impl FnOnce(&mut wgpu::CommandEncoder, &FrameUniforms) -> Result<(), RenderError>,
+    ) -> Result<(), RenderError> {
+        target.check_renderer(&self.target)?;
+        let mut encoder =
+            device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("furbake scene frame") });
+        // On an error the encoder is dropped unsubmitted: nothing of this frame is drawn.
+        prepare(&mut encoder, &view.uniforms(target.aspect()))?;
+        self.render(&mut target.begin_pass(&mut encoder, "furbake scene frame", Some(self.frame.background)));
+        crate::blocking::submit(queue, [encoder.finish()]);
+        Ok(())
+    }
+}
+
+/// Uploads one pack's inputs and records its work (see [`SceneRenderer::prepare_world`]).
+fn prepare_pack(
+    queue: &wgpu::Queue,
+    encoder: &mut wgpu::CommandEncoder,
+    pack: &PackRenderers,
+    input: &PackInput<'_>,
+    frame: &FrameUniforms,
+) -> Result<(), RenderError> {
+    let model = frame.model() * input.model.unwrap_or(pack.model);
+    check_model(&model)?;
+    let uniforms = frame.with_model(model);
+    match &pack.fur {
+        Some(renderer) => {
+            if let Some((matrices, weights)) = input.pose {
+                renderer.set_pose(queue, matrices, weights)?;
+            }
+            if let Some(s) = input.scale_vectors {
+                renderer.set_shell_scale_vectors(queue, s, input.scale_layout)?;
+            }
+            renderer.prepare(queue, encoder, &uniforms);
+        }
+        None if input.scale_vectors.is_some() => {
+            return Err(RenderError::Parameter { what: format!("scale vectors for pack {:?} without fur", pack.name) });
+        }
+        None => {}
+    }
+    match &pack.blades {
+        Some(renderer) => {
+            match input.blade_forces {
+                Some(BladeForces::Corners(f)) => renderer.set_corner_forces(queue, f)?,
+                Some(BladeForces::Field(f)) => renderer.set_force_field(queue, f)?,
+                Some(BladeForces::Scene { field, scene }) => renderer.set_force_scene(queue, field, scene)?,
+                None => {}
+            }
+            renderer.prepare(queue, encoder, &uniforms);
+        }
+        None if input.blade_forces.is_some() => {
             return Err(RenderError::Parameter {
-                what: format!("{} pack inputs for {} scene packs", inputs.len(), self.packs.len()),
+                what: format!("blade forces for pack {:?} without blades", pack.name),
             });
         }
-        let mut objects = Vec::with_capacity(self.packs.len() * 2);
-        for (i, pack) in self.packs.iter().enumerate() {
-            let input = inputs.get(i).copied().unwrap_or_default();
-            let model = input.model.unwrap_or(pack.model);
-            if let Some(renderer) = &pack.fur {
-                if let Some((matrices, weights)) = input.pose {
-                    renderer.set_pose(queue, matrices, weights)?;
-                }
-                objects.push(SceneObject::Fur {
-                    renderer,
-                    model,
-                    scale_vectors: input.scale_vectors,
-                    scale_layout: input.scale_layout,
-                });
-            } else if input.scale_vectors.is_some() {
-                return Err(RenderError::Parameter {
-                    what: format!("scale vectors for pack {:?} without fur", pack.name),
-                });
-            }
-            if let Some(renderer) = &pack.blades {
-                objects.push(SceneObject::Blades { renderer, model, forces: input.blade_forces });
-            } else if input.blade_forces.is_some() {
-                return Err(RenderError::Parameter {
-                    what: format!("blade forces for pack {:?} without blades", pack.name),
-                });
-            }
-        }
-        self.frame.render(device, queue, target, &objects)
+        None => {}
     }
+    Ok(())
 }

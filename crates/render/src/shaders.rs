@@ -40,6 +40,35 @@ pub struct FrameUniforms {
     pub model: [[f32; 4]; 4],
 }
 
+impl FrameUniforms {
+    /// The uniforms of one object drawn from a host's camera: `view_proj` (world → clip, wgpu clip
+    /// space; any projection the host uses for its own geometry, reversed-Z included), the eye
+    /// position in metres, the directional `light` (`furbake_runtime::Light`: direction the light
+    /// travels, colour × intensity, ambient term) and the object's `model` matrix (object → world:
+    /// rotation, translation, uniform positive scale).
+    pub fn new(view_proj: glam::Mat4, eye: glam::Vec3, light: &furbake_runtime::Light, model: glam::Mat4) -> Self {
+        let to_light = -glam::Vec3::from(light.direction).normalize_or(glam::Vec3::NEG_Y);
+        let [r, g, b] = light.color;
+        FrameUniforms {
+            view_proj: view_proj.to_cols_array_2d(),
+            camera_pos: [eye.x, eye.y, eye.z, 1.0],
+            light_dir: [to_light.x, to_light.y, to_light.z, 0.0],
+            light_color: [r, g, b, light.ambient],
+            model: model.to_cols_array_2d(),
+        }
+    }
+
+    /// These uniforms with the model matrix `model`.
+    pub fn with_model(&self, model: glam::Mat4) -> Self {
+        FrameUniforms { model: model.to_cols_array_2d(), ..*self }
+    }
+
+    /// The model matrix.
+    pub fn model(&self) -> glam::Mat4 {
+        glam::Mat4::from_cols_array_2d(&self.model)
+    }
+}
+
 /// Per-asset fur uniforms (`Fur` in every shader; binding 1).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]

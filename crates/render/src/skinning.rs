@@ -362,10 +362,10 @@ impl SkinningPass {
             let mut encoder = device
                 .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("furbake skinned readback") });
             encoder.copy_buffer_to_buffer(&self.skinned, 0, &readback, 0, size);
-            queue.submit([encoder.finish()]);
+            crate::blocking::submit(queue, [encoder.finish()]);
             Ok(readback)
         })?;
-        crate::map_for_reading(device, &readback, "skinned vertex readback")?;
+        crate::headless::map_for_reading(device, &readback, "skinned vertex readback")?;
         let out = {
             let view = readback.get_mapped_range(..).map_err(|e| RenderError::Gpu { what: e.to_string() })?;
             let vertices: &[SkinnedVertex] = bytemuck::cast_slice(&view);

@@ -85,10 +85,14 @@ fn bad_parameters_are_typed_errors() {
         RenderSettings { shear_exponent: 0.0, ..Default::default() },
         RenderSettings { tint: [f32::NAN, 1.0, 1.0], ..Default::default() },
     ] {
-        assert!(matches!(FurRenderer::new(&g.device, &g.queue, &asset, &settings), Err(RenderError::Parameter { .. })));
+        assert!(matches!(
+            FurRenderer::new(g.pipelines(), &g.queue, &asset, &settings, &RenderTarget::desc()),
+            Err(RenderError::Parameter { .. })
+        ));
         checked += 1;
     }
-    let renderer = FurRenderer::new(&g.device, &g.queue, &asset, &RenderSettings::default()).unwrap();
+    let renderer =
+        FurRenderer::new(g.pipelines(), &g.queue, &asset, &RenderSettings::default(), &RenderTarget::desc()).unwrap();
     let n = asset.mesh().positions.len();
     assert!(renderer.set_scale_vectors(&g.queue, &vec![[0.0, 1.0, 0.0]; n - 1]).is_err(), "wrong count");
     assert!(renderer.set_scale_vectors(&g.queue, &vec![[f32::NAN, 1.0, 0.0]; n]).is_err(), "NaN");

@@ -146,7 +146,9 @@ fn compare_with_cpu(scene: &ForceScene, name: &str, with_scene: bool) {
         let vc = decoder.vertex_count();
         for interpolation in [Interpolation::Nearest, Interpolation::Linear] {
             let settings = BladeSettings { interpolation, ..Default::default() };
-            let blades = BladeRenderer::new(&gpu().device, &gpu().queue, &field, &table, &settings).unwrap();
+            let blades =
+                BladeRenderer::new(gpu().pipelines(), &gpu().queue, &field, &table, &settings, &RenderTarget::desc())
+                    .unwrap();
             assert_eq!((blades.blade_count() as usize, blades.vertex_count() as usize), (n, vc));
             if with_scene {
                 blades.set_force_scene(&gpu().queue, &forces, scene).unwrap();
@@ -215,19 +217,27 @@ fn compare_with_cpu(scene: &ForceScene, name: &str, with_scene: bool) {
 fn bad_inputs_are_refused() {
     let field = patch();
     let table = table(Symmetry::XZ, DisplacementEncoding::Snorm16);
-    let (device, queue) = (&gpu().device, &gpu().queue);
+    let (device, queue, pipelines) = (&gpu().device, &gpu().queue, gpu().pipelines());
     let spherical = BladeSettings { interpolation: Interpolation::Spherical, ..Default::default() };
-    assert!(BladeRenderer::new(device, queue, &field, &table, &spherical).is_err());
+    assert!(BladeRenderer::new(pipelines, queue, &field, &table, &spherical, &RenderTarget::desc()).is_err());
     let mut broken = table.clone();
     broken.vertex_map[3] = broken.stored_vectors + 7;
-    assert!(BladeRenderer::new(device, queue, &field, &broken, &BladeSettings::default()).is_err());
+    assert!(
+        BladeRenderer::new(pipelines, queue, &field, &broken, &BladeSettings::default(), &RenderTarget::desc())
+            .is_err()
+    );
     let mut short = field.clone();
     short.yaw_rad.pop();
-    assert!(BladeRenderer::new(device, queue, &short, &table, &BladeSettings::default()).is_err());
+    assert!(
+        BladeRenderer::new(pipelines, queue, &short, &table, &BladeSettings::default(), &RenderTarget::desc()).is_err()
+    );
     let mut lost = field.clone();
     lost.cluster[0] = lost.grid.clusters() as u32;
-    assert!(BladeRenderer::new(device, queue, &lost, &table, &BladeSettings::default()).is_err());
-    let blades = BladeRenderer::new(device, queue, &field, &table, &BladeSettings::default()).unwrap();
+    assert!(
+        BladeRenderer::new(pipelines, queue, &lost, &table, &BladeSettings::default(), &RenderTarget::desc()).is_err()
+    );
+    let blades =
+        BladeRenderer::new(pipelines, queue, &field, &table, &BladeSettings::default(), &RenderTarget::desc()).unwrap();
     assert!(blades.read_positions(device, queue).is_err(), "nothing computed yet");
     let corners = field.grid.corners();
     assert!(blades.set_corner_forces(queue, &vec![[0.0; 2]; corners - 1]).is_err());
@@ -244,13 +254,18 @@ fn from_pack_uploads_the_packs_blade_field_and_keyframe_table() {
     furbake_formats::PackWriter::new().push_section(&field).push_section(&table).write_atomic(&grass).unwrap();
     let bare = dir.path().join("table_only.fbk");
     furbake_formats::PackWriter::new().push_section(&table).write_atomic(&bare).unwrap();
-    let (device, queue) = (&gpu().device, &gpu().queue);
+    let (device, queue, pipelines) = (&gpu().device, &gpu().queue, gpu().pipelines());
     let settings = BladeSettings::default();
     let pack = furbake_runtime::Pack::open(&bare).unwrap();
-    assert!(BladeRenderer::from_pack(device, queue, &pack, &settings).unwrap().is_none(), "no blade field");
+    assert!(
+        BladeRenderer::from_pack(pipelines, queue, &pack, &settings, &RenderTarget::desc()).unwrap().is_none(),
+        "no blade field"
+    );
     let pack = furbake_runtime::Pack::open(&grass).unwrap();
-    let from_pack = BladeRenderer::from_pack(device, queue, &pack, &settings).unwrap().expect("a blade field");
-    let direct = BladeRenderer::new(device, queue, &field, &table, &settings).unwrap();
+    let from_pack = BladeRenderer::from_pack(pipelines, queue, &pack, &settings, &RenderTarget::desc())
+        .unwrap()
+        .expect("a blade field");
+    let direct = BladeRenderer::new(pipelines, queue, &field, &table, &settings, &RenderTarget::desc()).unwrap();
     let mut forces = ForceField::new(field.grid);
     forces.update(&gusty_scene());
     let mut positions = Vec::new();
@@ -287,12 +302,14 @@ fn side_view() -> View {
 
 fn render(field: &BladeField, table: &KeyframeTable, scene: &ForceScene) -> RgbaImage {
     let (device, queue) = (&gpu().device, &gpu().queue);
-    let blades = BladeRenderer::new(device, queue, field, table, &BladeSettings::default()).unwrap();
+    let blades =
+        BladeRenderer::new(gpu().pipelines(), queue, field, table, &BladeSettings::default(), &RenderTarget::desc())
+            .unwrap();
     let mut forces = ForceField::new(field.grid);
     forces.update(scene);
     blades.set_force_field(queue, &forces).unwrap();
     let target = RenderTarget::new(device, SIZE, SIZE).unwrap();
-    blades.render(device, queue, &target, &side_view(), Some([0.0, 0.0, 0.0, 0.0]));
+    blades.render_to(device, queue, &target, &side_view(), Some([0.0, 0.0, 0.0, 0.0])).unwrap();
     read_back(device, queue, &target).unwrap()
 }
 
@@ -361,11 +378,13 @@ fn blades_draw_over_what_the_target_holds_without_a_clear() {
     let target = RenderTarget::new(device, SIZE, SIZE).unwrap();
     let view =
         View { camera: Camera { eye: [0.3, 0.5, 2.2], target: [0.3, 0.12, 0.0], ..side_view().camera }, ..side_view() };
-    let first = BladeRenderer::new(device, queue, &left, &table, &BladeSettings::default()).unwrap();
-    first.render(device, queue, &target, &view, Some([0.0, 0.0, 1.0, 1.0]));
+    let first =
+        BladeRenderer::new(gpu().pipelines(), queue, &left, &table, &BladeSettings::default(), &RenderTarget::desc())
+            .unwrap();
+    first.render_to(device, queue, &target, &view, Some([0.0, 0.0, 1.0, 1.0])).unwrap();
     let teal = BladeSettings { color: [0.0, 0.5, 0.5], ..Default::default() };
-    let second = BladeRenderer::new(device, queue, &right, &table, &teal).unwrap();
-    second.render(device, queue, &target, &view, None);
+    let second = BladeRenderer::new(gpu().pipelines(), queue, &right, &table, &teal, &RenderTarget::desc()).unwrap();
+    second.render_to(device, queue, &target, &view, None).unwrap();
     let image = read_back(device, queue, &target).unwrap();
     image.save(std::env::temp_dir().join("furbake-render-tests").join("grass_two_patches.png")).ok();
     // Background stays blue, the first patch's green blades survive the second pass, and the

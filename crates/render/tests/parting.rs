@@ -64,7 +64,7 @@ fn per_corner_scale_vectors_shear_triangles_sharing_a_vertex_apart() {
     let (_, asset) = sphere();
     let g = gpu();
     let settings = RenderSettings::default();
-    let renderer = FurRenderer::new(&g.device, &g.queue, asset, &settings).unwrap();
+    let renderer = FurRenderer::new(g.pipelines(), &g.queue, asset, &settings, &RenderTarget::desc()).unwrap();
     let mesh = asset.mesh();
     let (v, f) = (mesh.positions.len(), mesh.triangles.len());
     assert_eq!(asset.shell_vertex_count(ShellVertexLayout::PerCorner), 3 * f);
@@ -201,7 +201,7 @@ gust_amplitude = 0.3
 
     // The same view with no shells: the bare skin. Fur adds a ring of covered pixels around it.
     let bare_settings = RenderSettings { shell_layers: Some(0), ..RenderSettings::for_scene(&scene) };
-    let bare = FurRenderer::new(&g.device, &g.queue, asset, &bare_settings).unwrap();
+    let bare = FurRenderer::new(g.pipelines(), &g.queue, asset, &bare_settings, &RenderTarget::desc()).unwrap();
     let object = SceneObject::Fur {
         renderer: &bare,
         model: Mat4::IDENTITY,

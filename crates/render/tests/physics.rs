@@ -87,7 +87,7 @@ struct Compared {
 /// `settings`.
 fn compare_shell_positions(asset: &FurAsset, settings: &RenderSettings, scale_vectors: &[[f32; 3]]) -> Compared {
     let g = gpu();
-    let renderer = FurRenderer::new(&g.device, &g.queue, asset, settings).unwrap();
+    let renderer = FurRenderer::new(g.pipelines(), &g.queue, asset, settings, &RenderTarget::desc()).unwrap();
     renderer.set_scale_vectors(&g.queue, scale_vectors).unwrap();
     let gpu_positions = renderer.shell_positions(&g.device, &g.queue, asset).unwrap();
     let mesh = asset.mesh();
@@ -225,12 +225,12 @@ fn edge_on(settings: &RenderSettings, scale_vectors: Option<&[[f32; 3]]>) -> Rgb
         bounds_radius: 1.6,
     };
     let g = gpu();
-    let renderer = FurRenderer::new(&g.device, &g.queue, asset, settings).unwrap();
+    let renderer = FurRenderer::new(g.pipelines(), &g.queue, asset, settings, &RenderTarget::desc()).unwrap();
     if let Some(s) = scale_vectors {
         renderer.set_scale_vectors(&g.queue, s).unwrap();
     }
     let target = RenderTarget::new(&g.device, SIZE, SIZE).unwrap();
-    renderer.render(&g.device, &g.queue, &target, &view);
+    renderer.render_to(&g.device, &g.queue, &target, &view).unwrap();
     read_back(&g.device, &g.queue, &target).unwrap()
 }
 
@@ -311,12 +311,12 @@ fn simulated_wind_shifts_the_sphere_silhouette_towards_plus_x() {
     let g = gpu();
     let settings = RenderSettings { background: TRANSPARENT, ..Default::default() };
     let render = |settings: &RenderSettings, s: Option<&[[f32; 3]]>| {
-        let renderer = FurRenderer::new(&g.device, &g.queue, asset, settings).unwrap();
+        let renderer = FurRenderer::new(g.pipelines(), &g.queue, asset, settings, &RenderTarget::desc()).unwrap();
         if let Some(s) = s {
             renderer.set_scale_vectors(&g.queue, s).unwrap();
         }
         let target = RenderTarget::new(&g.device, SIZE, SIZE).unwrap();
-        renderer.render(&g.device, &g.queue, &target, &view);
+        renderer.render_to(&g.device, &g.queue, &target, &view).unwrap();
         read_back(&g.device, &g.queue, &target).unwrap()
     };
     let skin = render(&RenderSettings { shell_layers: Some(0), ..settings }, None);

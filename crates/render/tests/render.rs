@@ -114,12 +114,12 @@ fn edge_on(scale_vectors: Option<Vec<[f32; 3]>>) -> (RgbaImage, u32) {
     };
     let settings = RenderSettings { background: TRANSPARENT, ..Default::default() };
     let g = gpu();
-    let renderer = FurRenderer::new(&g.device, &g.queue, plane, &settings).unwrap();
+    let renderer = FurRenderer::new(g.pipelines(), &g.queue, plane, &settings, &RenderTarget::desc()).unwrap();
     if let Some(s) = scale_vectors {
         renderer.set_scale_vectors(&g.queue, &s).unwrap();
     }
     let target = RenderTarget::new(&g.device, SIZE, SIZE).unwrap();
-    renderer.render(&g.device, &g.queue, &target, &view);
+    renderer.render_to(&g.device, &g.queue, &target, &view).unwrap();
     (read_back(&g.device, &g.queue, &target).unwrap(), plane.mesh().positions.len() as u32)
 }
 

@@ -426,7 +426,7 @@ fn the_fur_renderer_grows_every_shell_from_the_skinned_vertices() {
     assert!(pack.kinds_read().contains(&SectionKind::SKIN_WEIGHTS));
     assert!(!pack.kinds_read().contains(&SectionKind::ANIMATION_CLIPS), "the renderer never reads clips");
     let settings = RenderSettings { shell_layers: Some(4), ..Default::default() };
-    let renderer = FurRenderer::new(&g.device, &g.queue, &asset, &settings).unwrap();
+    let renderer = FurRenderer::new(g.pipelines(), &g.queue, &asset, &settings, &RenderTarget::desc()).unwrap();
     let skinning = renderer.skinning().expect("an animated asset has a skinning pass");
     assert_eq!(skinning.vertex_count() as usize, asset.mesh().positions.len());
 
@@ -487,7 +487,7 @@ fn the_fur_renderer_grows_every_shell_from_the_skinned_vertices() {
     let view = View::framing(asset.bounding_sphere().0, asset.bounding_sphere().1 * 1.3);
     let draw = |palette: &[Mat4]| {
         renderer.set_pose(&g.queue, palette, &morph_weights).unwrap();
-        renderer.render(&g.device, &g.queue, &target, &view);
+        renderer.render_to(&g.device, &g.queue, &target, &view).unwrap();
         read_back(&g.device, &g.queue, &target).unwrap()
     };
     let bind_pose = draw(&vec![Mat4::IDENTITY; palette.len()]);
@@ -507,7 +507,7 @@ fn the_fur_renderer_grows_every_shell_from_the_skinned_vertices() {
         FurAsset::new(pack.skin_mesh().unwrap(), pack.shell_atlas().unwrap(), pack.triangle_uv_map().unwrap(), fins)
             .unwrap();
     assert!(!still.is_animated());
-    let static_renderer = FurRenderer::new(&g.device, &g.queue, &still, &settings).unwrap();
+    let static_renderer = FurRenderer::new(g.pipelines(), &g.queue, &still, &settings, &RenderTarget::desc()).unwrap();
     assert!(static_renderer.skinning().is_none());
     let err = static_renderer.set_pose(&g.queue, &palette, &morph_weights).unwrap_err();
     assert!(matches!(err, RenderError::Parameter { .. }), "{err}");

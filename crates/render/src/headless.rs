@@ -1,0 +1,401 @@
+//! The headless host: what `furbake preview`, the examples and the tests draw with, built on the
+//! same middleware calls a game makes ([`FurRenderer::prepare`] / [`FurRenderer::render`] and
+//! their blade and scene twins). [`HeadlessGpu`] makes a device without a window (any adapter: a
+//! GPU, else a software one such as Mesa's lavapipe) with one [`PipelineCache`];
+//! [`RenderTarget`] is an offscreen colour + depth target of fixed formats ([`COLOR_FORMAT`],
+//! [`DEPTH_FORMAT`], one sample; [`RenderTarget::desc`]) whose frames this host records, submits
+//! and reads back ([`read_back`]). Unlike the middleware path, everything here submits, and
+//! readbacks wait (through `crate::blocking`).
+
+use std::path::Path;
+
+use furbake_runtime::Pack;
+
+use crate::{
+    BladeRenderer, BladeSettings, FurAsset, FurRenderer, PipelineCache, RenderError, RenderSettings, TargetDesc, View,
+};
+
+/// Colour format of [`RenderTarget`]s (sRGB-encoded 8-bit RGBA; shaders write linear colour).
+pub const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
+/// Depth format of [`RenderTarget`]s.
+pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+
+/// A device and queue created without a window. wgpu's default reaction to an error outside an
+/// error scope is a panic, and a lost device only logs; this host records both instead, and
+/// [`HeadlessGpu::check`] turns them into typed errors, so no GPU failure aborts the process.
+pub struct HeadlessGpu {
+    /// The adapter's name, backend and driver (for logs and reports).
+    pub info: wgpu::AdapterInfo,
+    /// The device.
+    pub device: wgpu::Device,
+    /// Its queue.
+    pub queue: wgpu::Queue,
+    /// The pipelines of every renderer drawn on this device.
+    pipelines: PipelineCache,
+    /// Errors wgpu raised outside any error scope, and a lost device, in order.
+    failures: std::sync::Arc<std::sync::Mutex<Vec<RenderError>>>,
+}
+
+impl HeadlessGpu {
+    /// Requests a hardware adapter, then a fallback (software) one, and a device with no optional
+    /// features and the WebGPU default limits (the renderer uses only core features: R8 and
+    /// RGBA8 textures, Depth32Float, storage buffers in vertex shaders). Blocks (pollster).
+    pub fn new() -> Result<HeadlessGpu, RenderError> {
+        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle());
+        let mut errors = Vec::new();
+        let mut adapter = None;
+        for force_fallback_adapter in [false, true] {
+            let options = wgpu::RequestAdapterOptions {
+                power_preference: wgpu::PowerPreference::HighPerformance,
+                force_fallback_adapter,
+                compatible_surface: None,
+                ..Default::default()
+            };
+            match crate::blocking::block_on(instance.request_adapter(&options)) {
+                Ok(a) => {
+                    adapter = Some(a);
+                    break;
+                }
+                Err(e) => errors.push(e.to_string()),
+            }
+        }
+        let adapter = adapter.ok_or_else(|| RenderError::NoAdapter { detail: errors.join("; ") })?;
+        let (device, queue) = crate::blocking::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("furbake headless device"),
+            required_features: wgpu::Features::empty(),
+            required_limits: wgpu::Limits::default(),
+            ..Default::default()
+        }))?;
+        let failures = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
+        let sink = std::sync::Arc::clone(&failures);
+        device.on_uncaptured_error(std::sync::Arc::new(move |e: wgpu::Error| {
+            let mut list = sink.lock().unwrap_or_else(|p| p.into_inner());
+            list.push(crate::typed_gpu_error(e, "outside any error scope"));
+        }));
+        let sink = std::sync::Arc::clone(&failures);
+        device.set_device_lost_callback(move |reason, message| {
+            // Dropping the device at the end of a run also "loses" it; only other reasons count.
+            if reason != wgpu::DeviceLostReason::Destroyed {
+                let mut list = sink.lock().unwrap_or_else(|p| p.into_inner());
+                list.push(RenderError::DeviceLost { what: format!("{reason:?}: {message}") });
+            }
+        });
+        let pipelines = PipelineCache::with_adapter(&device, &adapter);
+        Ok(HeadlessGpu { info: adapter.get_info(), device, queue, pipelines, failures })
+    }
+
+    /// The pipeline cache of this device: pass it to every renderer so they share pipelines.
+    pub fn pipelines(&self) -> &PipelineCache {
+        &self.pipelines
+    }
+
+    /// The first GPU failure recorded since the last check (an error outside any error scope,
+    /// or a lost device), as a typed error; `Ok` when there was none.
+    pub fn check(&self) -> Result<(), RenderError> {
+        let mut list = self.failures.lock().unwrap_or_else(|p| p.into_inner());
+        if list.is_empty() {
+            return Ok(());
+        }
+        Err(list.remove(0))
+    }
+}
+
+/// An offscreen colour + depth target of a given size: the headless host's pass.
+pub struct RenderTarget {
+    /// Colour texture ([`COLOR_FORMAT`], copyable to a buffer).
+    pub color: wgpu::Texture,
+    /// Depth texture ([`DEPTH_FORMAT`]).
+    pub depth: wgpu::Texture,
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+}
+
+impl RenderTarget {
+    /// The pass every render target makes: [`COLOR_FORMAT`] with straight alpha blending,
+    /// [`DEPTH_FORMAT`] compared `LessEqual`, one sample. Renderers drawn by this host are built
+    /// for it.
+    pub fn desc() -> TargetDesc {
+        TargetDesc::new(COLOR_FORMAT).with_depth(DEPTH_FORMAT, wgpu::CompareFunction::LessEqual)
+    }
+
+    /// Creates a `width × height` target; fails when a side is 0 or above the device's limit.
+    pub fn new(device: &wgpu::Device, width: u32, height: u32) -> Result<RenderTarget, RenderError> {
+        let max = device.limits().max_texture_dimension_2d;
+        if width == 0 || height == 0 || width > max || height > max {
+            return Err(RenderError::Parameter {
+                what: format!("target size {width}×{height} (each side in 1..={max})"),
+            });
+        }
+        crate::gpu_scope(device, &format!("creating a {width}×{height} render target"), || {
+            Ok(Self::create(device, width, height))
+        })
+    }
+
+    fn create(device: &wgpu::Device, width: u32, height: u32) -> RenderTarget {
+        let size = wgpu::Extent3d { width, height, depth_or_array_layers: 1 };
+        let make = |label, format, usage| {
+            device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(label),
+                size,
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage,
+                view_formats: &[],
+            })
+        };
+        let color = make(
+            "furbake color target",
+            COLOR_FORMAT,
+            wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+        );
+        let depth = make("furbake depth target", DEPTH_FORMAT, wgpu::TextureUsages::RENDER_ATTACHMENT);
+        RenderTarget { color, depth, width, height }
+    }
+
+    /// Width / height.
+    pub fn aspect(&self) -> f32 {
+        self.width as f32 / self.height as f32
+    }
+
+    /// Begins a render pass into this target's colour and depth textures: cleared to the linear
+    /// RGBA `clear` (depth to 1), or, with `None`, over what earlier passes left.
+    pub fn begin_pass<'e>(
+        &self,
+        encoder: &'e mut wgpu::CommandEncoder,
+        label: &str,
+        clear: Option<[f32; 4]>,
+    ) -> wgpu::RenderPass<'e> {
+        let color_view = self.color.create_view(&Default::default());
+        let depth_view = self.depth.create_view(&Default::default());
+        let (color_load, depth_load) = match clear {
+            Some(c) => {
+                let [r, g, b, a] = c.map(f64::from);
+                (wgpu::LoadOp::Clear(wgpu::Color { r, g, b, a }), wgpu::LoadOp::Clear(1.0))
+            }
+            None => (wgpu::LoadOp::Load, wgpu::LoadOp::Load),
+        };
+        encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some(label),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: &color_view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations { load: color_load, store: wgpu::StoreOp::Store },
+            })],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: &depth_view,
+                depth_ops: Some(wgpu::Operations { load: depth_load, store: wgpu::StoreOp::Store }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        })
+    }
+
+    /// Refuses a renderer built for another pass than this host's.
+    pub(crate) fn check_renderer(&self, renderer_target: &TargetDesc) -> Result<(), RenderError> {
+        if *renderer_target != Self::desc() {
+            return Err(RenderError::Parameter {
+                what: format!(
+                    "a renderer built for {renderer_target:?} drawn into a headless RenderTarget (built for RenderTarget::desc())"
+                ),
+            });
+        }
+        Ok(())
+    }
+}
+
+impl FurRenderer {
+    /// The headless host's frame: prepares this renderer with `view` (identity model), clears
+    /// `target` to [`RenderSettings::background`], renders, and submits. Returns once the work is
+    /// submitted (see [`read_back`]). The renderer must be built for [`RenderTarget::desc`].
+    pub fn render_to(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        target: &RenderTarget,
+        view: &View,
+    ) -> Result<(), RenderError> {
+        target.check_renderer(self.target())?;
+        let mut encoder =
+            device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("furbake frame") });
+        self.prepare(queue, &mut encoder, &view.uniforms(target.aspect()));
+        self.render(&mut target.begin_pass(&mut encoder, "furbake fur pass", Some(self.settings().background)));
+        crate::blocking::submit(queue, [encoder.finish()]);
+        Ok(())
+    }
+}
+
+impl BladeRenderer {
+    /// The headless host's frame: prepares this renderer with `view` (identity model), draws every
+    /// blade into `target` after clearing it to the linear RGBA `clear` (colour and depth), or over
+    /// what it holds with `None` (e.g. after [`FurRenderer::render_to`], depth-tested against
+    /// it), and submits. The renderer must be built for [`RenderTarget::desc`].
+    pub fn render_to(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        target: &RenderTarget,
+        view: &View,
+        clear: Option<[f32; 4]>,
+    ) -> Result<(), RenderError> {
+        target.check_renderer(self.target())?;
+        let mut encoder =
+            device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("furbake blade frame") });
+        self.prepare(queue, &mut encoder, &view.uniforms(target.aspect()));
+        self.render(&mut target.begin_pass(&mut encoder, "furbake blade pass", clear));
+        crate::blocking::submit(queue, [encoder.finish()]);
+        Ok(())
+    }
+}
+
+/// Copies `target`'s colour texture into an image (waits for the GPU).
+pub fn read_back(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    target: &RenderTarget,
+) -> Result<image::RgbaImage, RenderError> {
+    read_back_texture(device, queue, &target.color)
+}
+
+/// Copies mip level 0 of a single-sampled 2D `texture` of an RGBA8 format (`Rgba8Unorm` or
+/// `Rgba8UnormSrgb`, stored bytes as they are) created with `COPY_SRC` into an image: submits a
+/// copy and waits for the GPU. For hosts and tests that read their own output back.
+pub fn read_back_texture(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    texture: &wgpu::Texture,
+) -> Result<image::RgbaImage, RenderError> {
+    use wgpu::TextureFormat::{Rgba8Unorm, Rgba8UnormSrgb};
+    if !matches!(texture.format(), Rgba8Unorm | Rgba8UnormSrgb)
+        || texture.sample_count() != 1
+        || !texture.usage().contains(wgpu::TextureUsages::COPY_SRC)
+    {
+        return Err(RenderError::Parameter {
+            what: format!(
+                "read_back_texture of a {:?} texture with {} samples and usage {:?} (RGBA8, 1 sample, COPY_SRC)",
+                texture.format(),
+                texture.sample_count(),
+                texture.usage()
+            ),
+        });
+    }
+    let (w, h) = (texture.width(), texture.height());
+    let row = w * 4;
+    let padded_row = row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+    let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("furbake readback"),
+        size: padded_row as u64 * h as u64,
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+        mapped_at_creation: false,
+    });
+    let mut encoder =
+        device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("furbake readback") });
+    encoder.copy_texture_to_buffer(
+        wgpu::TexelCopyTextureInfo {
+            texture,
+            mip_level: 0,
+            origin: wgpu::Origin3d::ZERO,
+            aspect: wgpu::TextureAspect::All,
+        },
+        wgpu::TexelCopyBufferInfo {
+            buffer: &buffer,
+            layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(padded_row), rows_per_image: Some(h) },
+        },
+        wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+    );
+    crate::blocking::submit(queue, [encoder.finish()]);
+    map_for_reading(device, &buffer, "image readback")?;
+    let mut pixels = Vec::with_capacity(row as usize * h as usize);
+    {
+        let view = buffer.get_mapped_range(..).map_err(|e| RenderError::Gpu { what: e.to_string() })?;
+        for y in 0..h as usize {
+            let start = y * padded_row as usize;
+            pixels.extend_from_slice(&view[start..start + row as usize]);
+        }
+    }
+    buffer.unmap();
+    Ok(image::RgbaImage::from_raw(w, h, pixels).expect("w·h·4 bytes were copied"))
+}
+
+/// Renders one frame of `asset` at `width × height` from `view` and reads it back.
+pub fn render_image(
+    gpu: &HeadlessGpu,
+    asset: &FurAsset,
+    settings: &RenderSettings,
+    view: &View,
+    width: u32,
+    height: u32,
+) -> Result<image::RgbaImage, RenderError> {
+    let renderer = FurRenderer::new(gpu.pipelines(), &gpu.queue, asset, settings, &RenderTarget::desc())?;
+    let target = RenderTarget::new(&gpu.device, width, height)?;
+    renderer.render_to(&gpu.device, &gpu.queue, &target, view)?;
+    read_back(&gpu.device, &gpu.queue, &target)
+}
+
+/// What `furbake preview` calls: opens the pack at `pack_path`, creates a headless device, frames
+/// the furry mesh automatically (three-quarter view) and renders it with the default settings,
+/// plus its grass blades when it has a blade field. Reads only the skin mesh, shell atlas, UV
+/// map, fin atlas and fin edges (and the blade field and keyframe table, skin weights and morph
+/// targets when present; an animated pack is drawn in its bind pose).
+pub fn render_preview(pack_path: &Path, width: u32, height: u32) -> Result<image::RgbaImage, RenderError> {
+    render_pack(pack_path, width, height, None, &RenderSettings::default())
+}
+
+/// [`render_preview`] with a chosen view (`None`: framed automatically) and settings.
+pub fn render_pack(
+    pack_path: &Path,
+    width: u32,
+    height: u32,
+    view: Option<View>,
+    settings: &RenderSettings,
+) -> Result<image::RgbaImage, RenderError> {
+    let pack = Pack::open(pack_path)?;
+    let asset = FurAsset::from_pack(&pack, settings.fins)?;
+    let gpu = HeadlessGpu::new()?;
+    let view = view.unwrap_or_else(|| asset.auto_view(width as f32 / height.max(1) as f32));
+    let desc = RenderTarget::desc();
+    let fur = FurRenderer::new(gpu.pipelines(), &gpu.queue, &asset, settings, &desc)?;
+    // Grass blades, when the pack has a blade field: drawn after the fur, depth-tested against
+    // it, in their rest pose (a still preview has no wind).
+    let blades = BladeRenderer::from_pack(gpu.pipelines(), &gpu.queue, &pack, &BladeSettings::default(), &desc)?;
+    let target = RenderTarget::new(&gpu.device, width, height)?;
+    let frame = view.uniforms(target.aspect());
+    let mut encoder =
+        gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("furbake preview") });
+    fur.prepare(&gpu.queue, &mut encoder, &frame);
+    if let Some(blades) = &blades {
+        blades.prepare(&gpu.queue, &mut encoder, &frame);
+    }
+    {
+        let mut pass = target.begin_pass(&mut encoder, "furbake preview", Some(settings.background));
+        fur.render(&mut pass);
+        if let Some(blades) = &blades {
+            blades.render(&mut pass);
+        }
+    }
+    crate::blocking::submit(&gpu.queue, [encoder.finish()]);
+    let image = read_back(&gpu.device, &gpu.queue, &target)?;
+    gpu.check()?;
+    Ok(image)
+}
+
+/// Maps `buffer` (a `MAP_READ` buffer whose copy was already submitted) and waits until the map
+/// completes; `what` names the readback in errors.
+pub(crate) fn map_for_reading(device: &wgpu::Device, buffer: &wgpu::Buffer, what: &str) -> Result<(), RenderError> {
+    let (tx, rx) = std::sync::mpsc::channel();
+    buffer.map_async(wgpu::MapMode::Read, .., move |r| {
+        let _ = tx.send(r);
+    });
+    crate::blocking::wait(device)?;
+    match rx.recv() {
+        Ok(Ok(())) => Ok(()),
+        Ok(Err(e)) => Err(RenderError::Gpu { what: format!("{what}: mapping failed: {e}") }),
+        Err(_) => Err(RenderError::Gpu { what: format!("{what}: mapping never completed") }),
+    }
+}

@@ -1,0 +1,450 @@
+//! [`PipelineCache`]: the render pipelines of every renderer on one device, created once per
+//! (target description, program, override constants) and shared: a second pack drawn with the
+//! same settings into the same kind of pass reuses the first one's pipelines, and resizing the
+//! host's textures rebuilds nothing. The cache also owns what pipelines and bind groups must agree
+//! on — the bind group layouts and pipeline layouts of the fur and blade programs, and each
+//! shader module, compiled on first use.
+//!
+//! Effects are WGSL `override` constants fixed at pipeline creation (WGSL specification,
+//! "Override Declarations"; `shaders/fur_common.wgsl`), so they are part of the key
+//! ([`FurSwitches`]); the target's formats, blend, depth comparison and sample count are the
+//! rest ([`TargetDesc`]). Each pipeline is created inside its own error scope, so a failed one is
+//! reported ([`RenderError`]) and never cached.
+
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex, OnceLock};
+
+use crate::blades::BLADES_WGSL;
+use crate::shaders::{FIN_ATTRIBUTES, FIN_WGSL, FinVertex, SHELL_WGSL, SKIN_WGSL, SURFACE_ATTRIBUTES, SurfaceVertex};
+use crate::{RenderError, RenderSettings, ShellBlend, TargetDesc};
+
+/// The shader switches (WGSL `override` constants) of a fur pipeline, decided by the
+/// [`RenderSettings`] and whether the asset is animated.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub(crate) struct FurSwitches {
+    pub lambert: bool,
+    pub shadow: bool,
+    pub skinned: bool,
+    pub shear: bool,
+    pub alpha_blend: bool,
+}
+
+impl FurSwitches {
+    pub(crate) fn new(settings: &RenderSettings, skinned: bool) -> FurSwitches {
+        FurSwitches {
+            lambert: settings.lambert,
+            shadow: settings.self_shadow,
+            skinned,
+            shear: settings.shearing,
+            alpha_blend: settings.blend == ShellBlend::AlphaBlend,
+        }
+    }
+}
+
+/// The three fur stages (fur thesis §3.2: skin, shells, fins).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub(crate) enum FurStage {
+    Skin,
+    Shell,
+    Fin,
+}
+
+/// What a render pipeline runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+enum Program {
+    Fur(FurStage, FurSwitches),
+    Blades,
+}
+
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+struct PipelineKey {
+    target: TargetDesc,
+    program: Program,
+}
+
+/// The skin, shell and fin pipelines of one fur renderer.
+#[derive(Clone, Debug)]
+pub(crate) struct FurPipelines {
+    pub skin: wgpu::RenderPipeline,
+    pub shell: wgpu::RenderPipeline,
+    pub fin: wgpu::RenderPipeline,
+}
+
+/// The layouts of the blade program: group 0 shared by the compute pass and the draw, group 1 the
+/// compute pass's output.
+pub(crate) struct BladeLayouts {
+    pub shared: wgpu::BindGroupLayout,
+    pub out: wgpu::BindGroupLayout,
+    draw: wgpu::PipelineLayout,
+    compute: wgpu::PipelineLayout,
+}
+
+struct Inner {
+    device: wgpu::Device,
+    adapter: Option<wgpu::Adapter>,
+    fur_layout: wgpu::BindGroupLayout,
+    fur_pipeline_layout: wgpu::PipelineLayout,
+    blade_layouts: BladeLayouts,
+    skin_module: OnceLock<wgpu::ShaderModule>,
+    shell_module: OnceLock<wgpu::ShaderModule>,
+    fin_module: OnceLock<wgpu::ShaderModule>,
+    blade_module: OnceLock<wgpu::ShaderModule>,
+    blade_compute: Mutex<Option<wgpu::ComputePipeline>>,
+    render: Mutex<HashMap<PipelineKey, wgpu::RenderPipeline>>,
+    /// Target descriptions already validated (with and without blending).
+    validated: Mutex<Vec<(TargetDesc, bool)>>,
+}
+
+/// Every pipeline of the fur and blade renderers on one device (see the module documentation).
+/// Cheap to clone (a shared handle); give the same cache to every renderer of a host so they
+/// share pipelines. Holds the device it was created for.
+#[derive(Clone)]
+pub struct PipelineCache {
+    inner: Arc<Inner>,
+}
+
+impl std::fmt::Debug for PipelineCache {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("PipelineCache").field("render_pipelines", &self.render_pipeline_count()).finish()
+    }
+}
+
+impl PipelineCache {
+    /// An empty cache for `device`. Target descriptions are checked against the formats' features
+    /// the device guarantees (`TextureFormat::guaranteed_format_features`); a device created with
+    /// `Features::TEXTURE_ADAPTER_SPECIFIC_FORMAT_FEATURES` wants [`PipelineCache::with_adapter`].
+    pub fn new(device: &wgpu::Device) -> PipelineCache {
+        Self::build(device, None)
+    }
+
+    /// An empty cache for `device`, checking target descriptions against `adapter`'s format
+    /// features when the device enabled `Features::TEXTURE_ADAPTER_SPECIFIC_FORMAT_FEATURES`
+    /// (e.g. 8× MSAA, or MSAA of a format that does not guarantee it).
+    pub fn with_adapter(device: &wgpu::Device, adapter: &wgpu::Adapter) -> PipelineCache {
+        Self::build(device, Some(adapter.clone()))
+    }
+
+    fn build(device: &wgpu::Device, adapter: Option<wgpu::Adapter>) -> PipelineCache {
+        let fur_layout = fur_bind_group_layout(device);
+        let fur_pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("furbake fur pipeline layout"),
+            bind_group_layouts: &[Some(&fur_layout)],
+            immediate_size: 0,
+        });
+        PipelineCache {
+            inner: Arc::new(Inner {
+                device: device.clone(),
+                adapter,
+                fur_layout,
+                fur_pipeline_layout,
+                blade_layouts: blade_layouts(device),
+                skin_module: OnceLock::new(),
+                shell_module: OnceLock::new(),
+                fin_module: OnceLock::new(),
+                blade_module: OnceLock::new(),
+                blade_compute: Mutex::new(None),
+                render: Mutex::new(HashMap::new()),
+                validated: Mutex::new(Vec::new()),
+            }),
+        }
+    }
+
+    /// The device the cache creates pipelines on.
+    pub fn device(&self) -> &wgpu::Device {
+        &self.inner.device
+    }
+
+    /// Render pipelines created so far (each distinct target description × program × override
+    /// constants once).
+    pub fn render_pipeline_count(&self) -> usize {
+        lock(&self.inner.render).len()
+    }
+
+    /// Validates `target` for this device ([`TargetDesc::validate`]; `blended`: some stage
+    /// alpha-blends into colour attachment 0), once per description.
+    pub(crate) fn check_target(&self, target: &TargetDesc, blended: bool) -> Result<(), RenderError> {
+        let mut validated = lock(&self.inner.validated);
+        if validated.iter().any(|(t, b)| t == target && (*b || !blended)) {
+            return Ok(());
+        }
+        target.validate(&self.inner.device, self.inner.adapter.as_ref(), blended)?;
+        validated.push((target.clone(), blended));
+        Ok(())
+    }
+
+    /// The fur bind group layout (group 0 of `skin.wgsl`, `shell.wgsl`, `fin.wgsl`).
+    pub(crate) fn fur_layout(&self) -> &wgpu::BindGroupLayout {
+        &self.inner.fur_layout
+    }
+
+    /// The blade program's bind group layouts.
+    pub(crate) fn blade_layouts(&self) -> &BladeLayouts {
+        &self.inner.blade_layouts
+    }
+
+    /// The skin, shell and fin pipelines for `switches` drawn into `target`.
+    pub(crate) fn fur(&self, target: &TargetDesc, switches: FurSwitches) -> Result<FurPipelines, RenderError> {
+        self.check_target(target, switches.alpha_blend)?;
+        // The skin has neither a shearing nor a blending switch: one pipeline serves both.
+        let skin_switches = FurSwitches { shear: false, alpha_blend: false, ..switches };
+        Ok(FurPipelines {
+            skin: self.render_pipeline(target, Program::Fur(FurStage::Skin, skin_switches))?,
+            shell: self.render_pipeline(target, Program::Fur(FurStage::Shell, switches))?,
+            fin: self.render_pipeline(target, Program::Fur(FurStage::Fin, switches))?,
+        })
+    }
+
+    /// The instanced blade draw into `target`.
+    pub(crate) fn blades(&self, target: &TargetDesc) -> Result<wgpu::RenderPipeline, RenderError> {
+        self.check_target(target, false)?;
+        self.render_pipeline(target, Program::Blades)
+    }
+
+    /// The blade posing compute pipeline (`cs_blades`), independent of any target.
+    pub(crate) fn blade_compute(&self) -> Result<wgpu::ComputePipeline, RenderError> {
+        let mut slot = lock(&self.inner.blade_compute);
+        if let Some(p) = slot.as_ref() {
+            return Ok(p.clone());
+        }
+        let device = &self.inner.device;
+        let pipeline = crate::gpu_scope(device, "creating the blade compute pipeline", || {
+            Ok(device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some("furbake blade poses"),
+                layout: Some(&self.inner.blade_layouts.compute),
+                module: self.module(Module::Blades),
+                entry_point: Some("cs_blades"),
+                compilation_options: Default::default(),
+                cache: None,
+            }))
+        })?;
+        *slot = Some(pipeline.clone());
+        Ok(pipeline)
+    }
+
+    fn module(&self, which: Module) -> &wgpu::ShaderModule {
+        let (cell, label, source) = match which {
+            Module::Skin => (&self.inner.skin_module, "furbake skin", SKIN_WGSL),
+            Module::Shell => (&self.inner.shell_module, "furbake shells", SHELL_WGSL),
+            Module::Fin => (&self.inner.fin_module, "furbake fins", FIN_WGSL),
+            Module::Blades => (&self.inner.blade_module, "furbake blades", BLADES_WGSL),
+        };
+        cell.get_or_init(|| {
+            self.inner.device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some(label),
+                source: wgpu::ShaderSource::Wgsl(source.into()),
+            })
+        })
+    }
+
+    fn render_pipeline(&self, target: &TargetDesc, program: Program) -> Result<wgpu::RenderPipeline, RenderError> {
+        let key = PipelineKey { target: target.clone(), program };
+        // Held while creating, so two renderers asking at once create one pipeline.
+        let mut map = lock(&self.inner.render);
+        if let Some(p) = map.get(&key) {
+            return Ok(p.clone());
+        }
+        let device = &self.inner.device;
+        let pipeline = crate::gpu_scope(device, &format!("creating the {program:?} pipeline"), || {
+            Ok(match program {
+                Program::Fur(stage, switches) => self.create_fur(target, stage, switches),
+                Program::Blades => self.create_blades(target),
+            })
+        })?;
+        map.insert(key, pipeline.clone());
+        Ok(pipeline)
+    }
+
+    fn create_fur(&self, target: &TargetDesc, stage: FurStage, s: FurSwitches) -> wgpu::RenderPipeline {
+        let (label, module, vs, fs) = match stage {
+            FurStage::Skin => ("furbake skin", self.module(Module::Skin), "vs_skin", "fs_skin"),
+            FurStage::Shell => ("furbake shells", self.module(Module::Shell), "vs_shell", "fs_shell"),
+            FurStage::Fin => ("furbake fins", self.module(Module::Fin), "vs_fin", "fs_fin"),
+        };
+        let flag = |on: bool| if on { 1.0 } else { 0.0 };
+        // Overrides each shader declares (the skin has no shearing or blending switch).
+        let all = [
+            ("LAMBERT", flag(s.lambert)),
+            ("SHADOW", flag(s.shadow)),
+            ("SKINNED", flag(s.skinned)),
+            ("SHEAR", flag(s.shear)),
+            ("ALPHA_BLEND", flag(s.alpha_blend)),
+        ];
+        let constants: &[(&str, f64)] = if stage == FurStage::Skin { &all[..3] } else { &all };
+        let options = wgpu::PipelineCompilationOptions { constants, zero_initialize_workgroup_memory: false };
+        let surface_layout = wgpu::VertexBufferLayout {
+            array_stride: std::mem::size_of::<SurfaceVertex>() as u64,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &SURFACE_ATTRIBUTES,
+        };
+        let fin_layout = wgpu::VertexBufferLayout {
+            array_stride: std::mem::size_of::<FinVertex>() as u64,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &FIN_ATTRIBUTES,
+        };
+        let buffers = [Some(if stage == FurStage::Fin { fin_layout } else { surface_layout })];
+        let (blend, depth_write, cull) = match stage {
+            FurStage::Skin => (None, true, Some(wgpu::Face::Back)),
+            // Shells cull nothing: back-facing shells near the silhouette are what makes it furry.
+            _ if s.alpha_blend => (Some(target.color.blend), false, None),
+            _ => (None, true, None),
+        };
+        let targets = target.color_states(blend);
+        self.inner.device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some(label),
+            layout: Some(&self.inner.fur_pipeline_layout),
+            vertex: wgpu::VertexState {
+                module,
+                entry_point: Some(vs),
+                compilation_options: options.clone(),
+                buffers: &buffers,
+            },
+            primitive: wgpu::PrimitiveState {
+                topology: wgpu::PrimitiveTopology::TriangleList,
+                front_face: wgpu::FrontFace::Ccw,
+                cull_mode: cull,
+                ..Default::default()
+            },
+            depth_stencil: target.depth_stencil(depth_write),
+            multisample: target.multisample(),
+            fragment: Some(wgpu::FragmentState {
+                module,
+                entry_point: Some(fs),
+                compilation_options: options,
+                targets: &targets,
+            }),
+            multiview_mask: None,
+            cache: None,
+        })
+    }
+
+    fn create_blades(&self, target: &TargetDesc) -> wgpu::RenderPipeline {
+        let module = self.module(Module::Blades);
+        let targets = target.color_states(None);
+        self.inner.device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("furbake blade draw"),
+            layout: Some(&self.inner.blade_layouts.draw),
+            vertex: wgpu::VertexState {
+                module,
+                entry_point: Some("vs_blade"),
+                compilation_options: Default::default(),
+                buffers: &[],
+            },
+            primitive: wgpu::PrimitiveState {
+                topology: wgpu::PrimitiveTopology::TriangleList,
+                front_face: wgpu::FrontFace::Ccw,
+                // Two-sided blades.
+                cull_mode: None,
+                ..Default::default()
+            },
+            depth_stencil: target.depth_stencil(true),
+            multisample: target.multisample(),
+            fragment: Some(wgpu::FragmentState {
+                module,
+                entry_point: Some("fs_blade"),
+                compilation_options: Default::default(),
+                targets: &targets,
+            }),
+            multiview_mask: None,
+            cache: None,
+        })
+    }
+}
+
+#[derive(Clone, Copy)]
+enum Module {
+    Skin,
+    Shell,
+    Fin,
+    Blades,
+}
+
+/// A poisoned lock still guards consistent data here (every critical section only reads or
+/// inserts whole entries), so it is used as is.
+fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+fn fur_bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
+    let vf = wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT;
+    let buffer = |binding, ty, visibility| wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility,
+        ty: wgpu::BindingType::Buffer { ty, has_dynamic_offset: false, min_binding_size: None },
+        count: None,
+    };
+    let uniform = |binding| buffer(binding, wgpu::BufferBindingType::Uniform, vf);
+    let storage =
+        |binding, visibility| buffer(binding, wgpu::BufferBindingType::Storage { read_only: true }, visibility);
+    let texture = |binding, view_dimension| wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::FRAGMENT,
+        ty: wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Float { filterable: true },
+            view_dimension,
+            multisampled: false,
+        },
+        count: None,
+    };
+    let sampler = |binding| wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::FRAGMENT,
+        ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+        count: None,
+    };
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("furbake fur bind group layout"),
+        entries: &[
+            uniform(0),
+            uniform(1),
+            storage(2, vf),
+            storage(3, vf),
+            texture(4, wgpu::TextureViewDimension::D2Array),
+            sampler(5),
+            texture(6, wgpu::TextureViewDimension::D2),
+            sampler(7),
+            // The posed vertices of an animated asset, read by the vertex shaders.
+            storage(8, wgpu::ShaderStages::VERTEX),
+        ],
+    })
+}
+
+fn blade_layouts(device: &wgpu::Device) -> BladeLayouts {
+    let all = wgpu::ShaderStages::COMPUTE | wgpu::ShaderStages::VERTEX_FRAGMENT;
+    let entry = |binding, ty, visibility| wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility,
+        ty: wgpu::BindingType::Buffer { ty, has_dynamic_offset: false, min_binding_size: None },
+        count: None,
+    };
+    let ro = wgpu::BufferBindingType::Storage { read_only: true };
+    let uniform = wgpu::BufferBindingType::Uniform;
+    let shared = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("furbake blade shared layout"),
+        entries: &[
+            entry(0, uniform, all),
+            entry(1, uniform, all),
+            entry(2, ro, all),
+            entry(3, ro, all),
+            entry(4, ro, all),
+            entry(5, ro, all),
+            entry(6, ro, all),
+            entry(7, ro, all),
+            entry(8, ro, all),
+        ],
+    });
+    let out = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("furbake blade positions out layout"),
+        entries: &[entry(0, wgpu::BufferBindingType::Storage { read_only: false }, wgpu::ShaderStages::COMPUTE)],
+    });
+    let compute = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("furbake blade compute layout"),
+        bind_group_layouts: &[Some(&shared), Some(&out)],
+        immediate_size: 0,
+    });
+    let draw = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("furbake blade draw layout"),
+        bind_group_layouts: &[Some(&shared)],
+        immediate_size: 0,
+    });
+    BladeLayouts { shared, out, draw, compute }
+}
