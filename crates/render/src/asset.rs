@@ -135,18 +135,30 @@ impl FurAsset {
     /// counting the renderer's fixed cost ([`crate::RENDERER_OVERHEAD_BYTES`]). Computed from the
     /// sections' sizes alone, before anything is uploaded.
     pub fn gpu_bytes(&self, with_fins: bool) -> u64 {
+        self.shared_gpu_bytes(with_fins).saturating_add(self.instance_gpu_bytes())
+    }
+
+    /// The part of [`FurAsset::gpu_bytes`] a [`crate::FurGpuAsset`] holds once for every renderer
+    /// of this asset: skin corners, shell atlas with mips, and with fins the fin atlas and quads.
+    pub fn shared_gpu_bytes(&self, with_fins: bool) -> u64 {
         use crate::shaders::{FinVertex, SurfaceVertex};
-        let (v, f) = (self.mesh.positions.len() as u64, self.mesh.triangles.len() as u64);
+        let f = self.mesh.triangles.len() as u64;
         let mips = |texels: u64| texels + texels / 3; // a full mip chain adds a third
         let res = self.shells.params.resolution as u64;
         let mut bytes = 3 * f * std::mem::size_of::<SurfaceVertex>() as u64 // skin corners
-            + 16 * v.max(3 * f) // scale vectors, room for either layout
             + mips(res * res * self.shells.layers() as u64); // R8 shell atlas
         if let (true, Some((atlas, edges))) = (with_fins, &self.fins) {
             bytes += mips(atlas.width as u64 * atlas.height as u64)
                 + 6 * edges.vertices.len() as u64 * std::mem::size_of::<FinVertex>() as u64;
         }
-        bytes.saturating_add(crate::SkinningPass::gpu_bytes(
+        bytes
+    }
+
+    /// The part of [`FurAsset::gpu_bytes`] each renderer holds of its own: scale vectors (room
+    /// for either layout) and, for an animated asset, its skinning pass.
+    pub fn instance_gpu_bytes(&self) -> u64 {
+        let (v, f) = (self.mesh.positions.len() as u64, self.mesh.triangles.len() as u64);
+        (16 * v.max(3 * f)).saturating_add(crate::SkinningPass::gpu_bytes(
             &self.mesh,
             self.skin_weights.as_deref(),
             self.morph_targets.as_deref(),

@@ -134,7 +134,7 @@ pub use headless::{
     render_preview,
 };
 pub use pipelines::PipelineCache;
-pub use renderer::{FurRenderer, RenderSettings, ShellBlend};
+pub use renderer::{FurGpuAsset, FurRenderer, RenderSettings, ShellBlend};
 pub use scene::{BladeForces, PackInput, PackRenderers, SceneFrame, SceneObject, SceneRenderer};
 pub use shaders::FrameUniforms;
 pub use skinning::{PosedVertices, SkinningPass};

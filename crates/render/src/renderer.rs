@@ -16,6 +16,7 @@
 //! from its output instead of the vertex attributes; a static asset's shaders are compiled
 //! without it and draw exactly as before.
 
+use std::sync::Arc;
 use std::sync::atomic::{AtomicU32, Ordering};
 
 use furbake_runtime::ShellVertexLayout;
@@ -107,24 +108,133 @@ impl RenderSettings {
     }
 }
 
+/// One fur asset's static data on the GPU — skin corners, fin quads, shadow table, shell and fin
+/// atlases with their samplers — uploaded once and shared (`Arc`) by every [`FurRenderer`] of
+/// that asset ([`FurRenderer::with_gpu_asset`]): a scene that places one pack many times holds
+/// these once (docs/design.md "Memory budget").
+pub struct FurGpuAsset {
+    bounds: ([f32; 3], f32),
+    vertex_count: u32,
+    triangle_count: u32,
+    /// Whether the fin quads were uploaded (the renderers' `RenderSettings::fins`).
+    with_fins: bool,
+    shadow: wgpu::Buffer,
+    surface: wgpu::Buffer,
+    surface_corners: u32,
+    furry_corners: u32,
+    fins: Option<(wgpu::Buffer, u32)>,
+    shell_view: wgpu::TextureView,
+    fin_view: wgpu::TextureView,
+    repeat_sampler: wgpu::Sampler,
+    fin_sampler: wgpu::Sampler,
+}
+
+impl FurGpuAsset {
+    /// Uploads `asset`'s static data (its fin quads when `with_fins`) through `queue.write_*` (no
+    /// submission), after checking every size against the device's limits.
+    pub fn new(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        asset: &FurAsset,
+        with_fins: bool,
+    ) -> Result<Arc<FurGpuAsset>, RenderError> {
+        crate::gpu_scope(device, "uploading a fur asset", || Self::upload(device, queue, asset, with_fins))
+    }
+
+    fn upload(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        asset: &FurAsset,
+        with_fins: bool,
+    ) -> Result<Arc<FurGpuAsset>, RenderError> {
+        let shells = asset.shells();
+        let (corners, furry_triangles) = asset.surface_vertices();
+        let fin_vertices = if with_fins { asset.fin_vertices() } else { Vec::new() };
+        let limits = device.limits();
+        let check = |what: &'static str, bytes: usize, limit: u64| {
+            if bytes as u64 > limit { Err(RenderError::Limit { what, value: bytes as u64, limit }) } else { Ok(()) }
+        };
+        check("skin vertex buffer bytes", std::mem::size_of_val(corners.as_slice()), limits.max_buffer_size)?;
+        check("fin vertex buffer bytes", std::mem::size_of_val(fin_vertices.as_slice()), limits.max_buffer_size)?;
+        let res = shells.params.resolution;
+        check("shell resolution", res as usize, limits.max_texture_dimension_2d as u64)?;
+        check("shell layers", shells.layers(), limits.max_texture_array_layers as u64)?;
+        let init = |label, contents: &[u8], usage| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage })
+        };
+        let shadow = init("furbake shadow table", bytemuck::cast_slice(&shells.shadow), wgpu::BufferUsages::STORAGE);
+        let placeholder = [SurfaceVertex::default()]; // vertex buffers cannot be empty
+        let surface = init(
+            "furbake skin corners",
+            bytemuck::cast_slice(if corners.is_empty() { &placeholder[..] } else { &corners }),
+            wgpu::BufferUsages::VERTEX,
+        );
+        let shell_view =
+            upload_r8_array(device, queue, "furbake shell atlas", res, res, shells.layers() as u32, &shells.alpha);
+        let fin_view = match asset.fins() {
+            Some((atlas, _)) => {
+                upload_r8_array(device, queue, "furbake fin atlas", atlas.width, atlas.height, 1, &atlas.alpha)
+            }
+            None => upload_r8_array(device, queue, "furbake empty fin atlas", 1, 1, 1, &[0]),
+        };
+        let fin_view = fin_view.create_view(&wgpu::TextureViewDescriptor {
+            dimension: Some(wgpu::TextureViewDimension::D2),
+            ..Default::default()
+        });
+        let shell_view = shell_view.create_view(&wgpu::TextureViewDescriptor {
+            dimension: Some(wgpu::TextureViewDimension::D2Array),
+            ..Default::default()
+        });
+        let sampler = |label, v_mode| {
+            device.create_sampler(&wgpu::SamplerDescriptor {
+                label: Some(label),
+                address_mode_u: wgpu::AddressMode::Repeat,
+                address_mode_v: v_mode,
+                address_mode_w: wgpu::AddressMode::ClampToEdge,
+                mag_filter: wgpu::FilterMode::Linear,
+                min_filter: wgpu::FilterMode::Linear,
+                mipmap_filter: wgpu::MipmapFilterMode::Linear,
+                ..Default::default()
+            })
+        };
+        let repeat_sampler = sampler("furbake repeat sampler", wgpu::AddressMode::Repeat);
+        let fin_sampler = sampler("furbake fin sampler", wgpu::AddressMode::ClampToEdge);
+
+        let fins = (!fin_vertices.is_empty()).then(|| {
+            let buffer = init("furbake fin quads", bytemuck::cast_slice(&fin_vertices), wgpu::BufferUsages::VERTEX);
+            (buffer, fin_vertices.len() as u32)
+        });
+        Ok(Arc::new(FurGpuAsset {
+            bounds: asset.bounding_sphere(),
+            vertex_count: asset.mesh().positions.len() as u32,
+            triangle_count: asset.mesh().triangles.len() as u32,
+            with_fins,
+            shadow,
+            surface,
+            surface_corners: corners.len() as u32,
+            furry_corners: furry_triangles * 3,
+            fins,
+            shell_view,
+            fin_view,
+            repeat_sampler,
+            fin_sampler,
+        }))
+    }
+}
+
 /// One asset's GPU resources and pipelines.
 pub struct FurRenderer {
     settings: RenderSettings,
-    bounds: ([f32; 3], f32),
+    /// The asset's static data on the GPU, shared with every other renderer of the same asset.
+    gpu: Arc<FurGpuAsset>,
     frame_buffer: wgpu::Buffer,
     fur_buffer: wgpu::Buffer,
     scale_buffer: wgpu::Buffer,
-    vertex_count: u32,
-    triangle_count: u32,
     /// The fur uniforms as uploaded (rewritten when the scale layout changes).
     fur_uniforms: FurUniforms,
     /// `FurUniforms::scale_layout` of the buffer's current contents (0 per vertex, 1 per corner).
     scale_layout: AtomicU32,
     bind_group: wgpu::BindGroup,
-    surface: wgpu::Buffer,
-    surface_corners: u32,
-    furry_corners: u32,
-    fins: Option<(wgpu::Buffer, u32)>,
     drawn_layers: u32,
     /// The pass this renderer draws into.
     target: TargetDesc,
@@ -150,40 +260,59 @@ impl FurRenderer {
         target: &TargetDesc,
     ) -> Result<FurRenderer, RenderError> {
         settings.validate()?;
+        let gpu = FurGpuAsset::new(pipelines.device(), queue, asset, settings.fins)?;
+        FurRenderer::with_gpu_asset(pipelines, asset, gpu, settings, target)
+    }
+
+    /// As [`FurRenderer::new`] on an asset already uploaded: `gpu` (from [`FurGpuAsset::new`] with
+    /// `settings.fins`) is shared, so a scene that places one pack many times holds its atlases
+    /// and vertex buffers once. This renderer owns only what differs per placement: its
+    /// uniforms, scale vectors and (for an animated asset) its skinning pass.
+    pub fn with_gpu_asset(
+        pipelines: &PipelineCache,
+        asset: &FurAsset,
+        gpu: Arc<FurGpuAsset>,
+        settings: &RenderSettings,
+        target: &TargetDesc,
+    ) -> Result<FurRenderer, RenderError> {
+        settings.validate()?;
+        if gpu.vertex_count as usize != asset.mesh().positions.len()
+            || gpu.triangle_count as usize != asset.mesh().triangles.len()
+            || gpu.with_fins != settings.fins
+        {
+            return Err(RenderError::Parameter {
+                what: "the shared GPU asset was uploaded from another asset or with other fin settings".into(),
+            });
+        }
         let switches = FurSwitches::new(settings, asset.is_animated());
         let stage_pipelines = pipelines.fur(target, switches)?;
         let device = pipelines.device();
         crate::gpu_scope(device, "creating the fur renderer", || {
-            Self::build(pipelines, queue, asset, settings, target, stage_pipelines)
+            Self::build(pipelines, asset, gpu, settings, target, stage_pipelines)
         })
     }
 
     fn build(
         cache: &PipelineCache,
-        queue: &wgpu::Queue,
         asset: &FurAsset,
+        gpu: Arc<FurGpuAsset>,
         settings: &RenderSettings,
         target: &TargetDesc,
         pipelines: FurPipelines,
     ) -> Result<FurRenderer, RenderError> {
         let device = cache.device();
         let shells = asset.shells();
-        let (corners, furry_triangles) = asset.surface_vertices();
-        let fin_vertices = if settings.fins { asset.fin_vertices() } else { Vec::new() };
         let limits = device.limits();
-        let check = |what: &'static str, bytes: usize, limit: u64| {
-            if bytes as u64 > limit { Err(RenderError::Limit { what, value: bytes as u64, limit }) } else { Ok(()) }
-        };
-        check("skin vertex buffer bytes", std::mem::size_of_val(corners.as_slice()), limits.max_buffer_size)?;
-        check("fin vertex buffer bytes", std::mem::size_of_val(fin_vertices.as_slice()), limits.max_buffer_size)?;
-        let vertex_count = asset.mesh().positions.len();
-        let triangle_count = asset.mesh().triangles.len();
+        let (vertex_count, triangle_count) = (gpu.vertex_count as usize, gpu.triangle_count as usize);
         // Room for either layout: one vector per welded vertex or per triangle corner.
         let scale_capacity = vertex_count.max(3 * triangle_count).max(1);
-        check("scale vector bytes", scale_capacity * 16, limits.max_storage_buffer_binding_size)?;
-        let res = shells.params.resolution;
-        check("shell resolution", res as usize, limits.max_texture_dimension_2d as u64)?;
-        check("shell layers", shells.layers(), limits.max_texture_array_layers as u64)?;
+        if scale_capacity as u64 * 16 > limits.max_storage_buffer_binding_size {
+            return Err(RenderError::Limit {
+                what: "scale vector bytes",
+                value: scale_capacity as u64 * 16,
+                limit: limits.max_storage_buffer_binding_size,
+            });
+        }
         // An animated asset: one skinning pass writes the posed vertices every stage reads.
         let skinning = if asset.is_animated() {
             Some(SkinningPass::new(device, asset.mesh(), asset.skin_weights(), asset.morph_targets())?)
@@ -226,14 +355,6 @@ impl FurRenderer {
             bytemuck::cast_slice(&rest),
             wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
         );
-        let shadow_buffer =
-            init("furbake shadow table", bytemuck::cast_slice(&shells.shadow), wgpu::BufferUsages::STORAGE);
-        let placeholder = [SurfaceVertex::default()]; // vertex buffers cannot be empty
-        let surface = init(
-            "furbake skin corners",
-            bytemuck::cast_slice(if corners.is_empty() { &placeholder[..] } else { &corners }),
-            wgpu::BufferUsages::VERTEX,
-        );
         // A static asset's shaders never read binding 8; it still needs a (one-entry) buffer.
         let posed_vertices = match &skinning {
             Some(pass) => pass.skinned_buffer().clone(),
@@ -244,37 +365,6 @@ impl FurRenderer {
             ),
         };
 
-        let shell_view =
-            upload_r8_array(device, queue, "furbake shell atlas", res, res, shells.layers() as u32, &shells.alpha);
-        let fin_view = match asset.fins() {
-            Some((atlas, _)) => {
-                upload_r8_array(device, queue, "furbake fin atlas", atlas.width, atlas.height, 1, &atlas.alpha)
-            }
-            None => upload_r8_array(device, queue, "furbake empty fin atlas", 1, 1, 1, &[0]),
-        };
-        let fin_view = fin_view.create_view(&wgpu::TextureViewDescriptor {
-            dimension: Some(wgpu::TextureViewDimension::D2),
-            ..Default::default()
-        });
-        let shell_view = shell_view.create_view(&wgpu::TextureViewDescriptor {
-            dimension: Some(wgpu::TextureViewDimension::D2Array),
-            ..Default::default()
-        });
-        let sampler = |label, v_mode| {
-            device.create_sampler(&wgpu::SamplerDescriptor {
-                label: Some(label),
-                address_mode_u: wgpu::AddressMode::Repeat,
-                address_mode_v: v_mode,
-                address_mode_w: wgpu::AddressMode::ClampToEdge,
-                mag_filter: wgpu::FilterMode::Linear,
-                min_filter: wgpu::FilterMode::Linear,
-                mipmap_filter: wgpu::MipmapFilterMode::Linear,
-                ..Default::default()
-            })
-        };
-        let repeat_sampler = sampler("furbake repeat sampler", wgpu::AddressMode::Repeat);
-        let fin_sampler = sampler("furbake fin sampler", wgpu::AddressMode::ClampToEdge);
-
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("furbake fur bind group"),
             layout: cache.fur_layout(),
@@ -282,33 +372,23 @@ impl FurRenderer {
                 wgpu::BindGroupEntry { binding: 0, resource: frame_buffer.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 1, resource: fur_buffer.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 2, resource: scale_buffer.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 3, resource: shadow_buffer.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::TextureView(&shell_view) },
-                wgpu::BindGroupEntry { binding: 5, resource: wgpu::BindingResource::Sampler(&repeat_sampler) },
-                wgpu::BindGroupEntry { binding: 6, resource: wgpu::BindingResource::TextureView(&fin_view) },
-                wgpu::BindGroupEntry { binding: 7, resource: wgpu::BindingResource::Sampler(&fin_sampler) },
+                wgpu::BindGroupEntry { binding: 3, resource: gpu.shadow.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::TextureView(&gpu.shell_view) },
+                wgpu::BindGroupEntry { binding: 5, resource: wgpu::BindingResource::Sampler(&gpu.repeat_sampler) },
+                wgpu::BindGroupEntry { binding: 6, resource: wgpu::BindingResource::TextureView(&gpu.fin_view) },
+                wgpu::BindGroupEntry { binding: 7, resource: wgpu::BindingResource::Sampler(&gpu.fin_sampler) },
                 wgpu::BindGroupEntry { binding: 8, resource: posed_vertices.as_entire_binding() },
             ],
         });
-        let fins = (!fin_vertices.is_empty()).then(|| {
-            let buffer = init("furbake fin quads", bytemuck::cast_slice(&fin_vertices), wgpu::BufferUsages::VERTEX);
-            (buffer, fin_vertices.len() as u32)
-        });
         Ok(FurRenderer {
             settings: *settings,
-            bounds: asset.bounding_sphere(),
+            gpu,
             frame_buffer,
             fur_buffer,
             scale_buffer,
-            vertex_count: vertex_count as u32,
-            triangle_count: triangle_count as u32,
             fur_uniforms: fur,
             scale_layout: AtomicU32::new(0),
             bind_group,
-            surface,
-            surface_corners: corners.len() as u32,
-            furry_corners: furry_triangles * 3,
-            fins,
             drawn_layers,
             target: target.clone(),
             pipelines,
@@ -364,8 +444,8 @@ impl FurRenderer {
         layout: ShellVertexLayout,
     ) -> Result<(), RenderError> {
         let (expected, what) = match layout {
-            ShellVertexLayout::PerVertex => (self.vertex_count as usize, "vertices"),
-            ShellVertexLayout::PerCorner => (3 * self.triangle_count as usize, "triangle corners"),
+            ShellVertexLayout::PerVertex => (self.gpu.vertex_count as usize, "vertices"),
+            ShellVertexLayout::PerCorner => (3 * self.gpu.triangle_count as usize, "triangle corners"),
         };
         if scale_vectors.len() != expected {
             return Err(RenderError::Parameter {
@@ -405,6 +485,12 @@ impl FurRenderer {
         }
     }
 
+    /// The asset's static GPU data this renderer draws from (shared by every renderer built on
+    /// the same [`FurGpuAsset`]).
+    pub fn gpu_asset(&self) -> &Arc<FurGpuAsset> {
+        &self.gpu
+    }
+
     /// Shell layers drawn per frame.
     pub fn drawn_layers(&self) -> u32 {
         self.drawn_layers
@@ -412,13 +498,13 @@ impl FurRenderer {
 
     /// Welded skin vertices (= scale vectors expected by [`FurRenderer::set_scale_vectors`]).
     pub fn vertex_count(&self) -> u32 {
-        self.vertex_count
+        self.gpu.vertex_count
     }
 
     /// Skin triangles (3 × this = per-corner scale vectors expected by
     /// [`FurRenderer::set_shell_scale_vectors`] with [`ShellVertexLayout::PerCorner`]).
     pub fn triangle_count(&self) -> u32 {
-        self.triangle_count
+        self.gpu.triangle_count
     }
 
     /// The settings the pipelines were built with.
@@ -429,7 +515,7 @@ impl FurRenderer {
     /// Centre and radius (metres, object frame) of a sphere holding the skin and its fur
     /// ([`FurAsset::bounding_sphere`]).
     pub fn bounding_sphere(&self) -> ([f32; 3], f32) {
-        self.bounds
+        self.gpu.bounds
     }
 
     /// The pass description this renderer's pipelines were built for.
@@ -460,17 +546,18 @@ impl FurRenderer {
     /// allocates inside its calls; docs/performance.md).
     pub fn render(&self, pass: &mut wgpu::RenderPass<'_>) {
         pass.set_bind_group(0, &self.bind_group, &[]);
-        if self.surface_corners > 0 {
+        let gpu = &*self.gpu;
+        if gpu.surface_corners > 0 {
             pass.set_pipeline(&self.pipelines.skin);
-            pass.set_vertex_buffer(0, self.surface.slice(..));
-            pass.draw(0..self.surface_corners, 0..1);
+            pass.set_vertex_buffer(0, gpu.surface.slice(..));
+            pass.draw(0..gpu.surface_corners, 0..1);
         }
-        if self.furry_corners > 0 && self.drawn_layers > 0 {
+        if gpu.furry_corners > 0 && self.drawn_layers > 0 {
             pass.set_pipeline(&self.pipelines.shell);
-            pass.set_vertex_buffer(0, self.surface.slice(..));
-            pass.draw(0..self.furry_corners, 0..self.drawn_layers);
+            pass.set_vertex_buffer(0, gpu.surface.slice(..));
+            pass.draw(0..gpu.furry_corners, 0..self.drawn_layers);
         }
-        if let Some((buffer, count)) = self.fins.as_ref().filter(|_| self.drawn_layers > 0) {
+        if let Some((buffer, count)) = gpu.fins.as_ref().filter(|_| self.drawn_layers > 0) {
             pass.set_pipeline(&self.pipelines.fin);
             pass.set_vertex_buffer(0, buffer.slice(..));
             pass.draw(0..*count, 0..1);
@@ -495,14 +582,16 @@ impl FurRenderer {
         asset: &FurAsset,
     ) -> Result<Vec<[f32; 3]>, RenderError> {
         let mesh = asset.mesh();
-        if mesh.positions.len() != self.vertex_count as usize || mesh.triangles.len() != self.triangle_count as usize {
+        if mesh.positions.len() != self.gpu.vertex_count as usize
+            || mesh.triangles.len() != self.gpu.triangle_count as usize
+        {
             return Err(RenderError::Parameter {
                 what: format!(
                     "asset has {} vertices / {} triangles, the renderer {} / {}",
                     mesh.positions.len(),
                     mesh.triangles.len(),
-                    self.vertex_count,
-                    self.triangle_count
+                    self.gpu.vertex_count,
+                    self.gpu.triangle_count
                 ),
             });
         }

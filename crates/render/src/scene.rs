@@ -32,8 +32,8 @@ use glam::{Mat4, Vec3};
 
 use crate::shaders::FrameUniforms;
 use crate::{
-    BladeRenderer, BladeSettings, FurAsset, FurRenderer, PipelineCache, RenderError, RenderSettings, RenderTarget,
-    TargetDesc, View,
+    BladeRenderer, BladeSettings, FurAsset, FurGpuAsset, FurRenderer, PipelineCache, RenderError, RenderSettings,
+    RenderTarget, TargetDesc, View,
 };
 
 /// One grass field's forces for this frame.
@@ -326,11 +326,24 @@ impl SceneRenderer {
         let scene = world.scene();
         let settings = RenderSettings::for_scene(scene);
         let mut packs = Vec::with_capacity(scene.packs.len());
+        // Entries naming the same file share the world's one opened pack, and here its one
+        // uploaded asset: atlases and vertex buffers are held once however often it is placed.
+        let mut uploaded: Vec<(&std::sync::Arc<furbake_runtime::Pack>, FurAsset, std::sync::Arc<FurGpuAsset>)> =
+            Vec::new();
         for (i, p) in scene.packs.iter().enumerate() {
             let pack = world.pack(i);
             let fur = if pack.has(SectionKind::SKIN_MESH) && pack.has(SectionKind::SHELL_ATLAS) {
-                let asset = FurAsset::from_pack(pack, settings.fins)?;
-                Some(FurRenderer::new(pipelines, queue, &asset, &settings, target)?)
+                let k = match uploaded.iter().position(|(q, _, _)| std::sync::Arc::ptr_eq(q, pack)) {
+                    Some(k) => k,
+                    None => {
+                        let asset = FurAsset::from_pack(pack, settings.fins)?;
+                        let gpu = FurGpuAsset::new(pipelines.device(), queue, &asset, settings.fins)?;
+                        uploaded.push((pack, asset, gpu));
+                        uploaded.len() - 1
+                    }
+                };
+                let (_, asset, gpu) = &uploaded[k];
+                Some(FurRenderer::with_gpu_asset(pipelines, asset, gpu.clone(), &settings, target)?)
             } else {
                 None
             };
@@ -351,19 +364,24 @@ impl SceneRenderer {
         Ok(SceneRenderer { frame: SceneFrame::from_scene(scene), packs, target: target.clone() })
     }
 
-    /// The GPU memory [`SceneRenderer::new`] would allocate for `world` — every entry's fur and
-    /// blade data plus [`crate::RENDERER_OVERHEAD_BYTES`] per renderer — computed from the
-    /// sections' sizes before anything is created, so a host can refuse a scene that would not
-    /// fit instead of failing inside the driver. Reads (and shares) the sections the renderer
-    /// would read.
+    /// The GPU memory [`SceneRenderer::new`] would allocate for `world` — each distinct fur
+    /// asset's shared data once ([`FurGpuAsset`]), each entry's own fur data and blade data, plus
+    /// [`crate::RENDERER_OVERHEAD_BYTES`] per renderer — computed from the sections' sizes before
+    /// anything is created, so a host can refuse a scene that would not fit instead of failing
+    /// inside the driver. Reads (and shares) the sections the renderer would read.
     pub fn estimate_gpu_bytes(world: &World) -> Result<u64, RenderError> {
         let settings = RenderSettings::for_scene(world.scene());
         let mut total = 0u64;
+        let mut counted: Vec<&std::sync::Arc<furbake_runtime::Pack>> = Vec::new();
         for i in 0..world.pack_count() {
             let pack = world.pack(i);
             if pack.has(SectionKind::SKIN_MESH) && pack.has(SectionKind::SHELL_ATLAS) {
                 let asset = FurAsset::from_pack(pack, settings.fins)?;
-                total = total.saturating_add(asset.gpu_bytes(settings.fins) + crate::RENDERER_OVERHEAD_BYTES);
+                if !counted.iter().any(|q| std::sync::Arc::ptr_eq(q, pack)) {
+                    counted.push(pack);
+                    total = total.saturating_add(asset.shared_gpu_bytes(settings.fins));
+                }
+                total = total.saturating_add(asset.instance_gpu_bytes() + crate::RENDERER_OVERHEAD_BYTES);
             }
             if let Some(field) = pack.optional_section::<furbake_formats::sections::blade_field::BladeField>()? {
                 let table = pack.keyframe_table()?;
