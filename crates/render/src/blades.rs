@@ -139,11 +139,96 @@ pub struct BladeRenderer {
     positions: std::sync::OnceLock<(wgpu::Buffer, wgpu::BindGroup)>,
     out_layout: wgpu::BindGroupLayout,
     indices: wgpu::Buffer,
+    /// The field's and table's static buffers (blades, keyframe payload, vertex map, reference
+    /// blade), shared with every other instance of the same field ([`BladeRenderer::instance`]).
+    data: BladeData,
     shared: wgpu::BindGroup,
     compute_pipeline: wgpu::ComputePipeline,
     /// The pass this renderer draws into.
     target: TargetDesc,
     draw_pipeline: wgpu::RenderPipeline,
+}
+
+/// One blade renderer's own buffers: frame uniforms, parameters, corner forces and the delayed
+/// wind sources with their per-corner directions.
+struct InstanceBuffers {
+    frame: wgpu::Buffer,
+    params: wgpu::Buffer,
+    forces: wgpu::Buffer,
+    delayed: wgpu::Buffer,
+    directions: wgpu::Buffer,
+    delayed_capacity: u32,
+}
+
+impl InstanceBuffers {
+    fn new(device: &wgpu::Device, params: &BladeParams, corners: usize) -> InstanceBuffers {
+        let init = |label, contents: &[u8], usage| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage })
+        };
+        let storage = wgpu::BufferUsages::STORAGE;
+        let limits = device.limits();
+        let frame = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("furbake blade frame uniforms"),
+            size: std::mem::size_of::<FrameUniforms>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let params = init(
+            "furbake blade params",
+            bytemuck::bytes_of(params),
+            wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        );
+        // Room for the delayed sources' per-corner directions (at least one source's worth).
+        let per_source = corners.max(1) as u64 * 8;
+        let delayed_capacity =
+            (limits.max_storage_buffer_binding_size / per_source).clamp(1, MAX_DELAYED_SOURCES as u64) as u32;
+        let delayed = init(
+            "furbake delayed wind sources",
+            bytemuck::cast_slice(&vec![DelayedSourceGpu::default(); delayed_capacity as usize]),
+            storage | wgpu::BufferUsages::COPY_DST,
+        );
+        let directions = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("furbake delayed wind directions"),
+            size: per_source * delayed_capacity as u64,
+            usage: storage | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        // Storage bindings cannot be empty: one zero force stands in for a grid without corners.
+        let forces = init(
+            "furbake corner forces",
+            bytemuck::cast_slice(&vec![[0.0f32; 2]; corners.max(1)]),
+            storage | wgpu::BufferUsages::COPY_DST,
+        );
+        InstanceBuffers { frame, params, forces, delayed, directions, delayed_capacity }
+    }
+
+    /// The draw's bind group: these buffers and the field's shared ones.
+    fn bind_group(&self, pipelines: &PipelineCache, data: &BladeData) -> wgpu::BindGroup {
+        pipelines.device().create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("furbake blade shared"),
+            layout: &pipelines.blade_layouts().shared,
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: self.frame.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 1, resource: self.params.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 2, resource: data.blades.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 3, resource: self.forces.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 4, resource: data.payload.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 5, resource: data.map.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 6, resource: data.reference.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 7, resource: self.delayed.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 8, resource: self.directions.as_entire_binding() },
+            ],
+        })
+    }
+}
+
+/// A blade field's static GPU buffers (cheap to clone: wgpu buffers are reference-counted).
+#[derive(Clone)]
+struct BladeData {
+    blades: wgpu::Buffer,
+    payload: wgpu::Buffer,
+    map: wgpu::Buffer,
+    reference: wgpu::Buffer,
 }
 
 /// The payload packed into u32 words (little-endian lanes) and its shader encoding code.
@@ -332,66 +417,28 @@ impl BladeRenderer {
             if v.is_empty() { vec![T::default()] } else { v }
         }
         let storage = wgpu::BufferUsages::STORAGE;
-        let frame_buffer = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("furbake blade frame uniforms"),
-            size: std::mem::size_of::<FrameUniforms>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let params_buffer = init(
-            "furbake blade params",
-            bytemuck::bytes_of(&params),
-            wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-        );
-        // Room for the delayed sources' per-corner directions (at least one source's worth).
-        let per_source = corners.max(1) as u64 * 8;
-        let delayed_capacity =
-            (limits.max_storage_buffer_binding_size / per_source).clamp(1, MAX_DELAYED_SOURCES as u64) as u32;
-        let delayed_buffer = init(
-            "furbake delayed wind sources",
-            bytemuck::cast_slice(&vec![DelayedSourceGpu::default(); delayed_capacity as usize]),
-            storage | wgpu::BufferUsages::COPY_DST,
-        );
-        let directions_buffer = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("furbake delayed wind directions"),
-            size: per_source * delayed_capacity as u64,
-            usage: storage | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let blade_buffer = init("furbake blades", bytemuck::cast_slice(&nonempty(blades)), storage);
-        let force_buffer = init(
-            "furbake corner forces",
-            bytemuck::cast_slice(&nonempty(vec![[0.0f32; 2]; corners])),
-            storage | wgpu::BufferUsages::COPY_DST,
-        );
-        let payload_buffer = init("furbake keyframe payload", bytemuck::cast_slice(&nonempty(payload)), storage);
-        let map_buffer =
-            init("furbake keyframe vertex map", bytemuck::cast_slice(&nonempty(table.vertex_map.clone())), storage);
-        let reference: Vec<[f32; 4]> = table.reference_positions.iter().map(|p| [p[0], p[1], p[2], 1.0]).collect();
-        let reference_buffer = init("furbake reference blade", bytemuck::cast_slice(&nonempty(reference)), storage);
+        let data = BladeData {
+            blades: init("furbake blades", bytemuck::cast_slice(&nonempty(blades)), storage),
+            payload: init("furbake keyframe payload", bytemuck::cast_slice(&nonempty(payload)), storage),
+            map: init(
+                "furbake keyframe vertex map",
+                bytemuck::cast_slice(&nonempty(table.vertex_map.clone())),
+                storage,
+            ),
+            reference: {
+                let reference: Vec<[f32; 4]> =
+                    table.reference_positions.iter().map(|p| [p[0], p[1], p[2], 1.0]).collect();
+                init("furbake reference blade", bytemuck::cast_slice(&nonempty(reference)), storage)
+            },
+        };
         let index_data: Vec<u32> = table.triangles.iter().flatten().copied().collect();
         let indices = init(
             "furbake blade triangles",
             bytemuck::cast_slice(&nonempty(index_data.clone())),
             wgpu::BufferUsages::INDEX,
         );
-
-        let layouts = pipelines.blade_layouts();
-        let shared = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("furbake blade shared"),
-            layout: &layouts.shared,
-            entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: frame_buffer.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 1, resource: params_buffer.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 2, resource: blade_buffer.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 3, resource: force_buffer.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 4, resource: payload_buffer.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 5, resource: map_buffer.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 6, resource: reference_buffer.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 7, resource: delayed_buffer.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 8, resource: directions_buffer.as_entire_binding() },
-            ],
-        });
+        let own = InstanceBuffers::new(device, &params, corners);
+        let shared = own.bind_group(pipelines, &data);
         Ok(BladeRenderer {
             params,
             bounds: field_bounds(field, table),
@@ -399,23 +446,65 @@ impl BladeRenderer {
             vertex_count: vertex_count as u32,
             corner_count: corners as u32,
             index_count: index_data.len() as u32,
-            frame_buffer,
-            force_buffer,
-            params_buffer,
-            delayed_buffer,
-            directions_buffer,
-            delayed_capacity,
+            frame_buffer: own.frame,
+            force_buffer: own.forces,
+            params_buffer: own.params,
+            delayed_buffer: own.delayed,
+            directions_buffer: own.directions,
+            delayed_capacity: own.delayed_capacity,
             delayed_count: std::sync::atomic::AtomicU32::new(0),
             grid: field.grid,
             positions: std::sync::OnceLock::new(),
-            out_layout: layouts.out.clone(),
+            out_layout: pipelines.blade_layouts().out.clone(),
             indices,
+            data,
             shared,
             // One per cache, independent of the target.
             compute_pipeline: pipelines.blade_compute()?,
             target: target.clone(),
             draw_pipeline,
         })
+    }
+
+    /// Another renderer of the same blade field, settings and target that shares this one's
+    /// static buffers (blades, keyframe payload, vertex map, reference blade, triangles) and owns
+    /// only what differs per placement — uniforms, corner forces, wind-source directions: a scene
+    /// that places one grass pack many times uploads its field once.
+    pub fn instance(&self, pipelines: &PipelineCache) -> Result<BladeRenderer, RenderError> {
+        let device = pipelines.device();
+        crate::gpu_scope(device, "creating a blade renderer instance", || {
+            let own = InstanceBuffers::new(device, &self.params, self.corner_count as usize);
+            let shared = own.bind_group(pipelines, &self.data);
+            Ok(BladeRenderer {
+                params: self.params,
+                bounds: self.bounds,
+                blade_count: self.blade_count,
+                vertex_count: self.vertex_count,
+                corner_count: self.corner_count,
+                index_count: self.index_count,
+                frame_buffer: own.frame,
+                force_buffer: own.forces,
+                params_buffer: own.params,
+                delayed_buffer: own.delayed,
+                directions_buffer: own.directions,
+                delayed_capacity: own.delayed_capacity,
+                delayed_count: std::sync::atomic::AtomicU32::new(0),
+                grid: self.grid,
+                positions: std::sync::OnceLock::new(),
+                out_layout: self.out_layout.clone(),
+                indices: self.indices.clone(),
+                data: self.data.clone(),
+                shared,
+                compute_pipeline: self.compute_pipeline.clone(),
+                target: self.target.clone(),
+                draw_pipeline: self.draw_pipeline.clone(),
+            })
+        })
+    }
+
+    /// True when `other` draws from the same uploaded blade field as this renderer.
+    pub fn shares_data_with(&self, other: &BladeRenderer) -> bool {
+        self.data.blades == other.data.blades
     }
 
     /// Reads the pack's first blade field and keyframe table and uploads them ([`BladeRenderer::new`]);
@@ -442,11 +531,21 @@ impl BladeRenderer {
     /// counting its fixed cost ([`crate::RENDERER_OVERHEAD_BYTES`]) nor the positions buffer a
     /// compute readback adds.
     pub fn gpu_bytes(field: &BladeField, table: &KeyframeTable) -> u64 {
-        let corners = field.grid.corners() as u64;
+        Self::shared_gpu_bytes(field, table) + Self::instance_gpu_bytes(field)
+    }
+
+    /// The part of [`BladeRenderer::gpu_bytes`] every [`BladeRenderer::instance`] of one field
+    /// shares: the blades and the keyframe payload.
+    pub fn shared_gpu_bytes(field: &BladeField, table: &KeyframeTable) -> u64 {
         field.blade_count() as u64 * std::mem::size_of::<BladeGpu>() as u64
             + table.stored_poses() * table.stored_vectors as u64 * 3 * 4
-            + corners * 8
-            + corners * 8 * MAX_DELAYED_SOURCES as u64
+    }
+
+    /// The part of [`BladeRenderer::gpu_bytes`] each instance holds of its own: corner forces and
+    /// the delayed wind sources' per-corner directions.
+    pub fn instance_gpu_bytes(field: &BladeField) -> u64 {
+        let corners = field.grid.corners() as u64;
+        corners * 8 + corners * 8 * MAX_DELAYED_SOURCES as u64
     }
 
     /// Centre and radius (metres) of a sphere holding every blade in any pose (roots grown by the

@@ -141,11 +141,13 @@ pub use skinning::{PosedVertices, SkinningPass};
 pub use target::{ColorTarget, DepthTarget, TargetDesc};
 
 /// The fixed GPU (or, on lavapipe, host) memory of one fur or blade renderer beyond its data —
-/// pipelines, bind groups, uniform buffers. Measured on lavapipe: a scene of 50 Fox entries took
-/// 199 MB more resident memory than one (`/usr/bin/time -v furbake preview`, 64×64), about
-/// 4 MiB per entry of which ~0.5 MiB is data. That was before renderers shared their pipelines
-/// ([`PipelineCache`]), so it is an upper bound now.
-pub const RENDERER_OVERHEAD_BYTES: u64 = 4 << 20;
+/// uniform buffers, bind groups, its share of the pipeline cache. Measured on lavapipe with
+/// renderers sharing their pipelines ([`PipelineCache`]) and each pack's uploaded data
+/// ([`FurGpuAsset`], [`BladeRenderer::instance`]): scenes of 1, 50 and 500 entries of the Fox took
+/// 101, 209 and 588 MB resident (`/usr/bin/time -v furbake preview SCENE -o x.png --size 64x64`),
+/// 0.84 MiB per entry from 50 to 500, all of its data included; 500 Fox plus 500 grass-patch
+/// entries (1,500 renderers) took 585 MB. One MiB per renderer bounds that.
+pub const RENDERER_OVERHEAD_BYTES: u64 = 1 << 20;
 
 /// The command that installs a software Vulkan driver on Debian/Ubuntu machines without a GPU.
 pub const LAVAPIPE_HINT: &str =

@@ -347,7 +347,12 @@ impl SceneRenderer {
             } else {
                 None
             };
-            let blades = BladeRenderer::from_pack(pipelines, queue, pack, &BladeSettings::default(), target)?;
+            // A grass pack placed again draws from the first placement's uploaded field.
+            let first = (0..i).find(|&j| std::sync::Arc::ptr_eq(world.pack(j), pack));
+            let blades = match first.and_then(|j| packs.get(j)).and_then(|p: &PackRenderers| p.blades.as_ref()) {
+                Some(earlier) => Some(earlier.instance(pipelines)?),
+                None => BladeRenderer::from_pack(pipelines, queue, pack, &BladeSettings::default(), target)?,
+            };
             if fur.is_none() && blades.is_none() {
                 return Err(RenderError::InvalidAsset {
                     what: format!("scene pack {:?} ({}) has neither fur nor grass blades", p.name, p.path.display()),
@@ -372,20 +377,24 @@ impl SceneRenderer {
     pub fn estimate_gpu_bytes(world: &World) -> Result<u64, RenderError> {
         let settings = RenderSettings::for_scene(world.scene());
         let mut total = 0u64;
-        let mut counted: Vec<&std::sync::Arc<furbake_runtime::Pack>> = Vec::new();
         for i in 0..world.pack_count() {
             let pack = world.pack(i);
+            // The first entry naming a file uploads what its entries share.
+            let first = (0..i).find(|&j| std::sync::Arc::ptr_eq(world.pack(j), pack));
             if pack.has(SectionKind::SKIN_MESH) && pack.has(SectionKind::SHELL_ATLAS) {
                 let asset = FurAsset::from_pack(pack, settings.fins)?;
-                if !counted.iter().any(|q| std::sync::Arc::ptr_eq(q, pack)) {
-                    counted.push(pack);
+                if first.is_none() {
                     total = total.saturating_add(asset.shared_gpu_bytes(settings.fins));
                 }
                 total = total.saturating_add(asset.instance_gpu_bytes() + crate::RENDERER_OVERHEAD_BYTES);
             }
             if let Some(field) = pack.optional_section::<furbake_formats::sections::blade_field::BladeField>()? {
-                let table = pack.keyframe_table()?;
-                total = total.saturating_add(BladeRenderer::gpu_bytes(&field, &table) + crate::RENDERER_OVERHEAD_BYTES);
+                if first.is_none() {
+                    let table = pack.keyframe_table()?;
+                    total = total.saturating_add(BladeRenderer::shared_gpu_bytes(&field, &table));
+                }
+                total =
+                    total.saturating_add(BladeRenderer::instance_gpu_bytes(&field) + crate::RENDERER_OVERHEAD_BYTES);
             }
         }
         Ok(total)

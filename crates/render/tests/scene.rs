@@ -416,6 +416,17 @@ fn entries_of_one_pack_share_its_gpu_asset() {
     assert_eq!(fur.len(), 3);
     assert!(fur.windows(2).all(|w| std::sync::Arc::ptr_eq(w[0].gpu_asset(), w[1].gpu_asset())));
     assert_eq!(std::sync::Arc::strong_count(fur[0].gpu_asset()), 3, "one upload, three renderers");
+    // Grass placed twice draws from one uploaded field.
+    let mut t = String::new();
+    for k in 0..2 {
+        t.push_str(&format!("[[packs]]\nname = \"g{k}\"\npath = \"grass.fbk\"\n"));
+    }
+    let lawn = World::new(Scene::from_toml_str(&t, Path::new("g.toml"), dir).unwrap()).unwrap();
+    let both = SceneRenderer::new(&g.device, &g.queue, &lawn).unwrap();
+    let (a, b) = (both.packs[0].blades.as_ref().unwrap(), both.packs[1].blades.as_ref().unwrap());
+    assert!(a.shares_data_with(b));
+    let alone = SceneRenderer::new(&g.device, &g.queue, &text(1)).unwrap();
+    assert!(!a.shares_data_with(alone.packs[1].blades.as_ref().unwrap()), "another renderer set uploads its own");
     // The estimate: the shared part once, the per-placement part per entry.
     let (one, ten) =
         (SceneRenderer::estimate_gpu_bytes(&text(1)).unwrap(), SceneRenderer::estimate_gpu_bytes(&text(10)).unwrap());
