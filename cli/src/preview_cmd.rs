@@ -156,12 +156,12 @@ impl SceneRun {
             SceneRenderer::estimate_gpu_bytes(&world).map_err(|e| render_failure(e, path))? + 8 * w as u64 * h as u64; // colour and depth targets
         if need > max_memory {
             return Err(Failure::Usage(anyhow!(
-                "{}: the scene's {} pack entries need about {} MiB of GPU memory, above --max-memory {} MiB; \
+                "{}: the scene's {} pack entries need about {} MiB of GPU memory, above --max-memory {}; \
                  place fewer entries or raise --max-memory",
                 path.display(),
                 world.pack_count(),
                 need.div_ceil(1 << 20),
-                max_memory >> 20
+                crate::args::format_bytes(max_memory)
             )));
         }
         let gpu = HeadlessGpu::new().map_err(|e| render_failure(e, path))?;
