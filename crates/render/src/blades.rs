@@ -126,12 +126,8 @@ pub struct BladeRenderer {
     vertex_count: u32,
     corner_count: u32,
     index_count: u32,
-    frame_buffer: wgpu::Buffer,
-    force_buffer: wgpu::Buffer,
-    params_buffer: wgpu::Buffer,
-    delayed_buffer: wgpu::Buffer,
-    directions_buffer: wgpu::Buffer,
-    delayed_capacity: u32,
+    /// This renderer's own buffers (uniforms, forces, delayed sources).
+    own: InstanceBuffers,
     /// `BladeParams::delayed_sources` as last uploaded.
     delayed_count: std::sync::atomic::AtomicU32,
     grid: furbake_formats::sections::blade_field::ClusterGrid,
@@ -446,12 +442,7 @@ impl BladeRenderer {
             vertex_count: vertex_count as u32,
             corner_count: corners as u32,
             index_count: index_data.len() as u32,
-            frame_buffer: own.frame,
-            force_buffer: own.forces,
-            params_buffer: own.params,
-            delayed_buffer: own.delayed,
-            directions_buffer: own.directions,
-            delayed_capacity: own.delayed_capacity,
+            own,
             delayed_count: std::sync::atomic::AtomicU32::new(0),
             grid: field.grid,
             positions: std::sync::OnceLock::new(),
@@ -482,12 +473,7 @@ impl BladeRenderer {
                 vertex_count: self.vertex_count,
                 corner_count: self.corner_count,
                 index_count: self.index_count,
-                frame_buffer: own.frame,
-                force_buffer: own.forces,
-                params_buffer: own.params,
-                delayed_buffer: own.delayed,
-                directions_buffer: own.directions,
-                delayed_capacity: own.delayed_capacity,
+                own,
                 delayed_count: std::sync::atomic::AtomicU32::new(0),
                 grid: self.grid,
                 positions: std::sync::OnceLock::new(),
@@ -589,12 +575,12 @@ impl BladeRenderer {
             return;
         }
         let offset = std::mem::offset_of!(BladeParams, delayed_sources) as u64;
-        queue.write_buffer(&self.params_buffer, offset, bytemuck::bytes_of(&count));
+        queue.write_buffer(&self.own.params, offset, bytemuck::bytes_of(&count));
     }
 
     /// Most delayed-attenuation sources [`BladeRenderer::set_force_scene`] accepts on this device.
     pub fn delayed_capacity(&self) -> u32 {
-        self.delayed_capacity
+        self.own.delayed_capacity
     }
 
     /// Writes the forces of `scene` on this blade field: `field`'s corner forces (it must have
@@ -614,12 +600,12 @@ impl BladeRenderer {
             return Err(RenderError::Parameter { what: "the force field's grid is not the blade field's".into() });
         }
         let delayed: Vec<_> = scene.sources.iter().filter(|s| s.delayed).collect();
-        if delayed.len() > self.delayed_capacity as usize {
+        if delayed.len() > self.own.delayed_capacity as usize {
             return Err(RenderError::Parameter {
                 what: format!(
                     "{} delayed wind sources, at most {} on this device",
                     delayed.len(),
-                    self.delayed_capacity
+                    self.own.delayed_capacity
                 ),
             });
         }
@@ -653,8 +639,8 @@ impl BladeRenderer {
             });
         }
         if !sources.is_empty() {
-            queue.write_buffer(&self.delayed_buffer, 0, bytemuck::cast_slice(&sources));
-            queue.write_buffer(&self.directions_buffer, 0, bytemuck::cast_slice(&directions));
+            queue.write_buffer(&self.own.delayed, 0, bytemuck::cast_slice(&sources));
+            queue.write_buffer(&self.own.directions, 0, bytemuck::cast_slice(&directions));
         }
         self.write_delayed_count(queue, sources.len() as u32);
         Ok(())
@@ -676,7 +662,7 @@ impl BladeRenderer {
         }
         const FORCE_BYTES: usize = 8;
         let Some(size) = wgpu::BufferSize::new((forces.len() * FORCE_BYTES) as u64) else { return Ok(()) };
-        let Some(mut view) = queue.write_buffer_with(&self.force_buffer, 0, size) else {
+        let Some(mut view) = queue.write_buffer_with(&self.own.forces, 0, size) else {
             return Err(RenderError::Gpu { what: "the corner force upload was refused".into() });
         };
         for (i, f) in forces.enumerate() {
@@ -766,7 +752,7 @@ impl BladeRenderer {
     /// blades only; [`BladeRenderer::read_positions`] stays in the pack frame. Does not submit,
     /// wait or allocate.
     pub fn prepare(&self, queue: &wgpu::Queue, _encoder: &mut wgpu::CommandEncoder, frame: &FrameUniforms) {
-        queue.write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(frame));
+        queue.write_buffer(&self.own.frame, 0, bytemuck::bytes_of(frame));
     }
 
     /// Draws every blade instanced into the host's `pass`, whose attachments must match
