@@ -401,8 +401,8 @@ impl FurRenderer {
     /// (`world(joint) × inverseBind`, `furbake_runtime::animation::skinning_matrices`; empty
     /// without skin weights) and one weight per morph target (empty without morph targets). The
     /// skinning dispatch the next [`FurRenderer::prepare`] records skins the asset with it before
-    /// [`FurRenderer::render`] draws. Scale vectors stay in the bind-pose mesh frame the physics simulates in; the
-    /// shaders turn each with its vertex's normal. A static asset, a wrong count or a non-finite
+    /// [`FurRenderer::render`] draws. Scale vectors are given in the posed mesh frame (the runtime
+    /// poses the physics on the skinned surface) and used as given. A static asset, a wrong count or a non-finite
     /// value is a [`RenderError::Parameter`] and changes nothing. No allocation (see
     /// [`SkinningPass::set_pose`]).
     pub fn set_pose(
