@@ -43,7 +43,7 @@ const MAX_FRAME_GAP_S: f64 = 0.25;
 const TITLE_EVERY: Duration = Duration::from_millis(250);
 /// Weight of the newest frame in the smoothed frame time (exponential moving average).
 const FRAME_TIME_SMOOTHING: f64 = 0.1;
-/// Time steps one Left/Right press moves (`SHIFT_STEPS` with Shift).
+/// Time steps one Left/Right press moves.
 const SCRUB_STEPS: u64 = 1;
 /// Time steps one Shift+Left/Right press moves.
 const SHIFT_SCRUB_STEPS: u64 = 10;
@@ -504,6 +504,8 @@ impl App {
             },
             _ => return Ok(()),
         }
+        // Scene time may have jumped: the next title starts a new speed measurement.
+        self.clock.title_at = None;
         self.dirty = true;
         Ok(())
     }
