@@ -12,11 +12,16 @@ SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
 .PHONY: demo test build deps bench fmt clippy golden clean-out report fuzz
 
-# The renderer needs a Vulkan driver; on machines without a GPU that is Mesa's lavapipe.
+# The renderer needs a Vulkan driver; on machines without a GPU that is Mesa's lavapipe. The
+# `furbake view` test needs a virtual X server (Xvfb).
 deps:
 	@if ! ls /usr/share/vulkan/icd.d/*.json >/dev/null 2>&1 || ! ldconfig -p | grep -q 'libvulkan.so.1 '; then \
 		echo "installing Mesa's software Vulkan driver (lavapipe)"; \
 		$(SUDO) apt-get update -qq && $(SUDO) apt-get install -y -qq --no-install-recommends mesa-vulkan-drivers libvulkan1; \
+	fi
+	@if ! command -v xvfb-run >/dev/null 2>&1; then \
+		echo "installing Xvfb (the furbake view test opens a window on a virtual X server)"; \
+		$(SUDO) apt-get update -qq && $(SUDO) apt-get install -y -qq --no-install-recommends xvfb xauth; \
 	fi
 
 # The demo uses the dev profile (our crates at opt-level 1, dependencies at 2; see Cargo.toml):

@@ -13,6 +13,7 @@ mod preview_cmd;
 mod report_cmd;
 mod simulate_cmd;
 mod stdout;
+mod view_cmd;
 
 use std::process::ExitCode;
 
@@ -32,7 +33,7 @@ fn main() -> ExitCode {
             return ExitCode::from(if e.use_stderr() { failure::EXIT_USAGE } else { 0 });
         }
     };
-    if matches!(cli.command, Command::Preview(_)) {
+    if matches!(cli.command, Command::Preview(_) | Command::View(_)) {
         quiet_wayland_probe();
     }
     if let Some(n) = cli.threads {
@@ -56,6 +57,7 @@ fn main() -> ExitCode {
         Command::Simulate(a) => simulate_cmd::run(a, cli.quiet),
         Command::Report(a) => report_cmd::run(a, cli.quiet),
         Command::Extract(a) => extract_cmd::run(a, cli.quiet),
+        Command::View(a) => view_cmd::run(a, cli.quiet),
     };
     match result {
         Ok(()) | Err(failure::Failure::StdoutClosed) => ExitCode::SUCCESS,

@@ -44,9 +44,9 @@ enum SceneOutput {
     Frames { dir: PathBuf, count: u32 },
 }
 
-/// What the positional argument is.
+/// What the positional argument of `preview` and `view` is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum InputKind {
+pub(crate) enum InputKind {
     Pack,
     Scene,
 }
@@ -95,7 +95,7 @@ fn plan(args: PreviewArgs) -> Result<PreviewPlan, Failure> {
 /// `.toml` is a scene and `.fbk` a pack; anything else by its content: the container magic is a
 /// pack, TOML with a `packs` array a scene. A missing file with another extension is treated as
 /// a pack (so the error names it as one); a readable file that is neither is a usage error.
-fn input_kind(path: &Path) -> Result<InputKind, Failure> {
+pub(crate) fn input_kind(path: &Path) -> Result<InputKind, Failure> {
     let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
     match ext.as_deref() {
         Some("toml") => return Ok(InputKind::Scene),
@@ -115,7 +115,7 @@ fn input_kind(path: &Path) -> Result<InputKind, Failure> {
     }
     Err(Failure::Usage(anyhow!(
         "{}: neither a pack (no furbake container magic) nor a runtime scene (TOML with [[packs]]); \
-         preview takes PACK.fbk or SCENE.toml",
+         expected PACK.fbk or SCENE.toml",
         path.display()
     )))
 }
@@ -150,20 +150,8 @@ impl SceneRun {
     /// `max_memory` before creating anything on the GPU, and builds a renderer that shares the
     /// world's packs.
     fn start(path: &Path, (w, h): (u32, u32), max_memory: u64) -> Result<SceneRun, Failure> {
-        let scene = Scene::load(path).map_err(failure::scene)?;
-        let world = World::new(scene).map_err(|e| failure::runtime(e, path))?;
-        let need =
-            SceneRenderer::estimate_gpu_bytes(&world).map_err(|e| render_failure(e, path))? + 8 * w as u64 * h as u64; // colour and depth targets
-        if need > max_memory {
-            return Err(Failure::Usage(anyhow!(
-                "{}: the scene's {} pack entries need about {} MiB of GPU memory, above --max-memory {}; \
-                 place fewer entries or raise --max-memory",
-                path.display(),
-                world.pack_count(),
-                need.div_ceil(1 << 20),
-                crate::args::format_bytes(max_memory)
-            )));
-        }
+        // The headless target: colour and depth, 4 bytes a pixel each.
+        let world = open_scene_world(path, 8 * w as u64 * h as u64, max_memory)?;
         let gpu = HeadlessGpu::new().map_err(|e| render_failure(e, path))?;
         let renderer = SceneRenderer::new(&gpu.device, &gpu.queue, &world).map_err(|e| render_failure(e, path))?;
         let target = RenderTarget::new(&gpu.device, w, h).map_err(|e| render_failure(e, path))?;
@@ -208,6 +196,35 @@ impl SceneRun {
         }
         result
     }
+}
+
+/// Loads the runtime scene at `path` and builds its world (`furbake preview` and `furbake view`).
+/// The renderers' GPU memory is then checked against `max_memory` before anything is created on
+/// the GPU ([`check_gpu_memory`]).
+pub(crate) fn open_scene_world(path: &Path, target_bytes: u64, max_memory: u64) -> Result<World, Failure> {
+    let scene = Scene::load(path).map_err(failure::scene)?;
+    let world = World::new(scene).map_err(|e| failure::runtime(e, path))?;
+    check_gpu_memory(&world, path, target_bytes, max_memory)?;
+    Ok(world)
+}
+
+/// Refuses (exit 2) a world whose renderers' estimated GPU memory
+/// (`SceneRenderer::estimate_gpu_bytes`) plus the host's `target_bytes` (its colour and depth
+/// targets) is above `max_memory`.
+pub(crate) fn check_gpu_memory(world: &World, path: &Path, target_bytes: u64, max_memory: u64) -> Result<(), Failure> {
+    let need =
+        SceneRenderer::estimate_gpu_bytes(world).map_err(|e| render_failure(e, path))?.saturating_add(target_bytes);
+    if need > max_memory {
+        return Err(Failure::Usage(anyhow!(
+            "{}: the scene's {} pack entries need about {} MiB of GPU memory, above --max-memory {}; \
+             place fewer entries or raise --max-memory",
+            path.display(),
+            world.pack_count(),
+            need.div_ceil(1 << 20),
+            crate::args::format_bytes(max_memory)
+        )));
+    }
+    Ok(())
 }
 
 fn run_scene(
@@ -266,7 +283,8 @@ fn frame_name(index: u32, count: u32) -> String {
     format!("frame_{index:0width$}.png")
 }
 
-fn write_png(path: &Path, image: &image::RgbaImage) -> Result<(), Failure> {
+/// Encodes `image` as a PNG and writes it atomically (`furbake_formats::write_file_atomic`).
+pub(crate) fn write_png(path: &Path, image: &image::RgbaImage) -> Result<(), Failure> {
     let mut bytes = Vec::new();
     image
         .write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png)
@@ -275,7 +293,9 @@ fn write_png(path: &Path, image: &image::RgbaImage) -> Result<(), Failure> {
     furbake_formats::write_file_atomic(path, &bytes).input()
 }
 
-fn render_failure(e: RenderError, scene: &Path) -> Failure {
+/// A render error of the scene at `scene`: a bad parameter (the target size against the
+/// device's limit) is a usage error, anything else bad input.
+pub(crate) fn render_failure(e: RenderError, scene: &Path) -> Failure {
     match e {
         // The only caller-side parameter here is --size (checked against the device's limit).
         RenderError::Parameter { .. } => Failure::Usage(e.into()),

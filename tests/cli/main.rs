@@ -16,6 +16,7 @@ mod memory_budget;
 mod plan_first;
 mod preview_scene;
 mod simulate_scene;
+mod view;
 use common::*;
 
 #[test]
