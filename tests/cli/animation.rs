@@ -14,7 +14,7 @@ use crate::inspect_json;
 fn animation_the_fox_pack_lists_its_clips_and_joints() {
     let dir = tempfile::tempdir().unwrap();
     let pack = dir.path().join("fox.fbk");
-    let fox = shared_fixture("Fox.glb");
+    let fox = real_fixture("Fox.glb");
     assert_ok(&furbake(&["bake", s(&fox), "-o", s(&pack), "--resolution", "32", "-q"]), "bake the fox");
     let verified = furbake(&["verify", s(&pack)]);
     assert_ok(&verified, "verify the fox");
@@ -134,7 +134,7 @@ fn animation_state_out_agrees_with_an_independent_implementation() {
         ("Quaternius_Wolf.glb", "Gallop", 0.3),
         ("CesiumMilkTruck.glb", "Wheels", 0.9),
     ] {
-        let worst = check_against_independent(&shared_fixture(model), clip, t);
+        let worst = check_against_independent(&real_fixture(model), clip, t);
         eprintln!("{model} {clip} @ {t} s: worst {worst:.2e} of the diagonal");
     }
     // Morph targets (position deltas, a weights channel) and cubic-spline keys: the skinned

@@ -28,22 +28,25 @@ pub fn s(p: &Path) -> &str {
     p.to_str().expect("test paths are UTF-8")
 }
 
-/// The shared real fixtures folder (`../shared/fixtures/real` beside the repository).
-pub fn shared_dir() -> PathBuf {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/fixtures/real");
-    assert!(dir.is_dir(), "the shared fixtures are missing: expected {}", dir.display());
+/// The real fixtures folder: the repository's `fixtures/real/` (licences beside them), or the
+/// folder `FURBAKE_FIXTURES` names (to run the tests on another set of models).
+pub fn real_dir() -> PathBuf {
+    let dir = std::env::var_os("FURBAKE_FIXTURES")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/real"));
+    assert!(dir.is_dir(), "the real fixtures are missing: expected {}", dir.display());
     dir
 }
 
-/// One shared fixture by file name.
-pub fn shared_fixture(name: &str) -> PathBuf {
-    shared_dir().join(name)
+/// One real fixture by file name.
+pub fn real_fixture(name: &str) -> PathBuf {
+    real_dir().join(name)
 }
 
-/// Every .glb / .gltf under the shared fixtures, sorted.
+/// Every .glb / .gltf under the real fixtures, sorted.
 pub fn real_fixtures() -> Vec<PathBuf> {
     let mut out = Vec::new();
-    let mut stack = vec![shared_dir()];
+    let mut stack = vec![real_dir()];
     while let Some(d) = stack.pop() {
         for e in std::fs::read_dir(&d).unwrap().flatten() {
             let p = e.path();

@@ -33,7 +33,7 @@ fn packs_pngs_and_json_are_0644_under_umask_022() {
     let dir = tempfile::tempdir().unwrap();
     let pack = dir.path().join("box.fbk");
     let png_dir = dir.path().join("bake-png");
-    let mesh = shared_fixture("Box.glb");
+    let mesh = real_fixture("Box.glb");
     let out = furbake_under_umask_022(&[
         "bake",
         s(&mesh),

@@ -11,7 +11,7 @@ use super::common::*;
 /// Copies the shared real fixture `TwoSidedPlane` (a .gltf with an external buffer and textures)
 /// into `dir`; returns the number of files copied.
 fn copy_plane(dir: &Path) -> usize {
-    let src = shared_fixture("TwoSidedPlane");
+    let src = real_fixture("TwoSidedPlane");
     std::fs::create_dir_all(dir).unwrap();
     let mut copied = 0;
     for entry in std::fs::read_dir(&src).unwrap() {

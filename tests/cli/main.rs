@@ -60,7 +60,7 @@ fn every_real_fixture_bakes_verifies_inspects_and_extracts() {
 #[test]
 fn bake_is_byte_identical_for_any_thread_count() {
     let dir = tempfile::tempdir().unwrap();
-    let mesh = shared_fixture("Fox.glb");
+    let mesh = real_fixture("Fox.glb");
     let mut packs = Vec::new();
     for threads in ["1", "2", "4"] {
         let pack = dir.path().join(format!("fox-{threads}.fbk"));
@@ -84,7 +84,7 @@ fn grass_preset_and_config_overrides_reach_the_pack() {
     )
     .unwrap();
     let pack = dir.path().join("box.fbk");
-    let mesh = shared_fixture("BoxVertexColors.glb");
+    let mesh = real_fixture("BoxVertexColors.glb");
     let out = furbake(&[
         "bake",
         s(&mesh),
@@ -116,7 +116,7 @@ fn grass_preset_and_config_overrides_reach_the_pack() {
 fn corrupted_and_truncated_packs_exit_1_with_one_line() {
     let dir = tempfile::tempdir().unwrap();
     let pack = dir.path().join("box.fbk");
-    assert_ok(&furbake(&["bake", s(&shared_fixture("Box.glb")), "-o", s(&pack), "--resolution", "16", "-q"]), "bake");
+    assert_ok(&furbake(&["bake", s(&real_fixture("Box.glb")), "-o", s(&pack), "--resolution", "16", "-q"]), "bake");
     let bytes = std::fs::read(&pack).unwrap();
     let mut cases = 0;
     for (name, damaged) in [
@@ -154,7 +154,7 @@ fn broken_gltf_exits_1_and_leaves_no_output() {
     let dir = tempfile::tempdir().unwrap();
     let cases: Vec<(&str, Vec<u8>)> = vec![
         ("garbage.glb", b"glTF\x02\x00\x00\x00garbage".to_vec()),
-        ("truncated.glb", std::fs::read(shared_fixture("Fox.glb")).unwrap()[..5000].to_vec()),
+        ("truncated.glb", std::fs::read(real_fixture("Fox.glb")).unwrap()[..5000].to_vec()),
         ("empty.gltf", b"{\"asset\":{\"version\":\"2.0\"},\"scenes\":[{\"nodes\":[]}],\"scene\":0}".to_vec()),
         (
             "draco.gltf",
@@ -185,7 +185,7 @@ fn broken_gltf_exits_1_and_leaves_no_output() {
 #[test]
 fn usage_errors_exit_2() {
     let dir = tempfile::tempdir().unwrap();
-    let mesh = shared_fixture("Box.glb");
+    let mesh = real_fixture("Box.glb");
     let out_path = dir.path().join("x.fbk");
     for args in [
         vec!["bake"],
@@ -252,7 +252,7 @@ fn bare_region_gets_fur_boundary_fins_and_the_table_inspects() {
 fn invalid_import_settings_are_usage_errors() {
     let dir = tempfile::tempdir().unwrap();
     let out_path = dir.path().join("x.fbk");
-    let mesh = shared_fixture("Box.glb");
+    let mesh = real_fixture("Box.glb");
     let out = furbake(&["bake", s(&mesh), "-o", s(&out_path), "--set", r#"import.weld_tolerance={"relative":-1}"#]);
     assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
     assert!(!out_path.exists());
@@ -317,7 +317,7 @@ fn preview_renders_a_recognisable_fur_image() {
     // Runs on lavapipe (software Vulkan) where there is no GPU; `.ci/run` installs it.
     let dir = tempfile::tempdir().unwrap();
     let pack = dir.path().join("fox.fbk");
-    assert_ok(&furbake(&["bake", s(&shared_fixture("Fox.glb")), "-o", s(&pack), "--resolution", "64", "-q"]), "bake");
+    assert_ok(&furbake(&["bake", s(&real_fixture("Fox.glb")), "-o", s(&pack), "--resolution", "64", "-q"]), "bake");
     let png = dir.path().join("fox.png");
     let out = furbake(&["preview", s(&pack), "-o", s(&png), "--size", "160x120"]);
     assert_ok(&out, "preview");
@@ -383,7 +383,7 @@ fn topology_counts_follow_the_spec_on_the_grass_patch_and_the_fox() {
     assert_eq!(c["separable-prisms"], (96, 96, 0));
     assert_eq!(c["chain"].0, 13 * 16, "a mass on every one of the 16 layers");
     // Fox.glb welds to V=290, E=864, F=576.
-    let c = topology_counts(&shared_fixture("Fox.glb"), dir.path());
+    let c = topology_counts(&real_fixture("Fox.glb"), dir.path());
     assert_eq!(c["spring-sticks"], (580, 290, 0));
     assert_eq!(c["prisms"], (580, 290 + 864, 0));
     assert_eq!(c["separable-spring-sticks"], (3456, 1728, 0));
@@ -479,7 +479,7 @@ fn every_truncation_and_byte_corruption_of_a_real_pack_is_rejected() {
     // keyframes, a topology), kept small so the sweep is quick.
     let dir = tempfile::tempdir().unwrap();
     let pack = dir.path().join("box.fbk");
-    let mesh = shared_fixture("BoxVertexColors.glb");
+    let mesh = real_fixture("BoxVertexColors.glb");
     let args = [
         "bake",
         s(&mesh),

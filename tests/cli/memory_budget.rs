@@ -31,7 +31,7 @@ fn assert_bake_refused(mesh: &Path, extra: &[&str], key: &str) -> String {
 
 #[test]
 fn a_bake_over_the_budget_exits_2_naming_the_setting_that_drives_it() {
-    let fox = shared_fixture("Fox.glb");
+    let fox = real_fixture("Fox.glb");
     // The fur preset's shells are the Fox bake's largest part: 16 layers of 128² at the write.
     let err = assert_bake_refused(&fox, &["--max-memory", "1M"], "volume.resolution = 128");
     assert!(err.contains("lower volume.resolution (--resolution)"), "{err}");
@@ -63,7 +63,7 @@ fn a_huge_blade_density_is_refused_before_any_blade_is_scattered() {
 #[test]
 fn the_default_budget_accepts_the_usual_bakes() {
     let dir = tempfile::tempdir().unwrap();
-    let fox = shared_fixture("Fox.glb");
+    let fox = real_fixture("Fox.glb");
     let pack = dir.path().join("fox.fbk");
     let out = furbake(&["bake", s(&fox), "-o", s(&pack), "--topology", "prisms", "-q"]);
     assert_ok(&out, "bake Fox with the default budget");
@@ -80,7 +80,7 @@ fn the_default_budget_accepts_the_usual_bakes() {
 /// Bakes the Fox with prisms into `dir/fox.fbk` and writes a windy scene for it.
 fn fox_scene(dir: &Path) -> PathBuf {
     let pack = dir.join("fox.fbk");
-    let out = furbake(&["bake", s(&shared_fixture("Fox.glb")), "-o", s(&pack), "--topology", "prisms", "-q"]);
+    let out = furbake(&["bake", s(&real_fixture("Fox.glb")), "-o", s(&pack), "--topology", "prisms", "-q"]);
     assert_ok(&out, "bake Fox");
     let scene = dir.join("fox.toml");
     std::fs::write(

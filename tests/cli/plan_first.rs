@@ -120,7 +120,7 @@ fn a_bad_topology_parameter_exits_2_before_the_input_is_read() {
 fn the_topology_symptom_of_the_issue_exits_2_with_a_real_input_and_writes_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let out_path = dir.path().join("x.fbk");
-    let mesh = shared_fixture("Box.glb");
+    let mesh = real_fixture("Box.glb");
     let args = [
         "bake",
         s(&mesh),
@@ -167,7 +167,7 @@ fn a_setting_too_large_for_the_mesh_exits_2_before_any_stage() {
     // refused after the import (it needs the mesh's size), before the volume is grown.
     let dir = tempfile::tempdir().unwrap();
     let out_path = dir.path().join("x.fbk");
-    let mesh = shared_fixture("Box.glb");
+    let mesh = real_fixture("Box.glb");
     let args =
         ["bake", s(&mesh), "-o", s(&out_path), "--blades", "10", "--set", "blades.field.cluster_size_m=0.000001"];
     assert_refused(&args, "blades.field.cluster_size_m", dir.path(), &out_path);
@@ -180,7 +180,7 @@ fn a_bad_flag_exits_2_before_the_input_is_read() {
     assert_refused_before_reading(&["--set", "seed=-3"], "seed");
     // An output directory that does not exist is a bad flag, found before the bake.
     let dir = tempfile::tempdir().unwrap();
-    let mesh = shared_fixture("Box.glb");
+    let mesh = real_fixture("Box.glb");
     let out_path = dir.path().join("no-such-dir").join("x.fbk");
     assert_refused(&["bake", s(&mesh), "-o", s(&out_path)], "--output", dir.path(), &out_path);
 }

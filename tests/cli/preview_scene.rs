@@ -16,7 +16,7 @@ use super::common::*;
 /// `fox.fbk` and `grass.fbk`, with small shell atlases.
 fn bake_packs(dir: &Path) {
     let fox = dir.join("fox.fbk");
-    let mesh = shared_fixture("Fox.glb");
+    let mesh = real_fixture("Fox.glb");
     let args = [
         "bake",
         s(&mesh),

@@ -104,7 +104,7 @@ fn simulate_scene_prints_only_the_stages_its_effects_need() {
 fn simulate_runs_the_example_fox_scene() {
     let dir = tempfile::tempdir().unwrap();
     let pack = dir.path().join("fox.fbk");
-    let fox = shared_fixture("Fox.glb");
+    let fox = real_fixture("Fox.glb");
     let bake = ["bake", s(&fox), "-o", s(&pack), "--resolution", "16", "--topology", "prisms", "-q"];
     assert_ok(&furbake(&bake), "bake fox");
     let scene = dir.path().join("runtime_fox_in_wind.toml");
@@ -180,7 +180,7 @@ fn every_fixture_scene_runs_in_the_one_runtime() {
     // simulates.
     let dir = tempfile::tempdir().unwrap();
     let generated = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/generated/grass_patch.gltf");
-    let fox = shared_fixture("Fox.glb");
+    let fox = real_fixture("Fox.glb");
     let grass = [
         "--preset",
         "grass",

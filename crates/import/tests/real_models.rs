@@ -1,4 +1,4 @@
-//! Imports every real fixture of the shared fixture set (`FURBAKE_FIXTURES`, see tests/common)
+//! Imports every real fixture of the real fixture set (`fixtures/real/`, or `FURBAKE_FIXTURES`, see tests/common)
 //! and checks topology counts, bounds,
 //! transforms, vertex colours and input hashes against values read independently from the files
 //! (accessor min/max in their JSON, the SHA-256 column of LICENSES.md).

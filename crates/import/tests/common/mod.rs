@@ -10,11 +10,12 @@ use furbake_import::testmesh::{TestPrimitive, gltf_json};
 use furbake_import::{ImportError, ImportSettings, ImportedMesh, SkinMesh, import_gltf_slice};
 use serde_json::Value;
 
-/// Path of a real fixture under /work/shared/fixtures/real (or `FURBAKE_FIXTURES`).
+/// Path of a real fixture in the repository's `fixtures/real/` (licences beside them), or under
+/// the folder `FURBAKE_FIXTURES` names (to run the tests on another set of models).
 pub fn fixture(name: &str) -> PathBuf {
     let root = std::env::var_os("FURBAKE_FIXTURES")
         .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/fixtures/real"));
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/real"));
     let path = root.join(name);
     assert!(path.exists(), "fixture {} is missing", path.display());
     path
