@@ -76,8 +76,7 @@ pub fn run(args: SimulateArgs, quiet: bool) -> Result<(), Failure> {
         None => frames.div_ceil(MAX_STEP_RECORDS).max(1),
     };
     let wants_report = args.json || args.output.is_some();
-    let kept = RunOutputs { state_out: args.state_out.is_some() };
-    check_memory_budget(&scene, path, kept, args.max_memory)?;
+    check_memory_budget(&scene, path, args.state_out.is_some(), args.max_memory)?;
     let options = WorldOptions { step_statistics: wants_report, ..WorldOptions::default() };
     let mut world = World::with_options(scene, options).map_err(|e| failure::runtime(e, path))?;
     // The report streams — its head, each step record as it is taken, then its tail — into the
@@ -404,13 +403,6 @@ const BYTES_PER_GRASS_CORNER: u64 = 16;
 /// bytes) held twice while it is written, measured.
 const BYTES_PER_STATE_VECTOR: u64 = 180;
 
-/// What a run keeps besides its world.
-#[derive(Clone, Copy, Debug)]
-struct RunOutputs {
-    /// `--state-out` is asked for.
-    state_out: bool,
-}
-
 /// One part of a run's estimated memory.
 #[derive(Debug)]
 struct RunPart {
@@ -423,8 +415,8 @@ struct RunPart {
 
 /// Refuses a run whose estimated memory ([`estimate_run_memory`]) is above `max_memory`: exit 2
 /// naming the scene, the estimate, the budget and what drives the largest part.
-fn check_memory_budget(scene: &Scene, path: &Path, kept: RunOutputs, max_memory: u64) -> Result<(), Failure> {
-    let mut parts = estimate_run_memory(scene, kept).map_err(|e| failure::runtime(e, path))?;
+fn check_memory_budget(scene: &Scene, path: &Path, state_out: bool, max_memory: u64) -> Result<(), Failure> {
+    let mut parts = estimate_run_memory(scene, state_out).map_err(|e| failure::runtime(e, path))?;
     let need: u64 = parts.iter().map(|p| p.bytes).sum();
     if need <= max_memory {
         return Ok(());
@@ -450,7 +442,7 @@ fn check_memory_budget(scene: &Scene, path: &Path, kept: RunOutputs, max_memory:
 /// heads of the sections whose counts it needs (the record layout of docs/format.md); the stages
 /// are planned as the world plans them ([`plan_stages`], [`choose_topology`]). A pack that cannot
 /// be opened fails as the world would.
-fn estimate_run_memory(scene: &Scene, kept: RunOutputs) -> Result<Vec<RunPart>, RuntimeError> {
+fn estimate_run_memory(scene: &Scene, state_out: bool) -> Result<Vec<RunPart>, RuntimeError> {
     let mut files: Vec<(PathBuf, Pack, Vec<bool>)> = Vec::new();
     let mut file_of = Vec::with_capacity(scene.packs.len());
     for sp in &scene.packs {
@@ -551,7 +543,7 @@ fn estimate_run_memory(scene: &Scene, kept: RunOutputs) -> Result<Vec<RunPart>, 
                 own = own.saturating_add(corners.saturating_mul(BYTES_PER_GRASS_CORNER));
             }
         }
-        if kept.state_out {
+        if state_out {
             // `--state-out` reports every pack's skin.
             sections.decode(SectionKind::SKIN_MESH);
             state_vectors += vertices;
@@ -575,7 +567,7 @@ fn estimate_run_memory(scene: &Scene, kept: RunOutputs) -> Result<Vec<RunPart>, 
     if let Some(part) = parts.get_mut(reading_entry) {
         part.bytes += largest_payload;
     }
-    if kept.state_out {
+    if state_out {
         parts.push(RunPart {
             what: format!("the --state-out text ({state_vectors} vectors)"),
             advice: "leave out --state-out or raise --max-memory".into(),

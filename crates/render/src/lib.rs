@@ -224,6 +224,17 @@ pub enum RenderError {
     },
 }
 
+/// A compute-stage buffer binding of a bind group layout (the skinning pass's and the shell
+/// probe's layouts are lists of these).
+pub(crate) fn compute_buffer_entry(binding: u32, ty: wgpu::BufferBindingType) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer { ty, has_dynamic_offset: false, min_binding_size: None },
+        count: None,
+    }
+}
+
 /// Runs `f` inside error scopes for validation, out-of-memory and internal errors and returns
 /// the first error wgpu reported as a typed [`RenderError`] naming `what` was being done.
 /// (Popping a scope is bookkeeping on the device timeline, not a wait for the GPU.)

@@ -724,12 +724,7 @@ fn layout_code(layout: ShellVertexLayout) -> u32 {
 /// Group 0 (the fur uniforms, scale vectors and posed vertices `cs_shell_positions` reads) and
 /// group 1 (probe input and output) of the shell readback probe.
 fn probe_bind_group_layouts(device: &wgpu::Device) -> [wgpu::BindGroupLayout; 2] {
-    let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer { ty, has_dynamic_offset: false, min_binding_size: None },
-        count: None,
-    };
+    let entry = crate::compute_buffer_entry;
     let read = wgpu::BufferBindingType::Storage { read_only: true };
     let layout = |label, entries: &[wgpu::BindGroupLayoutEntry]| {
         device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some(label), entries })

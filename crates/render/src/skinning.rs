@@ -454,12 +454,7 @@ fn workgroups(vertices: u64, max: u32) -> Result<(u32, u32), RenderError> {
 }
 
 fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
-    let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer { ty, has_dynamic_offset: false, min_binding_size: None },
-        count: None,
-    };
+    let entry = crate::compute_buffer_entry;
     let read = wgpu::BufferBindingType::Storage { read_only: true };
     device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("furbake skinning bind group layout"),

@@ -695,8 +695,7 @@ impl World {
             anim.update().map_err(|source| RuntimeError::Animation { path, source })?;
             // The cut speed is in world metres per second; the skin moves in the mesh frame,
             // which the pack's uniform scale maps to the world.
-            let scale = p.step_frame.0.to_scale_rotation_translation().0.x;
-            let cut = p.scene.animation.as_ref().map_or(f32::INFINITY, |a| a.cut_speed_m_per_s) / scale;
+            let cut = p.scene.animation.as_ref().map_or(f32::INFINITY, |a| a.cut_speed_m_per_s) / p.step_frame.1.scale;
             if let Some(fur) = p.fur.as_mut() {
                 fur.follow(anim, dt, cut, &p.scene.path)?;
             }
