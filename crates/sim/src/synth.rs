@@ -92,3 +92,95 @@ pub fn synthetic_topology(
     }
     Some(t)
 }
+
+/// Columns and rows of [`stiff_net`]: the top row is anchored.
+const NET_COLUMNS: usize = 10;
+const NET_ROWS: usize = 5;
+
+/// The stiff small system of the accuracy report and the convergence tests: 50 masses of 1 g on a
+/// 10 × 5 grid with 1 cm spacing hanging below its anchored top row (10 anchored, 40 free), and 100
+/// springs of 100 N/m with 0.01 N·s/m damping: 40 vertical, 36 horizontal and 24 diagonals (the
+/// "\" diagonal of the first eight cells of each of the top three rows of cells). Every spring
+/// starts at its rest length, so the net starts at rest and [`stiff_net_forces`] sets it swinging.
+/// `h·ω` of its stiffest mode is ≈ 25 at 1/30 s: a stiff system for every solver. Its kind is
+/// `PRISMS` (free springs between free masses); the shell-vertex map names each column's
+/// anchor and bottom mass, so the rest direction points down.
+pub fn stiff_net() -> SpringTopology {
+    let params = TopologyParams {
+        fur_length_m: 0.01 * (NET_ROWS - 1) as f32,
+        hair_mass_kg: 1e-3,
+        stiffness_n_per_m: 100.0,
+        damping_n_s_per_m: 0.01,
+        edge_stiffness_n_per_m: 100.0,
+        edge_damping_n_s_per_m: 0.01,
+        ..TopologyParams::default()
+    };
+    let mut t = crate::topology::empty(TopologyKind::PRISMS, &params);
+    let spacing = 0.01f32;
+    let index = |c: usize, r: usize| (r * NET_COLUMNS + c) as u32;
+    for r in 0..NET_ROWS {
+        for c in 0..NET_COLUMNS {
+            t.mass_rest_positions.push([c as f32 * spacing, -(r as f32) * spacing, 0.0]);
+            t.mass_kg.push(if r == 0 { params.root_mass_kg } else { 1e-3 });
+            t.mass_anchored.push(u8::from(r == 0));
+        }
+    }
+    let mut spring = |a: u32, b: u32| {
+        let (pa, pb) = (t.mass_rest_positions[a as usize], t.mass_rest_positions[b as usize]);
+        let d = ((pa[0] - pb[0]).powi(2) + (pa[1] - pb[1]).powi(2) + (pa[2] - pb[2]).powi(2)).sqrt();
+        t.spring_ends.push([a, b]);
+        t.spring_rest_lengths_m.push(d);
+        t.spring_stiffness_n_per_m.push(100.0);
+        t.spring_damping_n_s_per_m.push(0.01);
+    };
+    for r in 0..NET_ROWS - 1 {
+        for c in 0..NET_COLUMNS {
+            spring(index(c, r), index(c, r + 1));
+        }
+    }
+    for r in 1..NET_ROWS {
+        for c in 0..NET_COLUMNS - 1 {
+            spring(index(c, r), index(c + 1, r));
+        }
+    }
+    for r in 0..3 {
+        for c in 0..8 {
+            spring(index(c, r), index(c + 1, r + 1));
+        }
+    }
+    for c in 0..NET_COLUMNS {
+        t.shell_vertex_masses.push([index(c, 0), index(c, NET_ROWS - 1)]);
+    }
+    t
+}
+
+/// The forces on [`stiff_net`]: gravity and a gusty wind across the net, no restoring force (the
+/// net is not fur).
+pub fn stiff_net_forces() -> crate::ForceSet {
+    crate::ForceSet {
+        restoring_weight_n: 0.0,
+        wind: Some(crate::Wind {
+            direction: [0.3, 0.0, 1.0],
+            force_n: 5e-3,
+            gust_amplitude: 0.5,
+            gust_frequency_hz: 1.5,
+            gust_wavelength_m: 0.1,
+        }),
+        ..crate::ForceSet::default()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_stiff_net_has_fifty_masses_and_a_hundred_springs() {
+        let t = stiff_net();
+        assert_eq!((t.mass_kg.len(), t.spring_ends.len()), (50, 100));
+        assert_eq!(t.mass_anchored.iter().filter(|&&a| a != 0).count(), 10);
+        assert!(t.spring_rest_lengths_m.iter().all(|&l| l > 0.009 && l < 0.015));
+        let sim = crate::Simulator::new(&t, crate::SolverSettings::default());
+        assert!(sim.is_ok(), "{:?}", sim.err());
+    }
+}
