@@ -19,6 +19,10 @@ deps:
 		echo "installing Mesa's software Vulkan driver (lavapipe)"; \
 		$(SUDO) apt-get update -qq && $(SUDO) apt-get install -y -qq --no-install-recommends mesa-vulkan-drivers libvulkan1; \
 	fi
+	@if ! command -v ninja >/dev/null 2>&1; then \
+		echo "installing ninja (the build-pipeline test drives it with bake --depfile)"; \
+		$(SUDO) apt-get update -qq && $(SUDO) apt-get install -y -qq --no-install-recommends ninja-build; \
+	fi
 	@if ! command -v xvfb-run >/dev/null 2>&1; then \
 		echo "installing Xvfb (the furbake view test opens a window on a virtual X server)"; \
 		$(SUDO) apt-get update -qq && $(SUDO) apt-get install -y -qq --no-install-recommends xvfb xauth; \

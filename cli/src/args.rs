@@ -120,6 +120,14 @@ pub struct BakeArgs {
     /// naming the setting that drives most of it. Default 2G.
     #[arg(long, value_name = "SIZE", default_value = "2G", value_parser = parse_bytes)]
     pub max_memory: u64,
+    /// Also write a Make/Ninja depfile: the pack depends on every file the bake read (the glTF,
+    /// its external buffers, the images it sampled, the --config file). Written after the pack.
+    #[arg(long, value_name = "FILE")]
+    pub depfile: Option<PathBuf>,
+    /// Also write a JSON report for machines: per-stage wall times, section sizes, warnings,
+    /// input and settings hashes, tool version (docs/schemas/bake-report.schema.json).
+    #[arg(long, value_name = "FILE")]
+    pub report: Option<PathBuf>,
 }
 
 /// `furbake inspect`

@@ -3,6 +3,7 @@
 
 use std::io::IsTerminal;
 use std::path::Path;
+use std::time::Instant;
 
 use anyhow::{Context, anyhow};
 use furbake_bake::validate::check_against_mesh;
@@ -11,6 +12,7 @@ use furbake_import::{ImportError, ImportedMesh, import_gltf, import_gltf_with_as
 use indicatif::{ProgressBar, ProgressStyle};
 
 use crate::args::{BakeArgs, format_bytes};
+use crate::bake_files::{ReportInputs, StageTime, depfile_text, report_json, write_text};
 use crate::failure::{Classify, Failure};
 
 /// Stage two of argument parsing: the preset, the config file, `--set` and the named flags,
@@ -137,14 +139,29 @@ fn flag_for(key: &str) -> Option<&'static str> {
     })
 }
 
-struct Bar(Option<ProgressBar>);
+/// The progress bar (on a terminal) and the start time of each part of the bake (for
+/// `--report`).
+struct Bar(Option<ProgressBar>, Vec<(&'static str, Instant)>);
 
 impl Progress for Bar {
     fn stage(&mut self, stage: Stage) {
+        self.1.push((stage.id(), Instant::now()));
         if let Some(bar) = &self.0 {
             bar.inc(1);
             bar.set_message(stage.name());
         }
+    }
+}
+
+impl Bar {
+    /// Wall time of each part, from the starts recorded so far up to `end`.
+    fn stage_times(&self, end: Instant) -> Vec<StageTime> {
+        let ends = self.1.iter().skip(1).map(|&(_, t)| t).chain(std::iter::once(end));
+        self.1
+            .iter()
+            .zip(ends)
+            .map(|(&(stage, start), end)| StageTime { stage, wall_s: (end - start).as_secs_f64() })
+            .collect()
     }
 }
 
@@ -162,6 +179,7 @@ pub fn run(args: BakeArgs, quiet: bool) -> Result<(), Failure> {
         bar.set_message("importing glTF");
         bar
     });
+    let started = Instant::now();
     let imported = match &args.asset_root {
         Some(root) => import_gltf_with_asset_root(&args.mesh, root, &settings.import),
         None => import_gltf(&args.mesh, &settings.import),
@@ -176,7 +194,7 @@ pub fn run(args: BakeArgs, quiet: bool) -> Result<(), Failure> {
         Err(e) => return Err(Failure::Input(e.into())),
     };
     check_memory_budget(&args, &settings, &imported)?;
-    let mut progress = Bar(bar);
+    let mut progress = Bar(bar, vec![("import", started)]);
     progress.stage_done_import();
     let name = file_name(&args.mesh);
     let baked = bake(&imported, &name, &settings, &mut progress).map_err(|e| {
@@ -191,9 +209,32 @@ pub fn run(args: BakeArgs, quiet: bool) -> Result<(), Failure> {
     if let Some(bar) = &progress.0 {
         bar.set_message("writing pack");
     }
-    baked.to_writer().write_atomic(&args.output).input()?;
+    progress.1.push(("write", Instant::now()));
+    let writer = baked.to_writer();
+    let pack_bytes = writer.to_bytes();
+    furbake_formats::write_file_atomic(&args.output, &pack_bytes).input()?;
     if let Some(dir) = &args.png_dir {
         crate::png::write_atlases(dir, &baked.shells, &baked.fins).input()?;
+    }
+    if let Some(path) = &args.depfile {
+        let text = depfile_text(&args.output, &imported, args.config.as_deref()).input()?;
+        write_text(path, &text, "the depfile").input()?;
+    }
+    if let Some(path) = &args.report {
+        let end = Instant::now();
+        let stages = progress.stage_times(end);
+        let report = report_json(&ReportInputs {
+            mesh_path: &args.mesh,
+            output: &args.output,
+            imported: &imported,
+            settings: &settings,
+            baked: &baked,
+            writer: &writer,
+            pack_bytes: &pack_bytes,
+            stages: &stages,
+            total: end - started,
+        });
+        write_text(path, &report, "the bake report").input()?;
     }
     if let Some(bar) = &progress.0 {
         bar.finish_and_clear();

@@ -4,6 +4,7 @@
 
 mod args;
 mod bake_cmd;
+mod bake_files;
 mod describe;
 mod extract_cmd;
 mod failure;

@@ -122,6 +122,11 @@ impl PackWriter {
         self.sections.is_empty()
     }
 
+    /// Kind, layout version and payload size in bytes of each section, in file order.
+    pub fn sections(&self) -> impl Iterator<Item = (SectionKind, u16, usize)> + '_ {
+        self.sections.iter().map(|(kind, version, payload)| (*kind, *version, payload.len()))
+    }
+
     /// The complete file image.
     pub fn to_bytes(&self) -> Vec<u8> {
         let count = self.sections.len();

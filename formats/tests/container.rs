@@ -71,6 +71,11 @@ fn sample_pack() -> Vec<u8> {
         preset: "fur".into(),
         seed: 1,
         settings_json: r#"{"a":1}"#.into(),
+        inputs: vec![furbake_formats::sections::manifest::ManifestInput {
+            name: "quad.glb".into(),
+            bytes: 123,
+            sha256: "00".repeat(32),
+        }],
     });
     w.push_section(&sample_mesh());
     w.push_section(&sample_shells());

@@ -13,6 +13,7 @@ mod fuzz_gltf;
 mod golden;
 mod hermetic;
 mod memory_budget;
+mod pipeline;
 mod plan_first;
 mod preview_scene;
 mod simulate_scene;

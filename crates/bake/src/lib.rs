@@ -37,7 +37,7 @@ use furbake_formats::sections::blade_field::BladeField;
 use furbake_formats::sections::fin_atlas::FinAtlas;
 use furbake_formats::sections::fin_edges::FinEdges;
 use furbake_formats::sections::keyframe_table::KeyframeTable;
-use furbake_formats::sections::manifest::BakeManifest;
+use furbake_formats::sections::manifest::{BakeManifest, ManifestInput};
 use furbake_formats::sections::shell_atlas::ShellAtlas;
 use furbake_formats::sections::skin_mesh::SkinMesh;
 use furbake_formats::sections::spring_topology::{SpringTopology, TopologyKind};
@@ -111,6 +111,18 @@ pub enum Stage {
 impl Stage {
     /// Every stage, in pipeline order.
     pub const ALL: [Stage; 5] = [Stage::Volume, Stage::UvMap, Stage::FinEdges, Stage::Blades, Stage::Topologies];
+
+    /// Stable identifier (`volume`, `uv_map`, `fin_edges`, `blades`, `topologies`), as machine
+    /// reports name the stage.
+    pub fn id(self) -> &'static str {
+        match self {
+            Stage::Volume => "volume",
+            Stage::UvMap => "uv_map",
+            Stage::FinEdges => "fin_edges",
+            Stage::Blades => "blades",
+            Stage::Topologies => "topologies",
+        }
+    }
 
     /// Short human name.
     pub fn name(self) -> &'static str {
@@ -280,5 +292,10 @@ fn record_manifest(input: &ImportedMesh, input_name: &str, settings: &BakeSettin
         preset: settings.preset.clone(),
         seed: settings.seed,
         settings_json: serde_json::to_string(settings).expect("settings are plain serde structs"),
+        inputs: input
+            .inputs
+            .iter()
+            .map(|f| ManifestInput { name: f.name.clone(), bytes: f.bytes, sha256: f.sha256.clone() })
+            .collect(),
     }
 }

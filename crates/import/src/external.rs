@@ -174,7 +174,9 @@ pub(crate) struct ExternalFiles<'a> {
 
 impl ExternalFiles<'_> {
     /// Reads what `need` asks of the file `uri` names, after every check of the module docs.
-    pub fn read(&self, uri: &str, need: Need) -> Result<Vec<u8>, UriProblem> {
+    /// Returns the bytes with the file's name relative to the glTF's directory
+    /// ([`normalised_name`]).
+    pub fn read(&self, uri: &str, need: Need) -> Result<(Vec<u8>, String), UriProblem> {
         let decoded = percent_decode(uri)?;
         let relative = relative_path(&decoded)?;
         let base_dir = self.base_dir.ok_or(UriProblem::NoBaseDirectory)?;
@@ -195,8 +197,29 @@ impl ExternalFiles<'_> {
             return Err(outside(real));
         }
         let (file, len) = open_regular_file(&real, &roots)?;
-        read_needed(file, len, need, &real)
+        Ok((read_needed(file, len, need, &real)?, normalised_name(relative)))
     }
+}
+
+/// A relative path as the manifest and depfiles name it: `/`-separated, `.` dropped, `a/../b`
+/// folded to `b`, leading `..` kept (a file under `--asset-root` beside the glTF's directory).
+/// The same URI spelled two ways gives one name, and no absolute path ever appears.
+pub(crate) fn normalised_name(relative: &Path) -> String {
+    let mut parts: Vec<String> = Vec::new();
+    for c in relative.components() {
+        match c {
+            Component::CurDir => {}
+            Component::ParentDir => {
+                if parts.last().is_some_and(|p| p != "..") {
+                    parts.pop();
+                } else {
+                    parts.push("..".to_owned());
+                }
+            }
+            other => parts.push(other.as_os_str().to_string_lossy().into_owned()),
+        }
+    }
+    parts.join("/")
 }
 
 /// Decodes `%XX` escapes. Unlike a lenient decoder, an escape that is not two hex digits is an
@@ -374,6 +397,13 @@ fn read_needed(file: File, len: u64, need: Need, path: &Path) -> Result<Vec<u8>,
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn normalised_names_fold_dots_and_keep_leading_parents() {
+        assert_eq!(normalised_name(Path::new("./tex/../tex/fur.png")), "tex/fur.png");
+        assert_eq!(normalised_name(Path::new("../shared/./body.bin")), "../shared/body.bin");
+        assert_eq!(normalised_name(Path::new("a/../../b.bin")), "../b.bin");
+    }
 
     #[test]
     fn percent_decoding_is_strict() {

@@ -46,7 +46,7 @@ pub mod testmesh;
 mod texture;
 mod weld;
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 pub use animation::ImportedAnimation;
 pub use error::{AnimationRef, ImportError, PrimitiveRef};
@@ -72,6 +72,39 @@ pub struct ImportedMesh {
     pub warnings: Vec<String>,
     /// The skeleton, skin weights, morph targets and clips (all `None` for a static file).
     pub animation: ImportedAnimation,
+    /// Every file the import read, in the order [`ImportedMesh::input_sha256`] hashes them: the
+    /// glTF itself, its external buffers, the external images it sampled. What a depfile lists
+    /// and what the bake manifest records (by name relative to the glTF, never an absolute path).
+    pub inputs: Vec<InputFile>,
+}
+
+/// One file an import read.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct InputFile {
+    /// Where it was read: the glTF's path as the caller gave it, or the glTF's directory (as
+    /// given) joined with [`InputFile::name`] — a path a build system run from the caller's
+    /// directory can stat. Empty for in-memory input.
+    pub path: PathBuf,
+    /// Its name relative to the glTF's directory, `/`-separated (`textures/fur.png`,
+    /// `../shared/body.bin` under an asset root); the glTF itself by its file name.
+    pub name: String,
+    /// Bytes read from it (a buffer file: its declared `byteLength`).
+    pub bytes: u64,
+    /// Lowercase hex SHA-256 of those bytes.
+    pub sha256: String,
+}
+
+impl InputFile {
+    fn new(path: PathBuf, name: String, data: &[u8]) -> InputFile {
+        let sha256 = sha2::Digest::finalize(<sha2::Sha256 as sha2::Digest>::new_with_prefix(data));
+        InputFile { path, name, bytes: data.len() as u64, sha256: sha256.iter().map(|b| format!("{b:02x}")).collect() }
+    }
+
+    /// An external file `name` (relative to `base_dir`, the glTF's directory as given).
+    pub(crate) fn external(base_dir: Option<&Path>, name: String, data: &[u8]) -> InputFile {
+        let path = base_dir.map(|d| d.join(&name)).unwrap_or_default();
+        InputFile::new(path, name, data)
+    }
 }
 
 /// Imports the glTF file at `path` (`.glb` or `.gltf`). External buffers and images are
@@ -106,7 +139,7 @@ fn import_file(path: &Path, extra_root: Option<&Path>, settings: &ImportSettings
         Some(dir) if !dir.as_os_str().is_empty() => dir,
         _ => Path::new("."),
     };
-    import(&bytes, path, external::ExternalFiles { base_dir: Some(base_dir), extra_root }, settings)
+    import(&bytes, path, true, external::ExternalFiles { base_dir: Some(base_dir), extra_root }, settings)
 }
 
 /// Imports glTF bytes held in memory. `name_for_errors` names the input in errors and warnings;
@@ -118,12 +151,14 @@ pub fn import_gltf_slice(
     base_dir: Option<&Path>,
     settings: &ImportSettings,
 ) -> Result<ImportedMesh, ImportError> {
-    import(bytes, Path::new(name_for_errors), external::ExternalFiles { base_dir, extra_root: None }, settings)
+    import(bytes, Path::new(name_for_errors), false, external::ExternalFiles { base_dir, extra_root: None }, settings)
 }
 
+/// `on_disk`: `file` is the path the bytes were read from (else only a name for messages).
 fn import(
     bytes: &[u8],
     file: &Path,
+    on_disk: bool,
     external: external::ExternalFiles<'_>,
     settings: &ImportSettings,
 ) -> Result<ImportedMesh, ImportError> {
@@ -151,10 +186,15 @@ fn import(
     }
     let mut hasher = asset.input_hasher.clone();
     let mut input_bytes = asset.input_bytes;
-    for image in &walker.textures.external {
+    let main_name = file.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let main_path = if on_disk { file.to_path_buf() } else { PathBuf::new() };
+    let mut inputs = vec![InputFile::new(main_path, main_name, bytes)];
+    inputs.extend(asset.files.iter().cloned());
+    for (name, image) in &walker.textures.external {
         sha2::Digest::update(&mut hasher, image);
         input_bytes += image.len() as u64;
+        inputs.push(InputFile::external(external.base_dir, name.clone(), image));
     }
     let input_sha256 = sha2::Digest::finalize(hasher).iter().map(|b| format!("{b:02x}")).collect();
-    Ok(ImportedMesh { mesh: welded.mesh, input_bytes, input_sha256, warnings, animation })
+    Ok(ImportedMesh { mesh: welded.mesh, input_bytes, input_sha256, warnings, animation, inputs })
 }

@@ -56,6 +56,9 @@ pub(crate) struct Asset {
     pub input_hasher: Sha256,
     /// Non-fatal findings (ignored extensions and the like).
     pub warnings: Vec<String>,
+    /// The external buffer files read, in buffer order (name relative to the glTF's directory,
+    /// bytes read, their SHA-256).
+    pub files: Vec<crate::InputFile>,
 }
 
 #[derive(Debug)]
@@ -197,6 +200,7 @@ pub(crate) fn load_asset(bytes: &[u8], file: &Path, external: ExternalFiles<'_>)
     hasher.update(bytes);
     let mut input_bytes = bytes.len() as u64;
     let mut buffers = Vec::with_capacity(root.buffers.len());
+    let mut files = Vec::new();
     for (index, buffer) in root.buffers.iter().enumerate() {
         let buffer_error = |message: String| ImportError::Buffer { file: file.to_path_buf(), buffer: index, message };
         let declared = buffer.byte_length.0;
@@ -222,14 +226,16 @@ pub(crate) fn load_asset(bytes: &[u8], file: &Path, external: ExternalFiles<'_>)
             }
             Some(uri) => {
                 // Exactly `declared` bytes (checked against the limit above), or a refusal.
-                let data = external.read(uri, Need::Prefix(declared)).map_err(|problem| ImportError::ExternalFile {
-                    file: file.to_path_buf(),
-                    referrer: ExternalRef::Buffer(index),
-                    uri: uri.as_str().into(),
-                    problem: Box::new(problem),
-                })?;
+                let (data, name) =
+                    external.read(uri, Need::Prefix(declared)).map_err(|problem| ImportError::ExternalFile {
+                        file: file.to_path_buf(),
+                        referrer: ExternalRef::Buffer(index),
+                        uri: uri.as_str().into(),
+                        problem: Box::new(problem),
+                    })?;
                 hasher.update(&data);
                 input_bytes += data.len() as u64;
+                files.push(crate::InputFile::external(external.base_dir, name, &data));
                 data
             }
         };
@@ -239,7 +245,7 @@ pub(crate) fn load_asset(bytes: &[u8], file: &Path, external: ExternalFiles<'_>)
         data.truncate(declared as usize);
         buffers.push(data);
     }
-    Ok(Asset { root, buffers, input_bytes, input_hasher: hasher, warnings })
+    Ok(Asset { root, buffers, input_bytes, input_hasher: hasher, warnings, files })
 }
 
 /// Reads the main glTF file the caller named, at most [`MAX_FILE_BYTES`]: its size is checked on

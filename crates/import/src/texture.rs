@@ -57,9 +57,10 @@ const MAX_IMAGE_SIDE: u32 = 16_384;
 #[derive(Default)]
 pub(crate) struct TextureCache {
     images: HashMap<usize, Option<LinearImage>>,
-    /// Bytes of the external image files read, in the order they were first used (the scene
-    /// walk is deterministic): they shape the output, so the input hash covers them.
-    pub external: Vec<Vec<u8>>,
+    /// The external image files read (name relative to the glTF's directory, bytes), in the
+    /// order they were first used (the scene walk is deterministic): they shape the output, so
+    /// the input hash covers them.
+    pub external: Vec<(String, Vec<u8>)>,
 }
 
 impl TextureCache {
@@ -125,7 +126,7 @@ fn image_bytes(
     asset: &Asset,
     files: ExternalFiles<'_>,
     image: &json::Image,
-    external: &mut Vec<Vec<u8>>,
+    external: &mut Vec<(String, Vec<u8>)>,
 ) -> Result<Vec<u8>, ImageProblem> {
     if let Some(view) = image.buffer_view {
         let v = asset.root.buffer_views.get(view.value()).ok_or("its buffer view does not exist")?;
@@ -145,12 +146,12 @@ fn image_bytes(
         }
         return crate::base64::decode(&rest[comma + 1..]).map_err(|e| format!("data: URI: {e}").into());
     }
-    let bytes = match files.read(uri, Need::Whole { limit: MAX_FILE_BYTES }) {
-        Ok(bytes) => bytes,
+    let (bytes, name) = match files.read(uri, Need::Whole { limit: MAX_FILE_BYTES }) {
+        Ok(read) => read,
         Err(problem) if problem.is_refusal() => return Err(ImageProblem::Refused { uri: uri.into(), problem }),
         Err(problem) => return Err(format!("uri {uri:?} {problem}").into()),
     };
-    external.push(bytes.clone());
+    external.push((name, bytes.clone()));
     Ok(bytes)
 }
 
@@ -158,7 +159,7 @@ fn decode_image(
     asset: &Asset,
     files: ExternalFiles<'_>,
     index: usize,
-    external: &mut Vec<Vec<u8>>,
+    external: &mut Vec<(String, Vec<u8>)>,
 ) -> Result<LinearImage, ImageProblem> {
     let image = asset.root.images.get(index).ok_or("it does not exist")?;
     let bytes = image_bytes(asset, files, image, external)?;
