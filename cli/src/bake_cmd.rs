@@ -7,7 +7,7 @@ use std::time::Instant;
 
 use anyhow::{Context, anyhow};
 use furbake_bake::validate::check_against_mesh;
-use furbake_bake::{BakeSettings, Progress, Stage, bake, estimate_bake_memory, settings::dotted_override};
+use furbake_bake::{BakeSettings, BakedPack, Progress, Stage, bake, estimate_bake_memory, settings::dotted_override};
 use furbake_import::{ImportError, ImportedMesh, import_gltf, import_gltf_with_asset_root};
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -94,17 +94,17 @@ fn check_output_paths(args: &BakeArgs) -> Result<(), Failure> {
 /// `--max-memory`, after the limits that need the mesh ([`check_against_mesh`]) and before any
 /// stage runs: exit 2, naming the mesh, the estimate, the budget and the setting behind the
 /// largest part.
-fn check_memory_budget(args: &BakeArgs, settings: &BakeSettings, imported: &ImportedMesh) -> Result<(), Failure> {
+fn check_memory_budget(job: &Job, settings: &BakeSettings, imported: &ImportedMesh) -> Result<(), Failure> {
     check_against_mesh(settings, &imported.mesh).usage()?;
     let estimate = estimate_bake_memory(settings, imported);
     let need = estimate.total_bytes();
-    if need <= args.max_memory {
+    if need <= job.max_memory {
         return Ok(());
     }
-    let budget = format!("--max-memory {}", format_bytes(args.max_memory));
+    let budget = format!("--max-memory {}", format_bytes(job.max_memory));
     let head = format!(
         "{}: the bake needs about {} at its peak ({}), above {budget}",
-        args.mesh.display(),
+        job.mesh.display(),
         format_bytes(need),
         estimate.peak_at
     );
@@ -165,6 +165,41 @@ impl Bar {
     }
 }
 
+/// One bake: where its input and outputs are, and its limits. `furbake bake` makes one from
+/// its flags, `furbake batch` one per asset.
+pub struct Job<'a> {
+    pub mesh: &'a Path,
+    pub output: &'a Path,
+    pub asset_root: Option<&'a Path>,
+    /// The `--config` file the settings came from (a depfile lists it).
+    pub config: Option<&'a Path>,
+    pub png_dir: Option<&'a Path>,
+    pub depfile: Option<&'a Path>,
+    pub report: Option<&'a Path>,
+    pub max_memory: u64,
+}
+
+impl<'a> Job<'a> {
+    fn of(args: &'a BakeArgs) -> Job<'a> {
+        Job {
+            mesh: &args.mesh,
+            output: &args.output,
+            asset_root: args.asset_root.as_deref(),
+            config: args.config.as_deref(),
+            png_dir: args.png_dir.as_deref(),
+            depfile: args.depfile.as_deref(),
+            report: args.report.as_deref(),
+            max_memory: args.max_memory,
+        }
+    }
+}
+
+/// What a finished bake leaves for its summary.
+pub struct Done {
+    pub imported: ImportedMesh,
+    pub baked: BakedPack,
+}
+
 /// Runs `furbake bake`.
 pub fn run(args: BakeArgs, quiet: bool) -> Result<(), Failure> {
     let settings = plan(&args)?;
@@ -179,71 +214,13 @@ pub fn run(args: BakeArgs, quiet: bool) -> Result<(), Failure> {
         bar.set_message("importing glTF");
         bar
     });
-    let started = Instant::now();
-    let imported = match &args.asset_root {
-        Some(root) => import_gltf_with_asset_root(&args.mesh, root, &settings.import),
-        None => import_gltf(&args.mesh, &settings.import),
-    };
-    let imported = match imported {
-        Ok(m) => m,
-        // Invalid import settings and asset roots are the caller's mistake (exit 2); everything
-        // else (a refused external file included) is the file's.
-        Err(e @ (ImportError::Settings { .. } | ImportError::AssetRoot { .. })) => {
-            return Err(Failure::Usage(e.into()));
-        }
-        Err(e) => return Err(Failure::Input(e.into())),
-    };
-    check_memory_budget(&args, &settings, &imported)?;
-    let mut progress = Bar(bar, vec![("import", started)]);
-    progress.stage_done_import();
-    let name = file_name(&args.mesh);
-    let baked = bake(&imported, &name, &settings, &mut progress).map_err(|e| {
-        // A setting refused against this mesh (too many blades for its area, ...) is still the
-        // settings' fault; anything else is the mesh's.
-        if e.is_settings_error() {
-            Failure::Usage(e.into())
-        } else {
-            Failure::Input(anyhow!("{}: {e}", args.mesh.display()))
-        }
-    })?;
-    if let Some(bar) = &progress.0 {
-        bar.set_message("writing pack");
-    }
-    progress.1.push(("write", Instant::now()));
-    let writer = baked.to_writer();
-    let pack_bytes = writer.to_bytes();
-    furbake_formats::write_file_atomic(&args.output, &pack_bytes).input()?;
-    if let Some(dir) = &args.png_dir {
-        crate::png::write_atlases(dir, &baked.shells, &baked.fins).input()?;
-    }
-    if let Some(path) = &args.depfile {
-        let text = depfile_text(&args.output, &imported, args.config.as_deref()).input()?;
-        write_text(path, &text, "the depfile").input()?;
-    }
-    if let Some(path) = &args.report {
-        let end = Instant::now();
-        let stages = progress.stage_times(end);
-        let report = report_json(&ReportInputs {
-            mesh_path: &args.mesh,
-            output: &args.output,
-            imported: &imported,
-            settings: &settings,
-            baked: &baked,
-            writer: &writer,
-            pack_bytes: &pack_bytes,
-            stages: &stages,
-            total: end - started,
-        });
-        write_text(path, &report, "the bake report").input()?;
-    }
-    if let Some(bar) = &progress.0 {
-        bar.finish_and_clear();
-    }
+    let job = Job::of(&args);
+    let done = bake_job(&job, &settings, bar)?;
     if !quiet {
-        for w in &imported.warnings {
+        for w in &done.imported.warnings {
             eprintln!("furbake: warning: {w}");
         }
-        let m = &baked.mesh;
+        let (m, baked) = (&done.baked.mesh, &done.baked);
         eprintln!(
             "baked {} → {}: {} triangles ({} furry, {} degenerate skipped), {} vertices, {} layers of {}², {} fin edges",
             args.mesh.display(),
@@ -270,6 +247,72 @@ pub fn run(args: BakeArgs, quiet: bool) -> Result<(), Failure> {
         }
     }
     Ok(())
+}
+
+/// Imports, checks the memory budget, bakes and writes the pack, then the PNGs, the depfile and
+/// the report the job asks for. `bar` (a terminal's progress bar) is advanced stage by stage.
+pub fn bake_job(job: &Job, settings: &BakeSettings, bar: Option<ProgressBar>) -> Result<Done, Failure> {
+    let started = Instant::now();
+    let imported = match job.asset_root {
+        Some(root) => import_gltf_with_asset_root(job.mesh, root, &settings.import),
+        None => import_gltf(job.mesh, &settings.import),
+    };
+    let imported = match imported {
+        Ok(m) => m,
+        // Invalid import settings and asset roots are the caller's mistake (exit 2); everything
+        // else (a refused external file included) is the file's.
+        Err(e @ (ImportError::Settings { .. } | ImportError::AssetRoot { .. })) => {
+            return Err(Failure::Usage(e.into()));
+        }
+        Err(e) => return Err(Failure::Input(e.into())),
+    };
+    check_memory_budget(job, settings, &imported)?;
+    let mut progress = Bar(bar, vec![("import", started)]);
+    progress.stage_done_import();
+    let name = file_name(job.mesh);
+    let baked = bake(&imported, &name, settings, &mut progress).map_err(|e| {
+        // A setting refused against this mesh (too many blades for its area, ...) is still the
+        // settings' fault; anything else is the mesh's.
+        if e.is_settings_error() {
+            Failure::Usage(e.into())
+        } else {
+            Failure::Input(anyhow!("{}: {e}", job.mesh.display()))
+        }
+    })?;
+    if let Some(bar) = &progress.0 {
+        bar.set_message("writing pack");
+    }
+    progress.1.push(("write", Instant::now()));
+    let writer = baked.to_writer();
+    let pack_bytes = writer.to_bytes();
+    furbake_formats::write_file_atomic(job.output, &pack_bytes).input()?;
+    if let Some(dir) = job.png_dir {
+        crate::png::write_atlases(dir, &baked.shells, &baked.fins).input()?;
+    }
+    if let Some(path) = job.depfile {
+        let text = depfile_text(job.output, &imported, job.config).input()?;
+        write_text(path, &text, "the depfile").input()?;
+    }
+    if let Some(path) = job.report {
+        let end = Instant::now();
+        let stages = progress.stage_times(end);
+        let report = report_json(&ReportInputs {
+            mesh_path: job.mesh,
+            output: job.output,
+            imported: &imported,
+            settings,
+            baked: &baked,
+            writer: &writer,
+            pack_bytes: &pack_bytes,
+            stages: &stages,
+            total: end - started,
+        });
+        write_text(path, &report, "the bake report").input()?;
+    }
+    if let Some(bar) = &progress.0 {
+        bar.finish_and_clear();
+    }
+    Ok(Done { imported, baked })
 }
 
 impl Bar {

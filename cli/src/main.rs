@@ -5,6 +5,7 @@
 mod args;
 mod bake_cmd;
 mod bake_files;
+mod batch_cmd;
 mod describe;
 mod extract_cmd;
 mod failure;
@@ -51,6 +52,7 @@ fn main() -> ExitCode {
     }
     let result = match cli.command {
         Command::Bake(a) => bake_cmd::run(a, cli.quiet),
+        Command::Batch(a) => batch_cmd::run(a, cli.quiet),
         Command::Inspect(a) => describe::run_inspect(a),
         Command::Verify(a) => describe::run_verify(a, cli.quiet),
         Command::Keyframes(a) => keyframes_cmd::run(a, cli.quiet),

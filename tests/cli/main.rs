@@ -5,6 +5,7 @@
 use std::path::Path;
 
 mod animation;
+mod batch;
 mod closed_stdout;
 mod common;
 mod confinement;

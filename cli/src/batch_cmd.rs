@@ -1,0 +1,281 @@
+//! `furbake batch ASSETS.toml [-j N]`: many bakes from one file — shared defaults, per-asset
+//! overrides — planned as a whole first (a bad setting anywhere exits 2 before anything is
+//! baked), then baked `-j` at a time. An asset whose pack is up to date (its manifest records the
+//! same tool version, the same resolved settings and the same bytes for every input file) is
+//! skipped. One progress bar over the assets on a terminal, then one summary line per asset in
+//! file order; exit 1 when any asset failed, after every other asset was written. Packs do not
+//! depend on `-j`.
+
+use std::io::{IsTerminal, Read};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{Context, anyhow};
+use furbake_bake::BakeSettings;
+use indicatif::{ProgressBar, ProgressStyle};
+use rayon::prelude::*;
+use serde::Deserialize;
+use sha2::{Digest, Sha256};
+
+use crate::args::BatchArgs;
+use crate::bake_cmd::{Job, bake_job};
+use crate::failure::{Classify, Failure};
+
+/// Keys shared by `[defaults]` and every `[[asset]]`.
+#[derive(Deserialize, Default, Clone)]
+#[serde(deny_unknown_fields)]
+struct Common {
+    /// The preset the settings start from (`fur`, `grass`).
+    preset: Option<String>,
+    /// A bake config TOML (the `--config` file), relative to the batch file.
+    config: Option<PathBuf>,
+    /// Extra directory external files may come from (`--asset-root`), relative to the batch file.
+    asset_root: Option<PathBuf>,
+    /// Settings overrides (the keys of a `--config` file); an asset's are applied after the
+    /// defaults'.
+    settings: Option<toml::Table>,
+    /// Write `<pack>.d` depfiles.
+    depfile: Option<bool>,
+    /// Most memory a bake may plan for (`--max-memory`), e.g. "2G".
+    max_memory: Option<String>,
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct Defaults {
+    #[serde(flatten)]
+    common: Common,
+    /// Where packs go when an asset names no `output` (default: beside the batch file).
+    out_dir: Option<PathBuf>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct AssetEntry {
+    /// The glTF, relative to the batch file.
+    input: PathBuf,
+    /// The pack, relative to the batch file (default: `out_dir/<input stem>.fbk`).
+    output: Option<PathBuf>,
+    #[serde(flatten)]
+    common: Common,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct BatchFile {
+    #[serde(default)]
+    defaults: Defaults,
+    #[serde(default, rename = "asset")]
+    assets: Vec<AssetEntry>,
+}
+
+/// One asset, planned: its paths resolved and its settings validated.
+struct Planned {
+    input: PathBuf,
+    output: PathBuf,
+    config: Option<PathBuf>,
+    asset_root: Option<PathBuf>,
+    depfile: Option<PathBuf>,
+    max_memory: u64,
+    settings: BakeSettings,
+}
+
+/// How one asset ended.
+enum Outcome {
+    Baked(f64),
+    Skipped,
+    Failed(Failure),
+}
+
+/// Runs `furbake batch`.
+pub fn run(args: BatchArgs, quiet: bool) -> Result<(), Failure> {
+    let text = std::fs::read_to_string(&args.file)
+        .with_context(|| format!("{}: cannot read the batch file", args.file.display()))
+        .input()?;
+    let file: BatchFile =
+        toml::from_str(&text).with_context(|| format!("{}: invalid batch file", args.file.display())).input()?;
+    let base = match args.file.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        // The current directory: paths stay as the file spells them (`Fox.glb`, not `./Fox.glb`).
+        _ => PathBuf::new(),
+    };
+    if file.assets.is_empty() {
+        return Err(Failure::Input(anyhow!("{}: lists no [[asset]]", args.file.display())));
+    }
+    let plans = plan(&file, &base, &args.file)?;
+    let jobs = args.jobs.map_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()), usize::from);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(jobs)
+        .build()
+        .map_err(|e| Failure::Input(anyhow!("cannot start {jobs} threads: {e}")))?;
+    let bar = (!quiet && std::io::stderr().is_terminal()).then(|| {
+        let bar = ProgressBar::new(plans.len() as u64);
+        bar.set_style(
+            ProgressStyle::with_template("{spinner} [{bar:20}] {pos}/{len} assets {msg}")
+                .expect("static template is valid")
+                .progress_chars("=> "),
+        );
+        bar
+    });
+    let outcomes: Vec<Outcome> = pool.install(|| {
+        plans
+            .par_iter()
+            .map(|p| {
+                let outcome = run_one(p, args.force);
+                if let Some(bar) = &bar {
+                    bar.inc(1);
+                    bar.set_message(file_name(&p.output));
+                }
+                outcome
+            })
+            .collect()
+    });
+    if let Some(bar) = &bar {
+        bar.finish_and_clear();
+    }
+    let (mut baked, mut skipped, mut failed) = (0, 0, 0);
+    for (p, outcome) in plans.iter().zip(&outcomes) {
+        match outcome {
+            Outcome::Baked(s) => {
+                baked += 1;
+                if !quiet {
+                    eprintln!("baked    {} → {} ({s:.2} s)", p.input.display(), p.output.display());
+                }
+            }
+            Outcome::Skipped => {
+                skipped += 1;
+                if !quiet {
+                    eprintln!("skipped  {} (up to date)", p.output.display());
+                }
+            }
+            Outcome::Failed(e) => {
+                failed += 1;
+                eprintln!("failed   {}: {}", p.input.display(), e.message());
+            }
+        }
+    }
+    if !quiet || failed > 0 {
+        eprintln!("{} assets: {baked} baked, {skipped} skipped, {failed} failed", plans.len());
+    }
+    if failed > 0 {
+        return Err(Failure::Input(anyhow!("{}: {failed} of {} assets failed", args.file.display(), plans.len())));
+    }
+    Ok(())
+}
+
+/// Resolves every asset's paths and settings before anything is baked.
+fn plan(file: &BatchFile, base: &Path, batch: &Path) -> Result<Vec<Planned>, Failure> {
+    let d = &file.defaults.common;
+    let out_dir = file.defaults.out_dir.as_ref().map_or_else(|| base.to_path_buf(), |o| base.join(o));
+    let mut plans: Vec<Planned> = Vec::with_capacity(file.assets.len());
+    for (i, a) in file.assets.iter().enumerate() {
+        let c = &a.common;
+        let what = || format!("{} asset {} ({})", batch.display(), i + 1, a.input.display());
+        let preset = c.preset.as_deref().or(d.preset.as_deref()).unwrap_or("fur");
+        let mut settings = BakeSettings::preset(preset).map_err(|e| anyhow!("{}: {e}", what())).usage()?;
+        let config = c.config.as_ref().or(d.config.as_ref()).map(|p| base.join(p));
+        if let Some(path) = &config {
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("{}: {}: cannot read config", what(), path.display()))
+                .input()?;
+            let value: serde_json::Value = toml::from_str(&text)
+                .with_context(|| format!("{}: {}: invalid TOML", what(), path.display()))
+                .input()?;
+            settings = settings.with_overrides(&value).map_err(|e| anyhow!("{}: {e}", what())).usage()?;
+        }
+        for table in [&d.settings, &c.settings].into_iter().flatten() {
+            let value = serde_json::to_value(table).map_err(|e| anyhow!("{}: settings: {e}", what())).usage()?;
+            settings = settings.with_overrides(&value).map_err(|e| anyhow!("{}: {e}", what())).usage()?;
+        }
+        settings.validate().map_err(|e| anyhow!("{}: {e}", what())).usage()?;
+        let input = base.join(&a.input);
+        let output = match &a.output {
+            Some(o) => base.join(o),
+            None => {
+                let stem = a.input.file_stem().ok_or_else(|| anyhow!("{}: input has no file name", what())).usage()?;
+                out_dir.join(format!("{}.fbk", stem.to_string_lossy()))
+            }
+        };
+        if let Some(other) = plans.iter().position(|p| p.output == output) {
+            return Err(Failure::Usage(anyhow!(
+                "{}: writes {}, as asset {} does",
+                what(),
+                output.display(),
+                other + 1
+            )));
+        }
+        let max_memory = match c.max_memory.as_deref().or(d.max_memory.as_deref()) {
+            Some(v) => crate::args::parse_bytes(v).map_err(|e| anyhow!("{}: max_memory: {e}", what())).usage()?,
+            None => crate::args::DEFAULT_MAX_MEMORY,
+        };
+        let depfile =
+            c.depfile.or(d.depfile).unwrap_or(false).then(|| PathBuf::from(format!("{}.d", output.display())));
+        let asset_root = c.asset_root.as_ref().or(d.asset_root.as_ref()).map(|p| base.join(p));
+        plans.push(Planned { input, output, config, asset_root, depfile, max_memory, settings });
+    }
+    Ok(plans)
+}
+
+fn run_one(p: &Planned, force: bool) -> Outcome {
+    if !force && p.depfile.as_ref().is_none_or(|d| d.is_file()) && up_to_date(&p.output, &p.input, &p.settings) {
+        return Outcome::Skipped;
+    }
+    if let Some(dir) = p.output.parent().filter(|d| !d.as_os_str().is_empty()) {
+        if let Err(e) = std::fs::create_dir_all(dir) {
+            return Outcome::Failed(Failure::Input(anyhow!("{}: cannot create directory: {e}", dir.display())));
+        }
+    }
+    let started = Instant::now();
+    let job = Job {
+        mesh: &p.input,
+        output: &p.output,
+        asset_root: p.asset_root.as_deref(),
+        config: p.config.as_deref(),
+        png_dir: None,
+        depfile: p.depfile.as_deref(),
+        report: None,
+        max_memory: p.max_memory,
+    };
+    match bake_job(&job, &p.settings, None) {
+        Ok(_) => Outcome::Baked(started.elapsed().as_secs_f64()),
+        Err(e) => Outcome::Failed(e),
+    }
+}
+
+/// True when `output` is a pack whose manifest records this tool version, these resolved
+/// settings, `input`'s file name first and, for every input file, the same bytes now (named
+/// relative to the glTF's directory). A file longer than recorded counts as changed (a buffer
+/// file with bytes past its `byteLength` is then always rebaked: safe, rare). Anything
+/// unreadable means "not up to date".
+pub fn up_to_date(output: &Path, input: &Path, settings: &BakeSettings) -> bool {
+    let Ok(pack) = furbake_formats::Pack::open(output) else { return false };
+    let Ok(m) = pack.manifest() else { return false };
+    let settings_json = serde_json::to_string(settings).expect("settings are plain serde structs");
+    let name = input.file_name().map(|n| n.to_string_lossy().into_owned());
+    if m.tool != "furbake"
+        || m.tool_version != env!("CARGO_PKG_VERSION")
+        || m.settings_json != settings_json
+        || m.inputs.first().map(|f| &f.name) != name.as_ref()
+    {
+        return false;
+    }
+    let dir = input.parent().unwrap_or(Path::new("."));
+    m.inputs.iter().all(|f| same_bytes(&dir.join(&f.name), f.bytes, &f.sha256))
+}
+
+fn same_bytes(path: &Path, bytes: u64, sha256: &str) -> bool {
+    let Ok(file) = std::fs::File::open(path) else { return false };
+    if file.metadata().map(|m| m.len()).ok() != Some(bytes) {
+        return false;
+    }
+    let mut hasher = Sha256::new();
+    let mut reader = file.take(bytes);
+    if std::io::copy(&mut reader, &mut hasher).ok() != Some(bytes) {
+        return false;
+    }
+    hasher.finalize().iter().map(|b| format!("{b:02x}")).collect::<String>() == sha256
+}
+
+fn file_name(p: &Path) -> String {
+    p.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default()
+}
