@@ -19,6 +19,10 @@ deps:
 		echo "installing Mesa's software Vulkan driver (lavapipe)"; \
 		$(SUDO) apt-get update -qq && $(SUDO) apt-get install -y -qq --no-install-recommends mesa-vulkan-drivers libvulkan1; \
 	fi
+	@if ! python3 -c 'import jsonschema' >/dev/null 2>&1; then \
+		echo "installing python3 and python3-jsonschema (the schema test validates real outputs with it)"; \
+		$(SUDO) apt-get update -qq && $(SUDO) apt-get install -y -qq --no-install-recommends python3 python3-jsonschema; \
+	fi
 	@if ! command -v ninja >/dev/null 2>&1; then \
 		echo "installing ninja (the build-pipeline test drives it with bake --depfile)"; \
 		$(SUDO) apt-get update -qq && $(SUDO) apt-get install -y -qq --no-install-recommends ninja-build; \

@@ -17,6 +17,7 @@ mod memory_budget;
 mod pipeline;
 mod plan_first;
 mod preview_scene;
+mod schemas;
 mod simulate_scene;
 mod view;
 use common::*;

@@ -1,0 +1,98 @@
+//! The JSON Schemas in `docs/schemas/` describe what the commands really write: `inspect
+//! --json` of fur, grass and animated packs, `bake --report` and `simulate --state-out` are
+//! validated against them by an independent validator (Python's `jsonschema`, through
+//! `tools/check_schema.py`), and documents that break a rule are refused (so the schemas are not
+//! vacuous).
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use super::common::*;
+
+fn repo(rel: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(rel)
+}
+
+/// Runs the validator on `docs` against `docs/schemas/<schema>.schema.json`: its violations.
+fn violations(schema: &str, docs: &[&Path]) -> Vec<String> {
+    let out = Command::new("python3")
+        .arg(repo("tools/check_schema.py"))
+        .arg(repo(&format!("docs/schemas/{schema}.schema.json")))
+        .args(docs)
+        .output()
+        .expect("python3 runs (make deps installs it with python3-jsonschema)");
+    match out.status.code() {
+        Some(0) => Vec::new(),
+        Some(1) => stdout(&out).lines().map(str::to_owned).collect(),
+        _ => panic!("tools/check_schema.py failed: {}{}", stdout(&out), stderr(&out)),
+    }
+}
+
+fn write_json(p: &Path, v: &serde_json::Value) -> PathBuf {
+    std::fs::write(p, serde_json::to_vec(v).unwrap()).unwrap();
+    p.to_path_buf()
+}
+
+fn read_json(p: &Path) -> serde_json::Value {
+    serde_json::from_slice(&std::fs::read(p).unwrap()).unwrap()
+}
+
+#[test]
+fn real_outputs_validate_against_the_documented_schemas() {
+    let dir = tempfile::tempdir().unwrap();
+    let (mut inspects, mut reports) = (Vec::new(), Vec::new());
+    // Fur (animated Fox, with a topology), grass (blades, keyframes) and a static textured glTF.
+    let patch = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/generated/grass_patch.gltf");
+    let plane = real_fixture("TwoSidedPlane/TwoSidedPlane.gltf");
+    let fox = real_fixture("Fox.glb");
+    let bakes: [(&str, &Path, &[&str]); 3] = [
+        ("fox", &fox, &["--topology", "prisms"]),
+        ("grass-patch", &patch, &["--preset", "grass", "--blades", "50", "--topology", "prisms"]),
+        ("plane", &plane, &[]),
+    ];
+    let mut validated = 0;
+    for (name, mesh, extra) in bakes {
+        let (pack, json) = (dir.path().join(format!("{name}.fbk")), dir.path().join(format!("{name}.json")));
+        let args = ["bake", s(mesh), "-o", s(&pack), "--resolution", "16", "-q", "--report", s(&json)];
+        assert_ok(&furbake(&[&args[..], extra].concat()), &format!("bake {name}"));
+        reports.push(json);
+        let out = furbake(&["inspect", "--json", s(&pack)]);
+        assert_ok(&out, "inspect --json");
+        let inspected = dir.path().join(format!("{name}-inspect.json"));
+        std::fs::write(&inspected, &out.stdout).unwrap();
+        inspects.push(inspected);
+        validated += 2;
+    }
+    // The demo scene's final state (the Fox walking on the grass).
+    let scene = dir.path().join("scene.toml");
+    std::fs::copy(Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/scenes/demo_fox_and_grass.toml"), &scene)
+        .unwrap();
+    let st = dir.path().join("state.json");
+    assert_ok(&furbake(&["simulate", s(&scene), "--frames", "3", "--state-out", s(&st), "-q"]), "simulate");
+    validated += 1;
+    assert_eq!(validated, 7);
+    let as_paths = |v: &[PathBuf]| v.iter().map(|p| p.to_path_buf()).collect::<Vec<_>>();
+    for (schema, docs) in
+        [("bake-report", as_paths(&reports)), ("inspect", as_paths(&inspects)), ("state", vec![st.clone()])]
+    {
+        let docs: Vec<&Path> = docs.iter().map(PathBuf::as_path).collect();
+        let v = violations(schema, &docs);
+        assert!(v.is_empty(), "{schema}: {v:#?}");
+    }
+    let doc = read_json(&st);
+
+    // Broken documents are refused: a missing field, a wrong type, an unknown stage.
+    let mut broken = doc.clone();
+    broken["packs"][0].as_object_mut().unwrap().remove("name");
+    let v = violations("state", &[&write_json(&dir.path().join("b1.json"), &broken)]);
+    assert!(v.len() == 1 && v[0].contains("name"), "a pack without a name: {v:?}");
+    let mut broken = read_json(&dir.path().join("fox.json"));
+    broken["stages"][0]["stage"] = "teleport".into();
+    broken["pack_sha256"] = "not a hash".into();
+    let v = violations("bake-report", &[&write_json(&dir.path().join("b2.json"), &broken)]);
+    assert_eq!(v.len(), 2, "an unknown stage and a malformed hash: {v:?}");
+    let mut broken = read_json(&dir.path().join("fox-inspect.json"));
+    broken["sections"][0]["crc32"] = 5.into();
+    let v = violations("inspect", &[&write_json(&dir.path().join("b3.json"), &broken)]);
+    assert!(v.len() == 1 && v[0].contains("crc32"), "a numeric crc32: {v:?}");
+}
