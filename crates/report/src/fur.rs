@@ -75,8 +75,13 @@ pub enum SceneId {
 
 impl SceneId {
     /// Every scene, in document order.
-    pub const ALL: [SceneId; 5] =
-        [SceneId::GrassPatchPrisms, SceneId::GrassPatchSticks, SceneId::StiffNet, SceneId::FoxPrisms, SceneId::FoxSticks];
+    pub const ALL: [SceneId; 5] = [
+        SceneId::GrassPatchPrisms,
+        SceneId::GrassPatchSticks,
+        SceneId::StiffNet,
+        SceneId::FoxPrisms,
+        SceneId::FoxSticks,
+    ];
 
     /// A file-name-safe identifier (`grass-patch-prisms`, …).
     pub fn slug(self) -> &'static str {
@@ -154,6 +159,9 @@ impl Default for AccuracySettings {
         }
     }
 }
+
+/// Scale of the Fox scenes' mesh (its units are centimetres in effect).
+pub const FOX_SCALE: f32 = 0.01;
 
 /// The repository's `fixtures/real/Fox.glb`.
 pub fn default_fox_path() -> PathBuf {
@@ -246,8 +254,11 @@ pub struct SceneReport {
     pub duration_s: f64,
     /// Free masses.
     pub free_masses: usize,
-    /// Reference self-check: (max, RMS) difference between the reference at dt and at 2·dt.
+    /// The floor: (max, RMS) difference between the extrapolated reference from (dt, 2·dt) and
+    /// from (2·dt, 4·dt).
     pub floor_m: (f64, f64),
+    /// The plain backward-Euler self-check: (max, RMS) difference between the runs at dt and 2·dt.
+    pub plain_floor_m: (f64, f64),
     /// Wall time of the reference run, seconds.
     pub reference_wall_s: f64,
     /// Every configuration.
@@ -363,14 +374,21 @@ fn build_scene(id: SceneId, s: &AccuracySettings) -> Result<Scene, ReportError> 
             let kind = if id == SceneId::FoxPrisms { TopologyKind::PRISMS } else { TopologyKind::STICKS };
             let imported = furbake_import::import_gltf(&s.fox_path, &Default::default())
                 .map_err(|source| ReportError::Import { path: s.fox_path.clone(), source })?;
-            let m = &imported.mesh;
+            let mut m = imported.mesh;
+            // Authored in centimetres-as-units, the Fox is 155 units long; simulated as metres
+            // its coordinates reach ~90, where f32's spacing (7.6e-6) makes every run's round-off
+            // ~2e-4 m after a second and no step size converges. Scaled to a 1.55 m fox.
+            for p in &mut m.positions {
+                *p = p.map(|c| c * FOX_SCALE);
+            }
+            let m = &m;
             let t = build_topology(m, kind, &params)?;
             (
                 t,
                 fur_forces(),
                 s.fox_duration_s,
                 format!(
-                    "the Fox of the glTF samples (`fixtures/real/Fox.glb`, bind pose, welded to {} vertices and {} triangles, all furry), {kind} topology, {fur_params}",
+                    "the Fox of the glTF samples (`fixtures/real/Fox.glb`, bind pose, welded to {} vertices and {} triangles, all furry) scaled by {FOX_SCALE} to a 1.55 m fox (in its authored units it is 155 m long, and f32 round-off at coordinates ~90 — spacing 7.6e-6 — floors every error at ~2e-4 m after 1 s), {kind} topology, {fur_params}",
                     m.positions.len(),
                     m.triangles.len()
                 ),
@@ -447,10 +465,22 @@ pub fn configurations(iterations: &[u32]) -> Vec<(SolverKind, Option<u32>)> {
 
 fn measure_scene(scene: &Scene, s: &AccuracySettings) -> Result<SceneReport, ReportError> {
     let t = &scene.topology;
-    let reference = SolverSettings { reference_tolerance: s.reference_tolerance, ..settings(SolverKind::Reference, None, Mode::Raw) };
-    let (truth, _, reference_wall_s) = simulate(scene, reference.clone(), s.reference_dt_s)?;
-    let (coarse, _, _) = simulate(scene, reference, 2.0 * s.reference_dt_s)?;
-    let floor_m = errors(t, &truth, &coarse);
+    let reference = SolverSettings {
+        reference_tolerance: s.reference_tolerance,
+        ..settings(SolverKind::Reference, None, Mode::Raw)
+    };
+    // Backward Euler is first order, x(h) = x* + C·h + O(h²): at the reference step its own error
+    // is still ~1e-5 m on the stiff net. Richardson extrapolation R(h) = 2·x(h) − x(2h) cancels
+    // the first-order term; the floor compares R(h) with R(2h) (whose error is ~4× R(h)'s).
+    let (fine, _, reference_wall_s) = simulate(scene, reference.clone(), s.reference_dt_s)?;
+    let (coarse, _, _) = simulate(scene, reference.clone(), 2.0 * s.reference_dt_s)?;
+    let (coarser, _, _) = simulate(scene, reference, 4.0 * s.reference_dt_s)?;
+    let extrapolate = |a: &[[f64; 3]], b: &[[f64; 3]]| -> Vec<[f64; 3]> {
+        a.iter().zip(b).map(|(p, q)| [2.0 * p[0] - q[0], 2.0 * p[1] - q[1], 2.0 * p[2] - q[2]]).collect()
+    };
+    let truth = extrapolate(&fine, &coarse);
+    let floor_m = errors(t, &truth, &extrapolate(&coarse, &coarser));
+    let plain_floor_m = errors(t, &fine, &coarse);
     let mut rows = Vec::new();
     for (kind, iterations) in configurations(&s.iterations) {
         for mode in [Mode::Raw, Mode::Default] {
@@ -501,6 +531,7 @@ fn measure_scene(scene: &Scene, s: &AccuracySettings) -> Result<SceneReport, Rep
         duration_s: scene.duration_s,
         free_masses: t.mass_anchored.iter().filter(|&&a| a == 0).count(),
         floor_m,
+        plain_floor_m,
         reference_wall_s,
         rows,
         labels_omitted: 0,
@@ -539,8 +570,11 @@ fn measure_timings(s: &AccuracySettings) -> Result<Vec<TimingRow>, ReportError> 
     for &(masses, links) in &s.timing_sizes {
         for solver in SolverKind::ALL {
             let Some(t) = synthetic_topology(masses, links, solver == SolverKind::Stick, &params) else {
-                return Err(SimError::Parameter { name: "timing_sizes", what: format!("{masses} masses / {links} links") }
-                    .into());
+                return Err(SimError::Parameter {
+                    name: "timing_sizes",
+                    what: format!("{masses} masses / {links} links"),
+                }
+                .into());
             };
             let mut probe = Simulator::new(&t, SolverSettings::of(SolverKind::Explicit))?;
             let dt = probe.stable_step_s().min(1.0 / 60.0);
@@ -589,7 +623,9 @@ pub fn scene_chart(r: &SceneReport) -> (String, usize) {
     }
     let mut panels = Vec::new();
     for mode in [Mode::Raw, Mode::Default] {
-        for (metric, get) in [("max", (|r: &ErrorRow| r.max_error_m) as fn(&ErrorRow) -> f64), ("RMS", |r| r.rms_error_m)] {
+        for (metric, get) in
+            [("max", (|r: &ErrorRow| r.max_error_m) as fn(&ErrorRow) -> f64), ("RMS", |r| r.rms_error_m)]
+        {
             let series = configs
                 .iter()
                 .enumerate()
@@ -644,7 +680,14 @@ fn timing_chart(rows: &[TimingRow]) -> (String, usize) {
             None => {
                 let i = series.len();
                 let (color, marker) = style(i, i);
-                series.push(Series { name: r.solver.clone(), color, marker, filled: true, line: true, points: vec![p] });
+                series.push(Series {
+                    name: r.solver.clone(),
+                    color,
+                    marker,
+                    filled: true,
+                    line: true,
+                    points: vec![p],
+                });
             }
         }
     }
@@ -679,7 +722,12 @@ pub fn machine() -> String {
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
     let cpu = std::fs::read_to_string("/proc/cpuinfo")
         .ok()
-        .and_then(|c| c.lines().find(|l| l.starts_with("model name")).and_then(|l| l.split(':').nth(1)).map(|m| m.trim().to_owned()))
+        .and_then(|c| {
+            c.lines()
+                .find(|l| l.starts_with("model name"))
+                .and_then(|l| l.split(':').nth(1))
+                .map(|m| m.trim().to_owned())
+        })
         .unwrap_or_else(|| "unknown CPU".into());
     let profile = if cfg!(debug_assertions) { "debug" } else { "release" };
     format!(
@@ -715,10 +763,14 @@ fn render_markdown(s: &AccuracySettings, scenes: &[SceneReport], timings: &[Timi
          simulated second, the fastest of up to {} runs (runs after the first stop once a configuration has spent \
          {} s).\n\
          - **Reference**: `SolverKind::Reference` — backward Euler linearised per step, solved by conjugate gradient \
-         to a relative residual of {:.0e} — at dt = 1/{:.0} s, step limits off; positions read as {positions}.\n\
-         - **Floor**: the reference's self-check, the error between its runs at dt and 2·dt (per scene below). \
-         Errors near the floor are the reference's, not the solver's: a cell marked ‡ is within 2× the RMS floor, \
-         and its true error may be smaller.\n\
+         to a relative residual of {:.0e}, step limits off — run at dt = 1/{:.0} s and 2·dt, and Richardson-extrapolated: \
+         backward Euler is first order, x(h) = x* + C·h + O(h²), so R = 2·x(dt) − x(2·dt) cancels its own step error \
+         (at dt alone it would still be ~1e-5 m on the stiff net, above the explicit solver's error). Positions read \
+         as {positions}.\n\
+         - **Floor**: the reference's self-check, per scene: the difference between R from (dt, 2·dt) and R from \
+         (2·dt, 4·dt) — about 3× R's own error, so conservative — and, for comparison, the plain backward-Euler \
+         difference between dt and 2·dt. A cell marked ‡ is within 2× the RMS floor: its error is the reference's \
+         as much as the solver's, and the true error may be smaller.\n\
          - **Machine**: {machine}. Times move with machine load.\n",
         s.repeats,
         s.repeat_budget_s,
@@ -731,15 +783,18 @@ fn render_markdown(s: &AccuracySettings, scenes: &[SceneReport], timings: &[Timi
         let _ = writeln!(
             md,
             "Metric: max and RMS position error over the {} free masses after {} s, metres. Reference: \
-             `reference` at dt = 1/{:.0} s, CG to {:.0e} ({:.1} s of wall time). Floor (dt vs 2·dt): max {:.2e} m, \
-             RMS {:.2e} m. Machine: as above.\n",
+             `reference` at dt = 1/{:.0} s and 2·dt, CG to {:.0e}, Richardson-extrapolated ({:.1} s of wall time at dt). \
+             Floor (extrapolations from dt and 2·dt): max {:.2e} m, RMS {:.2e} m (plain backward Euler, dt vs 2·dt: \
+             max {:.2e} m, RMS {:.2e} m). Machine: as above.\n",
             r.free_masses,
             r.duration_s,
             1.0 / s.reference_dt_s,
             s.reference_tolerance,
             r.reference_wall_s,
             r.floor_m.0,
-            r.floor_m.1
+            r.floor_m.1,
+            r.plain_floor_m.0,
+            r.plain_floor_m.1
         );
         let name = chart_name(r.id);
         let _ = writeln!(md, "![{}: error against wall time per simulated second]({name})\n", r.id.title());
@@ -756,7 +811,10 @@ fn render_markdown(s: &AccuracySettings, scenes: &[SceneReport], timings: &[Timi
             "The configurations no other beats in both cost and error (raw and default settings together), by cost; \
              *front* says for which metric.\n"
         );
-        let _ = writeln!(md, "| solver | settings | dt | substeps | max error | RMS error | wall s per simulated s | front |");
+        let _ = writeln!(
+            md,
+            "| solver | settings | dt | substeps | max error | RMS error | wall s per simulated s | front |"
+        );
         let _ = writeln!(md, "|---|---|---:|---:|---:|---:|---:|---|");
         for &i in &front {
             let x = ran[i];
@@ -780,7 +838,10 @@ fn render_markdown(s: &AccuracySettings, scenes: &[SceneReport], timings: &[Timi
         }
         let _ = writeln!(md, "\n### {} — every configuration\n", r.id.title());
         let _ = writeln!(md, "<details><summary>{} rows</summary>\n", r.rows.len());
-        let _ = writeln!(md, "| solver | settings | dt | substeps | max error | RMS error | wall s per simulated s | note |");
+        let _ = writeln!(
+            md,
+            "| solver | settings | dt | substeps | max error | RMS error | wall s per simulated s | note |"
+        );
         let _ = writeln!(md, "|---|---|---:|---:|---:|---:|---:|---|");
         for x in &r.rows {
             let _ = writeln!(

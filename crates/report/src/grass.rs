@@ -115,39 +115,39 @@ pub fn measure_pose_error(options: &GrassAccuracyOptions) -> Result<Vec<PoseErro
         let grid = PoseGridSettings { poses, ..base.grid }.resolve(Symmetry::XZ)?;
         let simulated = simulate_poses(&blade, &base.material, grid)?;
         for encoding in options.encodings.iter().copied() {
-        let table = compress_poses(&simulated, Symmetry::XZ, base.stages, encoding)?;
-        let decoder = KeyframeDecoder::new(&table)?;
-        let mut pose = vec![Vec3::ZERO; decoder.vertex_count()];
-        for mode in Interpolation::ALL {
-            let (mut max, mut sum, mut n) = (0.0f32, 0.0f64, 0u64);
-            for (force, exact) in &queries {
-                decoder.pose_positions(&decoder.select(*force, mode), mode, &mut pose);
-                for (p, e) in pose.iter().zip(exact) {
-                    let err = (*p - *e).length();
-                    max = max.max(err);
-                    sum += (err as f64).powi(2);
-                    n += 1;
-                }
-            }
-            let ns = best_of(TIMING_BATCHES, || {
-                for _ in 0..options.timing_repeats {
-                    for (force, _) in &queries {
-                        let blend = decoder.select(black_box(*force), mode);
-                        decoder.pose_positions(&blend, mode, &mut pose);
-                        black_box(&pose);
+            let table = compress_poses(&simulated, Symmetry::XZ, base.stages, encoding)?;
+            let decoder = KeyframeDecoder::new(&table)?;
+            let mut pose = vec![Vec3::ZERO; decoder.vertex_count()];
+            for mode in Interpolation::ALL {
+                let (mut max, mut sum, mut n) = (0.0f32, 0.0f64, 0u64);
+                for (force, exact) in &queries {
+                    decoder.pose_positions(&decoder.select(*force, mode), mode, &mut pose);
+                    for (p, e) in pose.iter().zip(exact) {
+                        let err = (*p - *e).length();
+                        max = max.max(err);
+                        sum += (err as f64).powi(2);
+                        n += 1;
                     }
                 }
-            });
-            let blades = (options.timing_repeats * queries.len()).max(1);
-            rows.push(PoseErrorRow {
-                poses,
-                interpolation: mode,
-                encoding,
-                error_max: max,
-                error_rms: (sum / n.max(1) as f64).sqrt() as f32,
-                ns_per_blade: ns / blades as f64,
-            });
-        }
+                let ns = best_of(TIMING_BATCHES, || {
+                    for _ in 0..options.timing_repeats {
+                        for (force, _) in &queries {
+                            let blend = decoder.select(black_box(*force), mode);
+                            decoder.pose_positions(&blend, mode, &mut pose);
+                            black_box(&pose);
+                        }
+                    }
+                });
+                let blades = (options.timing_repeats * queries.len()).max(1);
+                rows.push(PoseErrorRow {
+                    poses,
+                    interpolation: mode,
+                    encoding,
+                    error_max: max,
+                    error_rms: (sum / n.max(1) as f64).sqrt() as f32,
+                    ns_per_blade: ns / blades as f64,
+                });
+            }
         }
     }
     Ok(rows)
@@ -190,19 +190,20 @@ impl SelectionCost {
              spherical; the difference is the pose. Linear blends the four keys' displacements with fixed weights (four \
              table reads and four multiply-adds per vertex). Spherical reads the same four, then slerps root→vertex \
              vectors three times per vertex (eq. 3.14: along the angle at both magnitudes, then along the magnitude): \
-             {} slerps per blade, each an angle and two sines. Written with libm (`acosf`, three `sinf`, two \
-             square roots) a slerp costs {:.1} ns measured alone, {:.0} ns per blade: that was the ~10× of linear \
-             the previous report measured. `furbake_grass::decode::slerp` now evaluates the angle and sines with \
-             polynomials accurate to f32 round-off ({:.1} ns per slerp, {slerp_total:.0} ns per blade, {:.0} % of \
-             today's spherical pose) — the same poses within 1e-6, at a fraction of the time. What is left is \
-             inherent: three slerps per vertex against one weighted sum.\n",
+             {} slerps per blade, each an angle and two sines. A slerp measured alone on the same vector pairs \
+             costs {:.1} ns written with libm (`acosf`, three `sinf`, two square roots, as `furbake-grass` had it) \
+             and {:.1} ns as `furbake_grass::decode::slerp` now evaluates it (polynomial arccosine and sines accurate \
+             to f32 round-off, the same poses within 1e-6): {:.0} ns against {slerp_total:.0} ns per blade, that is \
+             {:.0} % of today's spherical pose. The rest of the gap to linear was not broken down further here (the \
+             three slerps of a vertex are a dependent chain of square roots and divisions, which a replay of \
+             independent slerps does not show). A shader evaluates these on its transcendental units.\n",
             self.poses,
             self.vertices,
             sp / lp.max(1e-9),
             self.slerps_per_blade,
             self.slerp_libm_ns,
-            self.slerp_libm_ns * self.slerps_per_blade as f64,
             self.slerp_ns,
+            self.slerp_libm_ns * self.slerps_per_blade as f64,
             100.0 * slerp_total / sp.max(1e-9),
         )
     }
@@ -441,7 +442,9 @@ pub const POSE_CHART: &str = "accuracy_grass_pose.svg";
 pub fn pose_chart(rows: &[PoseErrorRow]) -> (String, usize) {
     use crate::svg::{COLORS, Figure, Marker, Panel, Point, Series, render};
     let mut panels = Vec::new();
-    for (metric, get) in [("max", (|r: &PoseErrorRow| r.error_max) as fn(&PoseErrorRow) -> f32), ("RMS", |r| r.error_rms)] {
+    for (metric, get) in
+        [("max", (|r: &PoseErrorRow| r.error_max) as fn(&PoseErrorRow) -> f32), ("RMS", |r| r.error_rms)]
+    {
         let mut series = Vec::new();
         for (si, mode) in Interpolation::ALL.into_iter().enumerate() {
             for (ei, enc) in DisplacementEncoding::ALL.into_iter().enumerate() {
@@ -593,13 +596,16 @@ mod tests {
         let poses = measure_pose_error(&options).expect("measures");
         assert_eq!(poses.len(), 2 * 2 * 3);
         let err = |n, m| {
-            let f32_row = |r: &&PoseErrorRow| r.poses == n && r.interpolation == m && r.encoding == DisplacementEncoding::F32;
+            let f32_row =
+                |r: &&PoseErrorRow| r.poses == n && r.interpolation == m && r.encoding == DisplacementEncoding::F32;
             poses.iter().find(f32_row).expect("row").error_rms
         };
         // 8-bit encoding adds error to the f32 table's.
         let coarse = poses
             .iter()
-            .find(|r| r.poses == 400 && r.interpolation == Interpolation::Linear && r.encoding == DisplacementEncoding::Unorm8)
+            .find(|r| {
+                r.poses == 400 && r.interpolation == Interpolation::Linear && r.encoding == DisplacementEncoding::Unorm8
+            })
             .expect("row");
         assert!(coarse.error_rms >= err(400, Interpolation::Linear));
         for m in Interpolation::ALL {
@@ -613,7 +619,8 @@ mod tests {
         };
         assert!(f(0.5, false) < f(4.0, false), "smaller clusters, less error");
         assert!(f(4.0, true) < f(4.0, false), "delayed attenuation removes cluster artefacts");
-        let md = grass_accuracy_markdown(&GrassAccuracyOptions { pose_counts: vec![12], ..options.clone() }).expect("writes");
+        let md = grass_accuracy_markdown(&GrassAccuracyOptions { pose_counts: vec![12], ..options.clone() })
+            .expect("writes");
         assert!(md.starts_with("## Grass"));
         assert_eq!(md.matches("\n### ").count(), 4);
         assert!(md.contains("Why spherical selection costs more than linear"));

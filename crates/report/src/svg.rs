@@ -176,7 +176,8 @@ fn drawable(p: &Point) -> bool {
 /// Indices (into `points`) of the Pareto front: no other point has both x ≤ and y ≤ with one
 /// strictly smaller. Sorted by x.
 pub fn pareto_front(points: &[(f64, f64)]) -> Vec<usize> {
-    let mut idx: Vec<usize> = (0..points.len()).filter(|&i| points[i].0.is_finite() && points[i].1.is_finite()).collect();
+    let mut idx: Vec<usize> =
+        (0..points.len()).filter(|&i| points[i].0.is_finite() && points[i].1.is_finite()).collect();
     idx.sort_by(|&a, &b| points[a].0.total_cmp(&points[b].0).then(points[a].1.total_cmp(&points[b].1)));
     let mut front = Vec::new();
     let mut best = f64::INFINITY;
@@ -198,7 +199,13 @@ fn marker_svg(m: Marker, x: f64, y: f64, color: &str, filled: bool) -> String {
         Marker::Circle => format!("<circle cx=\"{x:.1}\" cy=\"{y:.1}\" r=\"{r}\" {style}/>"),
         Marker::Square => {
             let s = r * 0.9;
-            format!("<rect x=\"{:.1}\" y=\"{:.1}\" width=\"{:.1}\" height=\"{:.1}\" {style}/>", x - s, y - s, 2.0 * s, 2.0 * s)
+            format!(
+                "<rect x=\"{:.1}\" y=\"{:.1}\" width=\"{:.1}\" height=\"{:.1}\" {style}/>",
+                x - s,
+                y - s,
+                2.0 * s,
+                2.0 * s
+            )
         }
         Marker::Triangle => format!(
             "<path d=\"M{x:.1},{:.1} L{:.1},{:.1} L{:.1},{:.1} Z\" {style}/>",
@@ -413,7 +420,12 @@ pub fn render(fig: &Figure) -> (String, usize) {
             for p in drawn {
                 let (x, y) = (px(p.x), py(p.y));
                 let _ = writeln!(s, "{}", marker_svg(series.marker, x, y, &series.color, series.filled));
-                obstacles.push(Rect { x: x - MARKER_R - 1.0, y: y - MARKER_R - 1.0, w: 2.0 * MARKER_R + 2.0, h: 2.0 * MARKER_R + 2.0 });
+                obstacles.push(Rect {
+                    x: x - MARKER_R - 1.0,
+                    y: y - MARKER_R - 1.0,
+                    w: 2.0 * MARKER_R + 2.0,
+                    h: 2.0 * MARKER_R + 2.0,
+                });
             }
         }
         // Labels: the Pareto front's first (they matter most), then the rest in order.
@@ -486,7 +498,13 @@ pub fn render(fig: &Figure) -> (String, usize) {
     let mut ly = legend_y + 6.0 + line_h / 2.0;
     for e in &entries {
         let _ = writeln!(s, "{}", marker_svg(e.marker, legend_x + 16.0, ly, &e.color, e.filled));
-        let _ = writeln!(s, "<text x=\"{:.1}\" y=\"{:.1}\" font-size=\"{legend_font}\">{}</text>", legend_x + 30.0, ly + 4.0, esc(&e.name));
+        let _ = writeln!(
+            s,
+            "<text x=\"{:.1}\" y=\"{:.1}\" font-size=\"{legend_font}\">{}</text>",
+            legend_x + 30.0,
+            ly + 4.0,
+            esc(&e.name)
+        );
         ly += line_h;
     }
     if any_pareto {
@@ -558,8 +576,9 @@ mod tests {
 
     #[test]
     fn crowded_labels_are_nudged_apart_not_stacked() {
-        let points: Vec<Point> =
-            (0..12).map(|i| Point { x: 1.0 + 0.01 * i as f64, y: 1e-3 * (1.0 + 0.01 * i as f64), label: format!("p{i}") }).collect();
+        let points: Vec<Point> = (0..12)
+            .map(|i| Point { x: 1.0 + 0.01 * i as f64, y: 1e-3 * (1.0 + 0.01 * i as f64), label: format!("p{i}") })
+            .collect();
         let fig = Figure {
             title: "t".into(),
             columns: 1,
@@ -585,7 +604,8 @@ mod tests {
             .lines()
             .filter_map(|l| l.split("data-box=\"").nth(1))
             .map(|rest| {
-                let v: Vec<f64> = rest.split('"').next().unwrap_or("").split(' ').filter_map(|t| t.parse().ok()).collect();
+                let v: Vec<f64> =
+                    rest.split('"').next().unwrap_or("").split(' ').filter_map(|t| t.parse().ok()).collect();
                 Rect { x: v[0], y: v[1], w: v[2], h: v[3] }
             })
             .collect();

@@ -114,10 +114,14 @@ fn check_svg(name: &str, svg: &str) -> usize {
         .iter()
         .filter(|t| t.0 == "text" && t.1.contains("class=\"label\""))
         .map(|t| {
-            let v: Vec<f64> = t.1.split("data-box=\"").nth(1).and_then(|r| r.split('"').next()).unwrap_or("")
-                .split(' ')
-                .filter_map(|x| x.parse().ok())
-                .collect();
+            let v: Vec<f64> =
+                t.1.split("data-box=\"")
+                    .nth(1)
+                    .and_then(|r| r.split('"').next())
+                    .unwrap_or("")
+                    .split(' ')
+                    .filter_map(|x| x.parse().ok())
+                    .collect();
             assert_eq!(v.len(), 4, "{name}: a label box in {}", t.1);
             Rect { x: v[0], y: v[1], w: v[2], h: v[3] }
         })
