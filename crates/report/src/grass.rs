@@ -193,7 +193,7 @@ impl SelectionCost {
              {} slerps per blade, each an angle and two sines. A slerp measured alone on the same vector pairs \
              costs {:.1} ns written with libm (`acosf`, three `sinf`, two square roots, as `furbake-grass` had it) \
              and {:.1} ns as `furbake_grass::decode::slerp` now evaluates it (polynomial arccosine and sines accurate \
-             to f32 round-off, the same poses within 1e-6): {:.0} ns against {slerp_total:.0} ns per blade, that is \
+             to f32 round-off, at least as close to an f64 slerp): {:.0} ns against {slerp_total:.0} ns per blade, that is \
              {:.0} % of today's spherical pose. The rest of the gap to linear was not broken down further here (the \
              three slerps of a vertex are a dependent chain of square roots and divisions, which a replay of \
              independent slerps does not show). A shader evaluates these on its transcendental units.\n",
