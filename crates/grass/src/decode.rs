@@ -348,7 +348,7 @@ pub fn fast_acos(x: f32) -> f32 {
         * ax
         - 0.214_598_8)
         * ax
-        + 1.570_796_3;
+        + std::f32::consts::FRAC_PI_2; // a₀ = 1.5707963050 rounds to the same f32
     let r = (1.0 - ax).sqrt() * p;
     if x < 0.0 { std::f32::consts::PI - r } else { r }
 }

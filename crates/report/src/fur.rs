@@ -373,7 +373,7 @@ fn build_scene(id: SceneId, s: &AccuracySettings) -> Result<Scene, ReportError> 
         SceneId::FoxPrisms | SceneId::FoxSticks => {
             let kind = if id == SceneId::FoxPrisms { TopologyKind::PRISMS } else { TopologyKind::STICKS };
             let imported = furbake_import::import_gltf(&s.fox_path, &Default::default())
-                .map_err(|source| ReportError::Import { path: s.fox_path.clone(), source })?;
+                .map_err(|source| ReportError::Import { path: s.fox_path.clone(), source: Box::new(source) })?;
             let mut m = imported.mesh;
             // Authored in centimetres-as-units, the Fox is 155 units long; simulated as metres
             // its coordinates reach ~90, where f32's spacing (7.6e-6) makes every run's round-off

@@ -61,8 +61,8 @@ pub enum ReportError {
     Import {
         /// The glTF.
         path: PathBuf,
-        /// The cause.
-        source: furbake_import::ImportError,
+        /// The cause (boxed: the import error is large).
+        source: Box<furbake_import::ImportError>,
     },
     /// The grass measurements failed.
     #[error("grass accuracy report: {0}")]

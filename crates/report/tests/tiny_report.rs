@@ -56,7 +56,7 @@ fn parse_xml(xml: &str) -> Result<Vec<(String, String)>, String> {
         if tag.starts_with('?') || tag.starts_with('!') {
             continue;
         }
-        if tag.matches('"').count() % 2 != 0 {
+        if !tag.matches('"').count().is_multiple_of(2) {
             return Err(format!("unpaired quote in <{tag}>"));
         }
         if let Some(name) = tag.strip_prefix('/') {
