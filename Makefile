@@ -72,9 +72,11 @@ clean-out:
 golden:
 	FURBAKE_BLESS=1 $(CARGO) test -p furbake-cli --test cli golden
 
-# Regenerate docs/accuracy.md and its plots from measurements (release build; a few minutes).
+# Regenerate docs/accuracy.md and its SVG charts from measurements (release build; a few minutes
+# on 2 cores). It runs the report crate's example — the same library call as `furbake report
+# accuracy -o docs` — so it does not build the renderer (wgpu) in release.
 report:
-	$(CARGO) run --release -p furbake-cli -- report accuracy -o docs
+	$(CARGO) run --release -p furbake-report --example accuracy_report -- docs
 
 # The long fuzzing campaign (issue 10, item 7; crates/fuzz): release build, 200,000 pack, 3,000
 # glTF (every 10th also through the debug `furbake` binary under a 2 GiB limit) and 3,000 scene

@@ -408,7 +408,7 @@ pub struct ReportArgs {
     /// Which report: `accuracy` (error against a converged reference vs time, fur and grass).
     #[arg(value_parser = ["accuracy"])]
     pub which: String,
-    /// Directory to write into (`accuracy.md`, `accuracy_error.svg` and `accuracy_time.svg`).
+    /// Directory to write into (`accuracy.md` and its SVG charts).
     #[arg(short, long, default_value = "docs")]
     pub output: std::path::PathBuf,
 }

@@ -1,7 +1,8 @@
 //! `furbake report accuracy`: regenerate `docs/accuracy.md` and its SVG plots — the user's ask
 //! "show what accuracy costs in time". Thin glue: `furbake-report` measures (fur solvers against a
 //! converged reference, grass keyframes and force field against exact values) and renders; this
-//! file reports progress and writes the files. Run it in release (`make report`).
+//! file reports progress and writes the files. `make report` runs the same library call through
+//! the report crate's example, which does not build the renderer in release.
 
 use crate::args::ReportArgs;
 use crate::failure::{Classify, Failure};
@@ -11,7 +12,7 @@ pub fn run(args: ReportArgs, quiet: bool) -> Result<(), Failure> {
     let progress = |part| {
         if !quiet {
             match part {
-                furbake_report::ReportPart::Fur => eprintln!("measuring fur solvers (about two minutes in release)…"),
+                furbake_report::ReportPart::Fur => eprintln!("measuring fur solvers (a few minutes in release)…"),
                 furbake_report::ReportPart::Grass => eprintln!("measuring grass keyframes and force field…"),
             }
         }

@@ -46,6 +46,8 @@ fn best_of(batches: usize, mut f: impl FnMut()) -> f64 {
 pub struct GrassAccuracyOptions {
     /// Keyframe counts (represented poses, xz symmetry). Default 12, 100, 1000, 10,000.
     pub pose_counts: Vec<u32>,
+    /// Displacement encodings of the pose table. Default: every encoding.
+    pub encodings: Vec<DisplacementEncoding>,
     /// Random query forces per keyframe count. Default 200.
     pub queries: usize,
     /// Decode repetitions per query when timing. Default 50.
@@ -60,6 +62,7 @@ impl Default for GrassAccuracyOptions {
     fn default() -> Self {
         GrassAccuracyOptions {
             pose_counts: vec![12, 100, 1000, 10_000],
+            encodings: DisplacementEncoding::ALL.to_vec(),
             queries: 200,
             timing_repeats: 50,
             cluster_sizes_m: vec![0.25, 0.5, 1.0, 2.0, 4.0],
@@ -75,6 +78,8 @@ pub struct PoseErrorRow {
     pub poses: u32,
     /// Selection mode.
     pub interpolation: Interpolation,
+    /// Displacement encoding of the table.
+    pub encoding: DisplacementEncoding,
     /// Largest vertex error, blade lengths.
     pub error_max: f32,
     /// RMS vertex error, blade lengths.
@@ -109,40 +114,190 @@ pub fn measure_pose_error(options: &GrassAccuracyOptions) -> Result<Vec<PoseErro
     for &poses in &options.pose_counts {
         let grid = PoseGridSettings { poses, ..base.grid }.resolve(Symmetry::XZ)?;
         let simulated = simulate_poses(&blade, &base.material, grid)?;
-        let table = compress_poses(&simulated, Symmetry::XZ, base.stages, DisplacementEncoding::F32)?;
-        let decoder = KeyframeDecoder::new(&table)?;
-        let mut pose = vec![Vec3::ZERO; decoder.vertex_count()];
-        for mode in Interpolation::ALL {
-            let (mut max, mut sum, mut n) = (0.0f32, 0.0f64, 0u64);
-            for (force, exact) in &queries {
-                decoder.pose_positions(&decoder.select(*force, mode), mode, &mut pose);
-                for (p, e) in pose.iter().zip(exact) {
-                    let err = (*p - *e).length();
-                    max = max.max(err);
-                    sum += (err as f64).powi(2);
-                    n += 1;
-                }
-            }
-            let ns = best_of(TIMING_BATCHES, || {
-                for _ in 0..options.timing_repeats {
-                    for (force, _) in &queries {
-                        let blend = decoder.select(black_box(*force), mode);
-                        decoder.pose_positions(&blend, mode, &mut pose);
-                        black_box(&pose);
+        for encoding in options.encodings.iter().copied() {
+            let table = compress_poses(&simulated, Symmetry::XZ, base.stages, encoding)?;
+            let decoder = KeyframeDecoder::new(&table)?;
+            let mut pose = vec![Vec3::ZERO; decoder.vertex_count()];
+            for mode in Interpolation::ALL {
+                let (mut max, mut sum, mut n) = (0.0f32, 0.0f64, 0u64);
+                for (force, exact) in &queries {
+                    decoder.pose_positions(&decoder.select(*force, mode), mode, &mut pose);
+                    for (p, e) in pose.iter().zip(exact) {
+                        let err = (*p - *e).length();
+                        max = max.max(err);
+                        sum += (err as f64).powi(2);
+                        n += 1;
                     }
                 }
-            });
-            let blades = (options.timing_repeats * queries.len()).max(1);
-            rows.push(PoseErrorRow {
-                poses,
-                interpolation: mode,
-                error_max: max,
-                error_rms: (sum / n.max(1) as f64).sqrt() as f32,
-                ns_per_blade: ns / blades as f64,
-            });
+                let ns = best_of(TIMING_BATCHES, || {
+                    for _ in 0..options.timing_repeats {
+                        for (force, _) in &queries {
+                            let blend = decoder.select(black_box(*force), mode);
+                            decoder.pose_positions(&blend, mode, &mut pose);
+                            black_box(&pose);
+                        }
+                    }
+                });
+                let blades = (options.timing_repeats * queries.len()).max(1);
+                rows.push(PoseErrorRow {
+                    poses,
+                    interpolation: mode,
+                    encoding,
+                    error_max: max,
+                    error_rms: (sum / n.max(1) as f64).sqrt() as f32,
+                    ns_per_blade: ns / blades as f64,
+                });
+            }
         }
     }
     Ok(rows)
+}
+
+/// Where the decode time of each selection goes (the spherical selection's cost, measured).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SelectionCost {
+    /// Keyframes of the table measured.
+    pub poses: u32,
+    /// Vertices per blade.
+    pub vertices: usize,
+    /// Per selection: (mode, ns per blade of `select`, ns per blade of `pose_positions`).
+    pub per_mode: Vec<(Interpolation, f64, f64)>,
+    /// ns per call of `furbake_grass::decode::slerp` on the vector pairs the spherical decode slerps.
+    pub slerp_ns: f64,
+    /// ns per call of the same slerp written with libm (`acos` and three `sin`, as before the
+    /// polynomial version), on the same pairs.
+    pub slerp_libm_ns: f64,
+    /// `slerp` calls per blade (three per vertex: two along the angle, one along the magnitude).
+    pub slerps_per_blade: usize,
+}
+
+impl SelectionCost {
+    fn ns(&self, mode: Interpolation) -> (f64, f64) {
+        self.per_mode.iter().find(|m| m.0 == mode).map_or((0.0, 0.0), |m| (m.1, m.2))
+    }
+
+    /// The document's explanation, with the numbers.
+    pub fn markdown(&self) -> String {
+        let (ls, lp) = self.ns(Interpolation::Linear);
+        let (ss, sp) = self.ns(Interpolation::Spherical);
+        let (ns, np) = self.ns(Interpolation::Nearest);
+        let slerp_total = self.slerp_ns * self.slerps_per_blade as f64;
+        format!(
+            "Measured on the {}-keyframe f32 table with the queries above (ns per blade, one thread): \
+             selection (`select`: grid coordinates, the four neighbouring keys, their weights) costs {ns:.0} / \
+             {ls:.0} / {ss:.0} ns for nearest / linear / spherical, building the pose (`pose_positions`, {} vertices) \
+             {np:.0} / {lp:.0} / {sp:.0} ns — spherical is {:.1}× linear. Selection is the same work for linear and \
+             spherical; the difference is the pose. Linear blends the four keys' displacements with fixed weights (four \
+             table reads and four multiply-adds per vertex). Spherical reads the same four, then slerps root→vertex \
+             vectors three times per vertex (eq. 3.14: along the angle at both magnitudes, then along the magnitude): \
+             {} slerps per blade, each an angle and two sines. A slerp measured alone on the same vector pairs \
+             costs {:.1} ns written with libm (`acosf`, three `sinf`, two square roots, as `furbake-grass` had it) \
+             and {:.1} ns as `furbake_grass::decode::slerp` now evaluates it (polynomial arccosine and sines accurate \
+             to f32 round-off, at least as close to an f64 slerp): {:.0} ns against {slerp_total:.0} ns per blade, that is \
+             {:.0} % of today's spherical pose. The rest of the gap to linear was not broken down further here (the \
+             three slerps of a vertex are a dependent chain of square roots and divisions, which a replay of \
+             independent slerps does not show). A shader evaluates these on its transcendental units.\n",
+            self.poses,
+            self.vertices,
+            sp / lp.max(1e-9),
+            self.slerps_per_blade,
+            self.slerp_libm_ns,
+            self.slerp_ns,
+            self.slerp_libm_ns * self.slerps_per_blade as f64,
+            100.0 * slerp_total / sp.max(1e-9),
+        )
+    }
+}
+
+/// Measures where each selection's decode time goes on a 1000-keyframe f32 table (or the largest
+/// count of `options` below it).
+pub fn measure_selection_cost(options: &GrassAccuracyOptions) -> Result<SelectionCost, GrassError> {
+    let base = KeyframeSettings::thesis();
+    let poses = options.pose_counts.iter().copied().filter(|&n| n <= 1000).max().unwrap_or(12);
+    let blade = build_reference_blade(&base.shape)?;
+    let grid = PoseGridSettings { poses, ..base.grid }.resolve(Symmetry::XZ)?;
+    let simulated = simulate_poses(&blade, &base.material, grid)?;
+    let table = compress_poses(&simulated, Symmetry::XZ, base.stages, DisplacementEncoding::F32)?;
+    let decoder = KeyframeDecoder::new(&table)?;
+    let mut rng = SplitMix64::new(0x5e1e_c7ed);
+    let forces: Vec<Vec2> = (0..options.queries.max(1))
+        .map(|_| {
+            let mag = base.grid.max_force * rng.next_f32();
+            let theta = std::f32::consts::TAU * rng.next_f32();
+            Vec2::new(theta.sin(), theta.cos()) * mag
+        })
+        .collect();
+    let repeats = options.timing_repeats.max(1);
+    let blades = (repeats * forces.len()) as f64;
+    let mut pose = vec![Vec3::ZERO; decoder.vertex_count()];
+    let mut per_mode = Vec::new();
+    for mode in Interpolation::ALL {
+        let select = best_of(TIMING_BATCHES, || {
+            for _ in 0..repeats {
+                for f in &forces {
+                    black_box(decoder.select(black_box(*f), mode));
+                }
+            }
+        }) / blades;
+        let blends: Vec<_> = forces.iter().map(|f| decoder.select(*f, mode)).collect();
+        let build = best_of(TIMING_BATCHES, || {
+            for _ in 0..repeats {
+                for b in &blends {
+                    decoder.pose_positions(black_box(b), mode, &mut pose);
+                    black_box(&pose);
+                }
+            }
+        }) / blades;
+        per_mode.push((mode, select, build));
+    }
+    // The slerps of the spherical decode, replayed alone.
+    let mut pairs = Vec::new();
+    for f in &forces {
+        let b = decoder.select(*f, Interpolation::Spherical);
+        for v in 0..decoder.vertex_count() {
+            let r = decoder.reference()[v];
+            let p = b.keys.map(|k| r + decoder.displacement(k, v));
+            pairs.push((p[0], p[1], b.t_angle));
+        }
+    }
+    let slerp_ns = best_of(TIMING_BATCHES, || {
+        for _ in 0..repeats {
+            for &(a, b, t) in &pairs {
+                black_box(furbake_grass::decode::slerp(black_box(a), black_box(b), t));
+            }
+        }
+    }) / (repeats * pairs.len().max(1)) as f64;
+    let slerp_libm_ns = best_of(TIMING_BATCHES, || {
+        for _ in 0..repeats {
+            for &(a, b, t) in &pairs {
+                black_box(slerp_libm(black_box(a), black_box(b), t));
+            }
+        }
+    }) / (repeats * pairs.len().max(1)) as f64;
+    Ok(SelectionCost {
+        poses,
+        vertices: decoder.vertex_count(),
+        per_mode,
+        slerp_ns,
+        slerp_libm_ns,
+        slerps_per_blade: 3 * decoder.vertex_count(),
+    })
+}
+
+/// The slerp of eq. 3.14 written with libm, as `furbake-grass` had it before its polynomial
+/// version: the yardstick of [`SelectionCost::slerp_libm_ns`].
+fn slerp_libm(a: Vec3, b: Vec3, t: f32) -> Vec3 {
+    let (la, lb) = (a.length(), b.length());
+    if la == 0.0 || lb == 0.0 {
+        return a.lerp(b, t);
+    }
+    let cos = (a.dot(b) / (la * lb)).clamp(-1.0, 1.0);
+    let omega = cos.acos();
+    let s = omega.sin();
+    if s < 1e-6 {
+        return a.lerp(b, t);
+    }
+    a * (((1.0 - t) * omega).sin() / s) + b * ((t * omega).sin() / s)
 }
 
 /// One row of the quantisation table.
@@ -266,41 +421,119 @@ pub fn measure_force_error(options: &GrassAccuracyOptions) -> Result<Vec<ForceEr
     Ok(rows)
 }
 
+/// The grass part of the document: its markdown (starts with a `## Grass` heading) and its chart.
+#[derive(Clone, Debug)]
+pub struct GrassReport {
+    /// The markdown.
+    pub markdown: String,
+    /// (file name, SVG text) of the plots the markdown links to.
+    pub plots: Vec<(String, String)>,
+    /// The pose rows.
+    pub poses: Vec<PoseErrorRow>,
+    /// Point labels left out of the chart for lack of room.
+    pub labels_omitted: usize,
+}
+
+/// The chart file of the grass pose table.
+pub const POSE_CHART: &str = "accuracy_grass_pose.svg";
+
+/// Pose error against decode time: two panels (max, RMS), colour by selection, marker by
+/// encoding, each point labelled with its keyframe count, the Pareto front drawn.
+pub fn pose_chart(rows: &[PoseErrorRow]) -> (String, usize) {
+    use crate::svg::{COLORS, Figure, Marker, Panel, Point, Series, render};
+    let mut panels = Vec::new();
+    for (metric, get) in
+        [("max", (|r: &PoseErrorRow| r.error_max) as fn(&PoseErrorRow) -> f32), ("RMS", |r| r.error_rms)]
+    {
+        let mut series = Vec::new();
+        for (si, mode) in Interpolation::ALL.into_iter().enumerate() {
+            for (ei, enc) in DisplacementEncoding::ALL.into_iter().enumerate() {
+                let points: Vec<Point> = rows
+                    .iter()
+                    .filter(|r| r.interpolation == mode && r.encoding == enc)
+                    .map(|r| Point { x: r.ns_per_blade, y: get(r) as f64, label: r.poses.to_string() })
+                    .collect();
+                if points.is_empty() {
+                    continue;
+                }
+                series.push(Series {
+                    name: format!("{} · {}", mode.name(), enc.name()),
+                    color: COLORS[si % COLORS.len()].to_owned(),
+                    marker: Marker::ALL[ei % Marker::ALL.len()],
+                    filled: ei % 2 == 0,
+                    line: false,
+                    points,
+                });
+            }
+        }
+        panels.push(Panel {
+            title: format!("{metric} vertex error"),
+            x_title: "decode time per blade, one CPU thread (ns)".into(),
+            y_title: format!("{metric} vertex error (blade lengths)"),
+            series,
+            pareto: true,
+        });
+    }
+    render(&Figure {
+        title: "Grass keyframes: pose error against decode cost".into(),
+        columns: 2,
+        panels,
+        legend_notes: vec!["colour: selection; marker: encoding".into(), "labels: keyframe count".into()],
+    })
+}
+
 /// The grass section of `docs/accuracy.md`, as markdown (starts with a `## Grass` heading).
 pub fn grass_accuracy_markdown(options: &GrassAccuracyOptions) -> Result<String, GrassError> {
+    Ok(grass_accuracy(options)?.markdown)
+}
+
+/// Runs every grass measurement and renders the grass part of the document.
+pub fn grass_accuracy(options: &GrassAccuracyOptions) -> Result<GrassReport, GrassError> {
     let poses = measure_pose_error(options)?;
     let quant = measure_quantisation()?;
     let forces = measure_force_error(options)?;
+    let spherical = measure_selection_cost(options)?;
+    let (chart, labels_omitted) = pose_chart(&poses);
+    let machine = crate::fur::machine();
     let mut md = String::new();
     let w = &mut md;
     // `write!` into a String cannot fail.
     let _ = writeln!(w, "## Grass\n");
     let _ = writeln!(
         w,
-        "Measured by `furbake-report` on `furbake-grass` with {} worker threads; times are the fastest of {TIMING_BATCHES} wall-clock batches and still move with machine load.\n",
-        rayon::current_num_threads()
+        "Measured by `furbake-report` on `furbake-grass`. Machine: {machine}. Times are the fastest of \
+         {TIMING_BATCHES} wall-clock batches and still move with machine load.\n"
     );
-    let _ = writeln!(w, "### Pose error against the direct simulation, by keyframe count and selection\n");
+    let _ = writeln!(w, "### Pose error against the direct simulation, by keyframe count, selection and encoding\n");
     let _ = writeln!(
         w,
-        "{} random forces (magnitude uniform in [0, max], any angle); each decoded pose (f32 table, xz symmetry) \
-         is compared with the blade settled directly under that force. Errors in blade lengths; decode time is \
-         selection plus all 32 vertices of one blade on one CPU thread.\n",
+        "Scene: the thesis's reference blade (`KeyframeSettings::thesis()`, 8 segments, 32 vertices), xz symmetry, \
+         every compression stage; {} random query forces (magnitude uniform in [0, max], any angle). Metric: each \
+         decoded pose is compared with the blade settled directly under that force (the reference: \
+         `BladeSimulator::settle`, no keyframes, no quantisation); **max** = the largest vertex distance over all \
+         vertices of all queries, **RMS** = root mean square over them, in blade lengths. Floor: the settle's own \
+         tolerance, far below every cell. Cost: selection plus all 32 vertices of one blade on one CPU thread, ns. \
+         The decoder dequantises the table once when it is built, so the decode time does not depend on the \
+         encoding (the cells differ by noise only).\n",
         options.queries
     );
-    let _ = writeln!(w, "| keyframes | selection | max error | RMS error | decode ns/blade |");
-    let _ = writeln!(w, "|---:|---|---:|---:|---:|");
+    let _ = writeln!(w, "![grass pose error against decode time]({POSE_CHART})\n");
+    let _ = writeln!(w, "| keyframes | selection | encoding | max error | RMS error | decode ns/blade |");
+    let _ = writeln!(w, "|---:|---|---|---:|---:|---:|");
     for r in &poses {
         let _ = writeln!(
             w,
-            "| {} | {} | {:.2e} | {:.2e} | {:.0} |",
+            "| {} | {} | {} | {:.2e} | {:.2e} | {:.0} |",
             r.poses,
             r.interpolation.name(),
+            r.encoding.name(),
             r.error_max,
             r.error_rms,
             r.ns_per_blade
         );
     }
+    let _ = writeln!(w, "\n### Why spherical selection costs more than linear\n");
+    let _ = writeln!(w, "{}", spherical.markdown());
     let _ = writeln!(w, "\n### Quantisation (8 segments, 1000 poses, every stage, xz symmetry)\n");
     let _ = writeln!(w, "Error against the unquantised poses, in blade lengths.\n");
     let _ = writeln!(w, "| encoding | payload bits | bytes | of raw | max error | RMS error |");
@@ -343,7 +576,7 @@ pub fn grass_accuracy_markdown(options: &GrassAccuracyOptions) -> Result<String,
             r.blades_us
         );
     }
-    Ok(md)
+    Ok(GrassReport { markdown: md, plots: vec![(POSE_CHART.to_owned(), chart)], poses, labels_omitted })
 }
 
 #[cfg(test)]
@@ -354,14 +587,27 @@ mod tests {
     fn a_small_report_has_every_table_and_sensible_trends() {
         let options = GrassAccuracyOptions {
             pose_counts: vec![12, 400],
+            encodings: vec![DisplacementEncoding::F32, DisplacementEncoding::Unorm8],
             queries: 30,
             timing_repeats: 2,
             cluster_sizes_m: vec![0.5, 4.0],
             field_density_per_m2: 5.0,
         };
         let poses = measure_pose_error(&options).expect("measures");
-        assert_eq!(poses.len(), 6);
-        let err = |n, m| poses.iter().find(|r| r.poses == n && r.interpolation == m).expect("row").error_rms;
+        assert_eq!(poses.len(), 2 * 2 * 3);
+        let err = |n, m| {
+            let f32_row =
+                |r: &&PoseErrorRow| r.poses == n && r.interpolation == m && r.encoding == DisplacementEncoding::F32;
+            poses.iter().find(f32_row).expect("row").error_rms
+        };
+        // 8-bit encoding adds error to the f32 table's.
+        let coarse = poses
+            .iter()
+            .find(|r| {
+                r.poses == 400 && r.interpolation == Interpolation::Linear && r.encoding == DisplacementEncoding::Unorm8
+            })
+            .expect("row");
+        assert!(coarse.error_rms >= err(400, Interpolation::Linear));
         for m in Interpolation::ALL {
             assert!(err(400, m) < err(12, m), "{m:?}: more keyframes, less error");
         }
@@ -373,12 +619,17 @@ mod tests {
         };
         assert!(f(0.5, false) < f(4.0, false), "smaller clusters, less error");
         assert!(f(4.0, true) < f(4.0, false), "delayed attenuation removes cluster artefacts");
-        let md = grass_accuracy_markdown(&GrassAccuracyOptions { pose_counts: vec![12], ..options }).expect("writes");
+        let md = grass_accuracy_markdown(&GrassAccuracyOptions { pose_counts: vec![12], ..options.clone() })
+            .expect("writes");
         assert!(md.starts_with("## Grass"));
-        assert_eq!(md.matches("\n### ").count(), 3);
+        assert_eq!(md.matches("\n### ").count(), 4);
+        assert!(md.contains("Why spherical selection costs more than linear"));
         for enc in DisplacementEncoding::ALL {
             assert!(md.contains(&format!("| {} |", enc.name())), "{enc:?} row");
         }
         assert!(md.contains("| 180000 | 22500 |"), "the thesis's 180,000 bits appear");
+        let cost = measure_selection_cost(&options).expect("measures");
+        assert_eq!((cost.poses, cost.slerps_per_blade), (400, 3 * cost.vertices));
+        assert!(cost.slerp_ns > 0.0 && cost.per_mode.len() == 3);
     }
 }
