@@ -15,7 +15,7 @@
 use glam::{DMat3, DVec3, Vec3A};
 use rayon::prelude::*;
 
-use super::chunks::{CHUNK, PARALLEL_MIN, for_free};
+use super::chunks::{CHUNK, PARALLEL_MIN, chunk_sum, for_free};
 use super::fused::{Mode, finish_step, group_step};
 use super::{Step, StepOutcome};
 use super::{external, restoring};
@@ -111,6 +111,14 @@ pub(crate) struct ImplicitScratch {
     z: Vec<DVec3>,
     /// Per small cluster, its masses' `Δv` by slot (see `clusters`).
     cluster_dv: Vec<[Vec3A; MAX_CLUSTER]>,
+    /// Preconditioned CG (two or more iterations): per free mass the solution and residual,
+    /// the preconditioned residual, the search direction and `A p`; per chunk partial sums.
+    xr: Vec<[DVec3; 2]>,
+    zc: Vec<DVec3>,
+    pq: Vec<[DVec3; 2]>,
+    sums: Vec<[f64; 1]>,
+    /// The previous iteration's `r·z`.
+    rz_prev: f64,
 }
 
 fn sym_to_dmat(m: &Sym3) -> DMat3 {
@@ -141,6 +149,15 @@ pub(crate) fn implicit_step(
     match clusters {
         // Small independent clusters: the exact solve (see `clusters`), whatever the sweep count.
         Some(cl) => solve_clusters(&step, cl, scratch),
+        // Two or more iterations: preconditioned CG from the one-sweep result.
+        None if iterations >= 2 => {
+            if model.has_tree() {
+                factor_trees(model, scratch);
+            } else {
+                invert_diagonal(model, scratch);
+            }
+            solve_pcg(&step, iterations, scratch);
+        }
         None if model.has_tree() => {
             factor_trees(model, scratch);
             for it in 0..iterations {
@@ -288,6 +305,164 @@ fn compute_residual(step: &Step, it: u32, s: &mut ImplicitScratch) {
         }
     } else {
         s.res.par_iter_mut().enumerate().with_min_len(CHUNK).for_each(|(k, o)| *o = residual(k));
+    }
+}
+
+/// `dinv` = the inverses of `P`'s diagonal blocks (no hair trees: `P` is block diagonal), for
+/// the preconditioned CG.
+fn invert_diagonal(model: &SimModel, s: &mut ImplicitScratch) {
+    s.dinv.resize(model.n_free, DMat3::ZERO);
+    let invert = |(k, o): (usize, &mut DMat3)| {
+        let d = sym_to_dmat(&s.diag[k]);
+        *o = if d.determinant() > 0.0 { d.inverse() } else { DMat3::NAN };
+    };
+    if model.n_free < PARALLEL_MIN {
+        s.dinv.iter_mut().enumerate().for_each(invert);
+    } else {
+        s.dinv.par_iter_mut().enumerate().with_min_len(CHUNK).for_each(invert);
+    }
+}
+
+/// Row `k` of `A y` in f64: the mass's own block times `y_k` plus every link's block times
+/// `y_k − y_j` (`y_j = 0` for anchored masses).
+#[inline]
+fn apply_a(step: &Step, blocks: &[Sym3], y: impl Fn(usize) -> DVec3, k: usize) -> DVec3 {
+    let (model, h) = (step.model, step.h as f64);
+    let nf = model.n_free;
+    let kr = model.restoring_stiffness(k, step.fe.restoring_w) as f64;
+    let yk = y(k);
+    let mut ay = yk * (model.mass[k] as f64 + h * h * kr);
+    let base = model.adj_start[k] as usize;
+    for (e, a) in model.adj_of(k).iter().enumerate() {
+        let j = a.other as usize;
+        let yj = if j < nf { y(j) } else { DVec3::ZERO };
+        ay += sym_to_dmat(&blocks[base + e]) * (yk - yj);
+    }
+    ay
+}
+
+/// `z = P⁻¹ r` (`r` = the residual column of `xr`) with `P` factored along the hair trees
+/// ([`factor_trees`]) or block diagonal ([`invert_diagonal`]); returns `r·z` (summed in a fixed
+/// order: chunk partial sums, or serially along the trees).
+fn precondition(model: &SimModel, s: &mut ImplicitScratch) -> f64 {
+    let (dinv, xr) = (&s.dinv, &s.xr);
+    if !model.has_tree() {
+        return chunk_sum(&mut s.zc, &mut s.sums, |c, zs| {
+            let mut acc = 0.0;
+            for (o, z) in zs.iter_mut().enumerate() {
+                let k = c * CHUNK + o;
+                *z = dinv[k] * xr[k][1];
+                acc += xr[k][1].dot(*z);
+            }
+            [acc]
+        })[0];
+    }
+    let nf = model.n_free;
+    for k in 0..nf {
+        s.rp[k] = xr[k][1];
+    }
+    for &(ls, le) in model.levels.iter().rev() {
+        for k in ls..le {
+            let (cs, ce) = (model.tree_children_start[k] as usize, model.tree_children_start[k + 1] as usize);
+            for &c in &model.tree_children[cs..ce] {
+                let c = c as usize;
+                let hc = sym_to_dmat(&s.blocks[model.tree_parent_adj[c] as usize]);
+                let add = hc * (dinv[c] * s.rp[c]);
+                s.rp[k] += add;
+            }
+        }
+    }
+    for &(ls, le) in &model.levels {
+        for k in ls..le {
+            let mut t = s.rp[k];
+            let p = model.tree_parent[k];
+            if p != NONE {
+                t += sym_to_dmat(&s.blocks[model.tree_parent_adj[k] as usize]) * s.zc[p as usize];
+            }
+            s.zc[k] = dinv[k] * t;
+        }
+    }
+    (0..nf).map(|k| xr[k][1].dot(s.zc[k])).sum()
+}
+
+/// Preconditioned conjugate gradient on `A Δv = b` (the sweeps' system) with the sweeps' `P`
+/// as preconditioner, from the one-sweep result `Δv₀ = P⁻¹ b`, for `iterations − 1` iterations
+/// (so `iterations` products with `P⁻¹` and with `A`, as many as `iterations` sweeps plus one
+/// product with `A`). `A` and `P` are symmetric positive definite, so the `A`-norm of the
+/// error falls monotonically with every iteration, from at most the one sweep's; CG stops
+/// early at a zero residual or when `p·Ap` is not positive (a non-finite system). The result
+/// goes to `dv` (f32).
+fn solve_pcg(step: &Step, iterations: u32, s: &mut ImplicitScratch) {
+    let model = step.model;
+    let nf = model.n_free;
+    s.xr.resize(nf, [DVec3::ZERO; 2]);
+    s.zc.resize(nf, DVec3::ZERO);
+    s.pq.resize(nf, [DVec3::ZERO; 2]);
+    // Δv₀ = P⁻¹ b: precondition b, then move it to the solution column.
+    for k in 0..nf {
+        s.xr[k][1] = s.b[k].as_dvec3();
+    }
+    precondition(model, s);
+    for k in 0..nf {
+        s.xr[k][0] = s.zc[k];
+    }
+    // r₀ = b − A Δv₀.
+    {
+        let (b, blocks, zc) = (&s.b, &s.blocks, &s.zc);
+        chunk_sum(&mut s.xr, &mut s.sums, |c, rows| {
+            for (o, row) in rows.iter_mut().enumerate() {
+                let k = c * CHUNK + o;
+                row[1] = b[k].as_dvec3() - apply_a(step, blocks, |j| zc[j], k);
+            }
+            [0.0]
+        });
+    }
+    let mut rz = precondition(model, s);
+    for it in 1..iterations {
+        if !(rz > 0.0 && rz.is_finite()) {
+            break;
+        }
+        // p = z + β p and A p = A z + β A p (p = z on the first iteration), with p·Ap.
+        let beta = if it == 1 { None } else { Some(rz / s.rz_prev) };
+        let [pap] = {
+            let (blocks, zc) = (&s.blocks, &s.zc);
+            chunk_sum(&mut s.pq, &mut s.sums, |c, rows| {
+                let mut acc = 0.0;
+                for (o, pq) in rows.iter_mut().enumerate() {
+                    let k = c * CHUNK + o;
+                    let az = apply_a(step, blocks, |j| zc[j], k);
+                    *pq = match beta {
+                        None => [zc[k], az],
+                        Some(beta) => [zc[k] + pq[0] * beta, az + pq[1] * beta],
+                    };
+                    acc += pq[0].dot(pq[1]);
+                }
+                [acc]
+            })
+        };
+        if !(pap > 0.0 && pap.is_finite()) {
+            break;
+        }
+        let alpha = rz / pap;
+        {
+            let pq = &s.pq;
+            chunk_sum(&mut s.xr, &mut s.sums, |c, rows| {
+                for (o, row) in rows.iter_mut().enumerate() {
+                    let k = c * CHUNK + o;
+                    row[0] += pq[k][0] * alpha;
+                    row[1] -= pq[k][1] * alpha;
+                }
+                [0.0]
+            });
+        }
+        if it + 1 == iterations {
+            break;
+        }
+        s.rz_prev = rz;
+        rz = precondition(model, s);
+    }
+    for k in 0..nf {
+        s.dv[k] = s.xr[k][0].as_vec3a();
     }
 }
 
