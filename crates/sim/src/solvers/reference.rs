@@ -28,6 +28,13 @@ use super::{Step, StepOutcome};
 use crate::forces::{outer, restoring_force_f64};
 use crate::model::{NONE, SimModel};
 
+/// The most negative transverse stiffness of a compressed link, as a fraction of its lighter
+/// end's mass over `h²`: below it linearised backward Euler with the exact Jacobian is unstable
+/// (a strongly compressed link buckles within the step and the linear solve turns that into
+/// energy), so the Jacobian is floored there. Mild compression (`h² k (L/l − 1) ≤ m/2`) keeps
+/// the exact Jacobian.
+pub(crate) const COMPRESSION_FLOOR: f64 = 0.5;
+
 /// Per free mass an f64 state: position and velocity.
 #[derive(Clone, Copy, Default)]
 pub(super) struct CgRow {
@@ -163,7 +170,12 @@ fn assemble_mass(step: &Step, state: &[CgRow], k: usize, off: &mut [DMat3]) -> R
         } else if l <= 1e-12 {
             id * if rest == 0.0 { kk } else { 0.0 }
         } else {
-            id * (kk * (1.0 - rest / l)) + outer(d, d) * (kk * rest / (l * l * l))
+            // The transverse stiffness k (1 − L/l) is negative under compression; floored at
+            // −μ/h² (μ half the lighter end's mass) so that one link's compression cannot make
+            // the step's matrix indefinite (see `COMPRESSION_FLOOR`).
+            let mj = if j < nf { model.mass[j] as f64 } else { m };
+            let floor = -COMPRESSION_FLOOR * m.min(mj) / h2;
+            id * (kk * (1.0 - rest / l)).max(floor) + outer(d, d) * (kk * rest / (l * l * l))
         };
         kv += kj * dv;
         let blk = id * (h * c) + kj * h2;
