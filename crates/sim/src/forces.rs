@@ -251,6 +251,22 @@ fn cross_matrix(w: DVec3) -> DMat3 {
     DMat3::from_cols(DVec3::new(0.0, w.z, -w.y), DVec3::new(-w.z, 0.0, w.x), DVec3::new(w.y, -w.x, 0.0))
 }
 
+/// The symmetric positive semi-definite part of `−J` ([`restoring_force_f64`]) that the implicit
+/// solver's conjugate gradient uses: `−J = (w/l) (c (I − s sᵀ) + n⊥ n⊥ᵀ − c s n⊥ᵀ)` with
+/// `n⊥ = n − (n·s) s`; the last term (it moves the tip along its own link, and is third order in
+/// the deflection, `c ≈ θ²/2`, `|n⊥| ≈ θ`) is left out. Zero when the tip sits on its root.
+pub(crate) fn restoring_stiffness_spd(root: DVec3, tip: DVec3, n: DVec3, w: f64) -> DMat3 {
+    let d = tip - root;
+    let l = d.length();
+    if !(l > 0.0) {
+        return DMat3::ZERO;
+    }
+    let s = d / l;
+    let c = 1.0 - n.dot(s);
+    let np = n - s * n.dot(s);
+    ((DMat3::IDENTITY - outer(s, s)) * c + outer(np, np)) * (w / l)
+}
+
 /// Restoring force of eq. 3.37 in f64 with its exact Jacobian with respect to the tip, `J`
 /// (the root's is `−J`; not symmetric): with `s = (tip − root)/l`, `c = 1 − n·s`,
 /// `F = (n − s) c w` and `J = (w/l) (−c I − (n − s) nᵀ)(I − s sᵀ)`. Zero when the tip sits on its

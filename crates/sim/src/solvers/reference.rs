@@ -1,7 +1,8 @@
 //! The reference solver: backward Euler linearised once per step (Baraff & Witkin 1998),
 //! `(M − h ∂F/∂v − h² ∂F/∂x) Δv = h (F + h ∂F/∂x v)`, with the exact Jacobian of every force it
 //! applies — springs with the full `k ((1 − L/l) I + (L/l) d̂d̂ᵀ)` (not clamped, so indefinite
-//! under compression), their damping, the restoring force of eq. 3.37 (not symmetric: its
+//! under compression; only a compression so strong that `h² k (L/l − 1)` exceeds half the
+//! lighter end's mass is floored there, [`COMPRESSION_FLOOR`]), their damping, the restoring force of eq. 3.37 (not symmetric: its
 //! Jacobian couples the tip to its root one way only), the inertial forces of a rotating frame and
 //! the local forces. The system is not symmetric, so it is solved by BiCGSTAB with a block-Jacobi
 //! preconditioner (the inverse of each mass's 3×3 diagonal block) to the relative residual
