@@ -258,7 +258,7 @@ fn cross_matrix(w: DVec3) -> DMat3 {
 pub(crate) fn restoring_stiffness_spd(root: DVec3, tip: DVec3, n: DVec3, w: f64) -> DMat3 {
     let d = tip - root;
     let l = d.length();
-    if !(l > 0.0) {
+    if l.is_nan() || l <= 0.0 {
         return DMat3::ZERO;
     }
     let s = d / l;
@@ -274,7 +274,7 @@ pub(crate) fn restoring_stiffness_spd(root: DVec3, tip: DVec3, n: DVec3, w: f64)
 pub(crate) fn restoring_force_f64(root: DVec3, tip: DVec3, n: DVec3, w: f64) -> (DVec3, DMat3) {
     let d = tip - root;
     let l = d.length();
-    if !(l > 0.0) {
+    if l.is_nan() || l <= 0.0 {
         return (DVec3::ZERO, DMat3::ZERO);
     }
     let s = d / l;

@@ -382,32 +382,40 @@ fn precondition(model: &SimModel, s: &mut ImplicitScratch) -> f64 {
             [acc]
         })[0];
     }
-    let nf = model.n_free;
-    for k in 0..nf {
-        s.rp[k] = xr[k][1];
+    for (rp, row) in s.rp.iter_mut().zip(xr) {
+        *rp = row[1];
     }
+    tree_solve(model, dinv, &s.blocks, &mut s.rp, &mut s.zc);
+    xr.iter().zip(&s.zc).map(|(row, z)| row[1].dot(*z)).sum()
+}
+
+/// `z = P⁻¹ r` with `P` factored along the hair trees ([`factor_trees`], inverses `dinv`): `rp`
+/// holds `r` and is overwritten by the elimination from the tips down to the roots; `z` gets the
+/// substitution back up.
+// The levels are index ranges over several per-mass arrays at once.
+#[allow(clippy::needless_range_loop)]
+fn tree_solve(model: &SimModel, dinv: &[DMat3], blocks: &[Sym3], rp: &mut [DVec3], z: &mut [DVec3]) {
     for &(ls, le) in model.levels.iter().rev() {
         for k in ls..le {
             let (cs, ce) = (model.tree_children_start[k] as usize, model.tree_children_start[k + 1] as usize);
             for &c in &model.tree_children[cs..ce] {
                 let c = c as usize;
-                let hc = sym_to_dmat(&s.blocks[model.tree_parent_adj[c] as usize]);
-                let add = hc * (dinv[c] * s.rp[c]);
-                s.rp[k] += add;
+                let hc = sym_to_dmat(&blocks[model.tree_parent_adj[c] as usize]);
+                let add = hc * (dinv[c] * rp[c]);
+                rp[k] += add;
             }
         }
     }
     for &(ls, le) in &model.levels {
         for k in ls..le {
-            let mut t = s.rp[k];
+            let mut t = rp[k];
             let p = model.tree_parent[k];
             if p != NONE {
-                t += sym_to_dmat(&s.blocks[model.tree_parent_adj[k] as usize]) * s.zc[p as usize];
+                t += sym_to_dmat(&blocks[model.tree_parent_adj[k] as usize]) * z[p as usize];
             }
-            s.zc[k] = dinv[k] * t;
+            z[k] = dinv[k] * t;
         }
     }
-    (0..nf).map(|k| xr[k][1].dot(s.zc[k])).sum()
 }
 
 /// Preconditioned conjugate gradient on `A Δv = b` (the sweeps' system) with the sweeps' `P`
@@ -503,36 +511,14 @@ fn sweep_diagonal(model: &SimModel, s: &mut ImplicitScratch) {
     }
 }
 
-/// `Δv += P⁻¹ res` with `P` factored along the hair trees ([`factor_trees`]): eliminate from the
-/// tips down to the roots, then substitute back up.
+/// `Δv += P⁻¹ res` with `P` factored along the hair trees ([`factor_trees`], [`tree_solve`]).
 fn sweep_trees(model: &SimModel, s: &mut ImplicitScratch) {
-    let nf = model.n_free;
-    for k in 0..nf {
-        s.rp[k] = s.res[k].as_dvec3();
+    for (rp, r) in s.rp.iter_mut().zip(&s.res) {
+        *rp = r.as_dvec3();
     }
-    for &(ls, le) in model.levels.iter().rev() {
-        for k in ls..le {
-            let (cs, ce) = (model.tree_children_start[k] as usize, model.tree_children_start[k + 1] as usize);
-            for &c in &model.tree_children[cs..ce] {
-                let c = c as usize;
-                let hc = sym_to_dmat(&s.blocks[model.tree_parent_adj[c] as usize]);
-                let add = hc * (s.dinv[c] * s.rp[c]);
-                s.rp[k] += add;
-            }
-        }
-    }
-    for &(ls, le) in &model.levels {
-        for k in ls..le {
-            let mut t = s.rp[k];
-            let p = model.tree_parent[k];
-            if p != NONE {
-                t += sym_to_dmat(&s.blocks[model.tree_parent_adj[k] as usize]) * s.z[p as usize];
-            }
-            s.z[k] = s.dinv[k] * t;
-        }
-    }
-    for k in 0..nf {
-        s.dv[k] += s.z[k].as_vec3a();
+    tree_solve(model, &s.dinv, &s.blocks, &mut s.rp, &mut s.z);
+    for (dv, z) in s.dv.iter_mut().zip(&s.z) {
+        *dv += z.as_vec3a();
     }
 }
 

@@ -306,7 +306,7 @@ fn solve_bicgstab(model: &SimModel, tol: f64, max_iterations: u32, s: &mut Refer
             });
             rel = rr.sqrt() / bnorm;
             (rho, alpha, omega, rho_new) = (1.0, 1.0, 1.0, rr);
-            if !(rel > tol) || !usable(rr) {
+            if rel <= tol || !usable(rr) {
                 break;
             }
         }

@@ -295,9 +295,9 @@ impl Net {
                     break;
                 }
             }
-            for d in 0..n3 {
-                v[d] = vn[d];
-                x[d] += dt * v[d];
+            v.copy_from_slice(&vn);
+            for (x, v) in x.iter_mut().zip(&v) {
+                *x += dt * v;
             }
         }
         x
