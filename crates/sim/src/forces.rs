@@ -8,7 +8,7 @@
 //! acceleration, angular velocity and angular acceleration; a free mass of mass `m` at `r` with
 //! velocity `v` then feels `−m (a + α×r + ω×(ω×r) + 2 ω×v)`.
 
-use glam::Vec3A;
+use glam::{DMat3, DVec3, Vec3A};
 use serde::{Deserialize, Serialize};
 
 use crate::SimError;
@@ -150,6 +150,8 @@ pub(crate) struct ForceEval {
     pub local: Vec<(Vec3A, f32, f32)>,
     pub restoring_w: f32,
     time_s: f32,
+    /// The evaluation time in f64 (the reference solver's forces).
+    time_s64: f64,
 }
 
 impl ForceEval {
@@ -168,6 +170,7 @@ impl ForceEval {
             local: f.local.iter().map(|l| (Vec3A::from(l.point_m), l.radius_m, l.strength_n)).collect(),
             restoring_w: f.restoring_weight_n,
             time_s: time_s as f32,
+            time_s64: time_s,
         }
     }
 
@@ -199,6 +202,86 @@ impl ForceEval {
         }
         f
     }
+}
+
+impl ForceEval {
+    /// [`ForceEval::external`] in f64 with its exact Jacobians `(F, ∂F/∂x, ∂F/∂v)` (the reference
+    /// solver): the inertial forces of a rotating frame depend on position and velocity, a local
+    /// force on position; gravity and the wind (phase from the rest position) on neither.
+    pub fn external_f64(&self, mass: f64, x: DVec3, v: DVec3, rest: Vec3A) -> (DVec3, DMat3, DMat3) {
+        let mut f = self.accel.as_dvec3() * mass;
+        let (mut jx, mut jv) = (DMat3::ZERO, DMat3::ZERO);
+        if self.rotating {
+            let (w, a) = (self.omega.as_dvec3(), self.alpha.as_dvec3());
+            f -= (a.cross(x) + w.cross(w.cross(x)) + 2.0 * w.cross(v)) * mass;
+            let (cw, ca) = (cross_matrix(w), cross_matrix(a));
+            jx -= (ca + cw * cw) * mass;
+            jv -= cw * (2.0 * mass);
+        }
+        if let Some((d, force, amp, freq, inv_wl)) = self.wind {
+            let phase = std::f64::consts::TAU * (freq as f64 * self.time_s64 - d.dot(rest) as f64 * inv_wl as f64);
+            f += d.as_dvec3() * (force as f64 * (1.0 + amp as f64 * phase.sin()));
+        }
+        for &(p, r, s) in &self.local {
+            let (r, s) = (r as f64, s as f64);
+            let delta = x - p.as_dvec3();
+            let dist = delta.length();
+            if dist < r && dist > 1e-12 {
+                // f = δ g(d), g = s (1 − d/r)² / d: ∂f/∂x = g I + g′(d) d δ̂ δ̂ᵀ.
+                let fall = 1.0 - dist / r;
+                let g = s * fall * fall / dist;
+                let dg = s * (-2.0 * fall / (r * dist) - fall * fall / (dist * dist));
+                f += delta * g;
+                let u = delta / dist;
+                jx += DMat3::from_diagonal(DVec3::splat(g)) + outer(u, u) * (dg * dist);
+            }
+        }
+        (f, jx, jv)
+    }
+}
+
+/// `a bᵀ`.
+#[inline]
+pub(crate) fn outer(a: DVec3, b: DVec3) -> DMat3 {
+    DMat3::from_cols(a * b.x, a * b.y, a * b.z)
+}
+
+/// The matrix of `y ↦ w × y`.
+fn cross_matrix(w: DVec3) -> DMat3 {
+    DMat3::from_cols(DVec3::new(0.0, w.z, -w.y), DVec3::new(-w.z, 0.0, w.x), DVec3::new(w.y, -w.x, 0.0))
+}
+
+/// The symmetric positive semi-definite part of `−J` ([`restoring_force_f64`]) that the implicit
+/// solver's conjugate gradient uses: `−J = (w/l) (c (I − s sᵀ) + n⊥ n⊥ᵀ − c s n⊥ᵀ)` with
+/// `n⊥ = n − (n·s) s`; the last term (it moves the tip along its own link, and is third order in
+/// the deflection, `c ≈ θ²/2`, `|n⊥| ≈ θ`) is left out. Zero when the tip sits on its root.
+pub(crate) fn restoring_stiffness_spd(root: DVec3, tip: DVec3, n: DVec3, w: f64) -> DMat3 {
+    let d = tip - root;
+    let l = d.length();
+    if l.is_nan() || l <= 0.0 {
+        return DMat3::ZERO;
+    }
+    let s = d / l;
+    let c = 1.0 - n.dot(s);
+    let np = n - s * n.dot(s);
+    ((DMat3::IDENTITY - outer(s, s)) * c + outer(np, np)) * (w / l)
+}
+
+/// Restoring force of eq. 3.37 in f64 with its exact Jacobian with respect to the tip, `J`
+/// (the root's is `−J`; not symmetric): with `s = (tip − root)/l`, `c = 1 − n·s`,
+/// `F = (n − s) c w` and `J = (w/l) (−c I − (n − s) nᵀ)(I − s sᵀ)`. Zero when the tip sits on its
+/// root.
+pub(crate) fn restoring_force_f64(root: DVec3, tip: DVec3, n: DVec3, w: f64) -> (DVec3, DMat3) {
+    let d = tip - root;
+    let l = d.length();
+    if l.is_nan() || l <= 0.0 {
+        return (DVec3::ZERO, DMat3::ZERO);
+    }
+    let s = d / l;
+    let c = 1.0 - n.dot(s);
+    let u = n - s;
+    let j = (DMat3::from_diagonal(DVec3::splat(-c)) - outer(u, n)) * (DMat3::IDENTITY - outer(s, s)) * (w / l);
+    (u * (c * w), j)
 }
 
 /// Restoring force of eq. 3.37 on a tip at `tip` whose root is at `root`, rest direction `n`

@@ -2,8 +2,8 @@
 //! thesis (§3.4.1: chain, reduced chain, sticks, spring–sticks, prisms and their separable forms)
 //! from a welded skin mesh, and simulates them under gravity, wind, object motion, local
 //! interaction and the restoring force of eq. 3.37, with the explicit (eq. 3.20–3.25), implicit
-//! (eq. 3.26–3.34) and stick solvers (§3.3.2) plus a converged conjugate-gradient reference
-//! (Baraff & Witkin 1998); the wrong-side-scale guard of §3.4.3 and the shell shearing of
+//! (eq. 3.26–3.34) and stick solvers (§3.3.2) plus a reference: backward Euler with the exact
+//! Jacobian, solved by BiCGSTAB in f64 (Baraff & Witkin 1998); the wrong-side-scale guard of §3.4.3 and the shell shearing of
 //! eq. 3.35–3.36 run on the CPU as the reference for the shaders. Shared by the baker (topology
 //! building) and the runtime (simulation).
 //!

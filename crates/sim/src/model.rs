@@ -52,15 +52,8 @@ pub(crate) struct SimModel {
     /// CSR over free masses: adjacency of free mass i is `adj[adj_start[i]..adj_start[i + 1]]`.
     pub adj_start: Vec<u32>,
     pub adj: Vec<Adj>,
-    /// `adj[e].other` alone (the reference solver's matrix product reads nothing else).
+    /// `adj[e].other` alone (the reference solver's matrix product reads nothing else of `adj`).
     pub adj_other: Vec<u32>,
-    /// Per adjacency entry of a link between two free masses: the link's slot among those links
-    /// (numbered in the order their first end lists them; NONE for links to anchored masses),
-    /// and whether this entry is that first listing. Per free mass `k`: the first slot it lists
-    /// first (`ref_first[k]..ref_first[k + 1]`). The reference solver stores one block per slot.
-    pub ref_slot: Vec<u32>,
-    pub ref_owner: Vec<bool>,
-    pub ref_first: Vec<u32>,
     /// Per free mass: the rigid parent (internal index) or NONE, its length and damping.
     pub parent: Vec<u32>,
     pub parent_len: Vec<f32>,
@@ -118,7 +111,6 @@ impl SimModel {
         let order = order_by_depth(&graph);
         let cx = ModelContext { graph, order, springs_as_sticks };
         let adjacency = build_adjacency(&cx);
-        let reference = number_reference_slots(&cx, &adjacency);
         let tree_children = collect_tree_children(&cx, &adjacency.tree_parent);
         let shell_tips = map_shell_tips(&cx)?;
         let restoring = build_restoring_links(&cx, &shell_tips);
@@ -151,9 +143,6 @@ impl SimModel {
             adj_start,
             adj,
             adj_weight,
-            ref_slot: reference.slot,
-            ref_owner: reference.owner,
-            ref_first: reference.first,
             has_sticks: parent.iter().any(|&p| p != NONE),
             sticks_to_anchors: parent.iter().all(|&p| p == NONE || p as usize >= n_free),
             parent,
@@ -314,41 +303,6 @@ fn build_adjacency(cx: &ModelContext) -> Adjacency {
         a.start[k + 1] = a.adj.len() as u32;
     }
     a
-}
-
-/// The reference solver's block slots (see `SimModel::ref_slot`).
-struct ReferenceSlots {
-    slot: Vec<u32>,
-    owner: Vec<bool>,
-    first: Vec<u32>,
-}
-
-/// Numbers the links between free masses in the order their first end lists them.
-fn number_reference_slots(cx: &ModelContext, a: &Adjacency) -> ReferenceSlots {
-    let n_free = cx.n_free();
-    let mut r = ReferenceSlots {
-        slot: vec![NONE; a.adj.len()],
-        owner: vec![false; a.adj.len()],
-        first: vec![0u32; n_free + 1],
-    };
-    let mut slot_of_link = vec![NONE; cx.graph.links.len()];
-    let mut slots = 0u32;
-    for k in 0..n_free {
-        for e in a.start[k] as usize..a.start[k + 1] as usize {
-            if a.adj[e].other as usize >= n_free {
-                continue;
-            }
-            let li = a.link[e] as usize;
-            if slot_of_link[li] == NONE {
-                slot_of_link[li] = slots;
-                slots += 1;
-                r.owner[e] = true;
-            }
-            r.slot[e] = slot_of_link[li];
-        }
-        r.first[k + 1] = slots;
-    }
-    r
 }
 
 /// CSR of tree children per free mass.

@@ -23,11 +23,12 @@ use crate::solvers::{self, ImplicitScratch, ReferenceScratch, Step, sum_over};
 pub enum SolverKind {
     /// Explicit Euler, eq. 3.20–3.25 (substeps below its stable step).
     Explicit,
-    /// Implicit Euler, eq. 3.26–3.34 (Jacobi sweeps; 1 = the thesis).
+    /// Implicit Euler, eq. 3.26–3.34 (1 iteration = the thesis's sweep; more: preconditioned CG).
     Implicit,
     /// The stick solver: parent links are rigid sticks, orientation only.
     Stick,
-    /// Linearised backward Euler converged by conjugate gradient (Baraff & Witkin 1998).
+    /// Linearised backward Euler with the exact Jacobian, solved by BiCGSTAB in f64 (Baraff &
+    /// Witkin 1998).
     Reference,
 }
 
@@ -58,7 +59,8 @@ impl SolverKind {
 pub struct SolverSettings {
     /// The solver. Default implicit.
     pub kind: SolverKind,
-    /// Jacobi sweeps of the implicit solver per step (≥ 1; 1 = the thesis). Default 1.
+    /// Iterations of the implicit solver per step (≥ 1): 1 = the thesis's one sweep; more run
+    /// preconditioned conjugate gradient from that sweep. Default 1.
     pub implicit_iterations: u32,
     /// Let the explicit and stick solvers split a step that exceeds their stable step into equal
     /// substeps (default true); off, such a step fails with [`SimError::StepTooLarge`].
@@ -75,9 +77,10 @@ pub struct SolverSettings {
     /// can add energy, so this keeps it stable by construction. 0 disables it (the raw scheme,
     /// as the accuracy report measures it). Default 0.5.
     pub max_link_rotation_rad: f32,
-    /// Relative residual at which the reference solver's CG stops. Default 1e-10.
+    /// Relative residual at which the reference solver's BiCGSTAB stops. Default 1e-10.
     pub reference_tolerance: f64,
-    /// Most CG iterations per reference step before [`SimError::NotConverged`]. Default 5,000.
+    /// Most BiCGSTAB iterations per reference step before [`SimError::NotConverged`]. Default
+    /// 5,000.
     pub reference_max_iterations: u32,
     /// The wrong-side-scale guard.
     pub guard: GuardParams,
@@ -162,7 +165,7 @@ impl Energy {
 pub struct StepStats {
     /// Substeps taken (1 for the implicit and reference solvers).
     pub substeps: u32,
-    /// Conjugate-gradient iterations (reference solver; summed over substeps).
+    /// BiCGSTAB iterations (reference solver; summed over substeps).
     pub cg_iterations: u32,
     /// Energy after the step (zero when energy tracking is off).
     pub energy: Energy,
@@ -654,6 +657,21 @@ impl Simulator {
     /// Mass positions in the mesh frame, in the topology's mass order, metres.
     pub fn positions(&self) -> Vec<[f32; 3]> {
         self.to_topology_order(&self.x)
+    }
+
+    /// Mass positions in f64 (topology order), metres, when the solver carries an f64 state (the
+    /// reference solver, while the simulator's f32 state is its rounding); `None` otherwise.
+    pub fn positions_f64(&self) -> Option<Vec<[f64; 3]>> {
+        if self.settings.kind != SolverKind::Reference {
+            return None;
+        }
+        let m = &self.model;
+        let mut out = vec![[0.0; 3]; m.n];
+        for (k, &i) in m.order.iter().enumerate() {
+            let p = if k < m.n_free { self.reference.position_f64(k, self.x[k]) } else { self.x[k].as_dvec3() };
+            out[i as usize] = p.to_array();
+        }
+        Some(out)
     }
 
     /// Mass velocities in the mesh frame, in the topology's mass order, m/s.

@@ -42,24 +42,25 @@ pub(crate) fn sum_over<F: Fn(usize) -> f64 + Sync>(n: usize, f: F) -> f64 {
 }
 
 /// Runs `f(chunk, out_chunk)` over the fixed `CHUNK`-mass chunks of `out` (parallel above the
-/// cut-off) and returns the results in chunk order, so sums over them are thread-count independent.
-pub(super) fn chunk_map<T: Send, R: Send, F: Fn(usize, &mut [T]) -> R + Sync>(out: &mut [T], f: F) -> Vec<R> {
-    if out.len() < PARALLEL_MIN {
-        out.chunks_mut(CHUNK).enumerate().map(|(c, o)| f(c, o)).collect()
-    } else {
-        out.par_chunks_mut(CHUNK).enumerate().map(|(c, o)| f(c, o)).collect()
-    }
-}
-
-/// [`chunk_map`] over two slices of the same length, chunked alike.
-pub(super) fn chunk_map2<T: Send, U: Send, R: Send, F: Fn(usize, &mut [T], &mut [U]) -> R + Sync>(
-    a: &mut [T],
-    b: &mut [U],
+/// cut-off), keeps each chunk's partial sum in `sums` (scratch: no allocation once sized) and
+/// returns their sums in chunk order, so it is thread-count independent.
+pub(super) fn chunk_sum<T: Send, const N: usize, F: Fn(usize, &mut [T]) -> [f64; N] + Sync>(
+    out: &mut [T],
+    sums: &mut Vec<[f64; N]>,
     f: F,
-) -> Vec<R> {
-    if a.len() < PARALLEL_MIN {
-        a.chunks_mut(CHUNK).zip(b.chunks_mut(CHUNK)).enumerate().map(|(c, (x, y))| f(c, x, y)).collect()
+) -> [f64; N] {
+    sums.resize(out.len().div_ceil(CHUNK), [0.0; N]);
+    if out.len() < PARALLEL_MIN {
+        for (c, (o, s)) in out.chunks_mut(CHUNK).zip(sums.iter_mut()).enumerate() {
+            *s = f(c, o);
+        }
     } else {
-        a.par_chunks_mut(CHUNK).zip(b.par_chunks_mut(CHUNK)).enumerate().map(|(c, (x, y))| f(c, x, y)).collect()
+        out.par_chunks_mut(CHUNK).zip(sums.par_iter_mut()).enumerate().for_each(|(c, (o, s))| *s = f(c, o));
     }
+    sums.iter().fold([0.0; N], |mut a, s| {
+        for (a, s) in a.iter_mut().zip(s) {
+            *a += s;
+        }
+        a
+    })
 }

@@ -68,8 +68,8 @@ struct GroupCtx<'a> {
     /// The guard's current scale vectors and frozen flags (all tips; empty without the guard).
     old_scale: &'a [Vec3A],
     old_frozen: &'a [bool],
-    /// Finish mode with the reference solver's CG rows: the new state is `v + Δv`,
-    /// `x + h (v + Δv)` (in f64), computed here rather than in a pass of its own.
+    /// Finish mode with the reference solver's new f64 state per free mass: the new state is
+    /// its f32 rounding, written here rather than in a pass of its own.
     cg: &'a [CgRow],
 }
 
@@ -264,15 +264,12 @@ fn groups_kernel<V: Lanes, const MODE: u8>(
     ChunkOutcome { finite, guard: go, rotation: rot }
 }
 
-/// Finish mode with the reference solver's CG rows: the group's new state `v + Δv`,
-/// `x + h (v + Δv)` (in f64) into `xg`, `vg`.
+/// Finish mode with the reference solver's new f64 state rows: their f32 rounding into `xg`, `vg`.
 #[inline(always)]
 fn write_cg_state(c: &GroupCtx, grp: Group, xg: &mut [Vec3A], vg: &mut [Vec3A]) {
-    let hd = c.h as f64;
     for l in 0..grp.real {
-        let k = grp.base + l;
-        let vn = (c.v[k].as_dvec3() + c.cg[k].x).as_vec3a();
-        (xg[l], vg[l]) = ((c.x[k].as_dvec3() + vn.as_dvec3() * hd).as_vec3a(), vn);
+        let row = &c.cg[grp.base + l];
+        (xg[l], vg[l]) = (row.x.as_vec3a(), row.v.as_vec3a());
     }
 }
 

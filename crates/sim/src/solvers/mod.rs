@@ -2,13 +2,15 @@
 //! `(x_out, v_out)` for the free masses; anchored masses never move. One file per job:
 //!
 //! - [`explicit`]: explicit Euler, eq. 3.20–3.25, and its stable step (the simulator substeps).
-//! - [`implicit`]: the linearised backward-Euler system of eq. 3.26–3.34 solved by Jacobi sweeps
-//!   (one sweep is the thesis's first iterate of eq. 3.34), with the full 3×3 spring Jacobian of
-//!   eq. 3.29.
+//! - [`implicit`]: the linearised backward-Euler system of eq. 3.26–3.34 with the full 3×3 spring
+//!   Jacobian of eq. 3.29: one sweep (the thesis's first iterate of eq. 3.34) or, for two or more
+//!   iterations, preconditioned conjugate gradient from that sweep with the sweep's matrix as
+//!   preconditioner (monotone convergence to the system's solution).
 //! - [`stick`]: the stick solver of §3.4.1 ("orientation only") and the stick projection every
 //!   solver applies after its step.
-//! - [`reference`]: the converged conjugate-gradient reference (Baraff & Witkin 1998) that the
-//!   accuracy report measures everyone else against.
+//! - [`reference`]: backward Euler linearised per step with the exact Jacobian of every force,
+//!   solved by BiCGSTAB in f64 with an f64 state kept between steps (Baraff & Witkin 1998): the
+//!   accuracy report measures everyone else against it.
 //! - [`fused`]: the one parallel pass per step that runs the explicit, stick and one-sweep
 //!   implicit updates eight masses at a time, with the stick projection, the finiteness check,
 //!   the wrong-side guard of §3.4.3 and the next rotation limit fused in.
@@ -22,7 +24,7 @@
 //! [`StepOutcome`] it returns and the per-mass external and restoring forces (eq. 3.37).
 //!
 //! Determinism: no atomics, no scatter: every mass sums its own links in a fixed order and every
-//! sum (guard energy, CG dot products) uses fixed-size chunks combined in order.
+//! sum (guard energy, CG and BiCGSTAB dot products) uses fixed-size chunks combined in order.
 
 mod chunks;
 mod explicit;

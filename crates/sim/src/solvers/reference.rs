@@ -1,310 +1,420 @@
-//! The converged reference solver (Baraff & Witkin 1998): the same linearised backward-Euler
-//! system as the implicit solver (fur thesis eq. 3.26–3.29) without its diagonal trick, in f64,
-//! solved by block-Jacobi-preconditioned conjugate gradient to a tight relative residual. The
-//! accuracy report measures every other solver against it.
+//! The reference solver: backward Euler linearised once per step (Baraff & Witkin 1998),
+//! `(M − h ∂F/∂v − h² ∂F/∂x) Δv = h (F + h ∂F/∂x v)`, with the exact Jacobian of every force it
+//! applies — springs with the full `k ((1 − L/l) I + (L/l) d̂d̂ᵀ)` (not clamped, so indefinite
+//! under compression; only a compression so strong that `h² k (L/l − 1)` exceeds half the
+//! lighter end's mass is floored there, [`COMPRESSION_FLOOR`]), their damping, the restoring force of eq. 3.37 (not symmetric: its
+//! Jacobian couples the tip to its root one way only), the inertial forces of a rotating frame and
+//! the local forces. The system is not symmetric, so it is solved by BiCGSTAB with a block-Jacobi
+//! preconditioner (the inverse of each mass's 3×3 diagonal block) to the relative residual
+//! `reference_tolerance`, all in f64.
 //!
-//! The system is assembled in parallel per mass (links to anchored masses folded into the mass's
-//! own block) and CG runs two passes per iteration: `p = z + βp`, `Ap = Az + βAp` and `p·Ap` in
-//! one; the vector updates, the preconditioner and the two dot products in the other. Every dot
-//! product sums fixed chunks in order (`chunks.rs`). The new state, stick projection, guard and
-//! rotation limit then run in the fused lane-group pass (`fused.rs`).
+//! The state is f64 too: the solver keeps an f64 copy of the free masses' positions and velocities
+//! between steps and publishes their f32 rounding. At the start of a step every free mass whose
+//! f32 state is no longer the rounding of its copy (the host, a stick projection or the guard
+//! moved it) is reseeded from f32. So the reference's own error is not held at the f32 floor
+//! (`Simulator::positions_f64` reads the copy).
+//!
+//! The system is assembled in parallel per fixed chunk of masses (per mass its own row: every
+//! block of that row, nothing shared), and every dot product of BiCGSTAB sums fixed chunks in
+//! order (`chunks.rs`), so results are bit-identical for any thread count. The new state, stick
+//! projection, guard and rotation limit then run in the fused lane-group pass (`fused.rs`).
 
-use glam::DVec3;
+use glam::{DMat3, DVec3, Vec3A};
 use rayon::prelude::*;
 
-use super::chunks::{CHUNK, PARALLEL_MIN, chunk_map, chunk_map2, for_free};
+use super::chunks::{CHUNK, PARALLEL_MIN, chunk_sum, for_free};
 use super::fused::{Mode, finish_step, group_step};
 use super::stick::project_sticks;
 use super::{Step, StepOutcome};
-use super::{external, restoring};
-use crate::model::SimModel;
+use crate::forces::{outer, restoring_force_f64};
+use crate::model::{NONE, SimModel};
 
-/// One chunk of the reference assembly's outputs: right-hand sides, preconditioner blocks,
-/// own blocks and the chunk's link blocks.
-type AssemblyChunk<'a> = (((&'a mut [DVec3], &'a mut [[f64; 6]]), &'a mut [[f64; 6]]), &'a mut [[f64; 6]]);
+/// The most negative transverse stiffness of a compressed link, as a fraction of its lighter
+/// end's mass over `h²`: below it linearised backward Euler with the exact Jacobian is unstable
+/// (a strongly compressed link buckles within the step and the linear solve turns that into
+/// energy), so the Jacobian is floored there. Mild compression (`h² k (L/l − 1) ≤ m/2`) keeps
+/// the exact Jacobian.
+pub(crate) const COMPRESSION_FLOOR: f64 = 0.5;
 
-/// Scratch of the converged reference solver (f64).
-#[derive(Default)]
-pub(crate) struct ReferenceScratch {
-    /// Per free mass the right-hand side `h (F + h ∂F/∂x v)`.
-    b: Vec<DVec3>,
-    /// Inverse diagonal blocks (symmetric, `[xx, yy, zz, xy, xz, yz]`).
-    pinv: Vec<[f64; 6]>,
-    /// The `h c I + h² Kp` blocks of the links between free masses, one per link (`ref_slot`).
-    blocks: Vec<[f64; 6]>,
-    /// Per free mass its own block: mass, restoring stiffness and its links to anchored masses.
-    dself: Vec<[f64; 6]>,
-    cg: Vec<CgRow>,
-    /// Preconditioned residual.
-    z: Vec<DVec3>,
-    /// Search direction `p` and `A p`.
-    pap: Vec<[DVec3; 2]>,
-}
-
-/// Per free mass: CG solution and residual.
+/// Per free mass an f64 state: position and velocity.
 #[derive(Clone, Copy, Default)]
 pub(super) struct CgRow {
     pub x: DVec3,
-    pub r: DVec3,
+    pub v: DVec3,
 }
 
-#[inline(always)]
-fn sym_mul64(m: &[f64; 6], v: DVec3) -> DVec3 {
-    DVec3::new(
-        m[0] * v.x + m[3] * v.y + m[4] * v.z,
-        m[3] * v.x + m[1] * v.y + m[5] * v.z,
-        m[4] * v.x + m[5] * v.y + m[2] * v.z,
-    )
+impl CgRow {
+    /// True when `(x, v)` is this state's f32 rounding.
+    #[inline]
+    fn rounds_to(&self, x: Vec3A, v: Vec3A) -> bool {
+        self.x.as_vec3a() == x && self.v.as_vec3a() == v
+    }
 }
 
-#[inline(always)]
-fn precond(pinv: &[f64; 6], r: DVec3) -> DVec3 {
-    sym_mul64(pinv, r)
+/// Per free mass its row of the system: right-hand side, diagonal block and its inverse.
+#[derive(Clone, Copy, Default)]
+struct RowSys {
+    b: DVec3,
+    diag: DMat3,
+    pinv: DMat3,
 }
 
-/// What a reference step did: the CG iterations used, the relative residual reached and what
-/// the end of the step did.
+/// Per free mass the BiCGSTAB vectors (`ph`, `sh`: the preconditioned `p` and `s`).
+#[derive(Clone, Copy, Default)]
+struct BiRow {
+    x: DVec3,
+    r: DVec3,
+    rh: DVec3,
+    p: DVec3,
+    v: DVec3,
+    s: DVec3,
+    ph: DVec3,
+    sh: DVec3,
+}
+
+/// Scratch of the reference solver (f64), kept between steps.
+#[derive(Default)]
+pub(crate) struct ReferenceScratch {
+    /// The f64 state of the free masses at the start of the next step, and the new state of the
+    /// step being taken.
+    state: Vec<CgRow>,
+    next: Vec<CgRow>,
+    rows: Vec<RowSys>,
+    /// Per adjacency entry `e` of free mass `k` (other end `j` free) the block `A_kj`.
+    off: Vec<DMat3>,
+    bi: Vec<BiRow>,
+    /// A matrix product's output.
+    av: Vec<DVec3>,
+    sums1: Vec<[f64; 1]>,
+    sums2: Vec<[f64; 2]>,
+}
+
+impl ReferenceScratch {
+    /// Free mass `k`'s position in f64: its f64 state when `x` (its f32 position) is still that
+    /// state's rounding, else `x`.
+    pub(crate) fn position_f64(&self, k: usize, x: Vec3A) -> DVec3 {
+        match self.state.get(k) {
+            Some(s) if s.x.as_vec3a() == x => s.x,
+            _ => x.as_dvec3(),
+        }
+    }
+}
+
+/// What a reference step did: the BiCGSTAB iterations used, the relative residual reached and
+/// what the end of the step did.
 pub(crate) struct ReferenceOutcome {
     pub iterations: u32,
     pub residual: f64,
     pub step: StepOutcome,
 }
 
-/// One converged backward-Euler step: PCG on the linearised system to relative residual `tol`,
-/// at most `max_iterations` iterations. A step that does not converge is rejected: the guard
-/// is left alone and the caller reports [`ReferenceOutcome::residual`].
+/// One backward-Euler step: BiCGSTAB on the linearised system to relative residual `tol`, at most
+/// `max_iterations` iterations. A step that does not converge is rejected: the guard is left
+/// alone and the caller reports [`ReferenceOutcome::residual`].
 pub(crate) fn reference_step(step: Step, tol: f64, max_iterations: u32, s: &mut ReferenceScratch) -> ReferenceOutcome {
+    sync_state(&step, s);
     assemble_system(&step, s);
-    let (iterations, residual) = solve_cg(step.model, tol, max_iterations, s);
+    let (iterations, residual) = solve_bicgstab(step.model, tol, max_iterations, s);
     let converged = !(residual > tol && residual.is_finite());
-    ReferenceOutcome { iterations, residual, step: finish_reference_step(step, &s.cg, converged) }
+    let hd = step.h as f64;
+    let (state, bi) = (&s.state, &s.bi);
+    s.next.resize(step.model.n_free, CgRow::default());
+    for (k, o) in s.next.iter_mut().enumerate() {
+        let v = state[k].v + bi[k].x;
+        *o = CgRow { x: state[k].x + v * hd, v };
+    }
+    let out = finish_reference_step(step, &s.next, converged);
+    std::mem::swap(&mut s.state, &mut s.next);
+    ReferenceOutcome { iterations, residual, step: out }
 }
 
-/// Free mass `k`'s right-hand side `h (F + h ∂F/∂x v)`, its block-Jacobi preconditioner (the
-/// inverse of its diagonal block) and its own block (mass, restoring stiffness and its links to
-/// anchored masses); writes the blocks of the links to free masses that `k` owns into `blocks`
-/// (the chunk's slice, whose first slot is `base`).
-#[inline]
-fn assemble_mass(step: &Step, k: usize, blocks: &mut [[f64; 6]], base: usize) -> (DVec3, [f64; 6], [f64; 6]) {
-    let (model, fe, x, v) = (step.model, step.fe, step.x, step.v);
-    let hd = step.h as f64;
-    let h2 = hd * hd;
-    let kr = model.restoring_stiffness(k, fe.restoring_w) as f64;
-    let (xi, vi) = (x[k], v[k]);
-    let mut f = (external(model, fe, k, xi, vi) + restoring(model, fe, x, k, xi)).as_dvec3();
-    let mut kv = DVec3::ZERO;
-    if kr > 0.0 {
-        kv -= (vi - v[model.rest_parent[k] as usize]).as_dvec3() * kr;
+/// Keeps the f64 state of every free mass whose f32 state is still its rounding; reseeds the
+/// others from f32.
+fn sync_state(step: &Step, s: &mut ReferenceScratch) {
+    let nf = step.model.n_free;
+    let (x, v) = (step.x, step.v);
+    s.state.resize(nf, CgRow { x: DVec3::NAN, v: DVec3::NAN });
+    for (k, st) in s.state.iter_mut().enumerate() {
+        if !st.rounds_to(x[k], v[k]) {
+            *st = CgRow { x: x[k].as_dvec3(), v: v[k].as_dvec3() };
+        }
     }
-    let md = model.mass[k] as f64 + h2 * kr;
-    let mut diag = [md, md, md, 0.0, 0.0, 0.0];
-    let mut dself = diag;
+}
+
+/// Free mass `k`'s row: right-hand side `h (F + h ∂F/∂x v)`, diagonal block
+/// `M − h ∂F_k/∂v_k − h² ∂F_k/∂x_k` and its inverse (the preconditioner), and into `off` (the
+/// mass's adjacency slice) the blocks `A_kj = −h ∂F_k/∂v_j − h² ∂F_k/∂x_j` of its links to free
+/// masses (zero for anchored ones, whose `Δv` is zero).
+#[inline]
+fn assemble_mass(step: &Step, state: &[CgRow], k: usize, off: &mut [DMat3]) -> RowSys {
+    let (model, fe) = (step.model, step.fe);
+    let nf = model.n_free;
+    let (h, id) = (step.h as f64, DMat3::IDENTITY);
+    let h2 = h * h;
+    let pos = |j: usize| if j < nf { state[j].x } else { step.x[j].as_dvec3() };
+    let vel = |j: usize| if j < nf { state[j].v } else { step.v[j].as_dvec3() };
+    let (xi, vi) = (state[k].x, state[k].v);
+    let m = model.mass[k] as f64;
+    let (mut f, jx, jv) = fe.external_f64(m, xi, vi, model.rest[k]);
+    let mut diag = DMat3::from_diagonal(DVec3::splat(m)) - jv * h - jx * h2;
+    // Σ_j ∂F_k/∂x_j v_j.
+    let mut kv = jx * vi;
     for (e, a) in model.adj_of(k).iter().enumerate() {
         let j = a.other as usize;
-        let (xj, vj) = (x[j].as_dvec3(), v[j].as_dvec3());
-        let d = xj - xi.as_dvec3();
+        let (d, dv) = (pos(j) - xi, vel(j) - vi);
         let l = d.length();
         let (rest, kk, c) = (a.rest as f64, a.k as f64, a.c as f64);
-        f += d * (kk * (1.0 - rest / l.max(1e-300))) + (vj - vi.as_dvec3()) * c;
-        let kp: [f64; 6] = if kk == 0.0 {
-            [0.0; 6]
+        f += d * (kk * (1.0 - rest / l.max(1e-300))) + dv * c;
+        // ∂F_k/∂x_j = K = k ((1 − L/l) I + (L/l) d̂d̂ᵀ); ∂F_k/∂x_k = −K; ∂F_k/∂v_j = c I.
+        let kj = if kk == 0.0 {
+            DMat3::ZERO
         } else if l <= 1e-12 {
-            let s = if rest == 0.0 { kk } else { 0.0 };
-            [s, s, s, 0.0, 0.0, 0.0]
+            id * if rest == 0.0 { kk } else { 0.0 }
         } else {
-            let beta = (1.0 - rest / l).clamp(0.0, 1.0);
-            let u = d / l;
-            let g = kk * (1.0 - beta);
-            let kb = kk * beta;
-            [kb + g * u.x * u.x, kb + g * u.y * u.y, kb + g * u.z * u.z, g * u.x * u.y, g * u.x * u.z, g * u.y * u.z]
+            // The transverse stiffness k (1 − L/l) is negative under compression; floored at
+            // −μ/h² (μ half the lighter end's mass) so that one link's compression cannot make
+            // the step's matrix indefinite (see `COMPRESSION_FLOOR`).
+            let mj = if j < nf { model.mass[j] as f64 } else { m };
+            let floor = -COMPRESSION_FLOOR * m.min(mj) / h2;
+            id * (kk * (1.0 - rest / l)).max(floor) + outer(d, d) * (kk * rest / (l * l * l))
         };
-        kv += sym_mul64(&kp, vj - vi.as_dvec3());
-        let mut hb = kp.map(|q| q * h2);
-        for q in &mut hb[..3] {
-            *q += hd * c;
-        }
-        for q in 0..6 {
-            diag[q] += hb[q];
-        }
-        let ae = model.adj_start[k] as usize + e;
-        if j >= model.n_free {
-            for q in 0..6 {
-                dself[q] += hb[q];
+        kv += kj * dv;
+        let blk = id * (h * c) + kj * h2;
+        diag += blk;
+        off[e] = if j < nf { -blk } else { DMat3::ZERO };
+    }
+    let p = model.rest_parent[k];
+    if p != NONE && fe.restoring_w != 0.0 {
+        let p = p as usize;
+        let (fr, jr) = restoring_force_f64(pos(p), xi, model.rest_n[k].as_dvec3(), fe.restoring_w as f64);
+        f += fr;
+        // ∂F_k/∂x_k = J, ∂F_k/∂x_p = −J (the root feels no reaction).
+        kv += jr * (vi - vel(p));
+        diag -= jr * h2;
+        if p < nf {
+            if let Some(e) = model.adj_of(k).iter().position(|a| a.other as usize == p) {
+                off[e] += jr * h2;
             }
-        } else if model.ref_owner[ae] {
-            blocks[model.ref_slot[ae] as usize - base] = hb;
         }
     }
-    // Block-Jacobi preconditioner: the inverse of the diagonal block.
-    let (a, ee, i, bb, c, ff) = (diag[0], diag[1], diag[2], diag[3], diag[4], diag[5]);
-    let (c00, c01, c02) = (ee * i - ff * ff, c * ff - bb * i, bb * ff - c * ee);
-    let (c11, c12, c22) = (a * i - c * c, bb * c - a * ff, a * ee - bb * bb);
-    let det = a * c00 + bb * c01 + c * c02;
-    let r = if det > 0.0 && det.is_finite() { 1.0 / det } else { 0.0 };
-    let pinv = [c00 * r, c11 * r, c22 * r, c01 * r, c02 * r, c12 * r];
-    ((f + kv * hd) * hd, pinv, dself)
+    let det = diag.determinant();
+    let pinv = if det != 0.0 && det.is_finite() { diag.inverse() } else { DMat3::ZERO };
+    RowSys { b: (f + kv * h) * h, diag, pinv }
 }
 
-/// Sizes the scratch and assembles the system ([`assemble_mass`]), per mass over its own links,
-/// in parallel over fixed chunks of masses (each chunk writes the blocks of the links between
-/// free masses that its masses list first — the other end computes the same block bit for bit
-/// and only adds it to its diagonal).
+/// Sizes the scratch and assembles every free mass's row ([`assemble_mass`]) over fixed chunks of
+/// masses, in parallel above the cut-off.
 fn assemble_system(step: &Step, s: &mut ReferenceScratch) {
     let model = step.model;
     let nf = model.n_free;
-    s.blocks.resize(model.ref_first[nf] as usize, [0.0; 6]);
-    s.b.resize(nf, DVec3::ZERO);
-    s.pinv.resize(nf, [0.0; 6]);
-    s.dself.resize(nf, [0.0; 6]);
-    let mut block_chunks: Vec<&mut [[f64; 6]]> = Vec::with_capacity(nf.div_ceil(CHUNK));
-    let mut rest = s.blocks.as_mut_slice();
-    let mut prev = 0usize;
-    for c in 0..nf.div_ceil(CHUNK) {
-        let end = model.ref_first[((c + 1) * CHUNK).min(nf)] as usize;
-        let (head, tail) = rest.split_at_mut(end - prev);
-        block_chunks.push(head);
-        rest = tail;
-        prev = end;
-    }
-    let work = |(c, (((bc, pc), kc), blc)): (usize, AssemblyChunk)| {
-        let base = model.ref_first[c * CHUNK] as usize;
-        for o in 0..bc.len() {
-            let k = c * CHUNK + o;
-            (bc[o], pc[o], kc[o]) = assemble_mass(step, k, blc, base);
+    s.rows.resize(nf, RowSys::default());
+    s.off.resize(model.adj.len(), DMat3::ZERO);
+    let state = &s.state;
+    let work = |(c, (rows, off)): (usize, (&mut [RowSys], &mut [DMat3]))| {
+        let (k0, base) = (c * CHUNK, model.adj_start[c * CHUNK] as usize);
+        for (o, row) in rows.iter_mut().enumerate() {
+            let k = k0 + o;
+            let (a0, a1) = (model.adj_start[k] as usize - base, model.adj_start[k + 1] as usize - base);
+            *row = assemble_mass(step, state, k, &mut off[a0..a1]);
         }
     };
-    if nf < PARALLEL_MIN {
-        s.b.chunks_mut(CHUNK)
-            .zip(s.pinv.chunks_mut(CHUNK))
-            .zip(s.dself.chunks_mut(CHUNK))
-            .zip(block_chunks)
-            .enumerate()
-            .for_each(work);
-    } else {
-        s.b.par_chunks_mut(CHUNK)
-            .zip(s.pinv.par_chunks_mut(CHUNK))
-            .zip(s.dself.par_chunks_mut(CHUNK))
-            .zip(block_chunks.into_par_iter())
-            .enumerate()
-            .for_each(work);
-    }
-}
-
-/// Row `k` of `A y`: the mass's own block (mass, restoring stiffness and its links to anchored
-/// masses) times `y_k`, plus every link to a free mass times `(y_k − y_j)`.
-#[inline]
-fn apply_a(model: &SimModel, blocks: &[[f64; 6]], dself: &[[f64; 6]], ys: &[DVec3], k: usize) -> DVec3 {
-    let nf = model.n_free;
-    let yk = ys[k];
-    let mut y = sym_mul64(&dself[k], yk);
-    let (s0, s1) = (model.adj_start[k] as usize, model.adj_start[k + 1] as usize);
-    for (&j, &slot) in model.adj_other[s0..s1].iter().zip(&model.ref_slot[s0..s1]) {
-        let j = j as usize;
-        if j < nf {
-            y += sym_mul64(&blocks[slot as usize], yk - ys[j]);
-        }
-    }
-    y
-}
-
-/// Preconditioned CG on the assembled system from `Δv = 0` until the relative residual is at most
-/// `tol` or `max_iterations` are used; the solution in `s.cg[k].x`. Returns the iterations used
-/// and the relative residual reached (0 for a zero right-hand side).
-fn solve_cg(model: &SimModel, tol: f64, max_iterations: u32, s: &mut ReferenceScratch) -> (u32, f64) {
-    let nf = model.n_free;
-    let (blocks, dself, pinv, b) = (&s.blocks, &s.dself, &s.pinv, &s.b);
-    s.cg.resize(nf, CgRow::default());
-    s.z.resize(nf, DVec3::ZERO);
-    s.pap.resize(nf, [DVec3::ZERO; 2]);
-    // Initial state x = 0, r = b, z = P⁻¹ r; sums of b·b and r·z per chunk.
-    let sums = chunk_map2(&mut s.cg, &mut s.z, |c, rows, zs| {
-        let mut acc = [0.0f64; 2];
-        for (o, (row, zo)) in rows.iter_mut().zip(zs.iter_mut()).enumerate() {
-            let k = c * CHUNK + o;
-            let r = b[k];
-            let z = precond(&pinv[k], r);
-            (*row, *zo) = (CgRow { x: DVec3::ZERO, r }, z);
-            acc[0] += r.length_squared();
-            acc[1] += r.dot(z);
-        }
-        acc
+    // Each chunk of masses with its adjacency's blocks (split in order, no allocation).
+    let mut rest = s.off.as_mut_slice();
+    let chunks = s.rows.chunks_mut(CHUNK).enumerate().map(move |(c, rows)| {
+        let (a0, a1) = (model.adj_start[c * CHUNK], model.adj_start[c * CHUNK + rows.len()]);
+        let (head, tail) = std::mem::take(&mut rest).split_at_mut((a1 - a0) as usize);
+        rest = tail;
+        (c, (rows, head))
     });
-    let sum = |v: &[[f64; 2]], i: usize| v.iter().fold(0.0, |a, s| a + s[i]);
-    let bnorm = sum(&sums, 0).sqrt();
-    let mut rz = sum(&sums, 1);
+    if nf < PARALLEL_MIN {
+        chunks.for_each(work);
+    } else {
+        chunks.par_bridge().for_each(work);
+    }
+}
+
+/// Row `k` of `A y`: the diagonal block times `y_k` plus every link to a free mass's block times
+/// `y_j`.
+#[inline]
+fn apply_a(model: &SimModel, rows: &[RowSys], off: &[DMat3], y: impl Fn(usize) -> DVec3, k: usize) -> DVec3 {
+    let nf = model.n_free;
+    let mut out = rows[k].diag * y(k);
+    let (s0, s1) = (model.adj_start[k] as usize, model.adj_start[k + 1] as usize);
+    for (&j, blk) in model.adj_other[s0..s1].iter().zip(&off[s0..s1]) {
+        if (j as usize) < nf {
+            out += *blk * y(j as usize);
+        }
+    }
+    out
+}
+
+/// Block-Jacobi-preconditioned BiCGSTAB (van der Vorst 1992) on the assembled system from
+/// `Δv = 0` until the relative residual is at most `tol` or `max_iterations` are used; the
+/// solution in `s.bi[k].x`. A breakdown (`r̂·r`, `r̂·v` or `ω` zero or not finite) restarts from
+/// the current solution with the true residual as the new shadow. Returns the iterations used
+/// and the relative residual reached (0 for a zero right-hand side, NaN for a non-finite system).
+fn solve_bicgstab(model: &SimModel, tol: f64, max_iterations: u32, s: &mut ReferenceScratch) -> (u32, f64) {
+    let nf = model.n_free;
+    s.bi.resize(nf, BiRow::default());
+    s.av.resize(nf, DVec3::ZERO);
+    let rows = &s.rows;
+    let off = &s.off;
+    let [bb] = chunk_sum(&mut s.bi, &mut s.sums1, |c, bi| {
+        let mut acc = 0.0;
+        for (o, row) in bi.iter_mut().enumerate() {
+            let b = rows[c * CHUNK + o].b;
+            *row = BiRow { r: b, rh: b, ..BiRow::default() };
+            acc += b.length_squared();
+        }
+        [acc]
+    });
+    let bnorm = bb.sqrt();
+    if bnorm == 0.0 {
+        return (0, 0.0);
+    }
+    if !bnorm.is_finite() {
+        return (0, f64::NAN);
+    }
+    let (mut rho, mut alpha, mut omega) = (1.0f64, 1.0f64, 1.0f64);
+    let mut rho_new = bb;
+    let mut rel = 1.0;
     let mut iterations = 0;
-    let mut rel = 0.0;
-    if bnorm > 0.0 {
-        rel = 1.0;
-        let mut beta = None;
-        loop {
-            if rel <= tol || iterations >= max_iterations {
+    let usable = |q: f64| q != 0.0 && q.is_finite();
+    while rel > tol && iterations < max_iterations {
+        iterations += 1;
+        if !(usable(rho_new) && usable(omega) && usable(rho)) {
+            // Restart: r = b − A x, r̂ = r, p = v = 0.
+            {
+                let bi = &s.bi;
+                chunk_sum(&mut s.av, &mut s.sums1, |c, av| {
+                    for (o, a) in av.iter_mut().enumerate() {
+                        *a = apply_a(model, rows, off, |j| bi[j].x, c * CHUNK + o);
+                    }
+                    [0.0]
+                });
+            }
+            let av = &s.av;
+            let [rr] = chunk_sum(&mut s.bi, &mut s.sums1, |c, bi| {
+                let mut acc = 0.0;
+                for (o, row) in bi.iter_mut().enumerate() {
+                    let k = c * CHUNK + o;
+                    row.r = rows[k].b - av[k];
+                    (row.rh, row.p, row.v) = (row.r, DVec3::ZERO, DVec3::ZERO);
+                    acc += row.r.length_squared();
+                }
+                [acc]
+            });
+            rel = rr.sqrt() / bnorm;
+            (rho, alpha, omega, rho_new) = (1.0, 1.0, 1.0, rr);
+            if rel <= tol || !usable(rr) {
                 break;
             }
-            iterations += 1;
-            // p = z + β p and A p = A z + β A p (so the product needs only z, final everywhere
-            // after the last pass), with p·Ap; p = z on the first iteration.
-            let pap: f64 = {
-                let z = &s.z;
-                chunk_map(&mut s.pap, |c, out| {
-                    let mut acc = 0.0f64;
-                    for (o, pa) in out.iter_mut().enumerate() {
-                        let k = c * CHUNK + o;
-                        let az = apply_a(model, blocks, dself, z, k);
-                        *pa = match beta {
-                            None => [z[k], az],
-                            Some(beta) => [z[k] + pa[0] * beta, az + pa[1] * beta],
-                        };
-                        acc += pa[0].dot(pa[1]);
-                    }
-                    acc
-                })
-                .iter()
-                .fold(0.0, |a, s| a + s)
-            };
-            if pap.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
-                break;
+        }
+        let beta = (rho_new / rho) * (alpha / omega);
+        rho = rho_new;
+        // p = r + β (p − ω v), p̂ = P⁻¹ p.
+        chunk_sum(&mut s.bi, &mut s.sums1, |c, bi| {
+            for (o, row) in bi.iter_mut().enumerate() {
+                row.p = row.r + (row.p - row.v * omega) * beta;
+                row.ph = rows[c * CHUNK + o].pinv * row.p;
             }
-            let alpha = rz / pap;
-            // x += α p, r −= α ap, z = P⁻¹ r, with r·r and r·z.
-            let sums = {
-                let pa = &s.pap;
-                chunk_map2(&mut s.cg, &mut s.z, |c, rows, zs| {
-                    let mut acc = [0.0f64; 2];
-                    for (o, (row, zo)) in rows.iter_mut().zip(zs.iter_mut()).enumerate() {
-                        let k = c * CHUNK + o;
-                        row.x += pa[k][0] * alpha;
-                        row.r -= pa[k][1] * alpha;
-                        *zo = precond(&pinv[k], row.r);
-                        acc[0] += row.r.length_squared();
-                        acc[1] += row.r.dot(*zo);
-                    }
-                    acc
-                })
-            };
-            rel = sum(&sums, 0).sqrt() / bnorm;
-            let rz_new = sum(&sums, 1);
-            beta = Some(rz_new / rz);
-            rz = rz_new;
+            [0.0]
+        });
+        // v = A p̂, α = ρ / r̂·v.
+        let [rhv] = {
+            let bi = &s.bi;
+            chunk_sum(&mut s.av, &mut s.sums1, |c, av| {
+                let mut acc = 0.0;
+                for (o, a) in av.iter_mut().enumerate() {
+                    let k = c * CHUNK + o;
+                    *a = apply_a(model, rows, off, |j| bi[j].ph, k);
+                    acc += bi[k].rh.dot(*a);
+                }
+                [acc]
+            })
+        };
+        if !usable(rhv) {
+            rho_new = 0.0;
+            continue;
+        }
+        alpha = rho / rhv;
+        // s = r − α v, ŝ = P⁻¹ s.
+        let [ss] = {
+            let av = &s.av;
+            chunk_sum(&mut s.bi, &mut s.sums1, |c, bi| {
+                let mut acc = 0.0;
+                for (o, row) in bi.iter_mut().enumerate() {
+                    let k = c * CHUNK + o;
+                    row.v = av[k];
+                    row.s = row.r - row.v * alpha;
+                    row.sh = rows[k].pinv * row.s;
+                    acc += row.s.length_squared();
+                }
+                [acc]
+            })
+        };
+        if ss.sqrt() / bnorm <= tol {
+            let [rr] = chunk_sum(&mut s.bi, &mut s.sums1, |_, bi| {
+                let mut acc = 0.0;
+                for row in bi.iter_mut() {
+                    row.x += row.ph * alpha;
+                    row.r = row.s;
+                    acc += row.r.length_squared();
+                }
+                [acc]
+            });
+            rel = rr.sqrt() / bnorm;
+            break;
+        }
+        // t = A ŝ, ω = t·s / t·t.
+        let [ts, tt] = {
+            let bi = &s.bi;
+            chunk_sum(&mut s.av, &mut s.sums2, |c, av| {
+                let mut acc = [0.0; 2];
+                for (o, a) in av.iter_mut().enumerate() {
+                    let k = c * CHUNK + o;
+                    *a = apply_a(model, rows, off, |j| bi[j].sh, k);
+                    acc[0] += a.dot(bi[k].s);
+                    acc[1] += a.length_squared();
+                }
+                acc
+            })
+        };
+        omega = if tt > 0.0 { ts / tt } else { 0.0 };
+        // x += α p̂ + ω ŝ, r = s − ω t, with r·r and r̂·r.
+        let [rr, rhr] = {
+            let av = &s.av;
+            chunk_sum(&mut s.bi, &mut s.sums2, |c, bi| {
+                let mut acc = [0.0; 2];
+                for (o, row) in bi.iter_mut().enumerate() {
+                    let k = c * CHUNK + o;
+                    row.x += row.ph * alpha + row.sh * omega;
+                    row.r = row.s - av[k] * omega;
+                    acc[0] += row.r.length_squared();
+                    acc[1] += row.rh.dot(row.r);
+                }
+                acc
+            })
+        };
+        rel = rr.sqrt() / bnorm;
+        rho_new = rhr;
+        if !rel.is_finite() {
+            break;
         }
     }
     (iterations, rel)
 }
 
-/// The end of a reference step from the CG solution `cg`: when it `converged`, the new state,
-/// projection, check, guard and rotation limit in one lane-group pass where the topology allows,
-/// else the new state and [`finish_step`]; when it did not, the new state and the projection
+/// The end of a reference step from the new f64 state `next`: when it `converged`, its f32
+/// rounding, projection, check, guard and rotation limit in one lane-group pass where the topology
+/// allows, else the rounding and [`finish_step`]; when it did not, the rounding and the projection
 /// only (the guard left alone).
-fn finish_reference_step(step: Step, cg: &[CgRow], converged: bool) -> StepOutcome {
+fn finish_reference_step(step: Step, next: &[CgRow], converged: bool) -> StepOutcome {
     let model = step.model;
     if converged && (!model.has_sticks || model.sticks_to_anchors) {
-        return group_step(step, Mode::Finish, cg);
+        return group_step(step, Mode::Finish, next);
     }
-    let (x, v, hd) = (step.x, step.v, step.h as f64);
-    for_free(model.n_free, step.x_out, step.v_out, |k| {
-        let vn = (v[k].as_dvec3() + cg[k].x).as_vec3a();
-        ((x[k].as_dvec3() + vn.as_dvec3() * hd).as_vec3a(), vn)
-    });
+    for_free(model.n_free, step.x_out, step.v_out, |k| (next[k].x.as_vec3a(), next[k].v.as_vec3a()));
     if converged {
         finish_step(step)
     } else {
