@@ -46,15 +46,16 @@ pub fn set_iterations(s: &mut SolverSettings, kind: SolverKind, n: u32) -> bool 
     true
 }
 
-/// The free masses' final positions, in metres, as f64 — the one place the report reads a
-/// simulator's state. **When `Simulator::positions_f64()` merges, return it here** (the reference
-/// then stops flooring the errors at f32 round-off).
+/// The masses' final positions, in metres, as f64 — the one place the report reads a
+/// simulator's state: the reference solver's f64 state (so the reference does not floor the
+/// errors at f32 round-off), every other solver's f32 positions widened.
 fn final_positions(sim: &Simulator) -> Vec<[f64; 3]> {
-    sim.positions().iter().map(|p| p.map(f64::from)).collect()
+    sim.positions_f64().unwrap_or_else(|| sim.positions().iter().map(|p| p.map(f64::from)).collect())
 }
 
-/// Whether [`final_positions`] reads f64 state (shown in the document's reference line).
-const POSITIONS_ARE_F64: bool = false;
+/// Whether [`final_positions`] reads the reference's f64 state (shown in the document's
+/// reference line).
+const POSITIONS_ARE_F64: bool = true;
 
 // ------------------------------------------------------------------------------------------------
 
