@@ -296,21 +296,10 @@ pub struct AccuracyReport {
     pub timings: Vec<TimingRow>,
 }
 
-/// Wind and the restoring force, no gravity: with gravity along the hair, eq. 3.37 cannot hold fur
-/// upright (its pull grows with the cube of the tilt, gravity's torque linearly), so which way
-/// each hair falls depends on round-off and no step size converges — a poor yardstick.
+/// The fur scenes' forces: [`synth::fur_wind_forces`] (wind and the restoring force, no
+/// gravity; its doc says why).
 fn fur_forces() -> ForceSet {
-    ForceSet {
-        gravity_m_per_s2: [0.0; 3],
-        wind: Some(Wind {
-            direction: [1.0, 0.0, 0.4],
-            force_n: 3e-4,
-            gust_amplitude: 0.8,
-            gust_frequency_hz: 2.0,
-            gust_wavelength_m: 0.05,
-        }),
-        ..ForceSet::default()
-    }
+    furbake_sim::synth::fur_wind_forces()
 }
 
 fn describe_forces(f: &ForceSet) -> String {
@@ -710,6 +699,21 @@ fn fmt_err(e: f64) -> String {
     if e.is_finite() { format!("{e:.2e}") } else { "—".into() }
 }
 
+/// The cells every error table row starts with (solver, settings, dt, substeps, max and RMS
+/// error, cost), `mark` after the RMS error; the caller appends the last cell.
+fn row_cells(x: &ErrorRow, mark: &str) -> String {
+    format!(
+        "| {} | {} | 1/{:.0} s | {} | {} m | {} m{mark} | {:.2e} |",
+        x.config(),
+        x.mode.name(),
+        1.0 / x.dt_s,
+        x.substeps,
+        fmt_err(x.max_error_m),
+        fmt_err(x.rms_error_m),
+        x.wall_s_per_sim_s
+    )
+}
+
 fn outcome_note(r: &ErrorRow) -> String {
     match &r.outcome {
         Outcome::Ran => String::new(),
@@ -824,18 +828,7 @@ fn render_markdown(s: &AccuracySettings, scenes: &[SceneReport], timings: &[Timi
                 (true, false) => "max",
                 _ => "RMS",
             };
-            let _ = writeln!(
-                md,
-                "| {} | {} | 1/{:.0} s | {} | {} m | {} m{} | {:.2e} | {which} |",
-                x.config(),
-                x.mode.name(),
-                1.0 / x.dt_s,
-                x.substeps,
-                fmt_err(x.max_error_m),
-                fmt_err(x.rms_error_m),
-                floor_mark(x.rms_error_m),
-                x.wall_s_per_sim_s
-            );
+            let _ = writeln!(md, "{} {which} |", row_cells(x, floor_mark(x.rms_error_m)));
         }
         let _ = writeln!(md, "\n### {} — every configuration\n", r.id.title());
         let _ = writeln!(md, "<details><summary>{} rows</summary>\n", r.rows.len());
@@ -845,22 +838,9 @@ fn render_markdown(s: &AccuracySettings, scenes: &[SceneReport], timings: &[Timi
         );
         let _ = writeln!(md, "|---|---|---:|---:|---:|---:|---:|---|");
         for x in &r.rows {
-            let _ = writeln!(
-                md,
-                "| {} | {} | 1/{:.0} s | {} | {} m | {} m{} | {:.2e} | {} |",
-                x.config(),
-                x.mode.name(),
-                1.0 / x.dt_s,
-                x.substeps,
-                fmt_err(x.max_error_m),
-                fmt_err(x.rms_error_m),
-                floor_mark(x.rms_error_m),
-                x.wall_s_per_sim_s,
-                {
-                    let n = outcome_note(x);
-                    if n.is_empty() { "·".to_owned() } else { n }
-                }
-            );
+            let note = outcome_note(x);
+            let note = if note.is_empty() { "·".to_owned() } else { note };
+            let _ = writeln!(md, "{} {note} |", row_cells(x, floor_mark(x.rms_error_m)));
         }
         let _ = writeln!(md, "\n</details>\n");
     }

@@ -170,6 +170,25 @@ pub fn stiff_net_forces() -> crate::ForceSet {
     }
 }
 
+/// The forces of the accuracy report's fur scenes (the thesis's grass patch, the Fox): a gusty
+/// wind and the restoring force of eq. 3.37, no gravity — with gravity along the hair, eq. 3.37
+/// cannot hold fur upright (its pull grows with the cube of the tilt, gravity's torque
+/// linearly), so which way each hair falls depends on round-off and no step size converges, a
+/// poor yardstick.
+pub fn fur_wind_forces() -> crate::ForceSet {
+    crate::ForceSet {
+        gravity_m_per_s2: [0.0; 3],
+        wind: Some(crate::Wind {
+            direction: [1.0, 0.0, 0.4],
+            force_n: 3e-4,
+            gust_amplitude: 0.8,
+            gust_frequency_hz: 2.0,
+            gust_wavelength_m: 0.05,
+        }),
+        ..crate::ForceSet::default()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -108,17 +108,7 @@ fn implicit_iterations_converge_to_backward_euler_on_the_stiff_net() {
 
 /// The report's grass-patch scene: wind and the restoring force, no gravity.
 fn scene_forces() -> ForceSet {
-    ForceSet {
-        gravity_m_per_s2: [0.0; 3],
-        wind: Some(Wind {
-            direction: [1.0, 0.0, 0.4],
-            force_n: 3e-4,
-            gust_amplitude: 0.8,
-            gust_frequency_hz: 2.0,
-            gust_wavelength_m: 0.05,
-        }),
-        ..ForceSet::default()
-    }
+    furbake_sim::synth::fur_wind_forces()
 }
 
 #[test]
