@@ -20,7 +20,7 @@ use std::time::Instant;
 
 use furbake_sim::synth::{THESIS_TABLE_4_5, stiff_net, stiff_net_forces, synthetic_topology};
 use furbake_sim::{
-    ForceSet, SimError, Simulator, SolverKind, SolverSettings, SpringTopology, TopologyKind, TopologyParams, Wind,
+    ForceSet, SimError, Simulator, SolverKind, SolverSettings, SpringTopology, TopologyKind, TopologyParams,
     build_topology, meshes,
 };
 
