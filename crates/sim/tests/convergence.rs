@@ -26,7 +26,7 @@ mod common;
 use common::{Net, flat};
 use furbake_formats::sections::spring_topology::{TopologyKind, TopologyParams};
 use furbake_sim::{
-    ForceSet, GuardParams, Simulator, SolverKind, SolverSettings, SpringTopology, Wind, build_topology, meshes, synth,
+    ForceSet, GuardParams, Simulator, SolverKind, SolverSettings, SpringTopology, build_topology, meshes, synth,
 };
 
 const ITERATIONS: [u32; 5] = [1, 2, 4, 8, 32];
