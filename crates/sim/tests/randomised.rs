@@ -32,7 +32,7 @@ proptest! {
     #[test]
     fn random_cases_stay_stable(
         kind in 0usize..8,
-        solver in 0usize..4,
+        solver in 0usize..SolverKind::ALL.len(),
         stiffness in log_range(0.1, 1e4),
         edge_stiffness in log_range(0.1, 1e4),
         mass in log_range(1e-6, 1e1),
@@ -58,7 +58,13 @@ proptest! {
             ..TopologyParams::default()
         };
         let topo = build_topology(&meshes::icosphere(0, 0.05), kind, &params).expect("the icosahedron builds");
-        let settings = SolverSettings { implicit_iterations: iterations, max_substeps: 1_000, ..SolverSettings::of(solver) };
+        let settings = SolverSettings {
+            implicit_iterations: iterations,
+            xpbd_iterations: iterations,
+            local_global_iterations: iterations,
+            max_substeps: 1_000,
+            ..SolverSettings::of(solver)
+        };
         let cos_a = settings.guard.threshold_angle_deg.to_radians().cos();
         let mut sim = Simulator::new(&topo, settings).expect("valid topology");
         sim.set_forces(ForceSet {
