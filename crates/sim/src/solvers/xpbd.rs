@@ -7,7 +7,8 @@
 //!    keeps the implicit solver's diagonal linearisation (mass `m + h²·2w/L`, `implicit.rs`):
 //!    taken fully explicitly its stiffness `2w/L` over a hair mass of 1 µg gives `hω ≈ 16` at
 //!    1/60 s, and since XPBD never substeps for stability, that would throw the tips around.
-//! 2. **Project** `iterations` Gauss–Seidel passes over the links, one colour at a time. A spring
+//! 2. **Project** `iterations` symmetric Gauss–Seidel sweeps over the links (colours out along the
+//!    hairs, then back), one colour at a time. A spring
 //!    is a distance constraint `C = |xᵢ − xⱼ| − l₀` with compliance `α = 1/k` (`α̃ = α/h²`); a
 //!    stick one with zero compliance. A link's viscosity (eq. 3.24, `c (vⱼ − vᵢ)`: the *full*
 //!    relative velocity, not only along the link) is XPBD's damping term (the paper's eq. 25,
@@ -22,8 +23,8 @@
 //! Then the shared end of step (`fused.rs`'s `finish_step`): stick projection (which XPBD's
 //! zero-compliance sticks already nearly satisfy), finiteness check and guard.
 //!
-//! **Parallel and deterministic.** The links are edge-coloured once, greedily in link order, so
-//! that no free mass has two links of one colour. One colour's pass then runs per free mass in
+//! **Parallel and deterministic.** The links are edge-coloured once, in link order, so that no
+//! free mass has two links of one colour and the colours of a hair's links increase outwards. One colour's pass then runs per free mass in
 //! fixed chunks: each mass finds its (at most one) link of that colour, both ends compute that
 //! link's update from the same inputs in the same orientation, and each keeps its own half and
 //! its own copy of the multipliers (stored per colour and mass). Reads come from one buffer,
@@ -93,12 +94,24 @@ impl XpbdScratch {
                 links.push(Link { a: k as u32, b: a.other, rest: a.rest, compliance, c: a.c });
             }
         }
-        // Greedy edge colouring in link order: the first colour free at both free ends.
+        // Edge colouring in link order (masses by depth from the skin): a hair-tree link takes
+        // the first colour free at both ends *above* every colour already used at its upper
+        // end, so the colours run from the skin outwards along every hair and a sweep in colour
+        // order carries a correction down a whole hair, as a sequential root-to-tip sweep would
+        // (red–black alternation along a chain needs O(n²) sweeps); other links (prism edges)
+        // take the first colour free at both ends.
         let mut slot: Vec<u32> = Vec::new();
         let mut colours = 0;
-        for (l, link) in links.iter().enumerate() {
+        let mut above = vec![0usize; nf];
+        // Links to the skin first, whatever a mass's adjacency order.
+        let skin_first = (0..links.len())
+            .filter(|&l| links[l].b as usize >= nf)
+            .chain((0..links.len()).filter(|&l| (links[l].b as usize) < nf));
+        for l in skin_first {
+            let link = links[l];
             let (a, b) = (link.a as usize, link.b as usize);
-            let mut c = 0;
+            let tree = b < nf && model.tree_parent[b] == a as u32;
+            let mut c = if tree { above[a] } else { 0 };
             loop {
                 if c == colours {
                     slot.resize((colours + 1) * nf, NONE);
@@ -112,8 +125,10 @@ impl XpbdScratch {
                 c += 1;
             }
             slot[c * nf + a] = l as u32;
+            above[a] = above[a].max(c + 1);
             if b < nf {
                 slot[c * nf + b] = l as u32;
+                above[b] = above[b].max(c + 1);
             }
         }
         XpbdScratch {
@@ -129,7 +144,7 @@ impl XpbdScratch {
     }
 }
 
-/// One XPBD step with `iterations` Gauss–Seidel iterations over the coloured links.
+/// One XPBD step with `iterations` symmetric Gauss–Seidel sweeps over the coloured links.
 pub(crate) fn xpbd_step(step: Step, iterations: u32, s: &mut XpbdScratch) -> StepOutcome {
     let (model, fe, h, x, v) = (step.model, step.fe, step.h, step.x, step.v);
     let nf = model.n_free;
@@ -139,8 +154,10 @@ pub(crate) fn xpbd_step(step: Step, iterations: u32, s: &mut XpbdScratch) -> Ste
     s.lambda_damp.fill(Vec3A::ZERO);
     // 2. Project, colour by colour.
     if nf > 0 {
+        // Symmetric Gauss–Seidel: every iteration sweeps the colours out along the hairs and back.
+        let sweep = (0..s.colours).chain((0..s.colours.saturating_sub(1)).rev());
         for _ in 0..iterations {
-            for c in 0..s.colours {
+            for c in sweep.clone() {
                 let range = c * nf..(c + 1) * nf;
                 let pass = Pass {
                     links: &s.links,
