@@ -336,10 +336,9 @@ impl Simulator {
                 let dt = match self.settings.kind {
                     SolverKind::Explicit => solvers::stable_step(&self.model, w, false, self.settings.stability_safety),
                     SolverKind::Stick => solvers::stable_step(&self.model, w, false, self.settings.stability_safety),
-                    SolverKind::Implicit
-                    | SolverKind::Reference
-                    | SolverKind::Xpbd
-                    | SolverKind::LocalGlobal => f64::INFINITY,
+                    SolverKind::Implicit | SolverKind::Reference | SolverKind::Xpbd | SolverKind::LocalGlobal => {
+                        f64::INFINITY
+                    }
                 };
                 self.stable_dt = Some((w, dt));
                 dt

@@ -138,8 +138,11 @@ fn newton_step(t: &SpringTopology, x: &[[f32; 3]], v: &[[f32; 3]], h: f64) -> Ve
         }
         for (e, &[a, b]) in t.spring_ends.iter().enumerate() {
             let (a, b) = (a as usize, b as usize);
-            let (k, c, rest) =
-                (t.spring_stiffness_n_per_m[e] as f64, t.spring_damping_n_s_per_m[e] as f64, t.spring_rest_lengths_m[e] as f64);
+            let (k, c, rest) = (
+                t.spring_stiffness_n_per_m[e] as f64,
+                t.spring_damping_n_s_per_m[e] as f64,
+                t.spring_rest_lengths_m[e] as f64,
+            );
             let d: [f64; 3] = std::array::from_fn(|q| xn[b][q] - xn[a][q]);
             let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
             let u: [f64; 3] = std::array::from_fn(|q| d[q] / len);

@@ -193,9 +193,7 @@ impl Ldlt {
 /// graphs are hair trees and surface meshes (trees eliminate without fill).
 fn minimum_degree(n: usize, start: &[u32], col: &[u32]) -> Vec<u32> {
     let mut g: Vec<BTreeSet<u32>> = (0..n)
-        .map(|i| {
-            col[start[i] as usize..start[i + 1] as usize].iter().copied().filter(|&j| j as usize != i).collect()
-        })
+        .map(|i| col[start[i] as usize..start[i + 1] as usize].iter().copied().filter(|&j| j as usize != i).collect())
         .collect();
     let mut queue: BTreeSet<(usize, u32)> = (0..n).map(|i| (g[i].len(), i as u32)).collect();
     let mut order = Vec::with_capacity(n);
@@ -230,7 +228,9 @@ mod tests {
         let mut start = vec![0u32];
         let mut col = Vec::new();
         let mut val = Vec::new();
-        let link = |i: usize, j: usize| (j + n - i) % n == 1 || (i + n - j) % n == 1 || (i == 0 && j == 3) || (i == 3 && j == 0);
+        let link = |i: usize, j: usize| {
+            (j + n - i) % n == 1 || (i + n - j) % n == 1 || (i == 0 && j == 3) || (i == 3 && j == 0)
+        };
         for i in 0..n {
             for j in 0..n {
                 if i == j {

@@ -160,8 +160,7 @@ pub(crate) fn local_global_step(
             *u = DVec3::new(s.sol[0][k], s.sol[1][k], s.sol[2][k]);
         }
     }
-    for ((xo, vo), (&x0, &u)) in step.x_out[..nf].iter_mut().zip(&mut step.v_out[..nf]).zip(x[..nf].iter().zip(&s.u))
-    {
+    for ((xo, vo), (&x0, &u)) in step.x_out[..nf].iter_mut().zip(&mut step.v_out[..nf]).zip(x[..nf].iter().zip(&s.u)) {
         *xo = (x0.as_dvec3() + u).as_vec3a();
         *vo = (u / h).as_vec3a();
     }

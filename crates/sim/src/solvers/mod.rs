@@ -52,9 +52,9 @@ use crate::shell::{GuardOutcome, GuardParams, GuardState};
 pub(crate) use chunks::{CHUNK, PARALLEL_MIN, sum_over};
 pub(crate) use explicit::{explicit_step, stable_step};
 pub(crate) use implicit::{ImplicitScratch, Sym3, implicit_step};
+pub(crate) use local_global::{LocalGlobalScratch, local_global_step};
 pub(crate) use reference::{ReferenceScratch, reference_step};
 pub(crate) use rotation::rotation_limit;
-pub(crate) use local_global::{LocalGlobalScratch, local_global_step};
 pub(crate) use stick::{project_sticks, stick_step};
 pub(crate) use xpbd::{XpbdScratch, xpbd_step};
 

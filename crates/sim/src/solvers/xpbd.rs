@@ -176,9 +176,7 @@ pub(crate) fn xpbd_step(step: Step, iterations: u32, s: &mut XpbdScratch) -> Ste
     }
     // 3. New state and velocities from the displacement.
     let inv_h = 1.0 / h;
-    for ((xo, vo), (&x0, &d)) in
-        step.x_out[..nf].iter_mut().zip(&mut step.v_out[..nf]).zip(x[..nf].iter().zip(&s.dx))
-    {
+    for ((xo, vo), (&x0, &d)) in step.x_out[..nf].iter_mut().zip(&mut step.v_out[..nf]).zip(x[..nf].iter().zip(&s.dx)) {
         *xo = x0 + d;
         *vo = d * inv_h;
     }
