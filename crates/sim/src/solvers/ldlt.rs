@@ -7,6 +7,8 @@
 //! values change ([`Ldlt::factor`], e.g. a new step size) without allocating. Everything runs on
 //! one thread in a fixed order, so the factor is bit-identical on every run.
 
+#![allow(clippy::needless_range_loop)] // index loops mirror LDL's published algorithm
+
 use std::collections::BTreeSet;
 
 /// Marks "no parent" in the elimination tree.
