@@ -87,6 +87,7 @@ fn hanging_chain_settles_to_the_analytic_equilibrium() {
 }
 
 /// A small dense Gaussian elimination with partial pivoting (the Newton steps' linear solves).
+#[allow(clippy::needless_range_loop)] // textbook elimination, indices as in the formulas
 fn solve_dense(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Vec<f64> {
     let n = b.len();
     for col in 0..n {
