@@ -197,9 +197,10 @@ impl Ldlt {
 /// the clique its elimination made; an unknown's neighbours are its remaining plain neighbours and
 /// the members of its elements. Eliminating `p` merges `p`'s elements into a new one (they are
 /// absorbed, as is any element the new one covers), drops from each member's plain neighbours
-/// what the new element covers, and recomputes the members' degrees exactly. Storage stays within the pattern plus the factor's
-/// pattern, and the work is far below the explicit graph's clique insertions, while the order is
-/// the same as explicit minimum degree's (exact degrees, same ties). No supervariables or
+/// what the new element covers, and recomputes the members' degrees exactly. Storage stays
+/// within the pattern plus the factor's pattern, and the work is far below the explicit graph's
+/// clique insertions, while the order is the same as explicit minimum degree's (exact degrees,
+/// same ties). No supervariables or
 /// approximate degrees — fine for the tens of thousands of unknowns of fur, whose graphs are hair
 /// trees (no fill) and surface meshes.
 fn minimum_degree(n: usize, start: &[u32], col: &[u32]) -> Vec<u32> {
