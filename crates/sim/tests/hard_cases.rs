@@ -196,6 +196,10 @@ fn run(c: &Case, kind: TopologyKind, solver: SolverKind) -> Outcome {
                 e_max = e_max.max(e);
                 let excess = (e - st.energy_budget_j) / (e_max + 1e-12);
                 out.worst_energy_ratio = out.worst_energy_ratio.max(excess);
+                // XPBD: not asserted. With the default 8 iterations the chain topology's stiff
+                // links keep unresolved stretch whose spring energy exceeds the work done (worst
+                // excess 0.99 of the peak: stiff springs, 1 µg hairs, 1 m fur); 16 iterations
+                // still 0.92, 32 pass every case (excess 0) at ~2.4× this suite's XPBD time.
                 assert!(
                     solver == SolverKind::Xpbd || e <= st.energy_budget_j + epsilon(solver) * e_max + 1e-9,
                     "{what}: step {step}: energy {e} J above budget {} J + ε × peak {e_max} J",
