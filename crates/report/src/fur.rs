@@ -34,14 +34,13 @@ use crate::svg::{COLORS, Figure, Marker, Panel, Point, Series, pareto_front, ren
 /// Which [`SolverSettings`] field carries the iteration count of `kind`: sets it to `n` and
 /// returns `true`, or returns `false` for a kind without an iteration count (run once).
 ///
-/// **When XPBD and Liu et al. 2013 merge, add their arms here** (one line each):
-/// `SolverKind::Xpbd => s.xpbd_iterations = n,` and
-/// `SolverKind::LocalGlobal => s.local_global_iterations = n,`.
+/// A new solver kind with an iteration count adds its arm here.
 pub fn set_iterations(s: &mut SolverSettings, kind: SolverKind, n: u32) -> bool {
-    #[allow(unreachable_patterns)] // kinds without iterations, including future ones until added above
     match kind {
         SolverKind::Implicit => s.implicit_iterations = n,
-        _ => return false,
+        SolverKind::Xpbd => s.xpbd_iterations = n,
+        SolverKind::LocalGlobal => s.local_global_iterations = n,
+        SolverKind::Explicit | SolverKind::Stick | SolverKind::Reference => return false,
     }
     true
 }

@@ -79,8 +79,9 @@ pub struct Scene {
     /// Simulation time step in seconds. Default 1/60.
     #[serde(default = "default_time_step")]
     pub time_step_s: f32,
-    /// The fur solver: `[solver] kind = "auto" | "explicit" | "implicit" | "stick" | "reference"`
-    /// and `implicit_iterations`, or the shorthand `solver = "implicit"`. Default `auto` (picked
+    /// The fur solver: `[solver] kind = "auto" | "explicit" | "implicit" | "stick" | "reference"
+    /// | "xpbd" | "local_global"` and `implicit_iterations`, `xpbd_iterations`,
+    /// `local_global_iterations`, or the shorthand `solver = "implicit"`. Default `auto` (picked
     /// from the topology, see [`SolverChoice::Auto`]) with one implicit iteration.
     #[serde(default)]
     pub solver: Solver,
@@ -125,6 +126,12 @@ pub enum SolverChoice {
     Stick,
     /// Linearised backward Euler converged by conjugate gradient: the accuracy reference, slow.
     Reference,
+    /// Extended position-based dynamics (Macklin, Müller & Chentanez 2016), as NVIDIA Warp and
+    /// Newton ship it.
+    Xpbd,
+    /// The fast mass–spring method of Liu, Bargteil, O'Brien & Kavan 2013 (local/global steps,
+    /// prefactored matrix).
+    LocalGlobal,
 }
 
 /// The scene's `[solver]` table.
@@ -134,11 +141,21 @@ pub struct Solver {
     pub kind: SolverChoice,
     /// Jacobi sweeps per implicit step, in [1, 1000]; 1 is the fur thesis's method. Default 1.
     pub implicit_iterations: u32,
+    /// Gauss–Seidel iterations per XPBD step, in [1, 1000]. Default 8.
+    pub xpbd_iterations: u32,
+    /// Local/global iterations per step of the Liu et al. 2013 solver, in [1, 1000]. Default 10.
+    pub local_global_iterations: u32,
 }
 
 impl Default for Solver {
     fn default() -> Self {
-        Solver { kind: SolverChoice::Auto, implicit_iterations: 1 }
+        let sim = furbake_sim::SolverSettings::default();
+        Solver {
+            kind: SolverChoice::Auto,
+            implicit_iterations: 1,
+            xpbd_iterations: sim.xpbd_iterations,
+            local_global_iterations: sim.local_global_iterations,
+        }
     }
 }
 
@@ -149,6 +166,8 @@ struct SolverTable {
     kind: SolverChoice,
     #[serde(default = "one_u32")]
     implicit_iterations: u32,
+    xpbd_iterations: Option<u32>,
+    local_global_iterations: Option<u32>,
 }
 
 fn one_u32() -> u32 {
@@ -164,7 +183,13 @@ impl<'de> Deserialize<'de> for Solver {
             return Ok(Solver { kind, ..Solver::default() });
         }
         let t = SolverTable::deserialize(value).map_err(serde::de::Error::custom)?;
-        Ok(Solver { kind: t.kind, implicit_iterations: t.implicit_iterations })
+        let d = Solver::default();
+        Ok(Solver {
+            kind: t.kind,
+            implicit_iterations: t.implicit_iterations,
+            xpbd_iterations: t.xpbd_iterations.unwrap_or(d.xpbd_iterations),
+            local_global_iterations: t.local_global_iterations.unwrap_or(d.local_global_iterations),
+        })
     }
 }
 
@@ -826,6 +851,8 @@ impl Scene {
         }
         range(self.light.ambient, 0.0, 1.0, "light.ambient")?;
         range(self.solver.implicit_iterations as f32, 1.0, 1000.0, "solver.implicit_iterations")?;
+        range(self.solver.xpbd_iterations as f32, 1.0, 1000.0, "solver.xpbd_iterations")?;
+        range(self.solver.local_global_iterations as f32, 1.0, 1000.0, "solver.local_global_iterations")?;
         if let Some(d) = self.duration_s {
             if !(d.is_finite() && d > 0.0 && d <= MAX_DURATION_S) {
                 return Err(("duration_s".into(), format!("{d} is not in (0, {MAX_DURATION_S}] seconds")));

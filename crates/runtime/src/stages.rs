@@ -203,6 +203,8 @@ pub fn choose_solver(kind: TopologyKind, choice: SolverChoice) -> SolverKind {
         SolverChoice::Implicit => SolverKind::Implicit,
         SolverChoice::Stick => SolverKind::Stick,
         SolverChoice::Reference => SolverKind::Reference,
+        SolverChoice::Xpbd => SolverKind::Xpbd,
+        SolverChoice::LocalGlobal => SolverKind::LocalGlobal,
     }
 }
 

@@ -813,6 +813,8 @@ fn build_fur(scene: &Scene, pack: &Pack, simulate: bool, options: WorldOptions) 
         guard,
         track_energy: options.step_statistics,
         implicit_iterations: scene.solver.implicit_iterations,
+        xpbd_iterations: scene.solver.xpbd_iterations,
+        local_global_iterations: scene.solver.local_global_iterations,
         max_substeps: (MAX_MASS_UPDATES_PER_STEP / masses).clamp(1, defaults.max_substeps as u64) as u32,
         ..defaults
     };

@@ -65,7 +65,7 @@ fn every_effect_parses() {
 fn minimal_scene_has_no_effects_and_defaults() {
     let scene = parse(MINIMAL).unwrap();
     assert!(scene.effects().is_empty());
-    assert_eq!(scene.solver, Solver { kind: SolverChoice::Auto, implicit_iterations: 1 });
+    assert_eq!(scene.solver, Solver { kind: SolverChoice::Auto, implicit_iterations: 1, ..Solver::default() });
     assert!(scene.events.is_empty() && scene.duration_s.is_none());
     assert!(scene.camera.is_none());
     assert!((scene.time_step_s - 1.0 / 60.0).abs() < 1e-9);
@@ -152,9 +152,9 @@ fn missing_file_is_an_io_error() {
 #[test]
 fn the_solver_is_a_table_or_its_kind_alone() {
     let table = parse(&format!("[solver]\nkind = \"reference\"\nimplicit_iterations = 8\n{MINIMAL}")).unwrap();
-    assert_eq!(table.solver, Solver { kind: SolverChoice::Reference, implicit_iterations: 8 });
+    assert_eq!(table.solver, Solver { kind: SolverChoice::Reference, implicit_iterations: 8, ..Solver::default() });
     let short = parse(&format!("solver = \"explicit\"\n{MINIMAL}")).unwrap();
-    assert_eq!(short.solver, Solver { kind: SolverChoice::Explicit, implicit_iterations: 1 });
+    assert_eq!(short.solver, Solver { kind: SolverChoice::Explicit, implicit_iterations: 1, ..Solver::default() });
     for bad in ["solver = \"rk4\"\n", "[solver]\nkind = \"implicit\"\nsweeps = 3\n"] {
         assert!(matches!(parse(&format!("{bad}{MINIMAL}")), Err(SceneError::Parse { .. })), "{bad}");
     }

@@ -41,6 +41,16 @@ pub(crate) fn sum_over<F: Fn(usize) -> f64 + Sync>(n: usize, f: F) -> f64 {
     partial.iter().sum()
 }
 
+/// Runs `f(chunk, out_chunk)` over the fixed `CHUNK`-element chunks of `out` (parallel above
+/// the cut-off).
+pub(super) fn chunk_for_each<T: Send, F: Fn(usize, &mut [T]) + Sync>(out: &mut [T], f: F) {
+    if out.len() < PARALLEL_MIN {
+        out.chunks_mut(CHUNK).enumerate().for_each(|(c, o)| f(c, o));
+    } else {
+        out.par_chunks_mut(CHUNK).enumerate().for_each(|(c, o)| f(c, o));
+    }
+}
+
 /// Runs `f(chunk, out_chunk)` over the fixed `CHUNK`-mass chunks of `out` (parallel above the
 /// cut-off), keeps each chunk's partial sum in `sums` (scratch: no allocation once sized) and
 /// returns their sums in chunk order, so it is thread-count independent.

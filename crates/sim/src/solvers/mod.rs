@@ -1,4 +1,4 @@
-//! The four solvers' kernels (fur thesis §3.3.2, §3.4.1): one step of size `h` from `(x, v)` to
+//! The solvers' kernels (fur thesis §3.3.2, §3.4.1, and two peers' methods): one step of size `h` from `(x, v)` to
 //! `(x_out, v_out)` for the free masses; anchored masses never move. One file per job:
 //!
 //! - [`explicit`]: explicit Euler, eq. 3.20–3.25, and its stable step (the simulator substeps).
@@ -11,6 +11,13 @@
 //! - [`reference`]: backward Euler linearised per step with the exact Jacobian of every force,
 //!   solved by BiCGSTAB in f64 with an f64 state kept between steps (Baraff & Witkin 1998): the
 //!   accuracy report measures everyone else against it.
+//! - [`xpbd`]: extended position-based dynamics (Macklin, Müller & Chentanez 2016), the method
+//!   NVIDIA Warp and Newton ship: compliant distance constraints and dampers, Gauss–Seidel over
+//!   a colouring of the links.
+//! - [`local_global`]: the fast mass–spring method of Liu, Bargteil, O'Brien & Kavan 2013:
+//!   local/global iterations towards backward Euler of the nonlinear springs, with a prefactored
+//!   constant matrix.
+//! - [`ldlt`]: the local/global solver's sparse `LDLᵀ` (minimum-degree ordering, f64).
 //! - [`fused`]: the one parallel pass per step that runs the explicit, stick and one-sweep
 //!   implicit updates eight masses at a time, with the stick projection, the finiteness check,
 //!   the wrong-side guard of §3.4.3 and the next rotation limit fused in.
@@ -31,9 +38,12 @@ mod explicit;
 mod fused;
 mod implicit;
 mod lanes;
+mod ldlt;
+mod local_global;
 mod reference;
 mod rotation;
 mod stick;
+mod xpbd;
 
 use glam::Vec3A;
 
@@ -44,9 +54,11 @@ use crate::shell::{GuardOutcome, GuardParams, GuardState};
 pub(crate) use chunks::{CHUNK, PARALLEL_MIN, sum_over};
 pub(crate) use explicit::{explicit_step, stable_step};
 pub(crate) use implicit::{ImplicitScratch, Sym3, implicit_step};
+pub(crate) use local_global::{LocalGlobalScratch, local_global_step};
 pub(crate) use reference::{ReferenceScratch, reference_step};
 pub(crate) use rotation::rotation_limit;
 pub(crate) use stick::{project_sticks, stick_step};
+pub(crate) use xpbd::{XpbdScratch, xpbd_step};
 
 /// One step of size `h` from `(x, v)` to `(x_out, v_out)`: what every solver step reads, where
 /// it writes, and what its end also does. Built by the simulator once per substep.
