@@ -415,6 +415,7 @@ fn build(input: &Input<'_>, options: &ExportOptions, notes: &mut Vec<String>) ->
     }
 
     // 3. The fins.
+    let mut fins_exported = false;
     if let Some((atlas, edges)) = input.fins.filter(|(_, e)| !e.vertices.is_empty()) {
         let n = edges.vertices.len();
         let mut vertex_of = Vec::with_capacity(4 * n);
@@ -465,6 +466,7 @@ fn build(input: &Input<'_>, options: &ExportOptions, notes: &mut Vec<String>) ->
             "attributes": attributes, "indices": ind, "material": materials.len() - 1, "mode": 4 }] }));
         scene_nodes.push(nodes.len());
         nodes.push(mesh_node("fins", meshes.len() - 1, None));
+        fins_exported = true;
         notes.push("fins are exported without the renderer's view-dependent fade (glTF materials cannot express it): they show at full opacity from every side".into());
     }
 
@@ -483,15 +485,15 @@ fn build(input: &Input<'_>, options: &ExportOptions, notes: &mut Vec<String>) ->
                 children[p as usize].push(base + j);
             }
         }
-        for j in 0..joint_count {
+        for (j, kids) in children.iter().enumerate() {
             let mut n = json!({
                 "name": sk.names[j],
                 "translation": sk.translations[j].map(f),
                 "rotation": unit_quat(sk.rotations[j]).map(f),
                 "scale": sk.scales[j].map(f),
             });
-            if !children[j].is_empty() {
-                n["children"] = json!(children[j]);
+            if !kids.is_empty() {
+                n["children"] = json!(kids);
             }
             nodes.push(n);
         }
@@ -564,8 +566,10 @@ fn build(input: &Input<'_>, options: &ExportOptions, notes: &mut Vec<String>) ->
                 }
                 let input_acc = b.floats(&ch.times_s, 1, true, true);
                 let output_acc = b.floats(&values, comps, true, false);
-                samplers.push(json!({ "input": input_acc, "output": output_acc, "interpolation": interpolation.name() }));
-                channels.push(json!({ "sampler": samplers.len() - 1, "target": { "node": base + joint, "path": path } }));
+                samplers
+                    .push(json!({ "input": input_acc, "output": output_acc, "interpolation": interpolation.name() }));
+                channels
+                    .push(json!({ "sampler": samplers.len() - 1, "target": { "node": base + joint, "path": path } }));
             }
             if skipped > 0 {
                 notes.push(format!(
@@ -617,7 +621,8 @@ fn build(input: &Input<'_>, options: &ExportOptions, notes: &mut Vec<String>) ->
         }
     }
     if doc.get("textures").is_some() {
-        doc["samplers"] = samplers;
+        let used = if fins_exported { 2 } else { 1 };
+        doc["samplers"] = Value::Array(samplers.as_array().map(|s| s[..used].to_vec()).unwrap_or_default());
     }
     b.finish(doc)
 }
@@ -630,11 +635,7 @@ impl Shared {
 
 /// Exported vertices of `triangles` (in that order): one per distinct (welded vertex, corner
 /// UV), first use first. Returns the welded vertex of each, their UVs (flattened) and the indices.
-fn unweld(
-    all: &[[u32; 3]],
-    triangles: Vec<usize>,
-    uvs: Option<&Vec<[[f32; 2]; 3]>>,
-) -> (Vec<u32>, Vec<f32>, Vec<u32>) {
+fn unweld(all: &[[u32; 3]], triangles: Vec<usize>, uvs: Option<&Vec<[[f32; 2]; 3]>>) -> (Vec<u32>, Vec<f32>, Vec<u32>) {
     let mut index: HashMap<(u32, u32, u32), u32> = HashMap::new();
     let (mut vertex_of, mut uv, mut indices) = (Vec::new(), Vec::new(), Vec::with_capacity(3 * triangles.len()));
     for t in triangles {

@@ -35,6 +35,12 @@ fn fox() -> &'static Pack {
     P.get_or_init(|| bake("fixtures/real/Fox.glb"))
 }
 
+/// A plane: border edges, so fins.
+fn plane() -> &'static Pack {
+    static P: OnceLock<Pack> = OnceLock::new();
+    P.get_or_init(|| bake("fixtures/generated/plane_bare_centre.gltf"))
+}
+
 fn sphere() -> &'static Pack {
     static P: OnceLock<Pack> = OnceLock::new();
     P.get_or_init(|| bake("fixtures/generated/sphere.gltf"))
@@ -83,7 +89,7 @@ fn dist(a: [f32; 3], b: [f32; 3]) -> f32 {
 
 #[test]
 fn skin_alone_reimports_as_the_packs_skin() {
-    for pack in [sphere(), fox()] {
+    for pack in [sphere(), fox(), plane()] {
         let options = ExportOptions { layers: Some(0), fins: false, ..ExportOptions::default() };
         let glb = export_glb(pack, &options).expect("exports");
         let back = import_gltf_slice(&glb, "skin.glb", None, &ImportSettings::default()).expect("re-imports");
@@ -92,14 +98,17 @@ fn skin_alone_reimports_as_the_packs_skin() {
         assert_eq!(back.mesh.triangles.len(), skin.triangles.len());
         let ((lo, hi), (blo, bhi)) = (skin.bounds(), back.mesh.bounds());
         for k in 0..3 {
-            assert!((lo[k] - blo[k]).abs() <= 1e-5 && (hi[k] - bhi[k]).abs() <= 1e-5, "{lo:?}..{hi:?} vs {blo:?}..{bhi:?}");
+            assert!(
+                (lo[k] - blo[k]).abs() <= 1e-5 && (hi[k] - bhi[k]).abs() <= 1e-5,
+                "{lo:?}..{hi:?} vs {blo:?}..{bhi:?}"
+            );
         }
     }
 }
 
 #[test]
 fn full_export_reimports_within_the_fur_length() {
-    for pack in [sphere(), fox()] {
+    for pack in [sphere(), fox(), plane()] {
         let glb = export_glb(pack, &ExportOptions::default()).expect("exports");
         let back = import_gltf_slice(&glb, "fur.glb", None, &ImportSettings::default()).expect("re-imports");
         let skin = pack.skin_mesh().unwrap();
@@ -116,7 +125,7 @@ fn full_export_reimports_within_the_fur_length() {
 
 #[test]
 fn one_primitive_per_layer_offsets_grow_linearly() {
-    for pack in [sphere(), fox()] {
+    for pack in [sphere(), fox(), plane()] {
         let glb = export_glb(pack, &ExportOptions::default()).unwrap();
         let (doc, bin) = chunks(&glb);
         let shells = meshes_named(&doc, "shell ");
@@ -127,7 +136,8 @@ fn one_primitive_per_layer_offsets_grow_linearly() {
         let names: Vec<&str> = doc["nodes"].as_array().unwrap().iter().filter_map(|n| n["name"].as_str()).collect();
         assert_eq!(names[0], "skin");
         assert_eq!(names[1..=LAYERS as usize], ["shell 00", "shell 01", "shell 02", "shell 03"]);
-        assert_eq!(names[1 + LAYERS as usize], "fins");
+        let has_fins = !pack.fin_edges().unwrap().vertices.is_empty();
+        assert_eq!(names.get(1 + LAYERS as usize) == Some(&"fins"), has_fins);
         for (i, mesh) in shells.iter().enumerate() {
             let prims = mesh["primitives"].as_array().unwrap();
             assert_eq!(prims.len(), 1);
@@ -158,23 +168,33 @@ fn one_primitive_per_layer_offsets_grow_linearly() {
 
 #[test]
 fn textures_are_pngs_with_alpha() {
-    let glb = export_glb(sphere(), &ExportOptions::default()).unwrap();
-    let (doc, bin) = chunks(&glb);
-    let images = doc["images"].as_array().unwrap();
-    assert_eq!(images.len(), LAYERS as usize + 1, "one image per shell slice and the fin atlas");
-    for (i, img) in images.iter().enumerate() {
-        assert_eq!(img["mimeType"], "image/png");
-        let bytes = view(&doc, bin, img["bufferView"].as_u64().unwrap() as usize);
-        let decoded = image::load_from_memory_with_format(bytes, image::ImageFormat::Png).expect("PNG decodes");
-        assert!(decoded.color().has_alpha(), "image {i} has alpha");
-        let la = decoded.to_luma_alpha8();
-        let (lo, hi) = la.pixels().fold((255u8, 0u8), |(lo, hi), p| (lo.min(p[1]), hi.max(p[1])));
-        assert!(lo < hi, "image {i}: alpha is constant ({lo})");
+    for pack in [sphere(), fox(), plane()] {
+        let glb = export_glb(pack, &ExportOptions::default()).unwrap();
+        let (doc, bin) = chunks(&glb);
+        let images = doc["images"].as_array().unwrap();
+        let has_fins = !pack.fin_edges().unwrap().vertices.is_empty();
+        assert_eq!(
+            images.len(),
+            LAYERS as usize + usize::from(has_fins),
+            "one image per shell slice and the fin atlas"
+        );
+        for (i, img) in images.iter().enumerate() {
+            assert_eq!(img["mimeType"], "image/png");
+            let bytes = view(&doc, bin, img["bufferView"].as_u64().unwrap() as usize);
+            let decoded = image::load_from_memory_with_format(bytes, image::ImageFormat::Png).expect("PNG decodes");
+            assert!(decoded.color().has_alpha(), "image {i} has alpha");
+            let la = decoded.to_luma_alpha8();
+            let (lo, hi) = la.pixels().fold((255u8, 0u8), |(lo, hi), p| (lo.min(p[1]), hi.max(p[1])));
+            assert!(lo < hi, "image {i}: alpha is constant ({lo})");
+        }
+        if let Some(fins) = doc["materials"].as_array().unwrap().iter().find(|m| m["name"] == "fins") {
+            assert!(has_fins);
+            assert_eq!(fins["doubleSided"], true);
+            assert_eq!(fins["alphaMode"], "BLEND");
+        }
+        let skin = &doc["materials"][0];
+        assert!(skin.get("alphaMode").is_none(), "the skin is opaque");
     }
-    let fins = &doc["materials"].as_array().unwrap().iter().find(|m| m["name"] == "fins").unwrap();
-    assert_eq!(fins["doubleSided"], true);
-    let skin = &doc["materials"][0];
-    assert!(skin.get("alphaMode").is_none(), "the skin is opaque");
 }
 
 #[test]
@@ -205,8 +225,30 @@ fn an_animated_pack_exports_its_rig_and_clips() {
 }
 
 #[test]
+fn fins_stand_on_the_fin_edges() {
+    let pack = plane();
+    let edges = pack.fin_edges().unwrap();
+    assert!(!edges.vertices.is_empty(), "the plane has border edges");
+    let glb = export_glb(pack, &ExportOptions::default()).unwrap();
+    let (doc, bin) = chunks(&glb);
+    let fins = meshes_named(&doc, "fins");
+    assert_eq!(fins.len(), 1);
+    let p = &fins[0]["primitives"][0];
+    let positions = vec3s(&doc, bin, p["attributes"]["POSITION"].as_u64().unwrap() as usize);
+    assert_eq!(positions.len(), 4 * edges.vertices.len(), "one quad per fin edge");
+    assert_eq!(doc["accessors"][p["indices"].as_u64().unwrap() as usize]["count"], 6 * edges.vertices.len());
+    let skin = pack.skin_mesh().unwrap();
+    let fur = pack.shell_atlas().unwrap().fur_length_m;
+    for (quad, &[a, b]) in positions.chunks_exact(4).zip(&edges.vertices) {
+        let (pa, pb) = (skin.positions[a as usize], skin.positions[b as usize]);
+        assert_eq!([quad[0], quad[1]], [pa, pb], "roots on the edge");
+        assert!((dist(quad[2], pa) - fur).abs() < 1e-5 && (dist(quad[3], pb) - fur).abs() < 1e-5, "fur-length tall");
+    }
+}
+
+#[test]
 fn same_pack_same_bytes() {
-    for pack in [sphere(), fox()] {
+    for pack in [sphere(), fox(), plane()] {
         let a = export_glb(pack, &ExportOptions::default()).unwrap();
         let b = export_glb(pack, &ExportOptions::default()).unwrap();
         assert!(a == b, "the export is deterministic");
@@ -219,16 +261,15 @@ fn options_are_checked_and_fewer_layers_sample_the_atlas() {
     assert!(matches!(err, Err(ExportError::Option { option: "layers", .. })), "{err:?}");
     let err = export_glb(sphere(), &ExportOptions { alpha: ShellAlpha::Mask { cutoff: 2.0 }, ..Default::default() });
     assert!(matches!(err, Err(ExportError::Option { option: "alpha", .. })), "{err:?}");
-    let glb = export_glb(sphere(), &ExportOptions { layers: Some(2), alpha: ShellAlpha::Mask { cutoff: 0.5 }, ..Default::default() })
-        .unwrap();
+    let glb = export_glb(
+        sphere(),
+        &ExportOptions { layers: Some(2), alpha: ShellAlpha::Mask { cutoff: 0.5 }, ..Default::default() },
+    )
+    .unwrap();
     let (doc, _) = chunks(&glb);
     assert_eq!(meshes_named(&doc, "shell ").len(), 2);
-    let slices: Vec<u64> = doc["materials"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .filter_map(|m| m["extras"]["atlas_slice"].as_u64())
-        .collect();
+    let slices: Vec<u64> =
+        doc["materials"].as_array().unwrap().iter().filter_map(|m| m["extras"]["atlas_slice"].as_u64()).collect();
     assert_eq!(slices, [0, 2], "layer·atlas_layers/layers, as the renderer picks slices");
     assert!(doc["materials"].as_array().unwrap().iter().skip(1).all(|m| m["alphaMode"] == "MASK"));
 }
@@ -247,13 +288,16 @@ fn validate(name: &str, glb: &[u8]) -> Value {
         .arg(&file)
         .output()
         .expect("node runs (install Node.js, then `npm ci --prefix tools`)");
-    let report: Value = serde_json::from_slice(&out.stdout).unwrap_or_else(|e| {
-        panic!("validator output is not JSON ({e}): {}", String::from_utf8_lossy(&out.stderr))
-    });
+    let report: Value = serde_json::from_slice(&out.stdout)
+        .unwrap_or_else(|e| panic!("validator output is not JSON ({e}): {}", String::from_utf8_lossy(&out.stderr)));
     let issues = &report["issues"];
     eprintln!(
         "{name}: {} errors, {} warnings, {} infos, {} hints; {} bytes",
-        issues["numErrors"], issues["numWarnings"], issues["numInfos"], issues["numHints"], glb.len()
+        issues["numErrors"],
+        issues["numWarnings"],
+        issues["numInfos"],
+        issues["numHints"],
+        glb.len()
     );
     for m in issues["messages"].as_array().into_iter().flatten() {
         eprintln!("  {} {} {} {}", m["severity"], m["code"], m["pointer"], m["message"]);
@@ -267,8 +311,13 @@ fn validate(name: &str, glb: &[u8]) -> Value {
 fn the_khronos_validator_finds_no_errors() {
     validate("sphere_fur.glb", &export_glb(sphere(), &ExportOptions::default()).unwrap());
     validate("fox_fur.glb", &export_glb(fox(), &ExportOptions::default()).unwrap());
-    let masked = ExportOptions { layers: Some(2), fins: false, alpha: ShellAlpha::Mask { cutoff: 0.3 }, ..Default::default() };
+    validate("plane_fur.glb", &export_glb(plane(), &ExportOptions::default()).unwrap());
+    let masked =
+        ExportOptions { layers: Some(2), fins: false, alpha: ShellAlpha::Mask { cutoff: 0.3 }, ..Default::default() };
     validate("fox_fur_mask.glb", &export_glb(fox(), &masked).unwrap());
-    let report = validate("sphere_skin.glb", &export_glb(sphere(), &ExportOptions { layers: Some(0), ..Default::default() }).unwrap());
+    let report = validate(
+        "sphere_skin.glb",
+        &export_glb(sphere(), &ExportOptions { layers: Some(0), ..Default::default() }).unwrap(),
+    );
     assert_eq!(report["issues"]["numErrors"], 0);
 }
