@@ -1,0 +1,673 @@
+//! furbake-export: turns a decoded furbake pack into a self-contained binary glTF 2.0 (`.glb`)
+//! byte vector — nothing else (no file I/O, no command line: `furbake export` writes the bytes).
+//!
+//! What the file holds, in node (and, where a viewer honours it, draw) order:
+//! 1. `skin` — the pack's skin mesh, opaque: positions, normals, the vertex colours as `COLOR_0`
+//!    (the pack's colours already include the input's base colour factor and texture) and the
+//!    input's per-corner `TEXCOORD_0` when the pack kept them; vertices are unwelded per corner
+//!    only where those UVs differ;
+//! 2. `shell NN` — one mesh (one primitive) per drawn shell layer, innermost first, over the
+//!    furry triangles: the skin's vertices moved along their rest normal by
+//!    `t·fur_length`, `t = (layer + 1)/layers` — eq. 3.36 at rest (`s = n`, no shear), exactly
+//!    the renderer's `shell_vertex` (shaders/shell.wgsl) — with the per-triangle UV map
+//!    (`triangle_uv_map`, texture repeats) as `TEXCOORD_0`, the layer's shell-atlas slice as a PNG
+//!    whose alpha is the slice (slice `layer·atlas_layers/layers`, as the renderer picks it), and the
+//!    layer's self-shadow factor as the material's base colour factor. The layers share every
+//!    accessor but `POSITION`;
+//! 3. `fins` — one quad per fin edge standing on the edge, its top edge moved along the rest
+//!    normals by the fur length (shaders/fin.wgsl at rest), `u` = metres along the edge / the UV
+//!    map's repeat, `v` = 0 at the tip and 1 at the root, textured with the fin atlas (the
+//!    self-shadow ramp baked into its colour, the atlas in its alpha);
+//! 4. when the pack has a skeleton and skin weights: the joints as nodes (rest TRS), one glTF
+//!    skin (one joint per bind, inverse bind matrices), `JOINTS_n`/`WEIGHTS_n` on the skin, every
+//!    shell layer and the fins (a fin corner takes its edge vertex's influences), and every clip
+//!    as an animation with its samplers' interpolation as stored, so the shells and fins follow
+//!    the character in any viewer.
+//!
+//! Shells and fins are `BLEND` (or `MASK`, [`ShellAlpha::Mask`], for viewers that sort
+//! transparent meshes badly) and double-sided (the renderer culls neither); every material is
+//! dielectric and fully rough (metallic 0, roughness 1), the nearest PBR material to the
+//! renderer's Lambert shading. glTF has no draw-order guarantee: the shells are emitted inner to
+//! outer (node, mesh and material order, and `extras.layer` on each node and material), which
+//! viewers that draw transparent meshes of equal depth in file order (three.js, Babylon.js) honour;
+//! others may sort them differently.
+//!
+//! Not exported: the view-dependent fin fade (fins fade as the surface faces the viewer; glTF
+//! materials cannot), morph targets (the pack merges every mesh's targets into one skin; see
+//! [`Export::notes`]), spring topologies, grass blades and keyframes (physics data, no glTF
+//! meaning), and the manifest (summarised in `asset.extras.furbake`).
+//!
+//! Everything is deterministic: the same pack and options give the same bytes.
+
+mod glb;
+
+use std::collections::HashMap;
+
+use furbake_formats::sections::animation_clips::{AnimationClips, ChannelTarget, Interpolation};
+use furbake_formats::sections::fin_atlas::FinAtlas;
+use furbake_formats::sections::fin_edges::FinEdges;
+use furbake_formats::sections::shell_atlas::ShellAtlas;
+use furbake_formats::sections::skeleton::Skeleton;
+use furbake_formats::sections::skin_mesh::SkinMesh;
+use furbake_formats::sections::skin_weights::SkinWeights;
+use furbake_formats::sections::triangle_uv_map::TriangleUvMap;
+use furbake_formats::{FormatError, Pack, PackSections, SectionKind};
+use serde_json::{Value, json};
+
+use crate::glb::Builder;
+
+/// How shells and fins are blended.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ShellAlpha {
+    /// `alphaMode: BLEND` — what the renderer does by default; needs the viewer to draw the
+    /// layers inner to outer.
+    Blend,
+    /// `alphaMode: MASK` with this `alphaCutoff` in `[0, 1]` — the renderer's alpha-tested mode:
+    /// order-independent, harder edges.
+    Mask {
+        /// Fragments with alpha below this are discarded.
+        cutoff: f32,
+    },
+}
+
+/// What to export.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ExportOptions {
+    /// Shell layers to emit, `0..=atlas layers`; `None` = one per atlas slice. Fewer layers
+    /// sample the atlas as the renderer does with fewer drawn layers; `Some(0)` exports the
+    /// skin (and fins, when asked) alone.
+    pub layers: Option<u32>,
+    /// Emit the fins (when the pack has a fin atlas and fin edges). Default true.
+    pub fins: bool,
+    /// Emit the skeleton, skin and clips when the pack has them. Default true; false exports the
+    /// rest pose as static meshes.
+    pub animation: bool,
+    /// Blend mode of shells and fins. Default [`ShellAlpha::Blend`].
+    pub alpha: ShellAlpha,
+}
+
+impl Default for ExportOptions {
+    fn default() -> Self {
+        ExportOptions { layers: None, fins: true, animation: true, alpha: ShellAlpha::Blend }
+    }
+}
+
+/// Why a pack cannot be exported.
+#[derive(Debug, thiserror::Error)]
+pub enum ExportError {
+    /// A section the export needs is missing or unreadable. Blame: the pack.
+    #[error("cannot read the pack's {kind} section: {source}")]
+    Section {
+        /// The section kind.
+        kind: SectionKind,
+        /// What the reader said.
+        #[source]
+        source: FormatError,
+    },
+    /// The sections do not belong together. Blame: the pack.
+    #[error("the pack's sections disagree: {0}")]
+    Inconsistent(#[source] FormatError),
+    /// An option is out of range. Blame: the caller.
+    #[error("export option {option}: {what}")]
+    Option {
+        /// The option's name.
+        option: &'static str,
+        /// What is wrong.
+        what: String,
+    },
+    /// The result would exceed a glTF/GLB limit (4 GiB binary chunk, 32-bit counts). Blame: the
+    /// pack's size.
+    #[error("the export is too large for a GLB: {0}")]
+    TooLarge(String),
+    /// A texture could not be encoded as PNG. Blame: the export (should not happen).
+    #[error("cannot encode {what} as PNG: {source}")]
+    Png {
+        /// Which texture.
+        what: String,
+        /// The encoder's error.
+        #[source]
+        source: image::ImageError,
+    },
+}
+
+/// The exported file and what was left out.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Export {
+    /// The `.glb` bytes.
+    pub glb: Vec<u8>,
+    /// What the pack has that the file does not carry (one sentence each), for the caller to
+    /// print as warnings.
+    pub notes: Vec<String>,
+}
+
+/// Exports `pack` as a binary glTF 2.0 file (see the crate doc for its contents).
+pub fn export_glb(pack: &Pack, options: &ExportOptions) -> Result<Vec<u8>, ExportError> {
+    export(pack, options).map(|e| e.glb)
+}
+
+/// [`export_glb`] with the notes on what was left out.
+pub fn export(pack: &Pack, options: &ExportOptions) -> Result<Export, ExportError> {
+    fn need<T>(kind: SectionKind, r: furbake_formats::Result<T>) -> Result<T, ExportError> {
+        r.map_err(|source| ExportError::Section { kind, source })
+    }
+    let mesh = need(SectionKind::SKIN_MESH, pack.skin_mesh())?;
+    let shells = need(SectionKind::SHELL_ATLAS, pack.shell_atlas())?;
+    let uv_map = need(SectionKind::TRIANGLE_UV_MAP, pack.triangle_uv_map())?;
+    let fins = if options.fins && pack.has(SectionKind::FIN_ATLAS) && pack.has(SectionKind::FIN_EDGES) {
+        Some((need(SectionKind::FIN_ATLAS, pack.fin_atlas())?, need(SectionKind::FIN_EDGES, pack.fin_edges())?))
+    } else {
+        None
+    };
+    let skeleton = need(SectionKind::SKELETON, pack.skeleton())?;
+    let weights = need(SectionKind::SKIN_WEIGHTS, pack.skin_weights())?;
+    let clips = need(SectionKind::ANIMATION_CLIPS, pack.animation_clips())?;
+    let morphs = need(SectionKind::MORPH_TARGETS, pack.morph_targets())?;
+    let sections = PackSections {
+        mesh: Some(&mesh),
+        shells: Some(&shells),
+        uv_map: Some(&uv_map),
+        fins: fins.as_ref().map(|(a, _)| &**a),
+        fin_edges: fins.as_ref().map(|(_, e)| &**e),
+        skeleton: skeleton.as_deref(),
+        skin_weights: weights.as_deref(),
+        morph_targets: morphs.as_deref(),
+        clips: clips.as_deref(),
+        ..Default::default()
+    };
+    furbake_formats::check_consistency(pack.sections(), &sections).map_err(ExportError::Inconsistent)?;
+    let mut notes = Vec::new();
+    let rig = match (options.animation, skeleton.as_deref(), weights.as_deref()) {
+        (true, Some(sk), Some(w)) => Some((sk, w)),
+        _ => None,
+    };
+    if morphs.is_some() {
+        notes.push("the pack's morph targets are not exported (the shells and fins would need every target moved per layer); the export shows the unmorphed rest shape".into());
+    }
+    if !options.animation && skeleton.is_some() {
+        notes.push("animation not exported (option): the skeleton and clips are left out".into());
+    }
+    let input = Input {
+        mesh: &mesh,
+        shells: &shells,
+        uv_map: &uv_map,
+        fins: fins.as_ref().map(|(a, e)| (&**a, &**e)),
+        rig,
+        clips: if rig.is_some() { clips.as_deref() } else { None },
+        manifest: pack.manifest().ok().map(|m| (m.input_name.clone(), m.preset.clone(), m.seed)),
+    };
+    let glb = build(&input, options, &mut notes)?;
+    Ok(Export { glb, notes })
+}
+
+/// The decoded, cross-checked sections the export reads.
+struct Input<'a> {
+    mesh: &'a SkinMesh,
+    shells: &'a ShellAtlas,
+    uv_map: &'a TriangleUvMap,
+    fins: Option<(&'a FinAtlas, &'a FinEdges)>,
+    rig: Option<(&'a Skeleton, &'a SkinWeights)>,
+    clips: Option<&'a AnimationClips>,
+    manifest: Option<(String, String, u64)>,
+}
+
+/// Indices of the glTF objects every mesh primitive refers to.
+struct Shared {
+    /// `(JOINTS_n, WEIGHTS_n)` source per welded vertex: bind indices and weights.
+    influences: Option<(usize, Vec<u16>, Vec<f32>)>,
+    /// Skin index when skinned.
+    skin: Option<usize>,
+}
+
+fn f(x: f32) -> Value {
+    json!(x)
+}
+
+fn material(name: &str, factor: [f32; 4], texture: Option<usize>, alpha: Option<ShellAlpha>, double: bool) -> Value {
+    let mut pbr = json!({
+        "baseColorFactor": factor.map(f),
+        "metallicFactor": 0.0,
+        "roughnessFactor": 1.0,
+    });
+    if let Some(t) = texture {
+        pbr["baseColorTexture"] = json!({ "index": t });
+    }
+    let mut m = json!({ "name": name, "pbrMetallicRoughness": pbr });
+    match alpha {
+        None => {}
+        Some(ShellAlpha::Blend) => m["alphaMode"] = json!("BLEND"),
+        Some(ShellAlpha::Mask { cutoff }) => {
+            m["alphaMode"] = json!("MASK");
+            m["alphaCutoff"] = f(cutoff);
+        }
+    }
+    if double {
+        m["doubleSided"] = json!(true);
+    }
+    m
+}
+
+/// sRGB transfer of a linear value in `[0, 1]`, as an 8-bit code (PNG colour is sRGB in glTF).
+fn srgb8(linear: f32) -> u8 {
+    let x = linear.clamp(0.0, 1.0);
+    let s = if x <= 0.003_130_8 { 12.92 * x } else { 1.055 * x.powf(1.0 / 2.4) - 0.055 };
+    (s * 255.0 + 0.5) as u8
+}
+
+/// PNG of a `width × height` luminance + alpha image.
+fn png_la(what: String, width: u32, height: u32, la: Vec<u8>) -> Result<Vec<u8>, ExportError> {
+    let img = image::GrayAlphaImage::from_raw(width, height, la)
+        .ok_or_else(|| ExportError::TooLarge(format!("{what}: {width}×{height} texels do not match its data")))?;
+    let mut out = std::io::Cursor::new(Vec::new());
+    img.write_to(&mut out, image::ImageFormat::Png).map_err(|source| ExportError::Png { what, source })?;
+    Ok(out.into_inner())
+}
+
+fn build(input: &Input<'_>, options: &ExportOptions, notes: &mut Vec<String>) -> Result<Vec<u8>, ExportError> {
+    let m = input.mesh;
+    let atlas_layers = input.shells.layers() as u32;
+    let layers = options.layers.unwrap_or(atlas_layers);
+    if layers > atlas_layers {
+        return Err(ExportError::Option {
+            option: "layers",
+            what: format!("{layers} layers asked for; the pack's shell atlas has {atlas_layers}"),
+        });
+    }
+    if let ShellAlpha::Mask { cutoff } = options.alpha
+        && !(0.0..=1.0).contains(&cutoff)
+    {
+        return Err(ExportError::Option { option: "alpha", what: format!("cutoff {cutoff} is outside [0, 1]") });
+    }
+    if m.positions.len() > u32::MAX as usize / 4 || m.triangles.len() > u32::MAX as usize / 8 {
+        return Err(ExportError::TooLarge(format!(
+            "{} vertices / {} triangles exceed 32-bit glTF counts",
+            m.positions.len(),
+            m.triangles.len()
+        )));
+    }
+
+    let mut b = Builder::default();
+    let mut nodes: Vec<Value> = Vec::new();
+    let mut meshes: Vec<Value> = Vec::new();
+    let mut materials: Vec<Value> = Vec::new();
+    let mut textures: Vec<Value> = Vec::new();
+    let mut images: Vec<Value> = Vec::new();
+    let mut scene_nodes: Vec<usize> = Vec::new();
+
+    // The skinning palette, when the pack is rigged.
+    let shared = match input.rig {
+        Some((sk, w)) => {
+            let k = w.influences_per_vertex as usize;
+            Shared { influences: Some((k, w.binds.clone(), w.weights.clone())), skin: Some(0) }
+                .with_bind_count(sk.bind_count())
+        }
+        None => Shared { influences: None, skin: None },
+    };
+    // Adds the skinning attributes of `vertex_of` (welded vertex per exported vertex).
+    let skin_attributes = |b: &mut Builder, attributes: &mut serde_json::Map<String, Value>, vertex_of: &[u32]| {
+        let Some((k, binds, weights)) = &shared.influences else { return };
+        let bind_count = input.rig.map_or(0, |(sk, _)| sk.bind_count());
+        for set in 0..k / 4 {
+            let mut j = Vec::with_capacity(vertex_of.len() * 4);
+            let mut wt = Vec::with_capacity(vertex_of.len() * 4);
+            for &v in vertex_of {
+                let at = v as usize * k + set * 4;
+                j.extend_from_slice(&binds[at..at + 4]);
+                wt.extend_from_slice(&weights[at..at + 4]);
+            }
+            attributes.insert(format!("JOINTS_{set}"), json!(b.joints(&j, bind_count)));
+            attributes.insert(format!("WEIGHTS_{set}"), json!(b.floats(&wt, 4, false, false)));
+        }
+    };
+    let mesh_node = |name: &str, mesh: usize, extras: Option<Value>| {
+        let mut n = json!({ "name": name, "mesh": mesh });
+        if let Some(s) = shared.skin {
+            n["skin"] = json!(s);
+        }
+        if let Some(e) = extras {
+            n["extras"] = e;
+        }
+        n
+    };
+
+    // 1. The skin.
+    if !m.triangles.is_empty() {
+        let uvs = (!m.corner_texcoords.is_empty()).then_some(&m.corner_texcoords);
+        let (vertex_of, uv, indices) = unweld(&m.triangles, (0..m.triangles.len()).collect(), uvs);
+        let mut attributes = serde_json::Map::new();
+        let positions: Vec<f32> = vertex_of.iter().flat_map(|&v| m.positions[v as usize]).collect();
+        attributes.insert("POSITION".into(), json!(b.floats(&positions, 3, false, true)));
+        let normals: Vec<f32> = vertex_of.iter().flat_map(|&v| m.normals[v as usize]).collect();
+        attributes.insert("NORMAL".into(), json!(b.floats(&normals, 3, false, false)));
+        let colors: Vec<f32> = vertex_of.iter().flat_map(|&v| rgb(m.colors[v as usize])).collect();
+        attributes.insert("COLOR_0".into(), json!(b.floats(&colors, 3, false, false)));
+        if uvs.is_some() {
+            attributes.insert("TEXCOORD_0".into(), json!(b.floats(&uv, 2, false, false)));
+        }
+        skin_attributes(&mut b, &mut attributes, &vertex_of);
+        let ind = b.indices(&indices);
+        materials.push(material("skin", [1.0; 4], None, None, false));
+        meshes.push(json!({ "name": "skin", "primitives": [{
+            "attributes": attributes, "indices": ind, "material": materials.len() - 1, "mode": 4 }] }));
+        scene_nodes.push(nodes.len());
+        nodes.push(mesh_node("skin", meshes.len() - 1, None));
+    }
+
+    // Samplers: 0 repeats both ways (shells), 1 repeats along the fin and clamps across it.
+    let samplers = json!([
+        { "magFilter": 9729, "minFilter": 9987, "wrapS": 10497, "wrapT": 10497 },
+        { "magFilter": 9729, "minFilter": 9987, "wrapS": 10497, "wrapT": 33071 },
+    ]);
+    let alpha = Some(options.alpha);
+    let fur_m = input.shells.fur_length_m;
+
+    // 2. The shells.
+    let furry: Vec<usize> = (0..m.triangles.len()).filter(|&t| m.fur_mask[t] != 0).collect();
+    if layers > 0 && !furry.is_empty() {
+        let (vertex_of, uv, indices) = unweld(&m.triangles, furry, Some(&input.uv_map.corners));
+        let normals: Vec<[f32; 3]> = vertex_of.iter().map(|&v| unit(m.normals[v as usize])).collect();
+        let mut common = serde_json::Map::new();
+        common.insert("NORMAL".into(), json!(b.floats(normals.as_flattened(), 3, false, false)));
+        let colors: Vec<f32> = vertex_of.iter().flat_map(|&v| rgb(m.colors[v as usize])).collect();
+        common.insert("COLOR_0".into(), json!(b.floats(&colors, 3, false, false)));
+        common.insert("TEXCOORD_0".into(), json!(b.floats(&uv, 2, false, false)));
+        skin_attributes(&mut b, &mut common, &vertex_of);
+        let ind = b.indices(&indices);
+        let res = input.shells.params.resolution;
+        let mut slice_texture: HashMap<usize, usize> = HashMap::new();
+        for layer in 0..layers {
+            let t = (layer + 1) as f32 / layers as f32;
+            let slice = ((layer * atlas_layers) / layers).min(atlas_layers - 1) as usize;
+            let texture = match slice_texture.get(&slice) {
+                Some(&tex) => tex,
+                None => {
+                    let la: Vec<u8> = input.shells.layer(slice).iter().flat_map(|&a| [255, a]).collect();
+                    let png = png_la(format!("shell slice {slice}"), res, res, la)?;
+                    let view = b.view(&png, None);
+                    images.push(json!({ "name": format!("shell slice {slice:02}"), "bufferView": view, "mimeType": "image/png" }));
+                    textures.push(json!({ "sampler": 0, "source": images.len() - 1 }));
+                    slice_texture.insert(slice, textures.len() - 1);
+                    textures.len() - 1
+                }
+            };
+            let shade = input.shells.shadow[slice];
+            let name = format!("shell {layer:02}");
+            let mut mat = material(&name, [shade, shade, shade, 1.0], Some(texture), alpha, true);
+            mat["extras"] = json!({ "layer": layer, "atlas_slice": slice });
+            materials.push(mat);
+            let positions: Vec<f32> = vertex_of
+                .iter()
+                .zip(&normals)
+                .flat_map(|(&v, n)| {
+                    let p = m.positions[v as usize];
+                    [0, 1, 2].map(|k| p[k] + n[k] * (t * fur_m))
+                })
+                .collect();
+            let mut attributes = common.clone();
+            attributes.insert("POSITION".into(), json!(b.floats(&positions, 3, false, true)));
+            meshes.push(json!({ "name": name, "primitives": [{
+                "attributes": attributes, "indices": ind, "material": materials.len() - 1, "mode": 4 }] }));
+            scene_nodes.push(nodes.len());
+            let extras = json!({ "layer": layer, "height": t, "offset_m": t * fur_m });
+            nodes.push(mesh_node(&name, meshes.len() - 1, Some(extras)));
+        }
+    } else if layers > 0 {
+        notes.push("the pack has no furry triangle: no shell is exported".into());
+    }
+
+    // 3. The fins.
+    let mut fins_exported = false;
+    if let Some((atlas, edges)) = input.fins.filter(|(_, e)| !e.vertices.is_empty()) {
+        let n = edges.vertices.len();
+        let mut vertex_of = Vec::with_capacity(4 * n);
+        let mut positions = Vec::with_capacity(12 * n);
+        let mut normals = Vec::with_capacity(12 * n);
+        let mut uv = Vec::with_capacity(8 * n);
+        let mut indices = Vec::with_capacity(6 * n);
+        let repeat = input.uv_map.repeat_m;
+        for &[a, bv] in &edges.vertices {
+            let (pa, pb) = (m.positions[a as usize], m.positions[bv as usize]);
+            let length = dist(pa, pb);
+            let base = vertex_of.len() as u32;
+            // a root, b root, a tip, b tip.
+            for (v, along, h) in [(a, 0.0, 0.0), (bv, length, 0.0), (a, 0.0, 1.0), (bv, length, 1.0)] {
+                let p = m.positions[v as usize];
+                let nn = unit(m.normals[v as usize]);
+                vertex_of.push(v);
+                positions.extend([0, 1, 2].map(|k| p[k] + nn[k] * (h * fur_m)));
+                normals.extend(nn);
+                uv.extend([along / repeat, 1.0 - h]);
+            }
+            indices.extend([base, base + 1, base + 3, base, base + 3, base + 2]);
+        }
+        let mut attributes = serde_json::Map::new();
+        attributes.insert("POSITION".into(), json!(b.floats(&positions, 3, false, true)));
+        attributes.insert("NORMAL".into(), json!(b.floats(&normals, 3, false, false)));
+        let colors: Vec<f32> = vertex_of.iter().flat_map(|&v| rgb(m.colors[v as usize])).collect();
+        attributes.insert("COLOR_0".into(), json!(b.floats(&colors, 3, false, false)));
+        attributes.insert("TEXCOORD_0".into(), json!(b.floats(&uv, 2, false, false)));
+        skin_attributes(&mut b, &mut attributes, &vertex_of);
+        let ind = b.indices(&indices);
+        // Colour: the self-shadow of the shell layer at each row's height (as fin.wgsl shades
+        // it); alpha: the atlas. Rows run tip (top) to root (bottom).
+        let (w, h) = (atlas.width as usize, atlas.height as usize);
+        let mut la = Vec::with_capacity(2 * w * h);
+        for y in 0..h {
+            let height = 1.0 - (y as f32 + 0.5) / h as f32;
+            let layer = ((height * atlas_layers as f32) as usize).min(atlas_layers as usize - 1);
+            let shade = srgb8(input.shells.shadow[layer]);
+            la.extend(atlas.alpha[y * w..(y + 1) * w].iter().flat_map(|&a| [shade, a]));
+        }
+        let png = png_la("the fin atlas".into(), atlas.width, atlas.height, la)?;
+        let view = b.view(&png, None);
+        images.push(json!({ "name": "fin atlas", "bufferView": view, "mimeType": "image/png" }));
+        textures.push(json!({ "sampler": 1, "source": images.len() - 1 }));
+        materials.push(material("fins", [1.0; 4], Some(textures.len() - 1), alpha, true));
+        meshes.push(json!({ "name": "fins", "primitives": [{
+            "attributes": attributes, "indices": ind, "material": materials.len() - 1, "mode": 4 }] }));
+        scene_nodes.push(nodes.len());
+        nodes.push(mesh_node("fins", meshes.len() - 1, None));
+        fins_exported = true;
+        notes.push("fins are exported without the renderer's view-dependent fade (glTF materials cannot express it): they show at full opacity from every side".into());
+    }
+
+    // 4. Skeleton, skin and clips.
+    let mut skins: Vec<Value> = Vec::new();
+    let mut animations: Vec<Value> = Vec::new();
+    if let Some((sk, _)) = input.rig {
+        let base = nodes.len();
+        let joint_count = sk.joint_count();
+        let mut children: Vec<Vec<usize>> = vec![Vec::new(); joint_count];
+        let mut roots = Vec::new();
+        for (j, &p) in sk.parents.iter().enumerate() {
+            if p == Skeleton::NO_PARENT {
+                roots.push(base + j);
+            } else {
+                children[p as usize].push(base + j);
+            }
+        }
+        for (j, kids) in children.iter().enumerate() {
+            let mut n = json!({
+                "name": sk.names[j],
+                "translation": sk.translations[j].map(f),
+                "rotation": unit_quat(sk.rotations[j]).map(f),
+                "scale": sk.scales[j].map(f),
+            });
+            if !kids.is_empty() {
+                n["children"] = json!(kids);
+            }
+            nodes.push(n);
+        }
+        // One skin joint per bind; a joint bound twice (two source skins, or a rigid bind on a
+        // joint) gets an identity child node for its second inverse bind, as glTF joints are unique.
+        let mut used = vec![false; joint_count];
+        let mut joints = Vec::with_capacity(sk.bind_count());
+        for (bi, &j) in sk.bind_joints.iter().enumerate() {
+            let j = j as usize;
+            if !used[j] {
+                used[j] = true;
+                joints.push(base + j);
+            } else {
+                let extra = nodes.len();
+                nodes.push(json!({ "name": format!("{} bind {bi}", sk.names[j]) }));
+                let kids = nodes[base + j].get("children").cloned().unwrap_or(json!([]));
+                let mut kids: Vec<Value> = kids.as_array().cloned().unwrap_or_default();
+                kids.push(json!(extra));
+                nodes[base + j]["children"] = json!(kids);
+                joints.push(extra);
+            }
+        }
+        // A common root for the joints: the skeleton's only root, or a new identity root.
+        let root = if roots.len() == 1 {
+            roots[0]
+        } else {
+            let r = nodes.len();
+            nodes.push(json!({ "name": "skeleton root", "children": roots }));
+            r
+        };
+        scene_nodes.push(root);
+        let ibm: Vec<f32> = sk.inverse_binds.iter().flatten().copied().collect();
+        let mut skin = json!({ "name": "skin", "joints": joints, "skeleton": root });
+        if !ibm.is_empty() {
+            skin["inverseBindMatrices"] = json!(b.mat4(&ibm));
+        }
+        skins.push(skin);
+
+        for clip in input.clips.map(|c| c.clips.as_slice()).unwrap_or_default() {
+            let mut samplers = Vec::new();
+            let mut channels = Vec::new();
+            let mut seen = std::collections::HashSet::new();
+            let mut skipped = 0usize;
+            for ch in &clip.channels {
+                let (joint, path) = match ch.target {
+                    ChannelTarget::Translation(j) | ChannelTarget::Rotation(j) | ChannelTarget::Scale(j) => {
+                        (j as usize, ch.target.path_name())
+                    }
+                    ChannelTarget::MorphWeights(_) => {
+                        skipped += 1;
+                        continue;
+                    }
+                };
+                if joint >= joint_count || !seen.insert((joint, path)) {
+                    skipped += 1;
+                    continue;
+                }
+                let comps = ch.components as usize;
+                let mut interpolation = ch.interpolation;
+                let mut values = ch.values.clone();
+                // glTF needs two keys for a cubic spline; one key is a constant.
+                if interpolation == Interpolation::CubicSpline && ch.times_s.len() < 2 {
+                    interpolation = Interpolation::Step;
+                    values = values[comps..2 * comps].to_vec();
+                }
+                if path == "rotation" && interpolation != Interpolation::CubicSpline {
+                    for q in values.chunks_exact_mut(4) {
+                        q.copy_from_slice(&unit_quat([q[0], q[1], q[2], q[3]]));
+                    }
+                }
+                let input_acc = b.floats(&ch.times_s, 1, true, true);
+                let output_acc = b.floats(&values, comps, true, false);
+                samplers
+                    .push(json!({ "input": input_acc, "output": output_acc, "interpolation": interpolation.name() }));
+                channels
+                    .push(json!({ "sampler": samplers.len() - 1, "target": { "node": base + joint, "path": path } }));
+            }
+            if skipped > 0 {
+                notes.push(format!(
+                    "clip {:?}: {skipped} channel(s) not exported (morph weights, or a repeated joint property)",
+                    clip.name
+                ));
+            }
+            if !channels.is_empty() {
+                animations.push(json!({ "name": clip.name, "samplers": samplers, "channels": channels }));
+            }
+        }
+    }
+
+    let mut extras = json!({
+        "fur_length_m": fur_m,
+        "atlas_layers": atlas_layers,
+        "exported_layers": layers,
+        "shell_resolution": input.shells.params.resolution,
+        "uv_repeat_m": input.uv_map.repeat_m,
+    });
+    if let Some((name, preset, seed)) = &input.manifest {
+        extras["input_name"] = json!(name);
+        extras["preset"] = json!(preset);
+        extras["seed"] = json!(seed);
+    }
+    let mut doc = json!({
+        "asset": {
+            "version": "2.0",
+            "generator": concat!("furbake-export ", env!("CARGO_PKG_VERSION")),
+            "extras": { "furbake": extras },
+        },
+        "scene": 0,
+        "scenes": [ { "name": "furbake pack" } ],
+    });
+    if !scene_nodes.is_empty() {
+        doc["scenes"][0]["nodes"] = json!(scene_nodes);
+    }
+    for (key, list) in [
+        ("nodes", nodes),
+        ("meshes", meshes),
+        ("materials", materials),
+        ("textures", textures),
+        ("images", images),
+        ("skins", skins),
+        ("animations", animations),
+    ] {
+        if !list.is_empty() {
+            doc[key] = Value::Array(list);
+        }
+    }
+    if doc.get("textures").is_some() {
+        let used = if fins_exported { 2 } else { 1 };
+        doc["samplers"] = Value::Array(samplers.as_array().map(|s| s[..used].to_vec()).unwrap_or_default());
+    }
+    b.finish(doc)
+}
+
+impl Shared {
+    fn with_bind_count(self, binds: usize) -> Shared {
+        if binds == 0 { Shared { influences: None, skin: None } } else { self }
+    }
+}
+
+/// Exported vertices of `triangles` (in that order): one per distinct (welded vertex, corner
+/// UV), first use first. Returns the welded vertex of each, their UVs (flattened) and the indices.
+fn unweld(all: &[[u32; 3]], triangles: Vec<usize>, uvs: Option<&Vec<[[f32; 2]; 3]>>) -> (Vec<u32>, Vec<f32>, Vec<u32>) {
+    let mut index: HashMap<(u32, u32, u32), u32> = HashMap::new();
+    let (mut vertex_of, mut uv, mut indices) = (Vec::new(), Vec::new(), Vec::with_capacity(3 * triangles.len()));
+    for t in triangles {
+        for c in 0..3 {
+            let v = all[t][c];
+            let corner = uvs.map_or([0.0; 2], |u| u[t][c]);
+            let key = (v, corner[0].to_bits(), corner[1].to_bits());
+            let i = *index.entry(key).or_insert_with(|| {
+                vertex_of.push(v);
+                uv.extend(corner);
+                (vertex_of.len() - 1) as u32
+            });
+            indices.push(i);
+        }
+    }
+    (vertex_of, uv, indices)
+}
+
+fn rgb(c: [f32; 4]) -> [f32; 3] {
+    [c[0], c[1], c[2]]
+}
+
+fn unit(n: [f32; 3]) -> [f32; 3] {
+    let l = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+    if l > 0.0 { n.map(|x| x / l) } else { [0.0, 0.0, 1.0] }
+}
+
+fn unit_quat(q: [f32; 4]) -> [f32; 4] {
+    let l = q.iter().map(|x| f64::from(*x).powi(2)).sum::<f64>().sqrt();
+    if l > 0.0 { q.map(|x| (f64::from(x) / l) as f32) } else { [0.0, 0.0, 0.0, 1.0] }
+}
+
+fn dist(a: [f32; 3], b: [f32; 3]) -> f32 {
+    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+}
