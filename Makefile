@@ -23,6 +23,11 @@ deps:
 		echo "installing python3 and python3-jsonschema (the schema test validates real outputs with it)"; \
 		$(SUDO) apt-get update -qq && $(SUDO) apt-get install -y -qq --no-install-recommends python3 python3-jsonschema; \
 	fi
+	@if ! command -v npm >/dev/null 2>&1; then \
+		echo "installing Node.js and npm (the export test runs the Khronos glTF-Validator)"; \
+		$(SUDO) apt-get update -qq && $(SUDO) apt-get install -y -qq --no-install-recommends nodejs npm; \
+	fi
+	@[ -d tools/node_modules/gltf-validator ] || npm ci --prefix tools --no-audit --no-fund
 	@if ! command -v ninja >/dev/null 2>&1; then \
 		echo "installing ninja (the build-pipeline test drives it with bake --depfile)"; \
 		$(SUDO) apt-get update -qq && $(SUDO) apt-get install -y -qq --no-install-recommends ninja-build; \

@@ -61,6 +61,11 @@ pub enum Command {
     /// Write a file's atlases as PNG images and its description as JSON into a directory.
     #[command(after_help = EXIT_CODES)]
     Extract(ExtractArgs),
+    /// Export a pack as a self-contained binary glTF 2.0 (.glb) any viewer opens: the skin, one
+    /// alpha-blended mesh per shell layer, the fins, the atlases as PNG textures, and for an
+    /// animated pack the skeleton, skin and clips.
+    #[command(after_help = EXIT_CODES)]
+    Export(ExportArgs),
 }
 
 /// What `--max-memory` defaults to, in bytes (2 GiB).
@@ -199,6 +204,29 @@ pub struct ExtractArgs {
     /// Output directory (created if missing).
     #[arg(short, long)]
     pub output: PathBuf,
+}
+
+/// `furbake export`
+#[derive(Args, Debug)]
+pub struct ExportArgs {
+    /// The pack to export.
+    pub file: PathBuf,
+    /// The .glb to write.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Shell layers to write (default: one per atlas layer; 0: the skin and fins alone).
+    #[arg(long, value_name = "N")]
+    pub layers: Option<u32>,
+    /// Leave the fins out.
+    #[arg(long)]
+    pub no_fins: bool,
+    /// Leave the skeleton, skin and clips out (the rest pose as static meshes).
+    #[arg(long)]
+    pub no_animation: bool,
+    /// Alpha-test the shells and fins at this cutoff (glTF alphaMode MASK: order-independent,
+    /// harder edges) instead of blending them.
+    #[arg(long, value_name = "CUTOFF")]
+    pub alpha_mask: Option<f32>,
 }
 
 /// `furbake keyframes`

@@ -7,6 +7,7 @@ mod bake_cmd;
 mod bake_files;
 mod batch_cmd;
 mod describe;
+mod export_cmd;
 mod extract_cmd;
 mod failure;
 mod keyframes_cmd;
@@ -60,6 +61,7 @@ fn main() -> ExitCode {
         Command::Simulate(a) => simulate_cmd::run(a, cli.quiet),
         Command::Report(a) => report_cmd::run(a, cli.quiet),
         Command::Extract(a) => extract_cmd::run(a, cli.quiet),
+        Command::Export(a) => export_cmd::run(a, cli.quiet),
         Command::View(a) => view_cmd::run(a, cli.quiet),
     };
     match result {

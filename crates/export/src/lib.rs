@@ -30,7 +30,9 @@
 //! renderer's Lambert shading. glTF has no draw-order guarantee: the shells are emitted inner to
 //! outer (node, mesh and material order, and `extras.layer` on each node and material), which
 //! viewers that draw transparent meshes of equal depth in file order (three.js, Babylon.js) honour;
-//! others may sort them differently.
+//! others may sort them differently. Shell and fin nodes carry `extras.furbake` (`"shell"`,
+//! `"fins"`): furbake's importer skips them, so baking an exported file again grows fur on its
+//! skin only.
 //!
 //! Not exported: the view-dependent fin fade (fins fade as the surface faces the viewer; glTF
 //! materials cannot), morph targets (the pack merges every mesh's targets into one skin; see
@@ -407,7 +409,7 @@ fn build(input: &Input<'_>, options: &ExportOptions, notes: &mut Vec<String>) ->
             meshes.push(json!({ "name": name, "primitives": [{
                 "attributes": attributes, "indices": ind, "material": materials.len() - 1, "mode": 4 }] }));
             scene_nodes.push(nodes.len());
-            let extras = json!({ "layer": layer, "height": t, "offset_m": t * fur_m });
+            let extras = json!({ "furbake": "shell", "layer": layer, "height": t, "offset_m": t * fur_m });
             nodes.push(mesh_node(&name, meshes.len() - 1, Some(extras)));
         }
     } else if layers > 0 {
@@ -465,7 +467,7 @@ fn build(input: &Input<'_>, options: &ExportOptions, notes: &mut Vec<String>) ->
         meshes.push(json!({ "name": "fins", "primitives": [{
             "attributes": attributes, "indices": ind, "material": materials.len() - 1, "mode": 4 }] }));
         scene_nodes.push(nodes.len());
-        nodes.push(mesh_node("fins", meshes.len() - 1, None));
+        nodes.push(mesh_node("fins", meshes.len() - 1, Some(json!({ "furbake": "fins" }))));
         fins_exported = true;
         notes.push("fins are exported without the renderer's view-dependent fade (glTF materials cannot express it): they show at full opacity from every side".into());
     }

@@ -135,6 +135,8 @@ pub(crate) struct SceneWalker<'a> {
     pub warnings: Vec<String>,
     on_path: Vec<bool>,
     visits: u64,
+    /// Mesh nodes skipped because `furbake export` wrote them (shell layers, fins).
+    exported_fur_nodes: usize,
     /// Per mesh: imported at least once (a later node naming it is an instance).
     mesh_seen: Vec<bool>,
     /// Vertices added by second and later instances of a mesh.
@@ -161,6 +163,7 @@ impl<'a> SceneWalker<'a> {
             warnings: Vec::new(),
             on_path: vec![false; asset.root.nodes.len()],
             visits: 0,
+            exported_fur_nodes: 0,
             mesh_seen: vec![false; asset.root.meshes.len()],
             instanced_vertices: 0,
             mask_source_found: false,
@@ -203,6 +206,12 @@ impl<'a> SceneWalker<'a> {
     pub fn walk(&mut self) -> Result<(), ImportError> {
         for node in self.root_nodes() {
             self.visit(node, DMat4::IDENTITY, 0)?;
+        }
+        if self.exported_fur_nodes > 0 {
+            self.warn(format!(
+                "skipped {} mesh nodes that furbake export wrote (shell layers and fins): only the skin grows fur",
+                self.exported_fur_nodes
+            ));
         }
         match self.mask {
             FurMaskSource::VertexColor { .. } if !self.mask_source_found && self.soup.primitives > 0 => {
@@ -261,7 +270,12 @@ impl<'a> SceneWalker<'a> {
         if !world.is_finite() {
             return Err(self.scene_error(index, "the node's world transform is not finite".to_string()));
         }
-        if let Some(mesh) = node.mesh {
+        let mesh = node.mesh.filter(|_| {
+            let exported = is_exported_fur(node);
+            self.exported_fur_nodes += usize::from(exported);
+            !exported
+        });
+        if let Some(mesh) = mesh {
             // glTF 2.0 "Skins": a skinned mesh ignores its node's transform; the joints carry it.
             let (binding, mesh_world) = match node.skin {
                 Some(skin) => {
@@ -704,5 +718,15 @@ mod tests {
             checked += 1;
         }
         assert_eq!(checked, 4);
+    }
+}
+
+/// Whether `furbake export` wrote this node as fur (its `extras.furbake` is `"shell"` or
+/// `"fins"`): baking an exported file again grows fur on its skin, not on its old fur.
+fn is_exported_fur(node: &gltf::json::Node) -> bool {
+    let Some(raw) = &node.extras else { return false };
+    match serde_json::from_str::<serde_json::Value>(raw.get()) {
+        Ok(v) => matches!(v.get("furbake").and_then(|r| r.as_str()), Some("shell" | "fins")),
+        Err(_) => false,
     }
 }

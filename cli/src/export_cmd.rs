@@ -1,0 +1,37 @@
+//! `furbake export`: a pack as a self-contained binary glTF (`furbake_export`), written
+//! atomically; what the file cannot carry is printed as warnings.
+
+use anyhow::anyhow;
+use furbake_export::{ExportError, ExportOptions, ShellAlpha, export};
+
+use crate::args::ExportArgs;
+use crate::failure::{Classify, Failure};
+
+/// Runs `furbake export`.
+pub fn run(args: ExportArgs, quiet: bool) -> Result<(), Failure> {
+    let options = ExportOptions {
+        layers: args.layers,
+        fins: !args.no_fins,
+        animation: !args.no_animation,
+        alpha: match args.alpha_mask {
+            Some(cutoff) => ShellAlpha::Mask { cutoff },
+            None => ShellAlpha::Blend,
+        },
+    };
+    let pack = furbake_formats::Pack::open(&args.file).input()?;
+    let file = args.file.display();
+    let done = export(&pack, &options).map_err(|e| match e {
+        // A flag that does not fit this pack (more layers than its atlas, a cutoff outside
+        // [0, 1]) is the caller's; everything else is the pack's.
+        e @ ExportError::Option { .. } => Failure::Usage(anyhow!("{file}: {e}")),
+        e => Failure::Input(anyhow!("{file}: {e}")),
+    })?;
+    furbake_formats::write_file_atomic(&args.output, &done.glb).input()?;
+    if !quiet {
+        for note in &done.notes {
+            eprintln!("furbake: warning: {file}: {note}");
+        }
+        crate::stdout::line(format_args!("exported {file} → {} ({} bytes)", args.output.display(), done.glb.len()))?;
+    }
+    Ok(())
+}
