@@ -13,7 +13,8 @@
 //!
 //! [`run_pack`] is what a game and `furbake verify` do with a pack: [`Pack::from_bytes`], every
 //! known section decoded, [`check_consistency`], and a [`World`] over a scene with gravity, wind
-//! and (sometimes) parting, delayed wind sources and object motion, stepped a few times.
+//! and (sometimes) parting, delayed wind sources and object motion, stepped a few times, and
+//! `furbake export` of the same bytes (which must refuse a bad pack, never panic).
 
 use std::path::Path;
 use std::sync::Arc;
@@ -591,23 +592,28 @@ pub fn run_pack(bytes: &[u8], scene: Scene, steps: u32) -> (PackOutcome, Option<
         Err((o, _)) => o,
     };
     // The runtime reads only what its stages need, so it also meets packs that `verify` refuses.
-    let world =
-        match World::with_packs(scene, vec![pack], WorldOptions { step_statistics: true, ..WorldOptions::default() }) {
-            Err(_) => WorldOutcome::Refused,
-            Ok(mut world) => {
-                let mut out = WorldOutcome::Stepped;
-                for _ in 0..steps {
-                    if world.step().is_err() {
-                        out = WorldOutcome::StepFailed;
-                        break;
-                    }
+    let world = match World::with_packs(
+        scene,
+        vec![Arc::clone(&pack)],
+        WorldOptions { step_statistics: true, ..WorldOptions::default() },
+    ) {
+        Err(_) => WorldOutcome::Refused,
+        Ok(mut world) => {
+            let mut out = WorldOutcome::Stepped;
+            for _ in 0..steps {
+                if world.step().is_err() {
+                    out = WorldOutcome::StepFailed;
+                    break;
                 }
-                if out == WorldOutcome::Stepped {
-                    let _ = world.pack_state(0);
-                }
-                out
             }
-        };
+            if out == WorldOutcome::Stepped {
+                let _ = world.pack_state(0);
+            }
+            out
+        }
+    };
+    // `furbake export` reads a pack without verifying it first: it must refuse, never panic.
+    let _ = furbake_export::export(&pack, &furbake_export::ExportOptions::default());
     (outcome, Some(world))
 }
 
