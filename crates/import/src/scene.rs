@@ -683,6 +683,16 @@ impl<'a> SceneWalker<'a> {
     }
 }
 
+/// Whether `furbake export` wrote this node as fur (its `extras.furbake` is `"shell"` or
+/// `"fins"`): baking an exported file again grows fur on its skin, not on its old fur.
+fn is_exported_fur(node: &gltf::json::Node) -> bool {
+    let Some(raw) = &node.extras else { return false };
+    match serde_json::from_str::<serde_json::Value>(raw.get()) {
+        Ok(v) => matches!(v.get("furbake").and_then(|r| r.as_str()), Some("shell" | "fins")),
+        Err(_) => false,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -718,15 +728,5 @@ mod tests {
             checked += 1;
         }
         assert_eq!(checked, 4);
-    }
-}
-
-/// Whether `furbake export` wrote this node as fur (its `extras.furbake` is `"shell"` or
-/// `"fins"`): baking an exported file again grows fur on its skin, not on its old fur.
-fn is_exported_fur(node: &gltf::json::Node) -> bool {
-    let Some(raw) = &node.extras else { return false };
-    match serde_json::from_str::<serde_json::Value>(raw.get()) {
-        Ok(v) => matches!(v.get("furbake").and_then(|r| r.as_str()), Some("shell" | "fins")),
-        Err(_) => false,
     }
 }
