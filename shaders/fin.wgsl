@@ -40,6 +40,9 @@ struct FinOut {
     @location(3) world: vec3<f32>,
     @location(4) face_normal: vec3<f32>,
     @location(5) height: f32,
+    // Multiplies the fin's alpha: 1 for the always-on fins, the selection's fade for the
+    // silhouette fins.
+    @location(6) fade: f32,
 };
 
 // Normal (not necessarily unit) of the furry triangle a fin grows from: the bind-pose face normal
@@ -74,6 +77,73 @@ fn vs_fin(v: FinIn) -> FinOut {
     out.world = world;
     out.face_normal = normal_to_world(fin_face_normal(v, n));
     out.height = v.height;
+    out.fade = 1.0;
+    return out;
+}
+
+// Silhouette fins (issue 14; fur thesis §4.1): one instance per interior edge that
+// silhouette.wgsl selected this frame (drawn with draw_indirect, 6 vertices per instance), standing
+// on this frame's posed (or rest) vertices exactly as the always-on fins do, with the mean of the
+// two face normals as the fin's facing and the selection's fade on its alpha. The structs are
+// silhouette.wgsl's (checked against their Rust twins in shaders.rs).
+struct SilhouetteEdge {
+    a: u32,
+    b: u32,
+    c: u32,
+    d: u32,
+    corner_a: u32,
+    corner_b: u32,
+    flags: u32,
+    pad0: u32,
+};
+
+struct SilhouetteInstance {
+    edge: u32,
+    fade: f32,
+};
+
+@group(1) @binding(0) var<storage, read> sil_edges: array<SilhouetteEdge>;
+@group(1) @binding(1) var<storage, read> sil_instances: array<SilhouetteInstance>;
+// The posed vertices (the skinning pass's output) or the bind pose of a static pack.
+@group(1) @binding(2) var<storage, read> sil_vertices: array<SkinnedVertex>;
+// Linear RGBA colour per welded vertex.
+@group(1) @binding(3) var<storage, read> sil_colors: array<vec4<f32>>;
+
+@vertex
+fn vs_silhouette_fin(@builtin(vertex_index) vi: u32, @builtin(instance_index) ii: u32) -> FinOut {
+    let inst = sil_instances[ii];
+    let e = sil_edges[inst.edge];
+    // The quad a0 b0 b1, a0 b1 a1 (as FurAsset::fin_vertices).
+    let at_b = vi == 1u || vi == 2u || vi == 4u;
+    let height = select(0.0, 1.0, vi == 2u || vi == 4u || vi == 5u);
+    let vertex = select(e.a, e.b, at_b);
+    let corner = select(e.corner_a, e.corner_b, at_b);
+    let root = sil_vertices[vertex];
+    let n = normalize(root.normal.xyz);
+    let s = scale_vectors[scale_index(vertex, corner)].xyz;
+    let world = to_world(root.position.xyz + shell_offset(n, s, height));
+    let pa = sil_vertices[e.a].position.xyz;
+    let pb = sil_vertices[e.b].position.xyz;
+    let pc = sil_vertices[e.c].position.xyz;
+    let pd = sil_vertices[e.d].position.xyz;
+    let n0 = normalize(cross(pb - pa, pc - pa));
+    var n1 = normalize(cross(pa - pb, pd - pb));
+    if (e.flags & 1u) != 0u {
+        n1 = normalize(cross(pb - pa, pd - pa));
+    }
+    var face = n0 + n1;
+    if dot(face, face) <= 1e-12 {
+        face = n;
+    }
+    var out: FinOut;
+    out.clip = frame.view_proj * vec4<f32>(world, 1.0);
+    out.normal = normal_to_world(n);
+    out.color = sil_colors[vertex];
+    out.uv = vec2<f32>(select(0.0, distance(pa, pb), at_b) / fur.fin_repeat_m, 1.0 - height);
+    out.world = world;
+    out.face_normal = normal_to_world(face);
+    out.height = height;
+    out.fade = inst.fade;
     return out;
 }
 
@@ -87,7 +157,7 @@ fn fs_fin(in: FinOut) -> @location(0) vec4<f32> {
     }
     let to_eye = normalize(frame.camera_pos.xyz - in.world);
     let facing = abs(dot(normalize(in.face_normal), to_eye));
-    let alpha = texel * (1.0 - facing);
+    let alpha = texel * (1.0 - facing) * in.fade;
     if alpha <= fur.alpha_threshold {
         discard;
     }

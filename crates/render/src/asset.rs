@@ -150,15 +150,21 @@ impl FurAsset {
         if let (true, Some((atlas, edges))) = (with_fins, &self.fins) {
             bytes += mips(atlas.width as u64 * atlas.height as u64)
                 + 6 * edges.vertices.len() as u64 * std::mem::size_of::<FinVertex>() as u64;
+            // Silhouette fins (crate::silhouette): at most 3F/2 interior edges of 32 bytes, a
+            // colour and a bind-pose vertex (16 + 32 bytes) per welded vertex. An upper bound.
+            bytes += 48 * f + 48 * self.mesh.positions.len() as u64;
         }
         bytes
     }
 
     /// The part of [`FurAsset::gpu_bytes`] each renderer holds of its own: scale vectors (room
-    /// for either layout) and, for an animated asset, its skinning pass.
+    /// for either layout), the silhouette fin instances (a bound) and, for an animated asset,
+    /// its skinning pass.
     pub fn instance_gpu_bytes(&self) -> u64 {
         let (v, f) = (self.mesh.positions.len() as u64, self.mesh.triangles.len() as u64);
-        (16 * v.max(3 * f)).saturating_add(crate::SkinningPass::gpu_bytes(
+        // Scale vectors; the silhouette fin instances (8 bytes per interior edge, at most 3F/2)
+        // with their draw arguments and parameters.
+        (16 * v.max(3 * f) + 12 * f + 64).saturating_add(crate::SkinningPass::gpu_bytes(
             &self.mesh,
             self.skin_weights.as_deref(),
             self.morph_targets.as_deref(),

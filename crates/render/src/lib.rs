@@ -102,7 +102,9 @@
 //!
 //! The frame of a fur pack: the skin (Lambert × vertex colour), the shells as one instanced draw
 //! (instance = layer, so layers rasterise innermost first), then the fins on the pack's fin
-//! edges. Several packs in one frame, each with its model matrix and this frame's physics (scale
+//! edges (borders, fur/bare edges: always on), then the silhouette fins: the interior edges on or
+//! near this frame's silhouette, selected by a compute pass that `prepare` records and drawn
+//! indirectly, faded by their faces' n·v ([`silhouette`]; [`RenderSettings::silhouette_fins`]). Several packs in one frame, each with its model matrix and this frame's physics (scale
 //! vectors, blade corner forces), from a runtime scene's camera and light: [`scene`]
 //! ([`SceneRenderer`], [`SceneFrame`]). An animated pack (skin weights or morph targets, glTF 2.0
 //! "Skins", "Morph Targets") is morphed and skinned on the GPU once per frame by a
@@ -117,6 +119,7 @@ mod pipelines;
 mod renderer;
 pub mod scene;
 pub mod shaders;
+pub mod silhouette;
 mod skinning;
 mod target;
 

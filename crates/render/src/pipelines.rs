@@ -15,7 +15,9 @@ use std::collections::HashMap;
 use std::sync::{Arc, Mutex, OnceLock};
 
 use crate::blades::BLADES_WGSL;
-use crate::shaders::{FIN_ATTRIBUTES, FIN_WGSL, FinVertex, SHELL_WGSL, SKIN_WGSL, SURFACE_ATTRIBUTES, SurfaceVertex};
+use crate::shaders::{
+    FIN_ATTRIBUTES, FIN_WGSL, FinVertex, SHELL_WGSL, SILHOUETTE_WGSL, SKIN_WGSL, SURFACE_ATTRIBUTES, SurfaceVertex,
+};
 use crate::{RenderError, RenderSettings, ShellBlend, TargetDesc};
 
 /// The shader switches (WGSL `override` constants) of a fur pipeline, decided by the
@@ -41,12 +43,14 @@ impl FurSwitches {
     }
 }
 
-/// The three fur stages (fur thesis §3.2: skin, shells, fins).
+/// The three fur stages (fur thesis §3.2: skin, shells, fins), and the silhouette fins
+/// (`crate::silhouette`): the fin program drawn indirectly from the selected edges.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub(crate) enum FurStage {
     Skin,
     Shell,
     Fin,
+    SilhouetteFin,
 }
 
 /// What a render pipeline runs.
@@ -68,6 +72,17 @@ pub(crate) struct FurPipelines {
     pub skin: wgpu::RenderPipeline,
     pub shell: wgpu::RenderPipeline,
     pub fin: wgpu::RenderPipeline,
+    /// The silhouette fins, when the renderer draws them.
+    pub silhouette_fin: Option<wgpu::RenderPipeline>,
+}
+
+/// The layouts of the silhouette fins: the selection's compute group, and group 1 of the
+/// silhouette fin draw (group 0 is the fur group).
+pub(crate) struct SilhouetteLayouts {
+    compute: wgpu::BindGroupLayout,
+    compute_pipeline: wgpu::PipelineLayout,
+    draw: wgpu::BindGroupLayout,
+    draw_pipeline: wgpu::PipelineLayout,
 }
 
 /// The layouts of the blade program: group 0 shared by the compute pass and the draw, group 1 the
@@ -85,6 +100,9 @@ struct Inner {
     fur_layout: wgpu::BindGroupLayout,
     fur_pipeline_layout: wgpu::PipelineLayout,
     blade_layouts: BladeLayouts,
+    silhouette_layouts: SilhouetteLayouts,
+    silhouette_module: OnceLock<wgpu::ShaderModule>,
+    silhouette_compute: Mutex<Option<wgpu::ComputePipeline>>,
     skin_module: OnceLock<wgpu::ShaderModule>,
     shell_module: OnceLock<wgpu::ShaderModule>,
     fin_module: OnceLock<wgpu::ShaderModule>,
@@ -126,6 +144,7 @@ impl PipelineCache {
 
     fn build(device: &wgpu::Device, adapter: Option<wgpu::Adapter>) -> PipelineCache {
         let fur_layout = fur_bind_group_layout(device);
+        let silhouette_layouts = silhouette_layouts(device, &fur_layout);
         let fur_pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("furbake fur pipeline layout"),
             bind_group_layouts: &[Some(&fur_layout)],
@@ -138,6 +157,9 @@ impl PipelineCache {
                 fur_layout,
                 fur_pipeline_layout,
                 blade_layouts: blade_layouts(device),
+                silhouette_layouts,
+                silhouette_module: OnceLock::new(),
+                silhouette_compute: Mutex::new(None),
                 skin_module: OnceLock::new(),
                 shell_module: OnceLock::new(),
                 fin_module: OnceLock::new(),
@@ -182,8 +204,51 @@ impl PipelineCache {
         &self.inner.blade_layouts
     }
 
-    /// The skin, shell and fin pipelines for `switches` drawn into `target`.
-    pub(crate) fn fur(&self, target: &TargetDesc, switches: FurSwitches) -> Result<FurPipelines, RenderError> {
+    /// The selection's compute group layout.
+    pub(crate) fn silhouette_compute_layout(&self) -> &wgpu::BindGroupLayout {
+        &self.inner.silhouette_layouts.compute
+    }
+
+    /// Group 1 of the silhouette fin draw.
+    pub(crate) fn silhouette_draw_layout(&self) -> &wgpu::BindGroupLayout {
+        &self.inner.silhouette_layouts.draw
+    }
+
+    /// The silhouette selection compute pipeline (`cs_silhouette`), independent of any target.
+    pub(crate) fn silhouette_compute(&self) -> Result<wgpu::ComputePipeline, RenderError> {
+        let mut slot = lock(&self.inner.silhouette_compute);
+        if let Some(p) = slot.as_ref() {
+            return Ok(p.clone());
+        }
+        let device = &self.inner.device;
+        let module = self.inner.silhouette_module.get_or_init(|| {
+            device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some("furbake silhouette"),
+                source: wgpu::ShaderSource::Wgsl(SILHOUETTE_WGSL.into()),
+            })
+        });
+        let pipeline = crate::gpu_scope(device, "creating the silhouette compute pipeline", || {
+            Ok(device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some("furbake silhouette selection"),
+                layout: Some(&self.inner.silhouette_layouts.compute_pipeline),
+                module,
+                entry_point: Some("cs_silhouette"),
+                compilation_options: Default::default(),
+                cache: None,
+            }))
+        })?;
+        *slot = Some(pipeline.clone());
+        Ok(pipeline)
+    }
+
+    /// The skin, shell and fin pipelines for `switches` drawn into `target`, and the silhouette
+    /// fin pipeline when `silhouette`.
+    pub(crate) fn fur(
+        &self,
+        target: &TargetDesc,
+        switches: FurSwitches,
+        silhouette: bool,
+    ) -> Result<FurPipelines, RenderError> {
         self.check_target(target, switches.alpha_blend)?;
         // The skin has neither a shearing nor a blending switch: one pipeline serves both.
         let skin_switches = FurSwitches { shear: false, alpha_blend: false, ..switches };
@@ -191,6 +256,11 @@ impl PipelineCache {
             skin: self.render_pipeline(target, Program::Fur(FurStage::Skin, skin_switches))?,
             shell: self.render_pipeline(target, Program::Fur(FurStage::Shell, switches))?,
             fin: self.render_pipeline(target, Program::Fur(FurStage::Fin, switches))?,
+            silhouette_fin: if silhouette {
+                Some(self.render_pipeline(target, Program::Fur(FurStage::SilhouetteFin, switches))?)
+            } else {
+                None
+            },
         })
     }
 
@@ -259,6 +329,9 @@ impl PipelineCache {
             FurStage::Skin => ("furbake skin", self.module(Module::Skin), "vs_skin", "fs_skin"),
             FurStage::Shell => ("furbake shells", self.module(Module::Shell), "vs_shell", "fs_shell"),
             FurStage::Fin => ("furbake fins", self.module(Module::Fin), "vs_fin", "fs_fin"),
+            FurStage::SilhouetteFin => {
+                ("furbake silhouette fins", self.module(Module::Fin), "vs_silhouette_fin", "fs_fin")
+            }
         };
         let flag = |on: bool| if on { 1.0 } else { 0.0 };
         // Overrides each shader declares (the skin has no shearing or blending switch).
@@ -282,6 +355,14 @@ impl PipelineCache {
             attributes: &FIN_ATTRIBUTES,
         };
         let buffers = [Some(if stage == FurStage::Fin { fin_layout } else { surface_layout })];
+        // The silhouette fins read everything from storage buffers (groups 0 and 1).
+        let buffers: &[Option<wgpu::VertexBufferLayout>] =
+            if stage == FurStage::SilhouetteFin { &[] } else { &buffers };
+        let layout = if stage == FurStage::SilhouetteFin {
+            &self.inner.silhouette_layouts.draw_pipeline
+        } else {
+            &self.inner.fur_pipeline_layout
+        };
         let (blend, depth_write, cull) = match stage {
             FurStage::Skin => (None, true, Some(wgpu::Face::Back)),
             // Shells cull nothing: back-facing shells near the silhouette are what makes it furry.
@@ -291,13 +372,8 @@ impl PipelineCache {
         let targets = target.color_states(blend);
         self.inner.device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some(label),
-            layout: Some(&self.inner.fur_pipeline_layout),
-            vertex: wgpu::VertexState {
-                module,
-                entry_point: Some(vs),
-                compilation_options: options.clone(),
-                buffers: &buffers,
-            },
+            layout: Some(layout),
+            vertex: wgpu::VertexState { module, entry_point: Some(vs), compilation_options: options.clone(), buffers },
             primitive: wgpu::PrimitiveState {
                 topology: wgpu::PrimitiveTopology::TriangleList,
                 front_face: wgpu::FrontFace::Ccw,
@@ -406,6 +482,32 @@ fn fur_bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
             storage(8, wgpu::ShaderStages::VERTEX),
         ],
     })
+}
+
+fn silhouette_layouts(device: &wgpu::Device, fur_layout: &wgpu::BindGroupLayout) -> SilhouetteLayouts {
+    let entry = crate::compute_buffer_entry;
+    let ro = wgpu::BufferBindingType::Storage { read_only: true };
+    let rw = wgpu::BufferBindingType::Storage { read_only: false };
+    let compute = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("furbake silhouette selection layout"),
+        entries: &[entry(0, wgpu::BufferBindingType::Uniform), entry(1, ro), entry(2, ro), entry(3, rw), entry(4, rw)],
+    });
+    let compute_pipeline = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("furbake silhouette selection layout"),
+        bind_group_layouts: &[Some(&compute)],
+        immediate_size: 0,
+    });
+    let vertex = |binding| wgpu::BindGroupLayoutEntry { visibility: wgpu::ShaderStages::VERTEX, ..entry(binding, ro) };
+    let draw = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("furbake silhouette fin layout"),
+        entries: &[vertex(0), vertex(1), vertex(2), vertex(3)],
+    });
+    let draw_pipeline = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("furbake silhouette fin pipeline layout"),
+        bind_group_layouts: &[Some(fur_layout), Some(&draw)],
+        immediate_size: 0,
+    });
+    SilhouetteLayouts { compute, compute_pipeline, draw, draw_pipeline }
 }
 
 fn blade_layouts(device: &wgpu::Device) -> BladeLayouts {

@@ -10,7 +10,8 @@
 //! uniforms and records the skinning dispatch of an animated asset into the host's encoder, and
 //! [`FurRenderer::render`] draws skin, shells innermost to outermost (one instanced draw,
 //! instance = layer) and fins into the host's render pass, depth-tested against whatever the host
-//! drew. Neither submits nor waits (`crate::blocking`). Effects are switched with WGSL `override`
+//! drew, then the silhouette fins ([`crate::silhouette`]: `prepare` also records their selection
+//! dispatch, `render` their indirect draw). Neither submits nor waits (`crate::blocking`). Effects are switched with WGSL `override`
 //! constants at pipeline creation. An animated asset (skin weights or morph targets) owns a
 //! [`SkinningPass`]; the skin, shell and fin shaders (compiled with `SKINNED`) read their roots
 //! from its output instead of the vertex attributes; a static asset's shaders are compiled
@@ -53,6 +54,15 @@ pub struct RenderSettings {
     pub lambert: bool,
     /// Draw fins on the fin edges (when the asset has them). Default true.
     pub fins: bool,
+    /// With `fins`, also draw fins on the interior edges on or near this frame's silhouette,
+    /// selected on the GPU each frame ([`crate::silhouette`]; issue 14, fur thesis §4.1).
+    /// Default true.
+    pub silhouette_fins: bool,
+    /// Half-width of the band around the silhouette whose edges get a (faded) fin, in units of
+    /// n·v (the cosine between a face normal and the view vector), in [0, 1]: an edge is drawn
+    /// when its two faces' n·v differ in sign, or when the smaller |n·v| is below this, with alpha
+    /// × (1 − |n·v|/band). 0 keeps only the sign change (fins pop in and out). Default 0.2.
+    pub silhouette_band: f32,
     /// Blending of shells and fins. Default [`ShellBlend::AlphaBlend`].
     pub blend: ShellBlend,
     /// Fragments with alpha at or below this are discarded, in [0, 1). Default 0.02: with
@@ -74,6 +84,8 @@ impl Default for RenderSettings {
             self_shadow: true,
             lambert: true,
             fins: true,
+            silhouette_fins: true,
+            silhouette_band: 0.2,
             blend: ShellBlend::AlphaBlend,
             alpha_threshold: 0.02,
             tint: [1.0, 1.0, 1.0],
@@ -94,6 +106,9 @@ impl RenderSettings {
         let bad = |what: &str| Err(RenderError::Parameter { what: what.into() });
         if !(self.shear_exponent.is_finite() && self.shear_exponent > 0.0) {
             return bad("shear_exponent must be positive");
+        }
+        if !(0.0..=1.0).contains(&self.silhouette_band) {
+            return bad("silhouette_band must be in [0, 1]");
         }
         if !(0.0..1.0).contains(&self.alpha_threshold) {
             return bad("alpha_threshold must be in [0, 1)");
@@ -127,6 +142,18 @@ pub struct FurGpuAsset {
     fin_view: wgpu::TextureView,
     repeat_sampler: wgpu::Sampler,
     fin_sampler: wgpu::Sampler,
+    /// The interior edges that may carry a silhouette fin, with what their draw reads.
+    silhouette: Option<SilhouetteData>,
+}
+
+/// The shared data of the silhouette fins: the interior edges (`crate::silhouette`), one colour
+/// per welded vertex, and the bind pose as `SkinnedVertex`es (what a static asset's selection and
+/// draw read where an animated one reads its skinning pass's output).
+struct SilhouetteData {
+    edges: wgpu::Buffer,
+    edge_count: u32,
+    colors: wgpu::Buffer,
+    rest: wgpu::Buffer,
 }
 
 impl FurGpuAsset {
@@ -200,6 +227,32 @@ impl FurGpuAsset {
         let repeat_sampler = sampler("furbake repeat sampler", wgpu::AddressMode::Repeat);
         let fin_sampler = sampler("furbake fin sampler", wgpu::AddressMode::ClampToEdge);
 
+        // Silhouette fins need the fin atlas; derived from the skin's triangles at load time.
+        let edges = match (with_fins, asset.fins()) {
+            (true, Some((_, fin_edges))) => crate::silhouette::interior_edges(asset.mesh(), Some(fin_edges)),
+            _ => Vec::new(),
+        };
+        check(
+            "silhouette edge bytes",
+            std::mem::size_of_val(edges.as_slice()),
+            limits.max_storage_buffer_binding_size,
+        )?;
+        let silhouette = (!edges.is_empty()).then(|| {
+            let m = asset.mesh();
+            let rest: Vec<SkinnedVertex> = m
+                .positions
+                .iter()
+                .zip(&m.normals)
+                .map(|(p, n)| SkinnedVertex { position: [p[0], p[1], p[2], 1.0], normal: [n[0], n[1], n[2], 0.0] })
+                .collect();
+            let storage = wgpu::BufferUsages::STORAGE;
+            SilhouetteData {
+                edges: init("furbake silhouette edges", bytemuck::cast_slice(&edges), storage),
+                edge_count: edges.len() as u32,
+                colors: init("furbake vertex colours", bytemuck::cast_slice(&m.colors), storage),
+                rest: init("furbake bind pose", bytemuck::cast_slice(&rest), storage),
+            }
+        });
         let fins = (!fin_vertices.is_empty()).then(|| {
             let buffer = init("furbake fin quads", bytemuck::cast_slice(&fin_vertices), wgpu::BufferUsages::VERTEX);
             (buffer, fin_vertices.len() as u32)
@@ -218,6 +271,7 @@ impl FurGpuAsset {
             fin_view,
             repeat_sampler,
             fin_sampler,
+            silhouette,
         }))
     }
 }
@@ -243,6 +297,9 @@ pub struct FurRenderer {
     skinning: Option<SkinningPass>,
     /// What binding 8 (`skinned`) holds: the skinning pass's output, or a placeholder.
     posed_vertices: wgpu::Buffer,
+    /// The silhouette fin selection (`RenderSettings::silhouette_fins` on an asset with interior
+    /// furry edges and a fin atlas).
+    silhouette: Option<crate::silhouette::SilhouettePass>,
 }
 
 impl FurRenderer {
@@ -285,7 +342,8 @@ impl FurRenderer {
             });
         }
         let switches = FurSwitches::new(settings, asset.is_animated());
-        let stage_pipelines = pipelines.fur(target, switches)?;
+        let silhouette = settings.silhouette_fins && gpu.silhouette.is_some();
+        let stage_pipelines = pipelines.fur(target, switches, silhouette)?;
         let device = pipelines.device();
         crate::gpu_scope(device, "creating the fur renderer", || {
             Self::build(pipelines, asset, gpu, settings, target, stage_pipelines)
@@ -380,6 +438,20 @@ impl FurRenderer {
                 wgpu::BindGroupEntry { binding: 8, resource: posed_vertices.as_entire_binding() },
             ],
         });
+        let silhouette = match (&gpu.silhouette, settings.silhouette_fins) {
+            (Some(data), true) => {
+                let vertices = skinning.as_ref().map_or(&data.rest, |pass| pass.skinned_buffer());
+                Some(crate::silhouette::SilhouettePass::new(
+                    cache,
+                    &data.edges,
+                    &data.colors,
+                    vertices,
+                    data.edge_count,
+                    settings.silhouette_band,
+                )?)
+            }
+            _ => None,
+        };
         Ok(FurRenderer {
             settings: *settings,
             gpu,
@@ -394,6 +466,7 @@ impl FurRenderer {
             pipelines,
             skinning,
             posed_vertices,
+            silhouette,
         })
     }
 
@@ -537,6 +610,67 @@ impl FurRenderer {
         if let Some(skinning) = &self.skinning {
             skinning.encode(encoder);
         }
+        if let Some(silhouette) = &self.silhouette {
+            silhouette.encode(queue, encoder, object_eye(frame));
+        }
+    }
+
+    /// Whether this renderer selects and draws silhouette fins
+    /// ([`RenderSettings::silhouette_fins`] on an asset with interior furry edges and fins).
+    pub fn has_silhouette_fins(&self) -> bool {
+        self.silhouette.is_some()
+    }
+
+    /// Reads back the silhouette fin selection the GPU makes for `frame` (the same dispatch
+    /// [`FurRenderer::prepare`] records, after an animated asset's skinning with the pose last
+    /// written): `(edge, fade)` per selected edge, edges indexing
+    /// [`crate::silhouette::interior_edges`] of the asset's skin and fin edges, sorted by edge.
+    /// Empty without silhouette fins. For tests against [`crate::silhouette::silhouette_edges`];
+    /// submits and waits for the GPU.
+    pub fn silhouette_selection(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        frame: &FrameUniforms,
+    ) -> Result<Vec<(u32, f32)>, RenderError> {
+        let Some(silhouette) = &self.silhouette else { return Ok(Vec::new()) };
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let readback = |label, size| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size,
+                usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+                mapped_at_creation: false,
+            })
+        };
+        let args = readback("furbake silhouette args readback", 16);
+        let instances = readback("furbake silhouette instances readback", silhouette.instance_bytes());
+        let mut encoder = device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("furbake silhouette readback") });
+        if let Some(skinning) = &self.skinning {
+            skinning.encode(&mut encoder);
+        }
+        silhouette.encode(queue, &mut encoder, object_eye(frame));
+        silhouette.copy_out(&mut encoder, &args, &instances);
+        crate::blocking::submit(queue, [encoder.finish()]);
+        if let Some(e) = crate::blocking::block_on(scope.pop()) {
+            return Err(RenderError::Gpu { what: e.to_string() });
+        }
+        crate::headless::map_for_reading(device, &args, "silhouette args readback")?;
+        crate::headless::map_for_reading(device, &instances, "silhouette instances readback")?;
+        let count = {
+            let view = args.get_mapped_range(..).map_err(|e| RenderError::Gpu { what: e.to_string() })?;
+            bytemuck::cast_slice::<u8, u32>(&view)[1] as usize
+        };
+        let mut out: Vec<(u32, f32)> = {
+            let view = instances.get_mapped_range(..).map_err(|e| RenderError::Gpu { what: e.to_string() })?;
+            let words: &[[u32; 2]] = bytemuck::cast_slice(&view);
+            words.iter().take(count).map(|w| (w[0], f32::from_bits(w[1]))).collect()
+        };
+        args.unmap();
+        instances.unmap();
+        out.sort_by_key(|e| e.0);
+        Ok(out)
     }
 
     /// Draws skin, shells and fins into the host's `pass`, whose attachments must match
@@ -561,6 +695,12 @@ impl FurRenderer {
             pass.set_pipeline(&self.pipelines.fin);
             pass.set_vertex_buffer(0, buffer.slice(..));
             pass.draw(0..*count, 0..1);
+        }
+        if let (Some(pipeline), Some(silhouette)) = (&self.pipelines.silhouette_fin, &self.silhouette)
+            && self.drawn_layers > 0
+        {
+            pass.set_pipeline(pipeline);
+            silhouette.draw(pass);
         }
     }
 
@@ -711,6 +851,13 @@ impl FurRenderer {
         readback.unmap();
         Ok(out)
     }
+}
+
+/// The eye of `frame` in the object frame (the inverse model matrix applied to it), where the
+/// silhouette selection compares it with the posed vertices.
+fn object_eye(frame: &FrameUniforms) -> Vec3 {
+    let eye = Vec3::new(frame.camera_pos[0], frame.camera_pos[1], frame.camera_pos[2]);
+    frame.model().inverse().transform_point3(eye)
 }
 
 /// `FurUniforms::scale_layout` of a layout.

@@ -21,6 +21,10 @@ pub const FIN_WGSL: &str =
 /// morphs and skins every welded vertex of an animated pack once per frame
 /// ([`crate::SkinningPass`]). Stands alone (no `fur_common.wgsl`).
 pub const SKINNING_WGSL: &str = include_str!("../../../shaders/skinning.wgsl");
+/// The silhouette selection (issue 14, fur thesis §4.1): the `cs_silhouette` compute entry point
+/// that picks the interior edges on or near this frame's silhouette for the silhouette fins
+/// (`crate::silhouette`). Stands alone (no `fur_common.wgsl`).
+pub const SILHOUETTE_WGSL: &str = include_str!("../../../shaders/silhouette.wgsl");
 
 /// Per-frame uniforms (`Frame` in every shader; binding 0).
 #[repr(C)]
@@ -228,11 +232,12 @@ mod tests {
         assert_eq!(got, rust);
     }
 
-    const SHADERS: [(&str, &str); 4] = [
+    const SHADERS: [(&str, &str); 5] = [
         ("skin.wgsl", SKIN_WGSL),
         ("shell.wgsl", SHELL_WGSL),
         ("fin.wgsl", FIN_WGSL),
         ("skinning.wgsl", SKINNING_WGSL),
+        ("silhouette.wgsl", SILHOUETTE_WGSL),
     ];
 
     #[test]
@@ -245,7 +250,18 @@ mod tests {
         entry_points.sort();
         assert_eq!(
             entry_points,
-            ["cs_shell_positions", "cs_skin", "fs_fin", "fs_shell", "fs_skin", "vs_fin", "vs_shell", "vs_skin"]
+            [
+                "cs_shell_positions",
+                "cs_silhouette",
+                "cs_skin",
+                "fs_fin",
+                "fs_shell",
+                "fs_skin",
+                "vs_fin",
+                "vs_shell",
+                "vs_silhouette_fin",
+                "vs_skin"
+            ]
         );
     }
 
@@ -314,8 +330,30 @@ mod tests {
         use std::mem::{offset_of, size_of};
         let skinned =
             [("position", offset_of!(SkinnedVertex, position)), ("normal", offset_of!(SkinnedVertex, normal))];
-        // Written by skinning.wgsl, read by the three fur shaders (fur_common.wgsl).
-        assert_eq!(check_layout("SkinnedVertex", size_of::<SkinnedVertex>(), &skinned), 4);
+        // Written by skinning.wgsl, read by the three fur shaders (fur_common.wgsl) and the
+        // silhouette selection.
+        assert_eq!(check_layout("SkinnedVertex", size_of::<SkinnedVertex>(), &skinned), 5);
+        use crate::silhouette::{SilhouetteEdge, SilhouetteParams};
+        let edge = [
+            ("a", offset_of!(SilhouetteEdge, a)),
+            ("b", offset_of!(SilhouetteEdge, b)),
+            ("c", offset_of!(SilhouetteEdge, c)),
+            ("d", offset_of!(SilhouetteEdge, d)),
+            ("corner_a", offset_of!(SilhouetteEdge, corner_a)),
+            ("corner_b", offset_of!(SilhouetteEdge, corner_b)),
+            ("flags", offset_of!(SilhouetteEdge, flags)),
+            ("pad0", offset_of!(SilhouetteEdge, pad0)),
+        ];
+        // Read by the selection (silhouette.wgsl) and the silhouette fin draw (fin.wgsl).
+        assert_eq!(check_layout("SilhouetteEdge", size_of::<SilhouetteEdge>(), &edge), 2);
+        let params = [
+            ("camera_obj", offset_of!(SilhouetteParams, camera_obj)),
+            ("band", offset_of!(SilhouetteParams, band)),
+            ("edge_count", offset_of!(SilhouetteParams, edge_count)),
+            ("pad0", offset_of!(SilhouetteParams, pad0)),
+            ("pad1", offset_of!(SilhouetteParams, pad1)),
+        ];
+        assert_eq!(check_layout("SilhouetteParams", size_of::<SilhouetteParams>(), &params), 1);
     }
 
     #[test]
