@@ -24,12 +24,14 @@
 //! zero-compliance sticks already nearly satisfy), finiteness check and guard.
 //!
 //! **Parallel and deterministic.** The links are edge-coloured once, in link order, so that no
-//! free mass has two links of one colour and the colours of a hair's links increase outwards. One colour's pass then runs per free mass in
-//! fixed chunks: each mass finds its (at most one) link of that colour, both ends compute that
-//! link's update from the same inputs in the same orientation, and each keeps its own half and
-//! its own copy of the multipliers (stored per colour and mass). Reads come from one buffer,
-//! writes go to another, so nothing is shared, nothing is atomic and the result is bit-identical
-//! for any thread count (and to the sequential Gauss–Seidel sweep in colour order).
+//! free mass has two links of one colour and the colours of a hair's links increase outwards,
+//! then stored colour-major (each colour's links contiguous, in link order, with their
+//! multipliers beside them). One colour's pass visits only that colour's links: each computes
+//! its update from its two ends' current displacements and writes both ends in place. Within a
+//! colour no free mass is shared, so the links are independent: the pass runs in fixed chunks
+//! of links (in parallel above a size cut-off), nothing is atomic, and the result is
+//! bit-identical for any thread count (and to the sequential Gauss–Seidel sweep in colour
+//! order). A sweep costs O(links), not O(colours × masses).
 //!
 //! Substeps: XPBD is unconditionally stable, so the simulator never splits its step. The
 //! "small steps" variant (Macklin et al. 2019: many substeps, one iteration each) is
@@ -43,8 +45,8 @@ use super::fused::finish_step;
 use super::{Step, StepOutcome, external, restoring};
 use crate::model::{NONE, SimModel};
 
-/// One link as XPBD sees it: `a` is free and `a < b` when both are free (the orientation both
-/// ends compute in); `b` may be anchored.
+/// One link as XPBD sees it: `a` is free and `a < b` when both are free (the orientation it is
+/// projected in); `b` may be anchored.
 #[derive(Clone, Copy, Debug)]
 struct Link {
     a: u32,
@@ -53,22 +55,42 @@ struct Link {
     /// Compliance `1/k` (zero for a stick; infinite for a link without stiffness).
     compliance: f32,
     c: f32,
+    /// The ends' inverse masses (`wb` zero when `b` is anchored).
+    wa: f32,
+    wb: f32,
+    /// Per step (for the step `XpbdScratch::h`): `α̃ = α/h²`, the distance update's denominator
+    /// `wa + wb + α̃`, `h c` and the damper's denominator `1 + h c (wa + wb)`.
+    at: f32,
+    den: f32,
+    hc: f32,
+    den_damp: f32,
+}
+
+impl Link {
+    /// The per-step coefficients for step `h` (the same expressions, in the same order, as
+    /// the projection would evaluate them).
+    fn set_step(&mut self, h: f32) {
+        self.at = self.compliance / (h * h);
+        self.den = self.wa + self.wb + self.at;
+        self.hc = h * self.c;
+        self.den_damp = 1.0 + self.hc * (self.wa + self.wb);
+    }
 }
 
 /// XPBD's links, their colouring and its per-step buffers (kept between steps).
 #[derive(Debug, Default)]
 pub(crate) struct XpbdScratch {
+    /// Colour-major: colour `c`'s links are `links[colour_start[c]..colour_start[c + 1]]`, each
+    /// colour's in link order.
     links: Vec<Link>,
-    colours: usize,
-    /// Colour-major: `slot[c · n_free + i]` is free mass `i`'s link of colour `c`, or NONE.
-    slot: Vec<u32>,
-    /// Per colour and mass (as `slot`): that link's distance and damping multipliers.
+    colour_start: Vec<usize>,
+    /// Per link (as `links`): its distance and damping multipliers.
     lambda: Vec<f32>,
     lambda_damp: Vec<Vec3A>,
-    inv_mass: Vec<f32>,
-    /// The displacement iterate `Δx` (read) and the next one (written).
+    /// The step the links' per-step coefficients are for (NaN before the first).
+    h: f32,
+    /// The displacement iterate `Δx`, updated in place colour by colour.
     dx: Vec<Vec3A>,
-    dx_next: Vec<Vec3A>,
 }
 
 impl XpbdScratch {
@@ -91,7 +113,21 @@ impl XpbdScratch {
                 } else {
                     f32::INFINITY
                 };
-                links.push(Link { a: k as u32, b: a.other, rest: a.rest, compliance, c: a.c });
+                let wa = 1.0 / model.mass[k];
+                let wb = if j < nf { 1.0 / model.mass[j] } else { 0.0 };
+                links.push(Link {
+                    a: k as u32,
+                    b: a.other,
+                    rest: a.rest,
+                    compliance,
+                    c: a.c,
+                    wa,
+                    wb,
+                    at: 0.0,
+                    den: 0.0,
+                    hc: 0.0,
+                    den_damp: 0.0,
+                });
             }
         }
         // Edge colouring in link order (masses by depth from the skin): a hair-tree link takes
@@ -103,6 +139,7 @@ impl XpbdScratch {
         let mut slot: Vec<u32> = Vec::new();
         let mut colours = 0;
         let mut above = vec![0usize; nf];
+        let mut colour_of = vec![0usize; links.len()];
         // Links to the skin first, whatever a mass's adjacency order.
         let skin_first = (0..links.len())
             .filter(|&l| links[l].b as usize >= nf)
@@ -124,6 +161,7 @@ impl XpbdScratch {
                 }
                 c += 1;
             }
+            colour_of[l] = c;
             slot[c * nf + a] = l as u32;
             above[a] = above[a].max(c + 1);
             if b < nf {
@@ -131,15 +169,24 @@ impl XpbdScratch {
                 above[b] = above[b].max(c + 1);
             }
         }
+        // Colour-major order, link order within a colour.
+        let mut colour_start = vec![0usize; colours + 1];
+        for &c in &colour_of {
+            colour_start[c + 1] += 1;
+        }
+        for c in 0..colours {
+            colour_start[c + 1] += colour_start[c];
+        }
+        let mut order: Vec<usize> = (0..links.len()).collect();
+        order.sort_by_key(|&l| colour_of[l]); // stable: link order within a colour
+        let ordered: Vec<Link> = order.iter().map(|&l| links[l]).collect();
         XpbdScratch {
-            links,
-            colours,
-            lambda: vec![0.0; slot.len()],
-            lambda_damp: vec![Vec3A::ZERO; slot.len()],
-            slot,
-            inv_mass: model.mass[..nf].iter().map(|&m| 1.0 / m).collect(),
+            lambda: vec![0.0; ordered.len()],
+            lambda_damp: vec![Vec3A::ZERO; ordered.len()],
+            links: ordered,
+            colour_start,
+            h: f32::NAN,
             dx: vec![Vec3A::ZERO; nf],
-            dx_next: vec![Vec3A::ZERO; nf],
         }
     }
 }
@@ -152,25 +199,20 @@ pub(crate) fn xpbd_step(step: Step, iterations: u32, s: &mut XpbdScratch) -> Ste
     predict(model, fe, h, x, v, &mut s.dx);
     s.lambda.fill(0.0);
     s.lambda_damp.fill(Vec3A::ZERO);
-    // 2. Project, colour by colour.
+    if s.h.to_bits() != h.to_bits() {
+        s.links.iter_mut().for_each(|l| l.set_step(h));
+        s.h = h;
+    }
+    // 2. Project, colour by colour, in place.
+    let colours = s.colour_start.len().saturating_sub(1);
     if nf > 0 {
         // Symmetric Gauss–Seidel: every iteration sweeps the colours out along the hairs and back.
-        let sweep = (0..s.colours).chain((0..s.colours.saturating_sub(1)).rev());
+        let sweep = (0..colours).chain((0..colours.saturating_sub(1)).rev());
         for _ in 0..iterations {
             for c in sweep.clone() {
-                let range = c * nf..(c + 1) * nf;
-                let pass = Pass {
-                    links: &s.links,
-                    slot: &s.slot[range.clone()],
-                    inv_mass: &s.inv_mass,
-                    x,
-                    v,
-                    h,
-                    nf,
-                    dx: &s.dx,
-                };
-                pass.run(&mut s.dx_next, &mut s.lambda[range.clone()], &mut s.lambda_damp[range]);
-                std::mem::swap(&mut s.dx, &mut s.dx_next);
+                let range = s.colour_start[c]..s.colour_start[c + 1];
+                let pass = Pass { x, v, h, nf };
+                pass.run(&s.links[range.clone()], &mut s.dx, &mut s.lambda[range.clone()], &mut s.lambda_damp[range]);
             }
         }
     }
@@ -212,75 +254,96 @@ fn predict(model: &SimModel, fe: &crate::forces::ForceEval, h: f32, x: &[Vec3A],
 
 /// One colour's Gauss–Seidel pass (see the file docs).
 struct Pass<'a> {
-    links: &'a [Link],
-    /// This colour's slots, per free mass.
-    slot: &'a [u32],
-    inv_mass: &'a [f32],
     x: &'a [Vec3A],
     v: &'a [Vec3A],
     h: f32,
     nf: usize,
-    dx: &'a [Vec3A],
 }
 
+/// The displacement buffer shared by one colour's parallel chunks. Within a colour no free mass
+/// has two links, so the chunks read and write disjoint masses.
+struct SharedDx {
+    ptr: *mut Vec3A,
+    len: usize,
+}
+
+// SAFETY: only used by `Pass::run`, whose concurrent chunks touch disjoint elements.
+unsafe impl Sync for SharedDx {}
+
 impl Pass<'_> {
-    fn run(&self, dx_next: &mut [Vec3A], lambda: &mut [f32], lambda_damp: &mut [Vec3A]) {
-        let nf = self.nf;
-        let out = &mut dx_next[..nf];
-        if nf < PARALLEL_MIN {
-            for (i, ((d, l), ld)) in out.iter_mut().zip(lambda.iter_mut()).zip(lambda_damp.iter_mut()).enumerate() {
-                *d = self.mass(i, l, ld);
+    /// Projects this colour's `links` (with their multipliers), updating `dx` in place.
+    fn run(&self, links: &[Link], dx: &mut [Vec3A], lambda: &mut [f32], lambda_damp: &mut [Vec3A]) {
+        if links.len() < PARALLEL_MIN {
+            for ((l, lam), ld) in links.iter().zip(lambda.iter_mut()).zip(lambda_damp.iter_mut()) {
+                let (a, b) = (l.a as usize, l.b as usize);
+                let free_b = b < self.nf;
+                let db = if free_b { dx[b] } else { Vec3A::ZERO };
+                let (na, nb) = self.link(l, dx[a], db, lam, ld);
+                dx[a] = na;
+                if free_b {
+                    dx[b] = nb;
+                }
             }
             return;
         }
-        out.par_chunks_mut(CHUNK)
-            .zip(lambda.par_chunks_mut(CHUNK))
-            .zip(lambda_damp.par_chunks_mut(CHUNK))
-            .enumerate()
-            .for_each(|(c, ((dc, lc), ldc))| {
-                for (o, ((d, l), ld)) in dc.iter_mut().zip(lc.iter_mut()).zip(ldc.iter_mut()).enumerate() {
-                    *d = self.mass(c * CHUNK + o, l, ld);
+        let shared = SharedDx { ptr: dx.as_mut_ptr(), len: dx.len() };
+        let shared = &shared;
+        links.par_chunks(CHUNK).zip(lambda.par_chunks_mut(CHUNK)).zip(lambda_damp.par_chunks_mut(CHUNK)).for_each(
+            |((lc, lamc), ldc)| {
+                for ((l, lam), ld) in lc.iter().zip(lamc.iter_mut()).zip(ldc.iter_mut()) {
+                    let (a, b) = (l.a as usize, l.b as usize);
+                    let free_b = b < self.nf;
+                    assert!(a < shared.len && (!free_b || b < shared.len));
+                    // SAFETY: `a` and `b` are in bounds (checked above) and belong to this link
+                    // only among the colour's links (edge colouring), so no other chunk reads or
+                    // writes them during this pass.
+                    unsafe {
+                        let pa = shared.ptr.add(a);
+                        let db = if free_b { *shared.ptr.add(b) } else { Vec3A::ZERO };
+                        let (na, nb) = self.link(l, *pa, db, lam, ld);
+                        *pa = na;
+                        if free_b {
+                            *shared.ptr.add(b) = nb;
+                        }
+                    }
                 }
-            });
+            },
+        );
     }
 
-    /// Free mass `i`'s next displacement: its link of this colour projected (distance, then
-    /// damper), from the link's own orientation, so both ends compute the same update.
-    #[inline]
-    fn mass(&self, i: usize, lambda: &mut f32, lambda_damp: &mut Vec3A) -> Vec3A {
-        let s = self.slot[i];
-        if s == NONE {
-            return self.dx[i];
-        }
-        let l = self.links[s as usize];
+    /// One link projected (distance, then damper) from its ends' displacements `da`, `db` (`db`
+    /// zero for an anchored end); returns both ends' next displacements.
+    #[inline(always)]
+    fn link(
+        &self,
+        l: &Link,
+        mut da: Vec3A,
+        mut db: Vec3A,
+        lambda: &mut f32,
+        lambda_damp: &mut Vec3A,
+    ) -> (Vec3A, Vec3A) {
         let (a, b) = (l.a as usize, l.b as usize);
         let free_b = b < self.nf;
-        let wa = self.inv_mass[a];
-        let wb = if free_b { self.inv_mass[b] } else { 0.0 };
-        let mut da = self.dx[a];
-        let mut db = if free_b { self.dx[b] } else { Vec3A::ZERO };
-        let h = self.h;
+        let (wa, wb) = (l.wa, l.wb);
         if l.compliance.is_finite() {
             let d = (self.x[a] - self.x[b]) + (da - db);
             let len = d.length();
             if len > 1e-12 {
                 let n = d / len;
-                let at = l.compliance / (h * h);
-                let dl = (-(len - l.rest) - at * *lambda) / (wa + wb + at);
+                let dl = (-(len - l.rest) - l.at * *lambda) / l.den;
                 *lambda += dl;
                 da += n * (wa * dl);
                 db -= n * (wb * dl);
             }
         }
         if l.c > 0.0 {
-            let hc = h * l.c;
             // An anchored end moves, for the damper, with the skin's velocity over the step.
-            let moved_b = if free_b { db } else { self.v[b] * h };
-            let dl = (-*lambda_damp - (da - moved_b) * hc) / (1.0 + hc * (wa + wb));
+            let moved_b = if free_b { db } else { self.v[b] * self.h };
+            let dl = (-*lambda_damp - (da - moved_b) * l.hc) / l.den_damp;
             *lambda_damp += dl;
             da += dl * wa;
             db -= dl * wb;
         }
-        if i == a { da } else { db }
+        (da, db)
     }
 }
