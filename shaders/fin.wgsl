@@ -144,6 +144,10 @@ fn vs_silhouette_fin(@builtin(vertex_index) vi: u32, @builtin(instance_index) ii
     out.face_normal = normal_to_world(face);
     out.height = height;
     out.fade = inst.fade;
+    if inst.fade <= 0.0 {
+        // An unselected edge inside the drawn prefix: a degenerate quad outside the clip volume.
+        out.clip = vec4<f32>(2.0, 2.0, 2.0, 1.0);
+    }
     return out;
 }
 

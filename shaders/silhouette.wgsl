@@ -3,8 +3,11 @@
 // (crates/render/src/silhouette.rs derives them at load time): both face normals from this frame's
 // posed (or rest) vertices, the view vector from the camera (in the object frame) to the edge
 // midpoint, d0 = n0·v and d1 = n1·v. The edge is a silhouette edge when d0 and d1 differ in sign,
-// and near the silhouette when min(|d0|, |d1|) < band; a selected edge appends (edge, fade) to the
-// instance list and counts itself into the indirect draw's instance count. fade = 1 on the
+// and near the silhouette when min(|d0|, |d1|) < band. Every edge writes its own slot, instance i
+// = (i, fade) with fade 0 when unselected (the vertex shader collapses those), and a selected edge
+// raises the indirect draw's instance count to at least i + 1 (atomicMax: order-independent), so
+// the fins are drawn in edge order every frame — blending them gives the same image whatever the
+// order the invocations ran in (an atomic append would not). fade = 1 on the
 // silhouette, 1 − min(|d|)/band in the band, so a fin fades in as it nears the silhouette instead
 // of popping. The CPU twin is `furbake_render::silhouette_edges`.
 // Stands alone (no fur_common.wgsl).
@@ -91,6 +94,7 @@ fn cs_silhouette(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_work
     let n = silhouette_face_normals(e);
     // A collapsed face has no facing: its edge is left to the shells.
     if dot(n[0], n[0]) == 0.0 || dot(n[1], n[1]) == 0.0 {
+        instances[i] = SilhouetteInstance(i, 0.0);
         return;
     }
     let mid = 0.5 * (vertices[e.a].position.xyz + vertices[e.b].position.xyz);
@@ -104,9 +108,9 @@ fn cs_silhouette(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_work
     } else if m < params.band {
         fade = 1.0 - m / params.band;
     }
-    if fade <= 0.0 {
-        return;
+    fade = max(fade, 0.0);
+    instances[i] = SilhouetteInstance(i, fade);
+    if fade > 0.0 {
+        atomicMax(&args.instance_count, i + 1u);
     }
-    let slot = atomicAdd(&args.instance_count, 1u);
-    instances[slot] = SilhouetteInstance(i, fade);
 }

@@ -665,7 +665,8 @@ impl FurRenderer {
         let mut out: Vec<(u32, f32)> = {
             let view = instances.get_mapped_range(..).map_err(|e| RenderError::Gpu { what: e.to_string() })?;
             let words: &[[u32; 2]] = bytemuck::cast_slice(&view);
-            words.iter().take(count).map(|w| (w[0], f32::from_bits(w[1]))).collect()
+            // The drawn prefix holds every edge in order; unselected ones have fade 0.
+            words.iter().take(count).map(|w| (w[0], f32::from_bits(w[1]))).filter(|&(_, fade)| fade > 0.0).collect()
         };
         args.unmap();
         instances.unmap();

@@ -15,9 +15,12 @@
 //!   computes both unit face normals n₀, n₁ and the view vector v from the edge midpoint to the
 //!   camera (in the object frame: the eye is brought back through the inverse model matrix), and
 //!   selects the edge when n₀·v and n₁·v differ in sign (the silhouette) or
-//!   m = min(|n₀·v|, |n₁·v|) < band (near it). A selected edge appends (edge, fade) through an
-//!   atomic counter that is the instance count of a `draw_indirect` (reset in the encoder each
-//!   frame with `clear_buffer`). fade = 1 on the silhouette and 1 − m/band in the band, so a fin
+//!   m = min(|n₀·v|, |n₁·v|) < band (near it). Every edge writes its own instance slot (edge,
+//!   fade), fade 0 when unselected, and a selected edge raises the `draw_indirect` instance count
+//!   to at least its index + 1 with `atomicMax` (the count is reset in the encoder each frame with
+//!   `clear_buffer`): the fins are drawn in edge order whatever order the invocations ran in, so
+//!   their blending — and every image — is deterministic (an atomic append is not); the vertex
+//!   shader collapses the unselected edges inside the drawn prefix. fade = 1 on the silhouette and 1 − m/band in the band, so a fin
 //!   fades in as its edge nears the silhouette and never pops.
 //! - **Draw** (`vs_silhouette_fin` in `shaders/fin.wgsl`): six vertices per instance, the same
 //!   quad, extrusion, shear and fragment shading as the always-on fins, alpha × fade.
