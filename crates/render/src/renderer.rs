@@ -61,7 +61,7 @@ pub struct RenderSettings {
     /// Half-width of the band around the silhouette whose edges get a (faded) fin, in units of
     /// n·v (the cosine between a face normal and the view vector), in [0, 1]: an edge is drawn
     /// when its two faces' n·v differ in sign, or when the smaller |n·v| is below this, with alpha
-    /// × (1 − |n·v|/band). 0 keeps only the sign change (fins pop in and out). Default 0.2.
+    /// × (1 − |n·v|/band). 0 keeps only the sign change (fins pop in and out). Default 0.05: wider bands also fin the ridges of low-poly meshes seen at grazing angles (on the Fox, 0.2 drew fin lines along its back and face).
     pub silhouette_band: f32,
     /// Blending of shells and fins. Default [`ShellBlend::AlphaBlend`].
     pub blend: ShellBlend,
@@ -85,7 +85,7 @@ impl Default for RenderSettings {
             lambert: true,
             fins: true,
             silhouette_fins: true,
-            silhouette_band: 0.2,
+            silhouette_band: 0.05,
             blend: ShellBlend::AlphaBlend,
             alpha_threshold: 0.02,
             tint: [1.0, 1.0, 1.0],
