@@ -401,7 +401,7 @@ mod tests {
     #[test]
     fn normalised_names_fold_dots_and_keep_leading_parents() {
         assert_eq!(normalised_name(Path::new("./tex/../tex/fur.png")), "tex/fur.png");
-        assert_eq!(normalised_name(Path::new("../shared/./body.bin")), "../shared/body.bin");
+        assert_eq!(normalised_name(Path::new("../common/./body.bin")), "../common/body.bin");
         assert_eq!(normalised_name(Path::new("a/../../b.bin")), "../b.bin");
     }
 

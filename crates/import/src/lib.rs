@@ -86,7 +86,7 @@ pub struct InputFile {
     /// directory can stat. Empty for in-memory input.
     pub path: PathBuf,
     /// Its name relative to the glTF's directory, `/`-separated (`textures/fur.png`,
-    /// `../shared/body.bin` under an asset root); the glTF itself by its file name.
+    /// `../common/body.bin` under an asset root); the glTF itself by its file name.
     pub name: String,
     /// Bytes read from it (a buffer file: its declared `byteLength`).
     pub bytes: u64,
