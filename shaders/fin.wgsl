@@ -85,23 +85,7 @@ fn vs_fin(v: FinIn) -> FinOut {
 // silhouette.wgsl selected this frame (drawn with draw_indirect, 6 vertices per instance), standing
 // on this frame's posed (or rest) vertices exactly as the always-on fins do, with the mean of the
 // two face normals as the fin's facing and the selection's fade on its alpha. The structs are
-// silhouette.wgsl's (checked against their Rust twins in shaders.rs).
-struct SilhouetteEdge {
-    a: u32,
-    b: u32,
-    c: u32,
-    d: u32,
-    corner_a: u32,
-    corner_b: u32,
-    flags: u32,
-    pad0: u32,
-};
-
-struct SilhouetteInstance {
-    edge: u32,
-    fade: f32,
-};
-
+// silhouette_common.wgsl's (checked against their Rust twins in shaders.rs).
 @group(1) @binding(0) var<storage, read> sil_edges: array<SilhouetteEdge>;
 @group(1) @binding(1) var<storage, read> sil_instances: array<SilhouetteInstance>;
 // The posed vertices (the skinning pass's output) or the bind pose of a static pack.

@@ -10,7 +10,7 @@
 // order the invocations ran in (an atomic append would not). fade = 1 on the
 // silhouette, 1 − min(|d|)/band in the band, so a fin fades in as it nears the silhouette instead
 // of popping. The CPU twin is `furbake_render::silhouette_edges`.
-// Stands alone (no fur_common.wgsl).
+// Prepended by silhouette_common.wgsl (the edge and instance structs it shares with fin.wgsl).
 
 struct SilhouetteParams {
     // xyz: the eye in the object (pack) frame, i.e. inverse(model) · eye; w unused.
@@ -20,26 +20,6 @@ struct SilhouetteParams {
     edge_count: u32,
     pad0: u32,
     pad1: u32,
-};
-
-// One interior edge: ends a, b; c the third corner of face 0 (winding a → b → c); d the third
-// corner of face 1, whose winding is b → a → d (flags bit 0 clear) or a → b → d (bit 0 set: the
-// two faces disagree in orientation); corner_a, corner_b the ends' corner ids (3·triangle +
-// corner) in face 0, for scale vectors stored per corner.
-struct SilhouetteEdge {
-    a: u32,
-    b: u32,
-    c: u32,
-    d: u32,
-    corner_a: u32,
-    corner_b: u32,
-    flags: u32,
-    pad0: u32,
-};
-
-struct SilhouetteInstance {
-    edge: u32,
-    fade: f32,
 };
 
 // The posed (or rest) welded vertices: the skinning pass's output, or the bind pose.

@@ -14,17 +14,23 @@ pub const SKIN_WGSL: &str =
 /// ([`crate::FurRenderer::shell_positions`]).
 pub const SHELL_WGSL: &str =
     concat!(include_str!("../../../shaders/fur_common.wgsl"), include_str!("../../../shaders/shell.wgsl"));
-/// Fins on fin edges (§3.2, fig. 3.16).
-pub const FIN_WGSL: &str =
-    concat!(include_str!("../../../shaders/fur_common.wgsl"), include_str!("../../../shaders/fin.wgsl"));
+/// Fins on fin edges (§3.2, fig. 3.16) and on the silhouette (`vs_silhouette_fin`, with the
+/// structs of `silhouette_common.wgsl`).
+pub const FIN_WGSL: &str = concat!(
+    include_str!("../../../shaders/fur_common.wgsl"),
+    include_str!("../../../shaders/silhouette_common.wgsl"),
+    include_str!("../../../shaders/fin.wgsl")
+);
 /// The skinning pass (glTF 2.0 "Morph Targets", "Skins"): the `cs_skin` compute entry point that
 /// morphs and skins every welded vertex of an animated pack once per frame
 /// ([`crate::SkinningPass`]). Stands alone (no `fur_common.wgsl`).
 pub const SKINNING_WGSL: &str = include_str!("../../../shaders/skinning.wgsl");
 /// The silhouette selection (issue 14, fur thesis §4.1): the `cs_silhouette` compute entry point
 /// that picks the interior edges on or near this frame's silhouette for the silhouette fins
-/// (`crate::silhouette`). Stands alone (no `fur_common.wgsl`).
-pub const SILHOUETTE_WGSL: &str = include_str!("../../../shaders/silhouette.wgsl");
+/// (`crate::silhouette`). No `fur_common.wgsl`; `silhouette_common.wgsl` (the edge and instance
+/// structs the fin shader also reads) is prepended.
+pub const SILHOUETTE_WGSL: &str =
+    concat!(include_str!("../../../shaders/silhouette_common.wgsl"), include_str!("../../../shaders/silhouette.wgsl"));
 
 /// Per-frame uniforms (`Frame` in every shader; binding 0).
 #[repr(C)]
