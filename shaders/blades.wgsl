@@ -8,7 +8,7 @@
 // of fig. 3.8–3.9, and writes world-space vertex positions to a storage buffer. The draw
 // (`vs_blade` / `fs_blade`, instance = blade) poses each vertex with the same functions
 // (`blade_pose`, `vertex_position`) and shades the blade two-sided with Lambert diffuse and a
-// flat colour.
+// flat colour. grass_common.wgsl (the Blade struct, the culling parameters) is prepended.
 
 struct Frame {
     view_proj: mat4x4<f32>,
@@ -67,17 +67,6 @@ struct DelayedSource {
     params: vec4<f32>,
 };
 
-struct Blade {
-    // xyz: root position in metres; w: height scale (metres per blade length).
-    root: vec4<f32>,
-    // x: cos yaw, y: sin yaw; zw unused.
-    yaw: vec4<f32>,
-    // The four cluster corner indices.
-    corners: vec4<u32>,
-    // Their bilinear weights.
-    weights: vec4<f32>,
-};
-
 const STATIC_VERTEX: u32 = 0xffffffffu;
 const PI: f32 = 3.14159265358979;
 const TAU: f32 = 6.28318530717959;
@@ -93,6 +82,11 @@ const TAU: f32 = 6.28318530717959;
 // Per delayed source, per grid corner: the source's unit horizontal direction (x, z) at the
 // corner (zero where blocked), source-major.
 @group(0) @binding(8) var<storage, read> delayed_directions: array<vec2<f32>>;
+
+// The frame's culling parameters and the instance lists of the culling passes (blade_cull.wgsl):
+// words 0..4 the start of each LOD's list, then the lists of blade indices.
+@group(0) @binding(9) var<uniform> cull: CullParams;
+@group(0) @binding(10) var<storage, read> instances: array<u32>;
 
 // Written by the compute pass only.
 @group(1) @binding(0) var<storage, read_write> positions_out: array<vec4<f32>>;
@@ -292,13 +286,15 @@ fn blade_pose(b: u32) -> Pose {
     return pose;
 }
 
-// World position of vertex `v` of a posed blade (as `KeyframeDecoder::world_positions`).
-fn vertex_position(pose: Pose, v: u32) -> vec3<f32> {
+// World position of vertex `v` of a posed blade (as `KeyframeDecoder::world_positions`), its
+// width across the blade (the reference's x) times `widen`.
+fn vertex_position(pose: Pose, v: u32, widen: f32) -> vec3<f32> {
     var d = vec3<f32>(0.0);
     for (var k = 0u; k < pose.count; k++) {
         d += displacement(pose.keys_m[k], pose.keys_j[k], v) * pose.weights[k];
     }
-    let p = reference[v].xyz + d;
+    let r = reference[v].xyz;
+    let p = r + d + vec3<f32>(r.x * (widen - 1.0), 0.0, 0.0);
     return pose.root + (pose.width * p.x + vec3<f32>(0.0, p.y, 0.0) + pose.normal * p.z) * pose.height;
 }
 
@@ -312,7 +308,7 @@ fn cs_blades(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
     let pose = blade_pose(b);
     let vc = params.vertex_count;
     for (var v = 0u; v < vc; v++) {
-        positions_out[b * vc + v] = vec4<f32>(vertex_position(pose, v), 1.0);
+        positions_out[b * vc + v] = vec4<f32>(vertex_position(pose, v, 1.0), 1.0);
     }
 }
 
@@ -322,10 +318,23 @@ struct BladeOut {
 };
 
 // The draw poses each vertex itself with the same functions (no positions buffer, so the blade
-// count is bounded by the instance buffer, not by blades × vertices).
+// count is bounded by the instance buffer, not by blades × vertices). The index buffer holds one
+// index list per level of detail, LOD l's indices offset by l × vertex_count, so the vertex index
+// names both; only the vertices a level draws are decoded. With culling on, instance i of LOD l
+// is blade `instances[4 + instances[l] + i]`, widened by the inverse of the fraction distance
+// thinning kept; with culling off, instance i is blade i at full detail.
 @vertex
-fn vs_blade(@builtin(vertex_index) v: u32, @builtin(instance_index) b: u32) -> BladeOut {
-    let world = (frame.model * vec4<f32>(vertex_position(blade_pose(b), v), 1.0)).xyz;
+fn vs_blade(@builtin(vertex_index) vi: u32, @builtin(instance_index) instance: u32) -> BladeOut {
+    let lod = vi / params.vertex_count;
+    let v = vi - lod * params.vertex_count;
+    var b = instance;
+    var widen = 1.0;
+    if cull.eye.w != 0.0 {
+        b = instances[4u + instances[lod] + instance];
+        let d = distance(cull.eye.xyz, blades[b].root.xyz);
+        widen = 1.0 / thinning_keep(cull.distance.y, cull.distance.z, d);
+    }
+    let world = (frame.model * vec4<f32>(vertex_position(blade_pose(b), v, widen), 1.0)).xyz;
     var out: BladeOut;
     out.clip = frame.view_proj * vec4<f32>(world, 1.0);
     out.world = world;

@@ -21,11 +21,10 @@ use furbake_formats::sections::keyframe_table::{Displacements, KeyframeTable, ST
 use furbake_grass::{ForceField, Interpolation};
 use wgpu::util::DeviceExt;
 
+use crate::culling::{BLOCK, BLOCKS_AT, BladeLods, CullLists, CullParams, GrassCulling, LISTS_AT, MAX_LODS};
+pub use crate::shaders::BLADES_WGSL;
 use crate::shaders::FrameUniforms;
 use crate::{PipelineCache, RenderError, TargetDesc};
-
-/// The blade shader: compute pass posing blades, instanced two-sided Lambert draw.
-pub const BLADES_WGSL: &str = include_str!("../../../shaders/blades.wgsl");
 
 /// The `BladeParams` uniform of `blades.wgsl` (binding 1).
 #[repr(C)]
@@ -89,8 +88,12 @@ pub const MAX_DELAYED_SOURCES: u32 = 8;
 pub struct BladeGpu {
     /// Root position in metres (xyz) and height scale in metres per blade length (w).
     pub root: [f32; 4],
-    /// `cos yaw`, `sin yaw`, unused, unused.
-    pub yaw: [f32; 4],
+    /// `cos yaw`, `sin yaw`.
+    pub yaw: [f32; 2],
+    /// The blade's cluster (grid cell).
+    pub cluster: u32,
+    /// Unused (alignment).
+    pub pad: u32,
     /// The four cluster corner indices.
     pub corners: [u32; 4],
     /// Their bilinear weights.
@@ -110,23 +113,36 @@ pub struct BladeSettings {
     pub color: [f32; 3],
     /// Lambert diffuse (off: unlit colour). Default true.
     pub lambert: bool,
+    /// Culling and level of detail ([`crate::culling`]). Default [`GrassCulling::default`]; a
+    /// runtime scene's `[grass_culling]`.
+    pub culling: GrassCulling,
 }
 
 impl Default for BladeSettings {
     fn default() -> Self {
-        BladeSettings { interpolation: Interpolation::Nearest, color: [0.18, 0.45, 0.08], lambert: true }
+        BladeSettings {
+            interpolation: Interpolation::Nearest,
+            color: [0.18, 0.45, 0.08],
+            lambert: true,
+            culling: GrassCulling::default(),
+        }
     }
 }
 
 /// One blade field with its keyframe table on the GPU.
 pub struct BladeRenderer {
     params: BladeParams,
-    bounds: ([f32; 3], f32),
+    /// The roots' bounding sphere and the largest height scale ([`root_bounds`]).
+    bounds: ([f32; 3], f32, f32),
     blade_count: u32,
     vertex_count: u32,
     corner_count: u32,
-    index_count: u32,
-    /// This renderer's own buffers (uniforms, forces, delayed sources).
+    cluster_count: u32,
+    /// The levels of detail (index lists, reach of any pose).
+    lods: std::sync::Arc<BladeLods>,
+    /// Culling and level of detail; off: one instanced draw of every blade at full detail.
+    culling: GrassCulling,
+    /// This renderer's own buffers (uniforms, forces, delayed sources, culling state).
     own: InstanceBuffers,
     /// `BladeParams::delayed_sources` as last uploaded.
     delayed_count: std::sync::atomic::AtomicU32,
@@ -136,39 +152,71 @@ pub struct BladeRenderer {
     out_layout: wgpu::BindGroupLayout,
     indices: wgpu::Buffer,
     /// The field's and table's static buffers (blades, keyframe payload, vertex map, reference
-    /// blade), shared with every other instance of the same field ([`BladeRenderer::instance`]).
+    /// blade, cluster bounds), shared with every other instance of the same field
+    /// ([`BladeRenderer::instance`]).
     data: BladeData,
     shared: wgpu::BindGroup,
+    /// The culling passes' bind group.
+    cull_group: wgpu::BindGroup,
     compute_pipeline: wgpu::ComputePipeline,
+    /// `cs_cull_clusters`, `cs_cull_blades`, `cs_scan_blocks`, `cs_compact`.
+    cull_pipelines: [wgpu::ComputePipeline; 4],
     /// The pass this renderer draws into.
     target: TargetDesc,
     draw_pipeline: wgpu::RenderPipeline,
 }
 
-/// One blade renderer's own buffers: frame uniforms, parameters, corner forces and the delayed
-/// wind sources with their per-corner directions.
+/// The frame uniforms and the culling parameters in one uniform buffer, so a frame uploads both
+/// with one `queue.write_buffer`: the culling parameters at byte 256, the largest uniform binding
+/// offset alignment a device may require.
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct FrameAndCull {
+    frame: FrameUniforms,
+    pad: [f32; 20],
+    cull: CullParams,
+}
+
+/// Byte offset of [`FrameAndCull::cull`].
+const CULL_OFFSET: u64 = 256;
+const _: () = assert!(std::mem::offset_of!(FrameAndCull, cull) == CULL_OFFSET as usize);
+
+/// One blade renderer's own buffers: frame uniforms, parameters, corner forces, the delayed
+/// wind sources with their per-corner directions, and the culling passes' parameters, decisions,
+/// work (indirect draw arguments and block counts) and instance lists.
 struct InstanceBuffers {
+    /// [`FrameAndCull`]: bound as the frame uniforms (binding 0) and the culling parameters.
     frame: wgpu::Buffer,
     params: wgpu::Buffer,
     forces: wgpu::Buffer,
     delayed: wgpu::Buffer,
     directions: wgpu::Buffer,
     delayed_capacity: u32,
+    /// The device's `max_compute_workgroups_per_dimension`.
+    max_groups: u32,
+    decisions: wgpu::Buffer,
+    work: wgpu::Buffer,
+    instances: wgpu::Buffer,
+}
+
+/// Sizes of the culling buffers, bytes: decisions, work, instances.
+fn cull_buffer_bytes(blades: u64, clusters: u64) -> [u64; 3] {
+    let blocks = blades.div_ceil(BLOCK as u64);
+    [(clusters + blades).max(1) * 4, (BLOCKS_AT + 4 * blocks) * 4, (LISTS_AT + blades) * 4]
 }
 
 impl InstanceBuffers {
-    fn new(device: &wgpu::Device, params: &BladeParams, corners: usize) -> InstanceBuffers {
+    fn new(device: &wgpu::Device, params: &BladeParams, corners: usize, cull: &CullParams) -> InstanceBuffers {
         let init = |label, contents: &[u8], usage| {
             device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage })
         };
         let storage = wgpu::BufferUsages::STORAGE;
         let limits = device.limits();
-        let frame = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("furbake blade frame uniforms"),
-            size: std::mem::size_of::<FrameUniforms>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
+        let frame = init(
+            "furbake blade frame uniforms",
+            bytemuck::bytes_of(&FrameAndCull { frame: FrameUniforms::default(), pad: [0.0; 20], cull: *cull }),
+            wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        );
         let params = init(
             "furbake blade params",
             bytemuck::bytes_of(params),
@@ -195,7 +243,35 @@ impl InstanceBuffers {
             bytemuck::cast_slice(&vec![[0.0f32; 2]; corners.max(1)]),
             storage | wgpu::BufferUsages::COPY_DST,
         );
-        InstanceBuffers { frame, params, forces, delayed, directions, delayed_capacity }
+        let [decisions, work, instances] = cull_buffer_bytes(cull.counts[0] as u64, cull.counts[1] as u64);
+        let buffer = |label, size, usage| {
+            device.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size, usage, mapped_at_creation: false })
+        };
+        let copy = wgpu::BufferUsages::COPY_SRC;
+        InstanceBuffers {
+            frame,
+            params,
+            forces,
+            delayed,
+            directions,
+            delayed_capacity,
+            max_groups: limits.max_compute_workgroups_per_dimension,
+            decisions: buffer("furbake blade culling decisions", decisions, storage),
+            work: buffer("furbake blade culling work", work, storage | wgpu::BufferUsages::INDIRECT | copy),
+            instances: buffer("furbake blade instance lists", instances, storage | copy),
+        }
+    }
+
+    /// The frame uniforms' part of [`InstanceBuffers::frame`].
+    fn frame_binding(&self) -> wgpu::BindingResource<'_> {
+        let size = wgpu::BufferSize::new(std::mem::size_of::<FrameUniforms>() as u64);
+        wgpu::BindingResource::Buffer(wgpu::BufferBinding { buffer: &self.frame, offset: 0, size })
+    }
+
+    /// The culling parameters' part of [`InstanceBuffers::frame`].
+    fn cull_binding(&self) -> wgpu::BindingResource<'_> {
+        let size = wgpu::BufferSize::new(std::mem::size_of::<CullParams>() as u64);
+        wgpu::BindingResource::Buffer(wgpu::BufferBinding { buffer: &self.frame, offset: CULL_OFFSET, size })
     }
 
     /// The draw's bind group: these buffers and the field's shared ones.
@@ -204,7 +280,7 @@ impl InstanceBuffers {
             label: Some("furbake blade shared"),
             layout: &pipelines.blade_layouts().shared,
             entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: self.frame.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 0, resource: self.frame_binding() },
                 wgpu::BindGroupEntry { binding: 1, resource: self.params.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 2, resource: data.blades.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 3, resource: self.forces.as_entire_binding() },
@@ -213,6 +289,24 @@ impl InstanceBuffers {
                 wgpu::BindGroupEntry { binding: 6, resource: data.reference.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 7, resource: self.delayed.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 8, resource: self.directions.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 9, resource: self.cull_binding() },
+                wgpu::BindGroupEntry { binding: 10, resource: self.instances.as_entire_binding() },
+            ],
+        })
+    }
+
+    /// The culling passes' bind group.
+    fn cull_group(&self, pipelines: &PipelineCache, data: &BladeData) -> wgpu::BindGroup {
+        pipelines.device().create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("furbake blade culling"),
+            layout: &pipelines.blade_layouts().cull,
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: self.cull_binding() },
+                wgpu::BindGroupEntry { binding: 1, resource: data.blades.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 2, resource: data.cluster_bounds.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 3, resource: self.decisions.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 4, resource: self.work.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 5, resource: self.instances.as_entire_binding() },
             ],
         })
     }
@@ -225,6 +319,8 @@ struct BladeData {
     payload: wgpu::Buffer,
     map: wgpu::Buffer,
     reference: wgpu::Buffer,
+    /// Per cluster: root bounds and tallest height scale (`culling::cluster_bounds`).
+    cluster_bounds: wgpu::Buffer,
 }
 
 /// The payload packed into u32 words (little-endian lanes) and its shader encoding code.
@@ -245,23 +341,23 @@ fn pack_payload(d: &Displacements) -> (Vec<u32>, u32) {
     }
 }
 
-/// A sphere holding every blade: the root box's centre, its half-diagonal plus the longest
-/// reference vertex distance from the root times the largest height scale (a pose keeps the blade
-/// within one blade length of its root up to the small stretch of the quantisation).
-fn field_bounds(field: &BladeField, table: &KeyframeTable) -> ([f32; 3], f32) {
+/// The blade roots' bounding sphere (the root box's centre and half-diagonal) and the largest
+/// height scale; [`BladeRenderer::bounding_sphere`] grows it by the reach of any pose.
+fn root_bounds(field: &BladeField) -> ([f32; 3], f32, f32) {
     let (mut lo, mut hi) = (glam::Vec3::splat(f32::INFINITY), glam::Vec3::splat(f32::NEG_INFINITY));
     for p in &field.positions {
         lo = lo.min(glam::Vec3::from(*p));
         hi = hi.max(glam::Vec3::from(*p));
     }
     if field.positions.is_empty() || !(lo.is_finite() && hi.is_finite()) {
-        return ([0.0; 3], 1.0);
+        return ([0.0; 3], 1.0, 0.0);
     }
-    let reach = table.reference_positions.iter().map(|p| glam::Vec3::from(*p).length()).fold(1.0f32, f32::max);
     let h = field.height_scale.iter().copied().filter(|h| h.is_finite()).fold(0.0f32, f32::max);
-    let center = (lo + hi) * 0.5;
-    let radius = (hi - lo).length() * 0.5 + reach * h * 1.05;
-    (center.to_array(), radius.max(1e-3))
+    (((lo + hi) * 0.5).to_array(), (hi - lo).length() * 0.5, h)
+}
+
+fn check_culling(culling: &GrassCulling) -> Result<(), RenderError> {
+    culling.validate().map_err(|(field, what)| RenderError::Parameter { what: format!("{field}: {what}") })
 }
 
 fn invalid(what: String) -> RenderError {
@@ -311,6 +407,7 @@ impl BladeRenderer {
         if settings.color.iter().any(|c| !c.is_finite() || *c < 0.0) {
             return Err(RenderError::Parameter { what: "blade colour must be finite and non-negative".into() });
         }
+        check_culling(&settings.culling)?;
         // The checks of `KeyframeDecoder::new`, so a hand-built table cannot index out of range.
         let g = table.grid;
         let factor = table.symmetry.factor();
@@ -355,7 +452,9 @@ impl BladeRenderer {
                 }
                 Ok(BladeGpu {
                     root: [x, y, z, field.height_scale[b]],
-                    yaw: [c, s, 0.0, 0.0],
+                    yaw: [c, s],
+                    cluster,
+                    pad: 0,
                     corners: field.grid.corner_indices(cluster),
                     weights: field.weights[b],
                 })
@@ -426,22 +525,32 @@ impl BladeRenderer {
                     table.reference_positions.iter().map(|p| [p[0], p[1], p[2], 1.0]).collect();
                 init("furbake reference blade", bytemuck::cast_slice(&nonempty(reference)), storage)
             },
+            cluster_bounds: init(
+                "furbake blade cluster bounds",
+                bytemuck::cast_slice(&crate::culling::cluster_bounds(field)),
+                storage,
+            ),
         };
-        let index_data: Vec<u32> = table.triangles.iter().flatten().copied().collect();
+        let lods = std::sync::Arc::new(BladeLods::new(table));
         let indices = init(
             "furbake blade triangles",
-            bytemuck::cast_slice(&nonempty(index_data.clone())),
+            bytemuck::cast_slice(&nonempty(lods.indices.clone())),
             wgpu::BufferUsages::INDEX,
         );
-        let own = InstanceBuffers::new(device, &params, corners);
+        let clusters = field.grid.clusters() as u32;
+        let cull = CullParams::new(&FrameUniforms::default(), &settings.culling, &lods, params.blade_count, clusters);
+        let own = InstanceBuffers::new(device, &params, corners, &cull);
         let shared = own.bind_group(pipelines, &data);
+        let cull_group = own.cull_group(pipelines, &data);
         Ok(BladeRenderer {
             params,
-            bounds: field_bounds(field, table),
+            bounds: root_bounds(field),
             blade_count: params.blade_count,
             vertex_count: vertex_count as u32,
             corner_count: corners as u32,
-            index_count: index_data.len() as u32,
+            cluster_count: clusters,
+            lods,
+            culling: settings.culling,
             own,
             delayed_count: std::sync::atomic::AtomicU32::new(0),
             grid: field.grid,
@@ -450,8 +559,10 @@ impl BladeRenderer {
             indices,
             data,
             shared,
+            cull_group,
             // One per cache, independent of the target.
             compute_pipeline: pipelines.blade_compute()?,
+            cull_pipelines: pipelines.blade_cull()?,
             target: target.clone(),
             draw_pipeline,
         })
@@ -464,15 +575,19 @@ impl BladeRenderer {
     pub fn instance(&self, pipelines: &PipelineCache) -> Result<BladeRenderer, RenderError> {
         let device = pipelines.device();
         crate::gpu_scope(device, "creating a blade renderer instance", || {
-            let own = InstanceBuffers::new(device, &self.params, self.corner_count as usize);
+            let cull = self.cull_params(&FrameUniforms::default());
+            let own = InstanceBuffers::new(device, &self.params, self.corner_count as usize, &cull);
             let shared = own.bind_group(pipelines, &self.data);
+            let cull_group = own.cull_group(pipelines, &self.data);
             Ok(BladeRenderer {
                 params: self.params,
                 bounds: self.bounds,
                 blade_count: self.blade_count,
                 vertex_count: self.vertex_count,
                 corner_count: self.corner_count,
-                index_count: self.index_count,
+                cluster_count: self.cluster_count,
+                lods: self.lods.clone(),
+                culling: self.culling,
                 own,
                 delayed_count: std::sync::atomic::AtomicU32::new(0),
                 grid: self.grid,
@@ -481,7 +596,9 @@ impl BladeRenderer {
                 indices: self.indices.clone(),
                 data: self.data.clone(),
                 shared,
+                cull_group,
                 compute_pipeline: self.compute_pipeline.clone(),
+                cull_pipelines: self.cull_pipelines.clone(),
                 target: self.target.clone(),
                 draw_pipeline: self.draw_pipeline.clone(),
             })
@@ -521,23 +638,28 @@ impl BladeRenderer {
     }
 
     /// The part of [`BladeRenderer::gpu_bytes`] every [`BladeRenderer::instance`] of one field
-    /// shares: the blades and the keyframe payload.
+    /// shares: the blades, the keyframe payload and the cluster bounds.
     pub fn shared_gpu_bytes(field: &BladeField, table: &KeyframeTable) -> u64 {
         field.blade_count() as u64 * std::mem::size_of::<BladeGpu>() as u64
             + table.stored_poses() * table.stored_vectors as u64 * 3 * 4
+            + field.grid.clusters() as u64 * 32
     }
 
-    /// The part of [`BladeRenderer::gpu_bytes`] each instance holds of its own: corner forces and
-    /// the delayed wind sources' per-corner directions.
+    /// The part of [`BladeRenderer::gpu_bytes`] each instance holds of its own: corner forces,
+    /// the delayed wind sources' per-corner directions and the culling passes' decisions, block
+    /// counts and instance lists (8 bytes per blade).
     pub fn instance_gpu_bytes(field: &BladeField) -> u64 {
         let corners = field.grid.corners() as u64;
-        corners * 8 + corners * 8 * MAX_DELAYED_SOURCES as u64
+        let culling: u64 = cull_buffer_bytes(field.blade_count() as u64, field.grid.clusters() as u64).iter().sum();
+        corners * 8 + corners * 8 * MAX_DELAYED_SOURCES as u64 + culling
     }
 
     /// Centre and radius (metres) of a sphere holding every blade in any pose (roots grown by the
     /// tallest blade's reference extent), for [`crate::View::framing`] and the near/far planes.
     pub fn bounding_sphere(&self) -> ([f32; 3], f32) {
-        self.bounds
+        let (center, radius, h) = self.bounds;
+        let widening = if self.culling.enabled { 1.0 / self.culling.min_density - 1.0 } else { 0.0 };
+        (center, (radius + (self.lods.reach + widening * self.lods.half_width) * h).max(1e-3))
     }
 
     /// Number of blades.
@@ -743,28 +865,127 @@ impl BladeRenderer {
         &self.target
     }
 
-    /// Writes `frame` (the host's view-projection, eye and light, and the field's model matrix,
-    /// e.g. from [`crate::View::uniforms_with_model`] or [`FrameUniforms::new`]) into this
-    /// renderer's uniform buffer with `queue.write_buffer`. The draw poses every blade in its
-    /// vertex shader from the corner forces last written, so nothing is recorded into `encoder`
-    /// today (it is where a culling pass will go). Call once per frame before the host's render
-    /// pass; one model matrix per renderer per submission. The model matrix moves the drawn
-    /// blades only; [`BladeRenderer::read_positions`] stays in the pack frame. Does not submit,
-    /// wait or allocate.
-    pub fn prepare(&self, queue: &wgpu::Queue, _encoder: &mut wgpu::CommandEncoder, frame: &FrameUniforms) {
-        queue.write_buffer(&self.own.frame, 0, bytemuck::bytes_of(frame));
+    /// This renderer's culling and level-of-detail settings.
+    pub fn culling(&self) -> &GrassCulling {
+        &self.culling
     }
 
-    /// Draws every blade instanced into the host's `pass`, whose attachments must match
-    /// [`BladeRenderer::target`]. Sets its own pipeline, bind group 0 and index buffer. Does not
-    /// submit, wait or allocate.
-    pub fn render(&self, pass: &mut wgpu::RenderPass<'_>) {
-        if self.blade_count > 0 && self.index_count > 0 {
-            pass.set_pipeline(&self.draw_pipeline);
-            pass.set_bind_group(0, &self.shared, &[]);
-            pass.set_index_buffer(self.indices.slice(..), wgpu::IndexFormat::Uint32);
-            pass.draw_indexed(0..self.index_count, 0, 0..self.blade_count);
+    /// Changes the culling and level-of-detail settings from the next frame on (fails on a value
+    /// out of range, see [`GrassCulling::validate`]). With culling switched off, writes the
+    /// parameters the draw reads once here (`queue.write_buffer`), so frames upload nothing for it.
+    pub fn set_culling(&mut self, queue: &wgpu::Queue, culling: GrassCulling) -> Result<(), RenderError> {
+        check_culling(&culling)?;
+        self.culling = culling;
+        if !culling.enabled {
+            let params = self.cull_params(&FrameUniforms::default());
+            queue.write_buffer(&self.own.frame, CULL_OFFSET, bytemuck::bytes_of(&params));
         }
+        Ok(())
+    }
+
+    /// Levels of detail of this field's blade (index lists, segments per level, reach of any pose).
+    pub fn lods(&self) -> &BladeLods {
+        &self.lods
+    }
+
+    /// The culling parameters of `frame` (what [`BladeRenderer::prepare`] uploads).
+    pub fn cull_params(&self, frame: &FrameUniforms) -> CullParams {
+        CullParams::new(frame, &self.culling, &self.lods, self.blade_count, self.cluster_count)
+    }
+
+    /// Writes `frame` (the host's view-projection, eye and light, and the field's model matrix,
+    /// e.g. from [`crate::View::uniforms_with_model`] or [`FrameUniforms::new`]) into this
+    /// renderer's uniform buffer with one `queue.write_buffer` (with culling on, together with the
+    /// frame's culling parameters), and records the culling passes into `encoder` (one compute pass, four
+    /// dispatches: clusters, blades, block offsets, compaction into one instance list per level of
+    /// detail; see [`crate::culling`]). Call once per frame before the host's render pass; one
+    /// model matrix per renderer per submission. The model matrix moves the drawn blades only;
+    /// [`BladeRenderer::read_positions`] stays in the pack frame. Does not submit, wait or
+    /// allocate.
+    pub fn prepare(&self, queue: &wgpu::Queue, encoder: &mut wgpu::CommandEncoder, frame: &FrameUniforms) {
+        if !self.culling.enabled || self.blade_count == 0 || self.lods.index_count[0] == 0 {
+            queue.write_buffer(&self.own.frame, 0, bytemuck::bytes_of(frame));
+            return;
+        }
+        let both = FrameAndCull { frame: *frame, pad: [0.0; 20], cull: self.cull_params(frame) };
+        queue.write_buffer(&self.own.frame, 0, bytemuck::bytes_of(&both));
+        let max = self.own.max_groups;
+        let grid = |groups: u32| if groups <= max { (groups, 1) } else { (max, groups.div_ceil(max)) };
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("furbake blade culling"),
+            timestamp_writes: None,
+        });
+        pass.set_bind_group(0, &self.cull_group, &[]);
+        let blocks = grid(self.blade_count.div_ceil(BLOCK));
+        for (pipeline, (x, y)) in
+            self.cull_pipelines.iter().zip([grid(self.cluster_count.div_ceil(64)), blocks, (1, 1), blocks])
+        {
+            pass.set_pipeline(pipeline);
+            pass.dispatch_workgroups(x, y, 1);
+        }
+    }
+
+    /// Draws the blades into the host's `pass`, whose attachments must match
+    /// [`BladeRenderer::target`]: with culling on, one `draw_indexed_indirect` per level of detail
+    /// from the instance lists [`BladeRenderer::prepare`] recorded; off, every blade instanced at
+    /// full detail. Sets its own pipeline, bind group 0 and index buffer. Does not submit, wait or
+    /// allocate.
+    pub fn render(&self, pass: &mut wgpu::RenderPass<'_>) {
+        if self.blade_count == 0 || self.lods.index_count[0] == 0 {
+            return;
+        }
+        pass.set_pipeline(&self.draw_pipeline);
+        pass.set_bind_group(0, &self.shared, &[]);
+        pass.set_index_buffer(self.indices.slice(..), wgpu::IndexFormat::Uint32);
+        if self.culling.enabled {
+            for l in 0..self.lods.count as u64 {
+                pass.draw_indexed_indirect(&self.own.work, l * 20);
+            }
+        } else {
+            pass.draw_indexed(0..self.lods.index_count[0], 0, 0..self.blade_count);
+        }
+    }
+
+    /// Reads back the instance lists of the last frame's culling passes and checks them against
+    /// the indirect draw arguments (waits for the GPU). For tests and tools.
+    pub fn read_culling(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<CullLists, RenderError> {
+        let words = |buffer: &wgpu::Buffer, count: u64, what: &str| -> Result<Vec<u32>, RenderError> {
+            let staging = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("furbake blade culling readback"),
+                size: count * 4,
+                usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+                mapped_at_creation: false,
+            });
+            let mut encoder = device
+                .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("furbake culling readback") });
+            encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, count * 4);
+            crate::blocking::submit(queue, [encoder.finish()]);
+            crate::headless::map_for_reading(device, &staging, what)?;
+            let out = {
+                let view = staging.get_mapped_range(..).map_err(|e| RenderError::Gpu { what: e.to_string() })?;
+                bytemuck::cast_slice(&view).to_vec()
+            };
+            staging.unmap();
+            Ok(out)
+        };
+        let args = words(&self.own.work, 20, "culling draw arguments")?;
+        let lists = words(&self.own.instances, LISTS_AT + self.blade_count as u64, "culling instance lists")?;
+        let mut out = CullLists::default();
+        for l in 0..MAX_LODS.min(self.lods.count as usize) {
+            let start = lists[l] as usize;
+            let count = args[5 * l + 1] as usize;
+            let from = LISTS_AT as usize + start;
+            let Some(list) = lists.get(from..from + count) else {
+                return Err(RenderError::Gpu { what: format!("LOD {l}: {count} blades from {start} pass the list") });
+            };
+            if args[5 * l] != self.lods.index_count[l] || args[5 * l + 2] != self.lods.first_index[l] {
+                return Err(RenderError::Gpu {
+                    what: format!("LOD {l}: draw arguments {:?}", &args[5 * l..5 * l + 5]),
+                });
+            }
+            out.lods[l] = list.to_vec();
+        }
+        Ok(out)
     }
 
     /// Reads back the positions of the last compute pass: `blades × vertices` world positions in
@@ -882,6 +1103,8 @@ mod tests {
         let blade = [
             ("root", offset_of!(BladeGpu, root)),
             ("yaw", offset_of!(BladeGpu, yaw)),
+            ("cluster", offset_of!(BladeGpu, cluster)),
+            ("pad", offset_of!(BladeGpu, pad)),
             ("corners", offset_of!(BladeGpu, corners)),
             ("weights", offset_of!(BladeGpu, weights)),
         ];
@@ -891,6 +1114,46 @@ mod tests {
             ("params", offset_of!(DelayedSourceGpu, params)),
         ];
         check_layout(&module, "DelayedSource", size_of::<DelayedSourceGpu>(), &delayed);
+        use crate::culling::CullParams as C;
+        let cull = [
+            ("planes", offset_of!(C, planes)),
+            ("eye", offset_of!(C, eye)),
+            ("lod", offset_of!(C, lod)),
+            ("distance", offset_of!(C, distance)),
+            ("shape", offset_of!(C, shape)),
+            ("index_count", offset_of!(C, index_count)),
+            ("first_index", offset_of!(C, first_index)),
+            ("counts", offset_of!(C, counts)),
+        ];
+        check_layout(&module, "CullParams", size_of::<C>(), &cull);
+        // The culling shader declares the same structs (one prepended file).
+        let culling = naga::front::wgsl::parse_str(crate::shaders::BLADE_CULL_WGSL)
+            .unwrap_or_else(|e| panic!("blade_cull.wgsl: {}", e.emit_to_string(crate::shaders::BLADE_CULL_WGSL)));
+        check_layout(&culling, "CullParams", size_of::<C>(), &cull);
+        check_layout(&culling, "Blade", size_of::<BladeGpu>(), &blade);
+    }
+
+    #[test]
+    fn the_culling_shader_parses_and_validates() {
+        let source = crate::shaders::BLADE_CULL_WGSL;
+        let module = naga::front::wgsl::parse_str(source)
+            .unwrap_or_else(|e| panic!("blade_cull.wgsl: {}", e.emit_to_string(source)));
+        naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::empty())
+            .validate(&module)
+            .unwrap_or_else(|e| panic!("blade_cull.wgsl: {}", e.emit_to_string(source)));
+        let mut entry_points: Vec<(&str, [u32; 3])> =
+            module.entry_points.iter().map(|e| (e.name.as_str(), e.workgroup_size)).collect();
+        entry_points.sort();
+        let block = crate::culling::BLOCK;
+        assert_eq!(
+            entry_points,
+            [
+                ("cs_compact", [block, 1, 1]),
+                ("cs_cull_blades", [block, 1, 1]),
+                ("cs_cull_clusters", [64, 1, 1]),
+                ("cs_scan_blocks", [block, 1, 1]),
+            ]
+        );
     }
 
     #[test]

@@ -114,6 +114,7 @@
 mod asset;
 pub mod blades;
 mod blocking;
+pub mod culling;
 mod headless;
 mod pipelines;
 mod renderer;
@@ -130,6 +131,7 @@ pub use asset::FurAsset;
 pub use blades::{BladeRenderer, BladeSettings};
 #[doc(hidden)]
 pub use blocking::blocking_calls_on_this_thread;
+pub use culling::{CullLists, CullReference, GrassCulling};
 /// How scale vectors are indexed (re-exported from `furbake_runtime`, which produces them).
 pub use furbake_runtime::ShellVertexLayout;
 pub use headless::{

@@ -90,8 +90,11 @@ pub(crate) struct SilhouetteLayouts {
 pub(crate) struct BladeLayouts {
     pub shared: wgpu::BindGroupLayout,
     pub out: wgpu::BindGroupLayout,
+    /// The culling passes' group (`blade_cull.wgsl`).
+    pub cull: wgpu::BindGroupLayout,
     draw: wgpu::PipelineLayout,
     compute: wgpu::PipelineLayout,
+    cull_pipeline: wgpu::PipelineLayout,
 }
 
 struct Inner {
@@ -108,6 +111,8 @@ struct Inner {
     fin_module: OnceLock<wgpu::ShaderModule>,
     blade_module: OnceLock<wgpu::ShaderModule>,
     blade_compute: Mutex<Option<wgpu::ComputePipeline>>,
+    blade_cull_module: OnceLock<wgpu::ShaderModule>,
+    blade_cull: Mutex<Option<[wgpu::ComputePipeline; 4]>>,
     render: Mutex<HashMap<PipelineKey, wgpu::RenderPipeline>>,
     /// Target descriptions already validated (with and without blending).
     validated: Mutex<Vec<(TargetDesc, bool)>>,
@@ -165,6 +170,8 @@ impl PipelineCache {
                 fin_module: OnceLock::new(),
                 blade_module: OnceLock::new(),
                 blade_compute: Mutex::new(None),
+                blade_cull_module: OnceLock::new(),
+                blade_cull: Mutex::new(None),
                 render: Mutex::new(HashMap::new()),
                 validated: Mutex::new(Vec::new()),
             }),
@@ -289,6 +296,36 @@ impl PipelineCache {
         })?;
         *slot = Some(pipeline.clone());
         Ok(pipeline)
+    }
+
+    /// The blade culling passes (`cs_cull_clusters`, `cs_cull_blades`, `cs_scan_blocks`,
+    /// `cs_compact`), independent of any target.
+    pub(crate) fn blade_cull(&self) -> Result<[wgpu::ComputePipeline; 4], RenderError> {
+        let mut slot = lock(&self.inner.blade_cull);
+        if let Some(p) = slot.as_ref() {
+            return Ok(p.clone());
+        }
+        let device = &self.inner.device;
+        let pipelines = crate::gpu_scope(device, "creating the blade culling pipelines", || {
+            let module = self.inner.blade_cull_module.get_or_init(|| {
+                device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                    label: Some("furbake blade culling"),
+                    source: wgpu::ShaderSource::Wgsl(crate::shaders::BLADE_CULL_WGSL.into()),
+                })
+            });
+            Ok(["cs_cull_clusters", "cs_cull_blades", "cs_scan_blocks", "cs_compact"].map(|entry| {
+                device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                    label: Some(entry),
+                    layout: Some(&self.inner.blade_layouts.cull_pipeline),
+                    module,
+                    entry_point: Some(entry),
+                    compilation_options: Default::default(),
+                    cache: None,
+                })
+            }))
+        })?;
+        *slot = Some(pipelines.clone());
+        Ok(pipelines)
     }
 
     fn module(&self, which: Module) -> &wgpu::ShaderModule {
@@ -532,7 +569,29 @@ fn blade_layouts(device: &wgpu::Device) -> BladeLayouts {
             entry(6, ro, all),
             entry(7, ro, all),
             entry(8, ro, all),
+            // The culling parameters and the instance lists (the draw's only; the posing compute
+            // pass stays within eight storage buffers per stage with its output).
+            entry(9, uniform, wgpu::ShaderStages::VERTEX),
+            entry(10, ro, wgpu::ShaderStages::VERTEX),
         ],
+    });
+    let rw = wgpu::BufferBindingType::Storage { read_only: false };
+    let c = wgpu::ShaderStages::COMPUTE;
+    let cull = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("furbake blade culling layout"),
+        entries: &[
+            entry(0, uniform, c),
+            entry(1, ro, c),
+            entry(2, ro, c),
+            entry(3, rw, c),
+            entry(4, rw, c),
+            entry(5, rw, c),
+        ],
+    });
+    let cull_pipeline = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("furbake blade culling layout"),
+        bind_group_layouts: &[Some(&cull)],
+        immediate_size: 0,
     });
     let out = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("furbake blade positions out layout"),
@@ -548,5 +607,5 @@ fn blade_layouts(device: &wgpu::Device) -> BladeLayouts {
         bind_group_layouts: &[Some(&shared)],
         immediate_size: 0,
     });
-    BladeLayouts { shared, out, draw, compute }
+    BladeLayouts { shared, out, cull, draw, compute, cull_pipeline }
 }

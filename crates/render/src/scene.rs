@@ -313,7 +313,8 @@ impl SceneRenderer {
     /// mesh + shell atlas + UV map, fins, skin weights and morph targets when present; an animated
     /// pack's renderer owns a skinning pass, posed from the world's animation by
     /// [`SceneRenderer::prepare_world`] and in its bind pose until then) and its blade field, with
-    /// the shader features the scene's effects need ([`RenderSettings::for_scene`]), every
+    /// the shader features the scene's effects need ([`RenderSettings::for_scene`]) and the
+    /// scene's `[grass_culling]` for the blades, every
     /// renderer drawing into passes like `target` with pipelines from `pipelines` (packs with the
     /// same settings share them). A pack with neither fur nor blades is an
     /// [`RenderError::InvalidAsset`].
@@ -351,7 +352,10 @@ impl SceneRenderer {
             let first = (0..i).find(|&j| std::sync::Arc::ptr_eq(world.pack(j), pack));
             let blades = match first.and_then(|j| packs.get(j)).and_then(|p: &PackRenderers| p.blades.as_ref()) {
                 Some(earlier) => Some(earlier.instance(pipelines)?),
-                None => BladeRenderer::from_pack(pipelines, queue, pack, &BladeSettings::default(), target)?,
+                None => {
+                    let blade_settings = BladeSettings { culling: scene.grass_culling, ..BladeSettings::default() };
+                    BladeRenderer::from_pack(pipelines, queue, pack, &blade_settings, target)?
+                }
             };
             if fur.is_none() && blades.is_none() {
                 return Err(RenderError::InvalidAsset {

@@ -32,6 +32,18 @@ pub const SKINNING_WGSL: &str = include_str!("../../../shaders/skinning.wgsl");
 pub const SILHOUETTE_WGSL: &str =
     concat!(include_str!("../../../shaders/silhouette_common.wgsl"), include_str!("../../../shaders/silhouette.wgsl"));
 
+/// Grass blades (grass thesis §3.2.5–3.2.6, §4.2): the `cs_blades` compute entry point posing
+/// every blade for readback and the instanced draw (`vs_blade`, `fs_blade`) from the culling
+/// passes' instance lists ([`crate::blades`]). `grass_common.wgsl` (the blade instance, the
+/// culling parameters, the per-blade random numbers) is prepended.
+pub const BLADES_WGSL: &str =
+    concat!(include_str!("../../../shaders/grass_common.wgsl"), include_str!("../../../shaders/blades.wgsl"));
+/// The blade culling passes (issue 14, grass thesis §5.3): clusters, blades, block offsets and
+/// compaction into one instance list per level of detail ([`crate::culling`]), with
+/// `grass_common.wgsl` prepended.
+pub const BLADE_CULL_WGSL: &str =
+    concat!(include_str!("../../../shaders/grass_common.wgsl"), include_str!("../../../shaders/blade_cull.wgsl"));
+
 /// Per-frame uniforms (`Frame` in every shader; binding 0).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]

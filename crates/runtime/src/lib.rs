@@ -91,7 +91,9 @@ pub use frame::{
     GRASS_FORCE_PER_M_PER_S,
 };
 pub use furbake_formats::Pack;
-pub use scene::{Camera, Effect, Effects, Event, Light, Scene, SceneError, ScenePack, Solver, SolverChoice};
+pub use scene::{
+    Camera, Effect, Effects, Event, GrassCulling, Light, Scene, SceneError, ScenePack, Solver, SolverChoice,
+};
 pub use stages::{PlannedStage, StageKind, StageStats};
 pub use world::{FurFrame, GrassFrame, MAX_MASS_UPDATES_PER_STEP, PackState, ShellVertexLayout, World, WorldOptions};
 

@@ -104,6 +104,98 @@ pub struct Scene {
     /// first step that starts at or after their time, in file order among equal times.
     #[serde(default)]
     pub events: Vec<Event>,
+    /// How grass blades are culled and simplified with distance (`[grass_culling]`). Default:
+    /// [`GrassCulling::default`].
+    #[serde(default)]
+    pub grass_culling: GrassCulling,
+}
+
+/// How many blades the renderer draws, and at what detail (grass thesis §5.3 and ch. 7; Jahrmann
+/// & Wimmer 2017): the blade field's clusters are culled against the view frustum and
+/// `max_distance_m`, then each blade by orientation, by the frustum (padded for any pose) and by
+/// distance thinning, and the survivors are drawn at one of three levels of detail (every
+/// segment, every second node, every fourth node). Distances are world metres from the eye to the
+/// blade root.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct GrassCulling {
+    /// Cull and simplify at all. Off: every blade at full detail, one instanced draw. Default on.
+    pub enabled: bool,
+    /// Blades farther than this are not drawn, metres, in (0, 1e6]. Default 150.
+    pub max_distance_m: f32,
+    /// Where the half-segment and quarter-segment levels of detail start, metres, increasing,
+    /// each in (0, 1e6]. Default `[10, 30]`.
+    pub lod_distances_m: [f32; 2],
+    /// Width of the band around each LOD distance over which blades switch level one by one (a
+    /// fixed random threshold per blade), as a fraction of that distance, in [0, 1]. Default 0.2.
+    pub lod_transition: f32,
+    /// Beyond this distance a blade is kept with probability `(thinning_start_m / d)²` (at least
+    /// `min_density`) and drawn wider by the inverse, so the field's coverage stays the same
+    /// while the number of blades per pixel stays constant; metres, in (0, 1e6]. Default 20.
+    pub thinning_start_m: f32,
+    /// Smallest fraction of blades thinning keeps, in (0, 1]. Default 0.25.
+    pub min_density: f32,
+    /// Blades seen so nearly edge-on that their projected width is below this fraction of their
+    /// width are culled, in [0, 1). Default 0.1.
+    pub min_visible_width: f32,
+}
+
+impl Default for GrassCulling {
+    fn default() -> Self {
+        GrassCulling {
+            enabled: true,
+            max_distance_m: 150.0,
+            lod_distances_m: [10.0, 30.0],
+            lod_transition: 0.2,
+            thinning_start_m: 20.0,
+            min_density: 0.25,
+            min_visible_width: 0.1,
+        }
+    }
+}
+
+impl GrassCulling {
+    /// No culling and no simplification: every blade at full detail.
+    pub fn off() -> Self {
+        GrassCulling { enabled: false, ..GrassCulling::default() }
+    }
+
+    /// Only what cannot change the image: clusters and blades outside the frustum or beyond
+    /// `max_distance_m` (default 1e6 m here) are culled; no orientation culling, no thinning, every
+    /// blade at full detail.
+    pub fn frustum_only() -> Self {
+        GrassCulling {
+            enabled: true,
+            max_distance_m: 1e6,
+            lod_distances_m: [1e6, 1e6],
+            lod_transition: 0.0,
+            thinning_start_m: 1e6,
+            min_density: 1.0,
+            min_visible_width: 0.0,
+        }
+    }
+
+    /// Checks every value's range; the error names the key (`grass_culling.min_density`) and
+    /// what is wrong.
+    pub fn validate(&self) -> Result<(), (String, String)> {
+        let f = |k: &str| format!("grass_culling.{k}");
+        range(self.max_distance_m, 1e-6, 1e6, &f("max_distance_m"))?;
+        for d in self.lod_distances_m {
+            range(d, 1e-6, 1e6, &f("lod_distances_m"))?;
+        }
+        if self.lod_distances_m[1] < self.lod_distances_m[0] {
+            return Err((f("lod_distances_m"), "must not decrease".into()));
+        }
+        range(self.lod_transition, 0.0, 1.0, &f("lod_transition"))?;
+        range(self.thinning_start_m, 1e-6, 1e6, &f("thinning_start_m"))?;
+        if !(self.min_density.is_finite() && self.min_density > 0.0 && self.min_density <= 1.0) {
+            return Err((f("min_density"), format!("{} is not in (0, 1]", self.min_density)));
+        }
+        if !(self.min_visible_width.is_finite() && (0.0..1.0).contains(&self.min_visible_width)) {
+            return Err((f("min_visible_width"), format!("{} is not in [0, 1)", self.min_visible_width)));
+        }
+        Ok(())
+    }
 }
 
 fn default_time_step() -> f32 {
@@ -890,6 +982,7 @@ impl Scene {
             }
         }
         self.check_effects()?;
+        self.grass_culling.validate()?;
         let e = &self.effects;
         for (i, event) in self.events.iter().enumerate() {
             let f = |k: &str| format!("events[{i}].{k}");

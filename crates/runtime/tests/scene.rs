@@ -4,7 +4,7 @@
 use std::path::Path;
 
 use furbake_runtime::scene::{Collider, SolverChoice};
-use furbake_runtime::{Effect, Event, Scene, SceneError, Solver};
+use furbake_runtime::{Effect, Event, GrassCulling, Scene, SceneError, Solver};
 
 fn scenes_dir() -> &'static Path {
     Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/scenes"))
@@ -59,6 +59,9 @@ fn every_effect_parses() {
     assert!(scene.effects.wind_sources[0].delayed_attenuation);
     assert_eq!(scene.effects.interaction.unwrap().position, Some([0.0, 0.3, 0.0]));
     assert_eq!(scene.effects.wrong_side_guard.unwrap().impulse_m_per_s, 0.1);
+    let culling = scene.grass_culling;
+    assert_eq!((culling.max_distance_m, culling.lod_distances_m, culling.min_density), (60.0, [4.0, 12.0], 0.5));
+    assert_eq!(culling.thinning_start_m, GrassCulling::default().thinning_start_m, "unset keys keep their defaults");
 }
 
 #[test]
@@ -68,6 +71,7 @@ fn minimal_scene_has_no_effects_and_defaults() {
     assert_eq!(scene.solver, Solver { kind: SolverChoice::Auto, implicit_iterations: 1, ..Solver::default() });
     assert!(scene.events.is_empty() && scene.duration_s.is_none());
     assert!(scene.camera.is_none());
+    assert_eq!(scene.grass_culling, GrassCulling::default());
     assert!((scene.time_step_s - 1.0 / 60.0).abs() < 1e-9);
     assert_eq!(scene.packs[0].path, Path::new("/base/a.fbk"));
 }
@@ -132,6 +136,11 @@ fn out_of_range_values_name_their_key() {
             format!("{MINIMAL}[[packs.motion]]\ntime_s = 1.0\n[[packs.motion]]\ntime_s = 1.0\n"),
             "packs[0].motion[1].time_s",
         ),
+        (format!("{MINIMAL}[grass_culling]\nmin_density = 0.0\n"), "grass_culling.min_density"),
+        (format!("{MINIMAL}[grass_culling]\nlod_distances_m = [30.0, 10.0]\n"), "grass_culling.lod_distances_m"),
+        (format!("{MINIMAL}[grass_culling]\nmax_distance_m = -5.0\n"), "grass_culling.max_distance_m"),
+        (format!("{MINIMAL}[grass_culling]\nmin_visible_width = 1.0\n"), "grass_culling.min_visible_width"),
+        (format!("{MINIMAL}[grass_culling]\nlod_transition = nan\n"), "grass_culling.lod_transition"),
     ];
     for (text, key) in &cases {
         match parse(text) {
@@ -139,7 +148,7 @@ fn out_of_range_values_name_their_key() {
             other => panic!("expected {key} to be rejected in {text:?}, got {other:?}"),
         }
     }
-    assert_eq!(cases.len(), 15);
+    assert_eq!(cases.len(), 20);
 }
 
 #[test]

@@ -1,0 +1,374 @@
+//! Grass culling and level of detail (issue 14; grass thesis §5.3; `shaders/blade_cull.wgsl`)
+//! read back from the GPU against the CPU reference (`CullReference`) and against independent
+//! checks in f64: for fixed cameras the instance lists per level of detail are the reference's
+//! blade for blade (blades whose decision rests within a relative 1e-5 of a threshold excepted,
+//! and counted); no blade outside the view frustum is drawn (its box of any pose transformed to
+//! clip space lies outside one clip plane); culling only by the frustum loses no blade that has a
+//! posed vertex in view and draws the same image as no culling, byte for byte; levels change only
+//! inside their dither bands; with every mechanism on, the image stays close to the unculled one
+//! where blades are visible. Runs on whatever adapter the machine has (lavapipe without a GPU).
+
+use std::sync::OnceLock;
+
+use furbake_formats::sections::blade_field::BladeField;
+use furbake_formats::sections::keyframe_table::{CompressionStages, DisplacementEncoding, KeyframeTable, Symmetry};
+use furbake_grass::keyframes::PoseGridSettings;
+use furbake_grass::{
+    BladeFieldSettings, BladeMaterial, BladeShape, ForceField, ForceScene, Interpolation, KeyframeDecoder,
+    build_reference_blade, compress_poses, ground_grid_mesh, scatter_blades, simulate_poses,
+};
+use furbake_render::shaders::FrameUniforms;
+use furbake_render::{
+    BladeRenderer, BladeSettings, CullLists, CullReference, GrassCulling, HeadlessGpu, RenderTarget, View, read_back,
+};
+use furbake_runtime::Camera;
+use glam::{DMat4, DVec4, Mat4, Vec2, Vec3};
+use image::RgbaImage;
+
+const WIDTH: u32 = 320;
+const HEIGHT: u32 = 200;
+
+fn gpu() -> &'static HeadlessGpu {
+    static GPU: OnceLock<HeadlessGpu> = OnceLock::new();
+    GPU.get_or_init(|| {
+        HeadlessGpu::new().unwrap_or_else(|e| panic!("culling tests need a wgpu adapter and found none: {e}"))
+    })
+}
+
+/// The default 8-segment blade over 100 poses, snorm16.
+fn table() -> &'static KeyframeTable {
+    static TABLE: OnceLock<KeyframeTable> = OnceLock::new();
+    TABLE.get_or_init(|| {
+        let grid = PoseGridSettings { poses: 100, ..Default::default() }.resolve(Symmetry::XZ).unwrap();
+        let blade = build_reference_blade(&BladeShape::default()).unwrap();
+        let poses = simulate_poses(&blade, &BladeMaterial::default(), grid).unwrap();
+        let stages = CompressionStages { drop_static_vertices: true, rigid_segment_pairs: true };
+        compress_poses(&poses, Symmetry::XZ, stages, DisplacementEncoding::Snorm16).unwrap()
+    })
+}
+
+/// A 30 m × 30 m field centred on the origin, 30 blades/m² (≈ 27,000 blades), 1 m clusters.
+fn field() -> &'static BladeField {
+    static FIELD: OnceLock<BladeField> = OnceLock::new();
+    FIELD.get_or_init(|| {
+        let settings = BladeFieldSettings { density_per_m2: 30.0, cluster_size_m: 1.0, ..Default::default() };
+        let mut field = scatter_blades(&ground_grid_mesh([30.0, 30.0], [30, 30]), &settings).unwrap();
+        assert!((20_000..35_000).contains(&field.blade_count()), "{} blades", field.blade_count());
+        // Taller blades than the default so they are visible from across the field.
+        for h in &mut field.height_scale {
+            *h *= 2.0;
+        }
+        field
+    })
+}
+
+/// Every mechanism within the field's 30 m: LOD 1 from 5 m, LOD 2 from 12 m, thinning from
+/// 8 m, nothing beyond 22 m.
+fn tight() -> GrassCulling {
+    GrassCulling {
+        max_distance_m: 22.0,
+        lod_distances_m: [5.0, 12.0],
+        lod_transition: 0.3,
+        thinning_start_m: 8.0,
+        min_density: 0.25,
+        ..GrassCulling::default()
+    }
+}
+
+fn wind() -> ForceField {
+    let mut forces = ForceField::new(field().grid);
+    forces.update(&ForceScene { global_wind: Vec2::new(1.2, 0.5), ..ForceScene::default() });
+    forces
+}
+
+fn renderer(culling: GrassCulling) -> BladeRenderer {
+    let settings = BladeSettings { culling, ..BladeSettings::default() };
+    let r = BladeRenderer::new(gpu().pipelines(), &gpu().queue, field(), table(), &settings, &RenderTarget::desc())
+        .unwrap();
+    r.set_force_field(&gpu().queue, &wind()).unwrap();
+    r
+}
+
+fn view(eye: [f32; 3], target: [f32; 3]) -> View {
+    let mut v = View::framing([0.0, 0.5, 0.0], 22.0);
+    v.camera = Camera { eye, target, up: [0.0, 1.0, 0.0], fov_y_deg: 50.0 };
+    v
+}
+
+/// Named cameras with their model matrices: at eye height across the field, looking down on a
+/// corner, looking away from the field, and the field placed elsewhere rotated and scaled.
+fn cameras() -> Vec<(&'static str, View, Mat4)> {
+    let placed = Mat4::from_translation(Vec3::new(100.0, 2.0, -40.0))
+        * Mat4::from_rotation_y(35f32.to_radians())
+        * Mat4::from_scale(Vec3::splat(1.5));
+    let placed_eye = placed.transform_point3(Vec3::new(-4.0, 1.0, -14.0));
+    let placed_target = placed.transform_point3(Vec3::new(2.0, 0.0, 6.0));
+    vec![
+        ("eye height", view([0.0, 1.7, -16.0], [0.0, 0.2, 6.0]), Mat4::IDENTITY),
+        ("from above", view([8.0, 9.0, 6.0], [9.0, 0.0, 9.0]), Mat4::IDENTITY),
+        ("looking away", view([0.0, 1.0, -20.0], [0.0, 1.0, -40.0]), Mat4::IDENTITY),
+        (
+            "placed",
+            {
+                let mut v = view(placed_eye.to_array(), placed_target.to_array());
+                // Near and far planes around the placed field.
+                v.bounds_center = placed.transform_point3(Vec3::new(0.0, 0.5, 0.0)).to_array();
+                v.bounds_radius = 22.0 * 1.5;
+                v
+            },
+            placed,
+        ),
+    ]
+}
+
+fn frame(view: &View, model: Mat4) -> FrameUniforms {
+    view.uniforms_with_model(WIDTH as f32 / HEIGHT as f32, model)
+}
+
+/// Renders one frame of `r` (clear to black) and reads back the image.
+fn draw(r: &BladeRenderer, frame: &FrameUniforms) -> RgbaImage {
+    let (device, queue) = (&gpu().device, &gpu().queue);
+    let target = RenderTarget::new(device, WIDTH, HEIGHT).unwrap();
+    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("test frame") });
+    r.prepare(queue, &mut encoder, frame);
+    r.render(&mut target.begin_pass(&mut encoder, "test pass", Some([0.0, 0.0, 0.0, 1.0])));
+    queue.submit([encoder.finish()]);
+    read_back(device, queue, &target).unwrap()
+}
+
+/// GPU lists equal the reference's except for blades near a threshold, which may sit in either.
+fn assert_lists_match(gpu: &CullLists, cpu: &CullLists, near: &[u32], what: &str) {
+    for l in 0..3 {
+        let (g, c) = (&gpu.lods[l], &cpu.lods[l]);
+        assert!(g.windows(2).all(|w| w[0] < w[1]), "{what}: LOD {l} list is not in blade order");
+        let only_gpu: Vec<u32> = g.iter().filter(|b| c.binary_search(b).is_err()).copied().collect();
+        let only_cpu: Vec<u32> = c.iter().filter(|b| g.binary_search(b).is_err()).copied().collect();
+        let unexplained: Vec<&u32> = only_gpu.iter().chain(&only_cpu).filter(|b| !near.contains(b)).collect();
+        assert!(
+            unexplained.is_empty(),
+            "{what}: LOD {l}: {} blades only on the GPU, {} only on the CPU, not near a threshold: {unexplained:?}",
+            only_gpu.len(),
+            only_cpu.len()
+        );
+    }
+}
+
+#[test]
+fn gpu_instance_lists_equal_the_cpu_reference_for_fixed_cameras() {
+    let reference = CullReference::new(field(), table());
+    for culling in [tight(), GrassCulling::default(), GrassCulling::frustum_only()] {
+        let r = renderer(culling);
+        for (name, view, model) in cameras() {
+            let f = frame(&view, model);
+            draw(&r, &f);
+            let got = r.read_culling(&gpu().device, &gpu().queue).unwrap();
+            let want = reference.classify(&f, &culling);
+            let what = format!("{name}, {culling:?}");
+            assert_lists_match(&got, &want.lists, &want.near_boundary, &what);
+            let (g, c) = (got.counts(), want.lists.counts());
+            println!(
+                "{name}: {} clusters visible of {}, drawn per LOD GPU {g:?} CPU {c:?} of {} blades, {} near a threshold",
+                want.visible_clusters,
+                field().grid.clusters(),
+                field().blade_count(),
+                want.near_boundary.len()
+            );
+            for l in 0..3 {
+                assert!(g[l].abs_diff(c[l]) <= want.near_boundary.len(), "{what}: LOD {l} counts {g:?} vs {c:?}");
+            }
+            match name {
+                "looking away" => assert_eq!(got.drawn(), 0, "{what}: blades behind the camera were drawn"),
+                "eye height" | "placed" if culling == tight() => {
+                    // Every mechanism at work: all three levels, and most blades culled.
+                    assert!(g.iter().all(|&n| n > 100), "{what}: {g:?}");
+                    assert!(got.drawn() * 3 < field().blade_count(), "{what}: {g:?}");
+                }
+                _ => assert!(got.drawn() > 500, "{what}: {g:?}"),
+            }
+        }
+    }
+}
+
+/// The corners of a box holding every pose of blade `b` (root ± reach × height, widened as
+/// thinning may widen it), in the pack frame.
+fn blade_box(b: usize, reach: f64) -> [DVec4; 8] {
+    let f = field();
+    let [x, y, z] = f.positions[b].map(f64::from);
+    let r = reach * f.height_scale[b] as f64;
+    std::array::from_fn(|k| {
+        let s = |bit: usize| if k >> bit & 1 == 1 { r } else { -r };
+        DVec4::new(x + s(0), y + s(1), z + s(2), 1.0)
+    })
+}
+
+#[test]
+fn no_blade_outside_the_frustum_is_drawn() {
+    let reach = {
+        let r = renderer(tight());
+        // Thinning widens a kept blade by up to 1 / min density.
+        r.lods().reach as f64 + (1.0 / 0.25 - 1.0) * r.lods().half_width as f64
+    };
+    for culling in [tight(), GrassCulling::frustum_only()] {
+        let r = renderer(culling);
+        for (name, view, model) in cameras() {
+            let f = frame(&view, model);
+            draw(&r, &f);
+            let lists = r.read_culling(&gpu().device, &gpu().queue).unwrap();
+            let m = DMat4::from_cols_array_2d(&f.view_proj.map(|c| c.map(f64::from)))
+                * DMat4::from_cols_array_2d(&f.model.map(|c| c.map(f64::from)));
+            let mut outside = 0;
+            for (b, _) in (0..field().blade_count()).map(|b| (b, ())) {
+                let clip = blade_box(b, reach).map(|p| m * p);
+                let out = [
+                    clip.iter().all(|c| c.x < -c.w),
+                    clip.iter().all(|c| c.x > c.w),
+                    clip.iter().all(|c| c.y < -c.w),
+                    clip.iter().all(|c| c.y > c.w),
+                    clip.iter().all(|c| c.z < 0.0),
+                    clip.iter().all(|c| c.z > c.w),
+                ]
+                .contains(&true);
+                if out {
+                    outside += 1;
+                    for l in 0..3 {
+                        assert!(
+                            lists.lods[l].binary_search(&(b as u32)).is_err(),
+                            "{name}: blade {b} is outside but drawn"
+                        );
+                    }
+                }
+            }
+            println!("{name}: {outside} blades wholly outside the frustum, none drawn");
+            if name == "looking away" {
+                assert_eq!(outside, field().blade_count());
+            }
+        }
+    }
+}
+
+#[test]
+fn frustum_culling_keeps_every_blade_in_view_and_draws_the_same_image() {
+    let decoder = KeyframeDecoder::new(table()).unwrap();
+    let forces = wind();
+    let culled = renderer(GrassCulling::frustum_only());
+    let unculled = renderer(GrassCulling::off());
+    let mut posed = vec![Vec3::ZERO; table().vertex_count()];
+    for (name, view, model) in cameras() {
+        let f = frame(&view, model);
+        let image_culled = draw(&culled, &f);
+        let lists = culled.read_culling(&gpu().device, &gpu().queue).unwrap();
+        assert_eq!(lists.counts()[1..], [0, 0], "{name}: frustum-only culling keeps every blade at full detail");
+        let image_unculled = draw(&unculled, &f);
+        assert!(image_culled == image_unculled, "{name}: culling by the frustum changed the image");
+        // Every blade with a posed vertex inside the clip volume is drawn.
+        let m = Mat4::from_cols_array_2d(&f.view_proj) * model;
+        let f_ = field();
+        let mut in_view = 0;
+        for b in 0..f_.blade_count() {
+            let corners = f_.grid.corner_indices(f_.cluster[b]);
+            let root = Vec3::from(f_.positions[b]);
+            let force = forces.blade_force(corners, f_.weights[b], root);
+            let force = Vec3::new(force.x, 0.0, force.y);
+            decoder.world_positions(root, f_.yaw_rad[b], f_.height_scale[b], force, Interpolation::Nearest, &mut posed);
+            let visible = posed.iter().any(|p| {
+                let c = m * p.extend(1.0);
+                c.x.abs() < c.w * 0.999 && c.y.abs() < c.w * 0.999 && c.z > 0.0 && c.z < c.w
+            });
+            if visible {
+                in_view += 1;
+                assert!(lists.lods[0].binary_search(&(b as u32)).is_ok(), "{name}: blade {b} is in view but culled");
+            }
+        }
+        println!("{name}: {in_view} blades in view, {} drawn after frustum culling", lists.drawn());
+        assert!(lists.drawn() >= in_view);
+    }
+}
+
+#[test]
+fn levels_change_only_inside_their_dither_bands() {
+    let culling = tight();
+    let r = renderer(culling);
+    let (_, view, model) = &cameras()[0];
+    let f = frame(view, *model);
+    draw(&r, &f);
+    let lists = r.read_culling(&gpu().device, &gpu().queue).unwrap();
+    let eye = Vec3::from(view.camera.eye);
+    let [d1, d2] = culling.lod_distances_m;
+    let half = culling.lod_transition * 0.5;
+    let band = |d: f32, at: f32| d >= at * (1.0 - half) - 1e-3 && d <= at * (1.0 + half) + 1e-3;
+    // Per band: blades at the nearer and at the farther level inside it.
+    let mut in_band = [[0usize; 2]; 2];
+    for (l, list) in lists.lods.iter().enumerate() {
+        for &b in list {
+            let d = eye.distance(Vec3::from(field().positions[b as usize]));
+            let allowed = match l {
+                0 => d <= d1 * (1.0 + half) + 1e-3,
+                1 => d >= d1 * (1.0 - half) - 1e-3 && d <= d2 * (1.0 + half) + 1e-3,
+                _ => d >= d2 * (1.0 - half) - 1e-3,
+            };
+            assert!(allowed, "blade {b} at {d:.3} m drawn at LOD {l} (bands around {d1} and {d2} m, ±{half})");
+            for (k, at) in [d1, d2].into_iter().enumerate() {
+                if band(d, at) && (l == k || l == k + 1) {
+                    in_band[k][l - k] += 1;
+                }
+            }
+        }
+    }
+    // Both bands hold blades of both levels (the dither), not a hard edge.
+    for (k, n) in in_band.iter().enumerate() {
+        assert!(n[0] > 20 && n[1] > 20, "band {k}: {n:?} blades at its nearer and farther level");
+    }
+    println!("blades at the nearer and farther level inside each dither band: {in_band:?}");
+}
+
+#[test]
+fn culled_and_simplified_grass_stays_close_to_the_full_image() {
+    let full = renderer(GrassCulling::off());
+    // Distances of the default kind (LOD from 10 m and 30 m is beyond this 30 m field, so the
+    // bands are pulled in to show each mechanism's effect), nothing beyond the field.
+    let culling = GrassCulling {
+        max_distance_m: 60.0,
+        lod_distances_m: [6.0, 14.0],
+        thinning_start_m: 10.0,
+        ..GrassCulling::default()
+    };
+    let culled = renderer(culling);
+    let (name, view, model) = &cameras()[0];
+    let f = frame(view, *model);
+    let a = draw(&full, &f);
+    let b = draw(&culled, &f);
+    let counts = culled.read_culling(&gpu().device, &gpu().queue).unwrap().counts();
+    let dir = std::env::temp_dir().join("furbake-render-tests");
+    std::fs::create_dir_all(&dir).unwrap();
+    a.save(dir.join("grass_unculled.png")).unwrap();
+    b.save(dir.join("grass_culled.png")).unwrap();
+    // Coverage (pixels with grass) and mean colour difference over pixels grass covers in
+    // either image, per band of rows (near rows at the bottom, far rows at the top).
+    let grass = |p: &image::Rgba<u8>| p[0] > 0 || p[1] > 0 || p[2] > 0;
+    let rows = HEIGHT / 4;
+    for band in 0..4 {
+        let (mut cov_a, mut cov_b, mut diff, mut n) = (0usize, 0usize, 0.0f64, 0usize);
+        for y in band * rows..(band + 1) * rows {
+            for x in 0..WIDTH {
+                let (pa, pb) = (a.get_pixel(x, y), b.get_pixel(x, y));
+                cov_a += grass(pa) as usize;
+                cov_b += grass(pb) as usize;
+                if grass(pa) || grass(pb) {
+                    n += 1;
+                    diff += (0..3).map(|c| (pa[c] as f64 - pb[c] as f64).abs()).sum::<f64>() / 3.0;
+                }
+            }
+        }
+        let mean = diff / n.max(1) as f64;
+        println!(
+            "{name}, rows {}..{}: coverage full {cov_a} culled {cov_b}, mean |Δ| {mean:.1} over {n} pixels",
+            band * rows,
+            (band + 1) * rows
+        );
+        if cov_a > 200 {
+            let ratio = cov_b as f64 / cov_a as f64;
+            assert!((0.95..=1.05).contains(&ratio), "rows {band}: coverage changed by {ratio:.3}");
+        }
+    }
+    println!("drawn per LOD {counts:?} of {}", field().blade_count());
+}

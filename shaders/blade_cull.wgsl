@@ -1,0 +1,235 @@
+// blade_cull.wgsl — which blades the frame draws, and at what detail (grass thesis §5.3 and
+// ch. 7; Jahrmann & Wimmer 2017), in four dispatches recorded by `BladeRenderer::prepare`:
+//
+// 1. `cs_cull_clusters`, one thread per cluster: the cluster's box (its roots' bounds grown by
+//    the reach of any pose of its tallest blade, widened as thinning may widen it) against the
+//    view frustum and the max distance.
+// 2. `cs_cull_blades`, one thread per blade in blade order, 256 per workgroup (a "block"): a blade
+//    of a visible cluster is culled when it is beyond the max distance, dropped by distance
+//    thinning, seen edge-on, or when the sphere around its root that holds every pose lies
+//    outside a frustum plane; a surviving blade gets a level of detail from its distance and a
+//    fixed random threshold (dithered transitions). Each block counts its blades per LOD.
+// 3. `cs_scan_blocks`, one workgroup: exclusive prefix sums of the block counts per LOD, the
+//    start of each LOD's instance list, and the `draw_indexed_indirect` arguments per LOD.
+// 4. `cs_compact`, one thread per blade: writes each surviving blade's index into its LOD's list
+//    at block offset + rank within the block, so every list is in increasing blade order — the
+//    same lists every frame for the same inputs, whatever the GPU's scheduling.
+//
+// `crates/render/src/culling.rs` is the CPU reference of passes 1–2 (the lists must be equal).
+
+@group(0) @binding(0) var<uniform> cull: CullParams;
+@group(0) @binding(1) var<storage, read> blades: array<Blade>;
+// Per cluster: (min xyz, tallest height scale), (max xyz, unused); min > max for an empty one.
+@group(0) @binding(2) var<storage, read> cluster_bounds: array<vec4<f32>>;
+// [clusters]: 1 visible, 0 culled; then [blades]: LOD, or CULLED.
+@group(0) @binding(3) var<storage, read_write> decisions: array<u32>;
+// Words 0..20: five draw_indexed_indirect words per LOD; from word 32: per block, 4 words (one
+// per LOD) of blade counts, replaced by the block's exclusive offsets in pass 3.
+@group(0) @binding(4) var<storage, read_write> work: array<u32>;
+// Words 0..4: start of each LOD's list; then the lists.
+@group(0) @binding(5) var<storage, read_write> instances: array<u32>;
+
+const BLOCK: u32 = 256u;
+const BLOCKS_AT: u32 = 32u;
+const LISTS_AT: u32 = 4u;
+
+// The largest width factor thinning applies (1 / min density), for the cluster and blade bounds.
+fn max_widening() -> f32 {
+    return 1.0 / cull.distance.z - 1.0;
+}
+
+@compute @workgroup_size(64)
+fn cs_cull_clusters(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let c = gid.x + gid.y * groups.x * 64u;
+    if c >= cull.counts.y {
+        return;
+    }
+    let lo = cluster_bounds[2u * c];
+    let hi = cluster_bounds[2u * c + 1u];
+    if lo.x > hi.x {
+        decisions[c] = 0u;
+        return;
+    }
+    let r = lo.w * (cull.shape.x + max_widening() * cull.shape.y);
+    let blo = lo.xyz - vec3<f32>(r);
+    let bhi = hi.xyz + vec3<f32>(r);
+    var visible = 1u;
+    for (var k = 0u; k < 6u; k++) {
+        let p = cull.planes[k];
+        let corner = select(blo, bhi, p.xyz > vec3<f32>(0.0));
+        if dot(p.xyz, corner) + p.w < 0.0 {
+            visible = 0u;
+        }
+    }
+    let q = clamp(cull.eye.xyz, blo, bhi) - cull.eye.xyz;
+    if dot(q, q) > cull.distance.x {
+        visible = 0u;
+    }
+    decisions[c] = visible;
+}
+
+// The LOD of blade `b`, or CULLED (the CPU twin is `CullReference::classify`).
+fn classify(b: u32) -> u32 {
+    let blade = blades[b];
+    if decisions[blade.cluster] == 0u {
+        return CULLED;
+    }
+    let root = blade.root.xyz;
+    let to_eye = cull.eye.xyz - root;
+    let d2 = dot(to_eye, to_eye);
+    if d2 > cull.distance.x {
+        return CULLED;
+    }
+    let d = sqrt(d2);
+    let keep = thinning_keep(cull.distance.y, cull.distance.z, d);
+    if blade_random(b, SALT_THINNING) >= keep {
+        return CULLED;
+    }
+    // Edge-on: the view direction close to the width axis (c, 0, −s).
+    let across = to_eye.x * blade.yaw.x - to_eye.z * blade.yaw.y;
+    if cull.distance.w < 1.0 && across * across > cull.distance.w * d2 {
+        return CULLED;
+    }
+    let r = blade.root.w * (cull.shape.x + (1.0 / keep - 1.0) * cull.shape.y);
+    for (var k = 0u; k < 6u; k++) {
+        let p = cull.planes[k];
+        if dot(p.xyz, root) + p.w < -r {
+            return CULLED;
+        }
+    }
+    let u = blade_random(b, SALT_LOD) - 0.5;
+    var lod = 0u;
+    if cull.counts.w > 1u && d >= cull.lod.x + u * cull.lod.z {
+        lod = 1u;
+    }
+    if cull.counts.w > 2u && d >= cull.lod.y + u * cull.lod.w {
+        lod = 2u;
+    }
+    return lod;
+}
+
+// A blade's contribution to the packed per-LOD counters: 10 bits per LOD (a block holds 256).
+fn one_hot(lod: u32) -> u32 {
+    return select(1u << (10u * lod), 0u, lod == CULLED);
+}
+
+fn unpack_counts(packed: u32) -> vec4<u32> {
+    return vec4<u32>(packed & 0x3ffu, (packed >> 10u) & 0x3ffu, (packed >> 20u) & 0x3ffu, 0u);
+}
+
+var<workgroup> block_total: atomic<u32>;
+
+@compute @workgroup_size(256)
+fn cs_cull_blades(
+    @builtin(local_invocation_index) local: u32,
+    @builtin(workgroup_id) wid: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+) {
+    let block = wid.x + wid.y * groups.x;
+    let b = block * BLOCK + local;
+    if local == 0u {
+        atomicStore(&block_total, 0u);
+    }
+    workgroupBarrier();
+    if b < cull.counts.x {
+        let lod = classify(b);
+        decisions[cull.counts.y + b] = lod;
+        atomicAdd(&block_total, one_hot(lod));
+    }
+    workgroupBarrier();
+    if local == 0u && block < cull.counts.z {
+        let n = unpack_counts(atomicLoad(&block_total));
+        for (var l = 0u; l < 4u; l++) {
+            work[BLOCKS_AT + 4u * block + l] = n[l];
+        }
+    }
+}
+
+var<workgroup> partial: array<vec4<u32>, 256>;
+
+@compute @workgroup_size(256)
+fn cs_scan_blocks(@builtin(local_invocation_index) t: u32) {
+    let blocks = cull.counts.z;
+    let per = (blocks + BLOCK - 1u) / BLOCK;
+    let first = min(t * per, blocks);
+    let last = min(first + per, blocks);
+    var sum = vec4<u32>(0u);
+    for (var k = first; k < last; k++) {
+        for (var l = 0u; l < 4u; l++) {
+            sum[l] += work[BLOCKS_AT + 4u * k + l];
+        }
+    }
+    partial[t] = sum;
+    workgroupBarrier();
+    // Inclusive Hillis–Steele scan over the 256 threads' sums.
+    for (var step = 1u; step < BLOCK; step <<= 1u) {
+        var add = vec4<u32>(0u);
+        if t >= step {
+            add = partial[t - step];
+        }
+        workgroupBarrier();
+        partial[t] += add;
+        workgroupBarrier();
+    }
+    var running = partial[t] - sum;
+    for (var k = first; k < last; k++) {
+        for (var l = 0u; l < 4u; l++) {
+            let n = work[BLOCKS_AT + 4u * k + l];
+            work[BLOCKS_AT + 4u * k + l] = running[l];
+            running[l] += n;
+        }
+    }
+    if t == 0u {
+        let total = partial[BLOCK - 1u];
+        var start = 0u;
+        for (var l = 0u; l < 4u; l++) {
+            instances[l] = start;
+            var count = 0u;
+            if l < cull.counts.w && l < 3u {
+                count = total[l];
+            }
+            if l < 3u {
+                work[5u * l] = cull.index_count[l];
+                work[5u * l + 1u] = count;
+                work[5u * l + 2u] = cull.first_index[l];
+                work[5u * l + 3u] = 0u;
+                work[5u * l + 4u] = 0u;
+            }
+            start += count;
+        }
+    }
+}
+
+var<workgroup> ranks: array<u32, 256>;
+
+@compute @workgroup_size(256)
+fn cs_compact(
+    @builtin(local_invocation_index) local: u32,
+    @builtin(workgroup_id) wid: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+) {
+    let block = wid.x + wid.y * groups.x;
+    let b = block * BLOCK + local;
+    var lod = CULLED;
+    if b < cull.counts.x {
+        lod = decisions[cull.counts.y + b];
+    }
+    let mine = one_hot(lod);
+    ranks[local] = mine;
+    workgroupBarrier();
+    for (var step = 1u; step < BLOCK; step <<= 1u) {
+        var add = 0u;
+        if local >= step {
+            add = ranks[local - step];
+        }
+        workgroupBarrier();
+        ranks[local] += add;
+        workgroupBarrier();
+    }
+    if lod != CULLED {
+        // Blades of this LOD before this one in the block.
+        let before = unpack_counts(ranks[local] - mine)[lod];
+        let at = instances[lod] + work[BLOCKS_AT + 4u * block + lod] + before;
+        instances[LISTS_AT + at] = b;
+    }
+}
