@@ -52,11 +52,14 @@ demo: deps build
 	$(FURBAKE) inspect --json $(OUT)/grass-patch.fbk > $(OUT)/grass-patch.json
 	$(FURBAKE) preview $(OUT)/fox.fbk -o $(OUT)/fox-preview.png --size 640x480
 	$(FURBAKE) preview $(OUT)/grass-patch.fbk -o $(OUT)/grass-patch-preview.png --size 640x480
+# A furry sphere: its outline is all silhouette, drawn by the silhouette fins.
+	$(FURBAKE) bake fixtures/generated/sphere.gltf -o $(OUT)/sphere.fbk --preset fur
+	$(FURBAKE) preview $(OUT)/sphere.fbk -o $(OUT)/sphere-preview.png --size 640x480
 # The runtime scene: pack paths are relative to the scene file, so it goes beside the packs.
 	cp fixtures/scenes/demo_fox_and_grass.toml $(OUT)/fox_and_grass.toml
 	$(FURBAKE) preview $(OUT)/fox_and_grass.toml --frames 24 --size 320x240 --out-dir $(OUT)/frames
 	$(FURBAKE) simulate $(OUT)/fox_and_grass.toml --frames 120
-	@echo "demo done: open $(OUT)/fox-preview.png, $(OUT)/grass-patch-preview.png, $(OUT)/fox-png/shells_grid.png and $(OUT)/frames/frame_0000.png … frame_0023.png"
+	@echo "demo done: open $(OUT)/fox-preview.png, $(OUT)/sphere-preview.png, $(OUT)/grass-patch-preview.png, $(OUT)/fox-png/shells_grid.png and $(OUT)/frames/frame_0000.png … frame_0023.png"
 
 test: deps
 	$(CARGO) test --workspace

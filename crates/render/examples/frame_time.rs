@@ -2,16 +2,20 @@
 //! frame (no readback); prints Markdown tables.
 //!
 //! Fur (skin + shells + fins, fur thesis §3.2): bakes a glTF mesh with 16, 32, 64 and 128 shell
-//! layers (or the listed ones) and times frames at 256² and 1920×1080:
+//! layers (or the listed ones) and times frames at 256² and 1920×1080, with the silhouette fins
+//! (issue 14) on and off, alternating frame by frame so both see the same machine load:
 //! `cargo run --release -p furbake-render --example frame_time -- [MESH.glb | sphere] [FRAMES] [LAYERS...]`
 //! (default mesh: the bundled `fixtures/real/Fox.glb`; `sphere`: a generated 3,120-triangle UV
 //! sphere of radius 1 m, the issue's "~3,000-triangle mesh"; default 10 frames per cell).
 //!
-//! Grass (grass thesis §4.2): a generated square field of about BLADES blades (default 1,000,000;
-//! 400 per m², 8-segment blades, 1 m clusters, snorm16 keyframes over 400 poses) under global wind
-//! plus three moving wind sources (eq. 4.1): each frame updates the CPU force field, uploads the
-//! corner forces and draws every blade instanced at 1920×1080, timing the CPU update and the
-//! whole frame separately:
+//! Grass (grass thesis §4.2, §5.3): a generated square field of about BLADES blades (default
+//! 1,000,000; 400 per m², 8-segment blades, 1 m clusters, snorm16 keyframes over 400 poses) under
+//! global wind plus three moving wind sources (eq. 4.1): each frame updates the CPU force field,
+//! uploads the corner forces and draws the field at 1920×1080, once with culling and distance LOD
+//! (the default `GrassCulling`) and once without (every blade at full detail), alternating frame by
+//! frame, from two cameras: at eye height (1.7 m) at the field's edge looking across it, and high
+//! over it looking down across it. Prints the blades considered, the clusters and blades drawn
+//! per level of detail (read back after the timed frames), both frame times and their ratio:
 //! `cargo run --release -p furbake-render --example frame_time -- blades [BLADES] [FRAMES]`.
 
 use std::sync::Arc;
@@ -53,7 +57,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         imported.mesh.triangles.len(),
         imported.mesh.furry_triangles()
     );
-    println!("| shells | 256×256 (ms) | 1920×1080 (ms) |\n|---:|---:|---:|");
+    println!(
+        "| shells | 256×256 (ms) | 256×256, no silhouette fins (ms) | 1920×1080 (ms) | 1920×1080, no silhouette fins (ms) |"
+    );
+    println!("|---:|---:|---:|---:|---:|");
     for layers in layer_counts {
         let mut settings = BakeSettings::preset("fur")?;
         settings.volume.layers = layers;
@@ -62,24 +69,32 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let asset = FurAsset::new(Arc::new(baked.mesh), Arc::new(baked.shells), Arc::new(baked.uv_map), fins)?;
         let (center, radius) = asset.bounding_sphere();
         let view = View::framing(center, radius);
-        let renderer =
-            FurRenderer::new(gpu.pipelines(), &gpu.queue, &asset, &RenderSettings::default(), &RenderTarget::desc())?;
+        let with = RenderSettings::default();
+        let without = RenderSettings { silhouette_fins: false, ..RenderSettings::default() };
+        let renderers =
+            [with, without].map(|s| FurRenderer::new(gpu.pipelines(), &gpu.queue, &asset, &s, &RenderTarget::desc()));
+        let [with, without] = renderers;
+        let (with, without) = (with?, without?);
         let mut cells = Vec::new();
         for (w, h) in [(256u32, 256u32), (1920, 1080)] {
             let target = RenderTarget::new(&gpu.device, w, h)?;
-            let mut times = Vec::with_capacity(frames);
+            let mut times = [Vec::with_capacity(frames), Vec::with_capacity(frames)];
             for i in 0..frames + 2 {
-                let start = Instant::now();
-                renderer.render_to(&gpu.device, &gpu.queue, &target, &view)?;
-                gpu.device.poll(wgpu::PollType::wait_indefinitely())?;
-                if i >= 2 {
-                    times.push(start.elapsed().as_secs_f64() * 1e3);
+                for (k, renderer) in [&with, &without].into_iter().enumerate() {
+                    let start = Instant::now();
+                    renderer.render_to(&gpu.device, &gpu.queue, &target, &view)?;
+                    gpu.device.poll(wgpu::PollType::wait_indefinitely())?;
+                    if i >= 2 {
+                        times[k].push(start.elapsed().as_secs_f64() * 1e3);
+                    }
                 }
             }
-            times.sort_by(f64::total_cmp);
-            cells.push(times[times.len() / 2]);
+            for mut t in times {
+                t.sort_by(f64::total_cmp);
+                cells.push(t[t.len() / 2]);
+            }
         }
-        println!("| {layers} | {:.1} | {:.1} |", cells[0], cells[1]);
+        println!("| {layers} | {:.1} | {:.1} | {:.1} | {:.1} |", cells[0], cells[1], cells[2], cells[3]);
     }
     Ok(())
 }
@@ -92,7 +107,7 @@ fn blades(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
         BladeFieldSettings, BladeMaterial, BladeShape, ForceField, ForceScene, WindSource, build_reference_blade,
         compress_poses, ground_grid_mesh, scatter_blades, simulate_poses,
     };
-    use furbake_render::{BladeRenderer, BladeSettings};
+    use furbake_render::{BladeRenderer, BladeSettings, GrassCulling};
     use glam::{Vec2, Vec3};
 
     let target_blades: f64 = args.first().map(|s| s.parse()).transpose()?.unwrap_or(1_000_000.0);
@@ -121,7 +136,7 @@ fn blades(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
         field.grid.corners(),
         t.elapsed().as_secs_f64()
     );
-    let blades = BladeRenderer::new(
+    let mut blades = BladeRenderer::new(
         gpu.pipelines(),
         &gpu.queue,
         &field,
@@ -129,10 +144,8 @@ fn blades(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
         &BladeSettings::default(),
         &RenderTarget::desc(),
     )?;
+    let culling = *blades.culling();
     let (center, radius) = blades.bounding_sphere();
-    // Low over the field, looking across it (most blades in view, many small on screen).
-    let mut view = View::framing(center, radius);
-    view.camera.eye = [center[0], center[1] + side * 0.25, center[2] + side * 0.75];
     let (w, h) = (1920u32, 1080u32);
     let target = RenderTarget::new(&gpu.device, w, h)?;
     let mut forces = ForceField::new(field.grid);
@@ -152,36 +165,80 @@ fn blades(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
             .collect(),
         ..ForceScene::default()
     };
-    let (mut update_ms, mut frame_ms) = (Vec::new(), Vec::new());
-    for i in 0..frames + 1 {
-        let start = Instant::now();
-        forces.update(&scene_at(i as f32 / 60.0));
-        let updated = start.elapsed().as_secs_f64() * 1e3;
-        blades.set_force_field(&gpu.queue, &forces)?;
-        blades.render_to(&gpu.device, &gpu.queue, &target, &view, Some([0.5, 0.6, 0.8, 1.0]))?;
-        gpu.device.poll(wgpu::PollType::wait_indefinitely())?;
-        if i >= 1 {
-            update_ms.push(updated);
-            frame_ms.push(start.elapsed().as_secs_f64() * 1e3);
-        }
-    }
+    println!(
+        "culling: max {} m, LOD from {:?} m (±{:.0} %), thinning from {} m to {:.0} %, edge-on below {:.0} % width; \
+         levels of {:?} segments",
+        culling.max_distance_m,
+        culling.lod_distances_m,
+        culling.lod_transition * 50.0,
+        culling.thinning_start_m,
+        culling.min_density * 100.0,
+        culling.min_visible_width * 100.0,
+        &blades.lods().segments[..blades.lods().count as usize]
+    );
+    println!(
+        "\n| camera | blades considered | clusters drawn | drawn at 8 / 4 / 2 segments | force update (ms, CPU) | \
+         frame culled (ms) | frame unculled (ms) | unculled / culled |"
+    );
+    println!("|---|---:|---:|---:|---:|---:|---:|---:|");
+    let cameras = [
+        // At eye height at the middle of one edge, looking across the field.
+        ("eye height, at the edge", [center[0], 1.7, center[2] + half], [center[0], 0.5, center[2] - half * 0.2]),
+        // High over one edge looking down across it (most blades in view, many small on screen).
+        ("high, across", [center[0], center[1] + side * 0.25, center[2] + side * 0.75], center),
+    ];
     let median = |v: &mut Vec<f64>| {
         v.sort_by(f64::total_cmp);
         v[v.len() / 2]
     };
-    println!("\n| blades | segments | wind sources | force update (ms, CPU) | frame 1920×1080 (ms) |");
-    println!("|---:|---:|---:|---:|---:|");
+    let mut coverage = Vec::new();
+    for (name, eye, look_at) in cameras {
+        let mut view = View::framing(center, radius);
+        view.camera.eye = eye;
+        view.camera.target = look_at;
+        let (mut update_ms, mut culled_ms, mut unculled_ms) = (Vec::new(), Vec::new(), Vec::new());
+        for i in 0..frames + 1 {
+            for on in [true, false] {
+                blades.set_culling(&gpu.queue, if on { culling } else { GrassCulling::off() })?;
+                let start = Instant::now();
+                forces.update(&scene_at(i as f32 / 60.0));
+                let updated = start.elapsed().as_secs_f64() * 1e3;
+                blades.set_force_field(&gpu.queue, &forces)?;
+                blades.render_to(&gpu.device, &gpu.queue, &target, &view, Some([0.5, 0.6, 0.8, 1.0]))?;
+                gpu.device.poll(wgpu::PollType::wait_indefinitely())?;
+                if i >= 1 {
+                    update_ms.push(updated);
+                    if on { &mut culled_ms } else { &mut unculled_ms }.push(start.elapsed().as_secs_f64() * 1e3);
+                }
+            }
+        }
+        // One more culled frame, read back: what the timed culled frames drew.
+        blades.set_culling(&gpu.queue, culling)?;
+        blades.render_to(&gpu.device, &gpu.queue, &target, &view, Some([0.5, 0.6, 0.8, 1.0]))?;
+        let lists = blades.read_culling(&gpu.device, &gpu.queue)?;
+        let image = furbake_render::read_back(&gpu.device, &gpu.queue, &target)?;
+        let sky = image.get_pixel(0, 0).0;
+        coverage.push((name, image.pixels().filter(|p| p.0 != sky).count() as f64 / (w * h) as f64));
+        let frame_uniforms = view.uniforms(target.aspect());
+        let clusters = furbake_render::CullReference::new(&field, &table).classify(&frame_uniforms, &culling);
+        let [c, u] = [median(&mut culled_ms), median(&mut unculled_ms)];
+        let n = lists.counts();
+        println!(
+            "| {name} | {} | {} of {} | {} ({} / {} / {}) | {:.2} | {c:.0} | {u:.0} | {:.1} |",
+            field.blade_count(),
+            clusters.visible_clusters,
+            field.grid.clusters(),
+            lists.drawn(),
+            n[0],
+            n[1],
+            n[2],
+            median(&mut update_ms),
+            u / c
+        );
+    }
     println!(
-        "| {} | {} | 3 + global | {:.2} | {:.0} |",
-        field.blade_count(),
-        shape.segments,
-        median(&mut update_ms),
-        median(&mut frame_ms)
+        "\n({frames} frames of each after one warm-up, alternating, median; blades cover {} of the culled frame)",
+        coverage.iter().map(|(n, c)| format!("{:.0} % ({n})", c * 100.0)).collect::<Vec<_>>().join(", ")
     );
-    // How much of the frame the blades cover (a frame that misses the field would be cheap).
-    let image = furbake_render::read_back(&gpu.device, &gpu.queue, &target)?;
-    let sky = image.get_pixel(0, 0).0;
-    let covered = image.pixels().filter(|p| p.0 != sky).count() as f64 / (w * h) as f64;
-    println!("({frames} frames after one warm-up, median; blades cover {:.0} % of the frame)", covered * 100.0);
     Ok(())
 }
