@@ -112,7 +112,7 @@ fn blades(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
 
     let target_blades: f64 = args.first().map(|s| s.parse()).transpose()?.unwrap_or(1_000_000.0);
     let frames: usize = args.get(1).map(|s| s.parse()).transpose()?.unwrap_or(5);
-    let gpu = HeadlessGpu::new()?;
+    let gpu = HeadlessGpu::with_large_buffers()?;
     println!(
         "adapter: {} ({:?}, {:?}, driver {} {})",
         gpu.info.name, gpu.info.device_type, gpu.info.backend, gpu.info.driver, gpu.info.driver_info

@@ -41,6 +41,17 @@ impl HeadlessGpu {
     /// features and the WebGPU default limits (the renderer uses only core features: R8 and
     /// RGBA8 textures, Depth32Float, storage buffers in vertex shaders). Blocks (pollster).
     pub fn new() -> Result<HeadlessGpu, RenderError> {
+        Self::build(false)
+    }
+
+    /// As [`HeadlessGpu::new`], with the adapter's largest buffer and storage binding sizes in
+    /// place of the default 256 MiB and 128 MiB: for blade fields of more than about 2 M blades
+    /// (64 bytes per blade instance), as a host with large fields requests them.
+    pub fn with_large_buffers() -> Result<HeadlessGpu, RenderError> {
+        Self::build(true)
+    }
+
+    fn build(large_buffers: bool) -> Result<HeadlessGpu, RenderError> {
         let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle());
         let mut errors = Vec::new();
         let mut adapter = None;
@@ -60,10 +71,16 @@ impl HeadlessGpu {
             }
         }
         let adapter = adapter.ok_or_else(|| RenderError::NoAdapter { detail: errors.join("; ") })?;
+        let mut required_limits = wgpu::Limits::default();
+        if large_buffers {
+            let available = adapter.limits();
+            required_limits.max_buffer_size = available.max_buffer_size;
+            required_limits.max_storage_buffer_binding_size = available.max_storage_buffer_binding_size;
+        }
         let (device, queue) = crate::blocking::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("furbake headless device"),
             required_features: wgpu::Features::empty(),
-            required_limits: wgpu::Limits::default(),
+            required_limits,
             ..Default::default()
         }))?;
         let failures = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
