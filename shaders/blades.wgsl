@@ -57,6 +57,11 @@ struct BladeParams {
     delayed_sources: u32,
     // Cluster grid corners (stride of `delayed_directions`).
     corner_count: u32,
+    // Cells along x of the cluster grid.
+    cells_x: u32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
 };
 
 // A wind source with delayed attenuation (eq. 4.1 evaluated per blade).
@@ -214,16 +219,17 @@ struct Pose {
 // blade-local coordinates, and the poses around it (as `KeyframeDecoder::select`).
 fn blade_pose(b: u32) -> Pose {
     let blade = blades[b];
+    let corners = cluster_corners(blade.cluster, params.cells_x);
     var f = vec2<f32>(0.0);
     for (var k = 0u; k < 4u; k++) {
-        f += corner_forces[blade.corners[k]] * blade.weights[k];
+        f += corner_forces[corners[k]] * blade.weights[k];
     }
     // Delayed attenuation (as `ForceField::blade_force`): the interpolated direction, normalised,
     // times the magnitude of the source's exact wind at the blade root.
     for (var i = 0u; i < params.delayed_sources; i++) {
         var dir = vec2<f32>(0.0);
         for (var k = 0u; k < 4u; k++) {
-            dir += delayed_directions[i * params.corner_count + blade.corners[k]] * blade.weights[k];
+            dir += delayed_directions[i * params.corner_count + corners[k]] * blade.weights[k];
         }
         let len = length(dir);
         let rcp = 1.0 / len;

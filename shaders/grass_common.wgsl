@@ -9,14 +9,20 @@ struct Blade {
     root: vec4<f32>,
     // cos yaw, sin yaw: the width axis is (cos, 0, −sin), the normal (sin, 0, cos).
     yaw: vec2<f32>,
-    // The blade's cluster (grid cell) index.
+    // The blade's cluster (grid cell) index: its corners follow from the grid (`cluster_corners`).
     cluster: u32,
     pad: u32,
-    // The four cluster corner indices.
-    corners: vec4<u32>,
-    // Their bilinear weights.
+    // The bilinear weights of the cluster's corners [P1, P2, P3, P4].
     weights: vec4<f32>,
 };
+
+// The corner indices [P1, P2, P3, P4] of cluster `c` in a grid `cells_x` cells wide (as
+// `ClusterGrid::corner_indices`).
+fn cluster_corners(c: u32, cells_x: u32) -> vec4<u32> {
+    let row = cells_x + 1u;
+    let p1 = (c / cells_x) * row + c % cells_x;
+    return vec4<u32>(p1, p1 + 1u, p1 + row, p1 + row + 1u);
+}
 
 // The frame's culling parameters, all in the pack frame (the blade field's own metres; the host's
 // world distances are divided by the model matrix's scale on the CPU).

@@ -495,6 +495,18 @@ impl App {
                     Some(clips) => say(format!("clip: {clips}")),
                     None => say("clip: no pack of this scene is animated".into()),
                 },
+                "g" => {
+                    let Some(screen) = self.screen.as_mut() else { return Ok(()) };
+                    let path = &self.session.path;
+                    match screen
+                        .toggle_grass_culling(&self.session.world)
+                        .map_err(|e| crate::preview_cmd::render_failure(e, path))?
+                    {
+                        Some(true) => say("grass: culled, distance LOD (the scene's [grass_culling])".into()),
+                        Some(false) => say("grass: every blade at full detail (culling off)".into()),
+                        None => say("grass: this scene has no grass".into()),
+                    }
+                }
                 digit => {
                     if let Some(n) = digit.parse::<usize>().ok().filter(|n| (1..=9).contains(n)) {
                         let message = self.session.toggle_effect(n - 1)?;

@@ -167,6 +167,23 @@ impl Screen {
         self.frame = FrameTarget::new(&self.device, &self.present, width, height);
     }
 
+    /// Switches grass culling and distance LOD off, or back to the scene's `[grass_culling]`,
+    /// on every grass renderer; returns whether culling is now on, or `None` when the scene has
+    /// no grass.
+    pub fn toggle_grass_culling(&mut self, world: &furbake_runtime::World) -> Result<Option<bool>, RenderError> {
+        let scene = world.scene().grass_culling;
+        let mut now = None;
+        for pack in &mut self.renderer.packs {
+            if let Some(blades) = pack.blades.as_mut() {
+                let on = !blades.culling().enabled;
+                let culling = if on { scene } else { furbake_render::GrassCulling::off() };
+                blades.set_culling(&self.queue, culling)?;
+                now = Some(culling.enabled);
+            }
+        }
+        Ok(now)
+    }
+
     /// The view the renderer frames `world` with: the scene's camera (or the automatic framing
     /// of every pack where the scene has none), near and far planes fitted to the packs.
     pub fn world_view(&self, world: &World) -> View {

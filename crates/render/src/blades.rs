@@ -65,6 +65,10 @@ pub struct BladeParams {
     pub delayed_sources: u32,
     /// Cluster grid corners (stride of the delayed-direction buffer).
     pub corner_count: u32,
+    /// Cells along x of the cluster grid (a blade's corners follow from its cluster).
+    pub cells_x: u32,
+    /// Unused (uniform alignment).
+    pub pad: [u32; 3],
 }
 
 /// One wind source with delayed attenuation as `blades.wgsl` reads it (`DelayedSource`,
@@ -94,9 +98,8 @@ pub struct BladeGpu {
     pub cluster: u32,
     /// Unused (alignment).
     pub pad: u32,
-    /// The four cluster corner indices.
-    pub corners: [u32; 4],
-    /// Their bilinear weights.
+    /// The bilinear weights of the cluster's corners `[P1, P2, P3, P4]` (their indices follow
+    /// from the cluster and the grid, as `ClusterGrid::corner_indices`).
     pub weights: [f32; 4],
 }
 
@@ -455,7 +458,6 @@ impl BladeRenderer {
                     yaw: [c, s],
                     cluster,
                     pad: 0,
-                    corners: field.grid.corner_indices(cluster),
                     weights: field.weights[b],
                 })
             })
@@ -503,6 +505,8 @@ impl BladeRenderer {
             lambert: settings.lambert as u32,
             delayed_sources: 0,
             corner_count: corners as u32,
+            cells_x: field.grid.cells_x,
+            pad: [0; 3],
         };
         let init = |label, contents: &[u8], usage| {
             device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage })
@@ -1098,6 +1102,10 @@ mod tests {
             ("lambert", offset_of!(BladeParams, lambert)),
             ("delayed_sources", offset_of!(BladeParams, delayed_sources)),
             ("corner_count", offset_of!(BladeParams, corner_count)),
+            ("cells_x", offset_of!(BladeParams, cells_x)),
+            ("pad0", offset_of!(BladeParams, pad)),
+            ("pad1", offset_of!(BladeParams, pad) + 4),
+            ("pad2", offset_of!(BladeParams, pad) + 8),
         ];
         check_layout(&module, "BladeParams", size_of::<BladeParams>(), &params);
         let blade = [
@@ -1105,7 +1113,6 @@ mod tests {
             ("yaw", offset_of!(BladeGpu, yaw)),
             ("cluster", offset_of!(BladeGpu, cluster)),
             ("pad", offset_of!(BladeGpu, pad)),
-            ("corners", offset_of!(BladeGpu, corners)),
             ("weights", offset_of!(BladeGpu, weights)),
         ];
         check_layout(&module, "Blade", size_of::<BladeGpu>(), &blade);

@@ -45,8 +45,8 @@ impl HeadlessGpu {
     }
 
     /// As [`HeadlessGpu::new`], with the adapter's largest buffer and storage binding sizes in
-    /// place of the default 256 MiB and 128 MiB: for blade fields of more than about 2 M blades
-    /// (64 bytes per blade instance), as a host with large fields requests them.
+    /// place of the default 256 MiB and 128 MiB: for blade fields of more than about 2.8 M blades
+    /// (48 bytes per blade instance), as a host with large fields requests them.
     pub fn with_large_buffers() -> Result<HeadlessGpu, RenderError> {
         Self::build(true)
     }
