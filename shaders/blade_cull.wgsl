@@ -11,9 +11,12 @@
 //    fixed random threshold (dithered transitions). Each block counts its blades per LOD.
 // 3. `cs_scan_blocks`, one workgroup: exclusive prefix sums of the block counts per LOD, the
 //    start of each LOD's instance list, and the `draw_indexed_indirect` arguments per LOD.
-// 4. `cs_compact`, one thread per blade: writes each surviving blade's index into its LOD's list
-//    at block offset + rank within the block, so every list is in increasing blade order — the
-//    same lists every frame for the same inputs, whatever the GPU's scheduling.
+// 4. `cs_compact`, one thread per blade: writes each surviving blade's index and its pose-grid
+//    coordinates (`blade_grid`, once per drawn blade instead of once per vertex) into its LOD's
+//    list at block offset + rank within the block, so every list is in increasing blade order —
+//    the same lists every frame for the same inputs, whatever the GPU's scheduling.
+//
+// With culling off, `cs_pose_all` writes every blade's entry into LOD 0's list instead.
 //
 // `crates/render/src/culling.rs` is the CPU reference of passes 1–2 (the lists must be equal).
 
@@ -26,8 +29,14 @@
 // Words 0..20: five draw_indexed_indirect words per LOD; from word 32: per block, 4 words (one
 // per LOD) of blade counts, replaced by the block's exclusive offsets in pass 3.
 @group(0) @binding(4) var<storage, read_write> work: array<u32>;
-// Words 0..4: start of each LOD's list; then the lists.
+// Words 0..4: start of each LOD's list, in entries; then the entries: (blade, μ, α) in three words,
+// the blade's pose-grid coordinates evaluated here once so the vertex shader does not.
 @group(0) @binding(5) var<storage, read_write> instances: array<u32>;
+// What `blade_grid` (grass_pose.wgsl) reads.
+@group(0) @binding(6) var<uniform> params: BladeParams;
+@group(0) @binding(7) var<storage, read> corner_forces: array<vec2<f32>>;
+@group(0) @binding(8) var<storage, read> delayed: array<DelayedSource>;
+@group(0) @binding(9) var<storage, read> delayed_directions: array<vec2<f32>>;
 
 const BLOCK: u32 = 256u;
 const BLOCKS_AT: u32 = 32u;
@@ -230,6 +239,27 @@ fn cs_compact(
         // Blades of this LOD before this one in the block.
         let before = unpack_counts(ranks[local] - mine)[lod];
         let at = instances[lod] + work[BLOCKS_AT + 4u * block + lod] + before;
-        instances[LISTS_AT + at] = b;
+        write_entry(at, b);
+    }
+}
+
+// Entry `at` of the lists: blade `b` and its pose-grid coordinates.
+fn write_entry(at: u32, b: u32) {
+    let grid = blade_grid(b);
+    let word = LISTS_AT + 3u * at;
+    instances[word] = b;
+    instances[word + 1u] = bitcast<u32>(grid.x);
+    instances[word + 2u] = bitcast<u32>(grid.y);
+}
+
+// With culling off: every blade, in order, in LOD 0's list (the draw is not indirect then).
+@compute @workgroup_size(256)
+fn cs_pose_all(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let b = gid.x + gid.y * groups.x * BLOCK;
+    if b == 0u {
+        instances[0] = 0u;
+    }
+    if b < cull.counts.x {
+        write_entry(b, b);
     }
 }

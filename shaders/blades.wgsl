@@ -1,14 +1,16 @@
 // blades.wgsl — instanced grass blades (grass thesis §3.2.5–3.2.6, §4.2), the GPU twin of
 // furbake-grass's `KeyframeDecoder::world_positions`. A compute pass (`cs_blades`, one thread per
 // blade) interpolates the blade's force from its four cluster corner forces (eq. 3.6; plus the
-// wind sources with delayed attenuation, fig. 4.8, evaluated at the blade), turns it
-// into blade-local coordinates, selects the keyframe pose from its magnitude and its angle to the
-// blade normal (eq. 3.10–3.12: nearest, or linear in-betweening eq. 3.13), decodes the stored
-// displacements from packed u32 words (f32, snorm16, f16, unorm8 or snorm8) with the mirror flags
-// of fig. 3.8–3.9, and writes world-space vertex positions to a storage buffer. The draw
-// (`vs_blade` / `fs_blade`, instance = blade) poses each vertex with the same functions
-// (`blade_pose`, `vertex_position`) and shades the blade two-sided with Lambert diffuse and a
-// flat colour. grass_common.wgsl (the Blade struct, the culling parameters) is prepended.
+// wind sources with delayed attenuation, fig. 4.8, evaluated at the blade), turns it into
+// blade-local grid coordinates (`blade_grid`, grass_pose.wgsl), selects the keyframe pose from
+// its magnitude and its angle to the blade normal (`pose_from`: eq. 3.10–3.12, nearest, or linear
+// in-betweening eq. 3.13), decodes the stored displacements from packed u32 words (f32, snorm16,
+// f16, unorm8 or snorm8) with the mirror flags of fig. 3.8–3.9, and writes world-space vertex
+// positions to a storage buffer. The draw (`vs_blade` / `fs_blade`) takes each instance's blade
+// and grid coordinates from the instance lists (blade_cull.wgsl), poses its vertices with the
+// same functions (`pose_from`, `vertex_position`) and shades the blade two-sided with Lambert
+// diffuse and a flat colour. grass_common.wgsl (the Blade struct, the culling parameters) and
+// grass_pose.wgsl (the uniform and source structs, `blade_grid`) are prepended.
 
 struct Frame {
     view_proj: mat4x4<f32>,
@@ -23,58 +25,7 @@ struct Frame {
     model: mat4x4<f32>,
 };
 
-struct BladeParams {
-    // Linear RGB blade colour; a unused.
-    color: vec4<f32>,
-    blade_count: u32,
-    // Vertices per blade.
-    vertex_count: u32,
-    // Stored vectors per stored pose.
-    stored_vectors: u32,
-    // Stored angles per magnitude (angles / symmetry factor).
-    stored_angles: u32,
-    // Magnitude samples (zero force excluded).
-    magnitudes: u32,
-    // Angle samples over the full circle.
-    angles: u32,
-    // 1: angles in the mirrored half are stored negated in x.
-    mirror_x: u32,
-    // 1: angles in the mirrored quarter are stored negated in z.
-    mirror_z: u32,
-    // magnitudes / max_force.
-    magnitude_per_force: f32,
-    // angles / 2π.
-    angle_per_radian: f32,
-    // Dequantisation scale of the payload (1 for the float encodings).
-    scale: f32,
-    // 0 f32, 1 snorm16, 2 f16, 3 unorm8, 4 snorm8.
-    encoding: u32,
-    // 0 nearest, 1 linear.
-    interpolation: u32,
-    // 1: Lambert diffuse; 0: unlit colour.
-    lambert: u32,
-    // Wind sources with delayed attenuation this frame (grass thesis §4.5, fig. 4.8).
-    delayed_sources: u32,
-    // Cluster grid corners (stride of `delayed_directions`).
-    corner_count: u32,
-    // Cells along x of the cluster grid.
-    cells_x: u32,
-    pad0: u32,
-    pad1: u32,
-    pad2: u32,
-};
-
-// A wind source with delayed attenuation (eq. 4.1 evaluated per blade).
-struct DelayedSource {
-    // xyz: position W in metres; w: emissive power ω.
-    position_power: vec4<f32>,
-    // x: concentration σ; y: lower clamp of distances in metres; zw unused.
-    params: vec4<f32>,
-};
-
 const STATIC_VERTEX: u32 = 0xffffffffu;
-const PI: f32 = 3.14159265358979;
-const TAU: f32 = 6.28318530717959;
 
 @group(0) @binding(0) var<uniform> frame: Frame;
 @group(0) @binding(1) var<uniform> params: BladeParams;
@@ -89,36 +40,12 @@ const TAU: f32 = 6.28318530717959;
 @group(0) @binding(8) var<storage, read> delayed_directions: array<vec2<f32>>;
 
 // The frame's culling parameters and the instance lists of the culling passes (blade_cull.wgsl):
-// words 0..4 the start of each LOD's list, then the lists of blade indices.
+// words 0..4 the start of each LOD's list (in entries), then the entries (blade, μ, α).
 @group(0) @binding(9) var<uniform> cull: CullParams;
 @group(0) @binding(10) var<storage, read> instances: array<u32>;
 
 // Written by the compute pass only.
 @group(1) @binding(0) var<storage, read_write> positions_out: array<vec4<f32>>;
-
-// The same minimax polynomial as furbake-grass's `fast_atan2` (to within 2e-5 rad).
-fn fast_atan2(y: f32, x: f32) -> f32 {
-    let ax = abs(x);
-    let ay = abs(y);
-    let lo = min(ax, ay);
-    let hi = max(ax, ay);
-    if hi == 0.0 {
-        return 0.0;
-    }
-    let a = lo / hi;
-    let s = a * a;
-    var r = ((((0.0208351 * s - 0.085133) * s + 0.180141) * s - 0.3302995) * s + 0.999866) * a;
-    if ay > ax {
-        r = PI * 0.5 - r;
-    }
-    if x < 0.0 {
-        r = PI - r;
-    }
-    if y < 0.0 {
-        r = -r;
-    }
-    return r;
-}
 
 // IEEE binary16 bits → f32, exactly (no shader-f16 feature or unpack builtin needed).
 fn f16_to_f32(h: u32) -> f32 {
@@ -215,38 +142,10 @@ struct Pose {
     normal: vec3<f32>,
 };
 
-// eq. 3.6 then eq. 3.10–3.13: the blade's force from its cluster's four corner forces, in
-// blade-local coordinates, and the poses around it (as `KeyframeDecoder::select`).
-fn blade_pose(b: u32) -> Pose {
+// eq. 3.10–3.13: the poses around the blade's grid coordinates `grid` (magnitude μ, angle α from
+// `blade_grid`) and the blade's frame (as `KeyframeDecoder::select`).
+fn pose_from(b: u32, grid: vec2<f32>) -> Pose {
     let blade = blades[b];
-    let corners = cluster_corners(blade.cluster, params.cells_x);
-    var f = vec2<f32>(0.0);
-    for (var k = 0u; k < 4u; k++) {
-        f += corner_forces[corners[k]] * blade.weights[k];
-    }
-    // Delayed attenuation (as `ForceField::blade_force`): the interpolated direction, normalised,
-    // times the magnitude of the source's exact wind at the blade root.
-    for (var i = 0u; i < params.delayed_sources; i++) {
-        var dir = vec2<f32>(0.0);
-        for (var k = 0u; k < 4u; k++) {
-            dir += delayed_directions[i * params.corner_count + corners[k]] * blade.weights[k];
-        }
-        let len = length(dir);
-        let rcp = 1.0 / len;
-        if len > 0.0 && rcp < 3.0e38 {
-            dir = dir * rcp;
-        } else {
-            dir = vec2<f32>(0.0);
-        }
-        let src = delayed[i];
-        let wp = blade.root.xyz - src.position_power.xyz;
-        let d = length(wp);
-        if d != 0.0 {
-            let unit = wp / d;
-            let strength = src.position_power.w / pow(max(d, src.params.y), src.params.x);
-            f += dir * length(unit.xz * strength);
-        }
-    }
     let c = blade.yaw.x;
     let s = blade.yaw.y;
     var pose: Pose;
@@ -254,16 +153,8 @@ fn blade_pose(b: u32) -> Pose {
     pose.normal = vec3<f32>(s, 0.0, c);
     pose.root = blade.root.xyz;
     pose.height = blade.root.w;
-    // Force along the width axis and along the normal.
-    let lx = f.x * c - f.y * s;
-    let ly = f.x * s + f.y * c;
-    let mag = length(vec2<f32>(lx, ly));
-    let mu = clamp(mag * params.magnitude_per_force, 0.0, f32(params.magnitudes));
-    var theta = fast_atan2(lx, ly);
-    if theta < 0.0 {
-        theta += TAU;
-    }
-    let alpha = theta * params.angle_per_radian - 0.5;
+    let mu = grid.x;
+    let alpha = grid.y;
     pose.keys_m = vec4<u32>(0u);
     pose.keys_j = vec4<u32>(0u);
     pose.weights = vec4<f32>(1.0, 0.0, 0.0, 0.0);
@@ -311,7 +202,7 @@ fn cs_blades(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
     if b >= params.blade_count {
         return;
     }
-    let pose = blade_pose(b);
+    let pose = pose_from(b, blade_grid(b));
     let vc = params.vertex_count;
     for (var v = 0u; v < vc; v++) {
         positions_out[b * vc + v] = vec4<f32>(vertex_position(pose, v, 1.0), 1.0);
@@ -323,24 +214,26 @@ struct BladeOut {
     @location(0) world: vec3<f32>,
 };
 
-// The draw poses each vertex itself with the same functions (no positions buffer, so the blade
-// count is bounded by the instance buffer, not by blades × vertices). The index buffer holds one
-// index list per level of detail, LOD l's indices offset by l × vertex_count, so the vertex index
-// names both; only the vertices a level draws are decoded. With culling on, instance i of LOD l
-// is blade `instances[4 + instances[l] + i]`, widened by the inverse of the fraction distance
-// thinning kept; with culling off, instance i is blade i at full detail.
+// The draw reads each instance's blade and its pose-grid coordinates from the instance lists the
+// compute passes wrote (blade_cull.wgsl: once per drawn blade), so each vertex only picks its
+// keys and decodes its own displacement. The index buffer holds one index list per level of
+// detail, LOD l's indices offset by l × vertex_count, so the vertex index names both; only the
+// vertices a level draws are decoded. Instance i of LOD l is the entry at list start
+// `instances[l]` + i: (blade, μ, α) in three words. With culling on, a blade is drawn wider by the
+// inverse of the fraction distance thinning kept.
 @vertex
 fn vs_blade(@builtin(vertex_index) vi: u32, @builtin(instance_index) instance: u32) -> BladeOut {
     let lod = vi / params.vertex_count;
     let v = vi - lod * params.vertex_count;
-    var b = instance;
+    let entry = 4u + 3u * (instances[lod] + instance);
+    let b = instances[entry];
+    let grid = vec2<f32>(bitcast<f32>(instances[entry + 1u]), bitcast<f32>(instances[entry + 2u]));
     var widen = 1.0;
     if cull.eye.w != 0.0 {
-        b = instances[4u + instances[lod] + instance];
         let d = distance(cull.eye.xyz, blades[b].root.xyz);
         widen = 1.0 / thinning_keep(cull.distance.y, cull.distance.z, d);
     }
-    let world = (frame.model * vec4<f32>(vertex_position(blade_pose(b), v, widen), 1.0)).xyz;
+    let world = (frame.model * vec4<f32>(vertex_position(pose_from(b, grid), v, widen), 1.0)).xyz;
     var out: BladeOut;
     out.clip = frame.view_proj * vec4<f32>(world, 1.0);
     out.world = world;

@@ -16,7 +16,8 @@
 //! frame, from two cameras: at eye height (1.7 m) at the field's edge looking across it, and high
 //! over it looking down across it. Prints the blades considered, the clusters and blades drawn
 //! per level of detail (read back after the timed frames), both frame times and their ratio:
-//! `cargo run --release -p furbake-render --example frame_time -- blades [BLADES] [FRAMES]`.
+//! `cargo run --release -p furbake-render --example frame_time -- blades [BLADES] [FRAMES] [WxH]`
+//! (default 1920x1080; a tiny size shows what the frame costs without the fill).
 
 use std::sync::Arc;
 use std::time::Instant;
@@ -146,7 +147,13 @@ fn blades(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
     )?;
     let culling = *blades.culling();
     let (center, radius) = blades.bounding_sphere();
-    let (w, h) = (1920u32, 1080u32);
+    let (w, h) = match args.get(2) {
+        Some(size) => {
+            let (w, h) = size.split_once('x').ok_or("size must be WIDTHxHEIGHT")?;
+            (w.parse::<u32>()?, h.parse::<u32>()?)
+        }
+        None => (1920, 1080),
+    };
     let target = RenderTarget::new(&gpu.device, w, h)?;
     let mut forces = ForceField::new(field.grid);
     let half = side * 0.5;

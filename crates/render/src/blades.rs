@@ -162,8 +162,8 @@ pub struct BladeRenderer {
     /// The culling passes' bind group.
     cull_group: wgpu::BindGroup,
     compute_pipeline: wgpu::ComputePipeline,
-    /// `cs_cull_clusters`, `cs_cull_blades`, `cs_scan_blocks`, `cs_compact`.
-    cull_pipelines: [wgpu::ComputePipeline; 4],
+    /// `cs_cull_clusters`, `cs_cull_blades`, `cs_scan_blocks`, `cs_compact`, `cs_pose_all`.
+    cull_pipelines: [wgpu::ComputePipeline; 5],
     /// The pass this renderer draws into.
     target: TargetDesc,
     draw_pipeline: wgpu::RenderPipeline,
@@ -205,7 +205,7 @@ struct InstanceBuffers {
 /// Sizes of the culling buffers, bytes: decisions, work, instances.
 fn cull_buffer_bytes(blades: u64, clusters: u64) -> [u64; 3] {
     let blocks = blades.div_ceil(BLOCK as u64);
-    [(clusters + blades).max(1) * 4, (BLOCKS_AT + 4 * blocks) * 4, (LISTS_AT + blades) * 4]
+    [(clusters + blades).max(1) * 4, (BLOCKS_AT + 4 * blocks) * 4, (LISTS_AT + 3 * blades) * 4]
 }
 
 impl InstanceBuffers {
@@ -310,6 +310,10 @@ impl InstanceBuffers {
                 wgpu::BindGroupEntry { binding: 3, resource: self.decisions.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 4, resource: self.work.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 5, resource: self.instances.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 6, resource: self.params.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 7, resource: self.forces.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 8, resource: self.delayed.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 9, resource: self.directions.as_entire_binding() },
             ],
         })
     }
@@ -468,6 +472,7 @@ impl BladeRenderer {
             ("blade instance bytes", blades.len() as u64 * std::mem::size_of::<BladeGpu>() as u64),
             ("displacement payload bytes", expected * 4),
             ("corner force bytes", corners as u64 * 8),
+            ("blade instance list bytes", cull_buffer_bytes(blades.len() as u64, field.grid.clusters() as u64)[2]),
         ] {
             let limit = limits.max_storage_buffer_binding_size;
             if value > limit {
@@ -900,19 +905,25 @@ impl BladeRenderer {
     /// Writes `frame` (the host's view-projection, eye and light, and the field's model matrix,
     /// e.g. from [`crate::View::uniforms_with_model`] or [`FrameUniforms::new`]) into this
     /// renderer's uniform buffer with one `queue.write_buffer` (with culling on, together with the
-    /// frame's culling parameters), and records the culling passes into `encoder` (one compute pass, four
-    /// dispatches: clusters, blades, block offsets, compaction into one instance list per level of
-    /// detail; see [`crate::culling`]). Call once per frame before the host's render pass; one
+    /// frame's culling parameters), and records one compute pass into `encoder`: with culling on,
+    /// four dispatches (clusters, blades, block offsets, compaction into one instance list per
+    /// level of detail with each drawn blade's pose-grid coordinates; see [`crate::culling`]);
+    /// off, one dispatch writing every blade's entry. Call once per frame before the host's render pass; one
     /// model matrix per renderer per submission. The model matrix moves the drawn blades only;
     /// [`BladeRenderer::read_positions`] stays in the pack frame. Does not submit, wait or
     /// allocate.
     pub fn prepare(&self, queue: &wgpu::Queue, encoder: &mut wgpu::CommandEncoder, frame: &FrameUniforms) {
-        if !self.culling.enabled || self.blade_count == 0 || self.lods.index_count[0] == 0 {
+        if self.blade_count == 0 || self.lods.index_count[0] == 0 {
             queue.write_buffer(&self.own.frame, 0, bytemuck::bytes_of(frame));
             return;
         }
-        let both = FrameAndCull { frame: *frame, pad: [0.0; 20], cull: self.cull_params(frame) };
-        queue.write_buffer(&self.own.frame, 0, bytemuck::bytes_of(&both));
+        if self.culling.enabled {
+            let both = FrameAndCull { frame: *frame, pad: [0.0; 20], cull: self.cull_params(frame) };
+            queue.write_buffer(&self.own.frame, 0, bytemuck::bytes_of(&both));
+        } else {
+            // The culling parameters (culling off) were written by `new` or `set_culling`.
+            queue.write_buffer(&self.own.frame, 0, bytemuck::bytes_of(frame));
+        }
         let max = self.own.max_groups;
         let grid = |groups: u32| if groups <= max { (groups, 1) } else { (max, groups.div_ceil(max)) };
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -921,11 +932,21 @@ impl BladeRenderer {
         });
         pass.set_bind_group(0, &self.cull_group, &[]);
         let blocks = grid(self.blade_count.div_ceil(BLOCK));
-        for (pipeline, (x, y)) in
-            self.cull_pipelines.iter().zip([grid(self.cluster_count.div_ceil(64)), blocks, (1, 1), blocks])
-        {
-            pass.set_pipeline(pipeline);
-            pass.dispatch_workgroups(x, y, 1);
+        let [clusters, blades, scan, compact, pose_all] = &self.cull_pipelines;
+        if self.culling.enabled {
+            let dispatches = [
+                (clusters, grid(self.cluster_count.div_ceil(64))),
+                (blades, blocks),
+                (scan, (1, 1)),
+                (compact, blocks),
+            ];
+            for (pipeline, (x, y)) in dispatches {
+                pass.set_pipeline(pipeline);
+                pass.dispatch_workgroups(x, y, 1);
+            }
+        } else {
+            pass.set_pipeline(pose_all);
+            pass.dispatch_workgroups(blocks.0, blocks.1, 1);
         }
     }
 
@@ -973,13 +994,13 @@ impl BladeRenderer {
             Ok(out)
         };
         let args = words(&self.own.work, 20, "culling draw arguments")?;
-        let lists = words(&self.own.instances, LISTS_AT + self.blade_count as u64, "culling instance lists")?;
+        let lists = words(&self.own.instances, LISTS_AT + 3 * self.blade_count as u64, "culling instance lists")?;
         let mut out = CullLists::default();
         for l in 0..MAX_LODS.min(self.lods.count as usize) {
             let start = lists[l] as usize;
             let count = args[5 * l + 1] as usize;
-            let from = LISTS_AT as usize + start;
-            let Some(list) = lists.get(from..from + count) else {
+            let from = LISTS_AT as usize + 3 * start;
+            let Some(list) = lists.get(from..from + 3 * count) else {
                 return Err(RenderError::Gpu { what: format!("LOD {l}: {count} blades from {start} pass the list") });
             };
             if args[5 * l] != self.lods.index_count[l] || args[5 * l + 2] != self.lods.first_index[l] {
@@ -987,7 +1008,7 @@ impl BladeRenderer {
                     what: format!("LOD {l}: draw arguments {:?}", &args[5 * l..5 * l + 5]),
                 });
             }
-            out.lods[l] = list.to_vec();
+            out.lods[l] = list.chunks_exact(3).map(|e| e[0]).collect();
         }
         Ok(out)
     }
@@ -1158,6 +1179,7 @@ mod tests {
                 ("cs_compact", [block, 1, 1]),
                 ("cs_cull_blades", [block, 1, 1]),
                 ("cs_cull_clusters", [64, 1, 1]),
+                ("cs_pose_all", [block, 1, 1]),
                 ("cs_scan_blocks", [block, 1, 1]),
             ]
         );

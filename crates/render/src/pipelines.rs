@@ -112,7 +112,7 @@ struct Inner {
     blade_module: OnceLock<wgpu::ShaderModule>,
     blade_compute: Mutex<Option<wgpu::ComputePipeline>>,
     blade_cull_module: OnceLock<wgpu::ShaderModule>,
-    blade_cull: Mutex<Option<[wgpu::ComputePipeline; 4]>>,
+    blade_cull: Mutex<Option<[wgpu::ComputePipeline; 5]>>,
     render: Mutex<HashMap<PipelineKey, wgpu::RenderPipeline>>,
     /// Target descriptions already validated (with and without blending).
     validated: Mutex<Vec<(TargetDesc, bool)>>,
@@ -299,8 +299,8 @@ impl PipelineCache {
     }
 
     /// The blade culling passes (`cs_cull_clusters`, `cs_cull_blades`, `cs_scan_blocks`,
-    /// `cs_compact`), independent of any target.
-    pub(crate) fn blade_cull(&self) -> Result<[wgpu::ComputePipeline; 4], RenderError> {
+    /// `cs_compact`) and the unculled frame's `cs_pose_all`, independent of any target.
+    pub(crate) fn blade_cull(&self) -> Result<[wgpu::ComputePipeline; 5], RenderError> {
         let mut slot = lock(&self.inner.blade_cull);
         if let Some(p) = slot.as_ref() {
             return Ok(p.clone());
@@ -313,7 +313,7 @@ impl PipelineCache {
                     source: wgpu::ShaderSource::Wgsl(crate::shaders::BLADE_CULL_WGSL.into()),
                 })
             });
-            Ok(["cs_cull_clusters", "cs_cull_blades", "cs_scan_blocks", "cs_compact"].map(|entry| {
+            Ok(["cs_cull_clusters", "cs_cull_blades", "cs_scan_blocks", "cs_compact", "cs_pose_all"].map(|entry| {
                 device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
                     label: Some(entry),
                     layout: Some(&self.inner.blade_layouts.cull_pipeline),
@@ -586,6 +586,10 @@ fn blade_layouts(device: &wgpu::Device) -> BladeLayouts {
             entry(3, rw, c),
             entry(4, rw, c),
             entry(5, rw, c),
+            entry(6, uniform, c),
+            entry(7, ro, c),
+            entry(8, ro, c),
+            entry(9, ro, c),
         ],
     });
     let cull_pipeline = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {

@@ -35,14 +35,21 @@ pub const SILHOUETTE_WGSL: &str =
 /// Grass blades (grass thesis §3.2.5–3.2.6, §4.2): the `cs_blades` compute entry point posing
 /// every blade for readback and the instanced draw (`vs_blade`, `fs_blade`) from the culling
 /// passes' instance lists ([`crate::blades`]). `grass_common.wgsl` (the blade instance, the
-/// culling parameters, the per-blade random numbers) is prepended.
-pub const BLADES_WGSL: &str =
-    concat!(include_str!("../../../shaders/grass_common.wgsl"), include_str!("../../../shaders/blades.wgsl"));
+/// culling parameters, the per-blade random numbers) and `grass_pose.wgsl` (the blade's force as
+/// pose-grid coordinates) are prepended.
+pub const BLADES_WGSL: &str = concat!(
+    include_str!("../../../shaders/grass_common.wgsl"),
+    include_str!("../../../shaders/grass_pose.wgsl"),
+    include_str!("../../../shaders/blades.wgsl")
+);
 /// The blade culling passes (issue 14, grass thesis §5.3): clusters, blades, block offsets and
-/// compaction into one instance list per level of detail ([`crate::culling`]), with
-/// `grass_common.wgsl` prepended.
-pub const BLADE_CULL_WGSL: &str =
-    concat!(include_str!("../../../shaders/grass_common.wgsl"), include_str!("../../../shaders/blade_cull.wgsl"));
+/// compaction into one instance list per level of detail with each drawn blade's pose-grid
+/// coordinates ([`crate::culling`]), with `grass_common.wgsl` and `grass_pose.wgsl` prepended.
+pub const BLADE_CULL_WGSL: &str = concat!(
+    include_str!("../../../shaders/grass_common.wgsl"),
+    include_str!("../../../shaders/grass_pose.wgsl"),
+    include_str!("../../../shaders/blade_cull.wgsl")
+);
 
 /// Per-frame uniforms (`Frame` in every shader; binding 0).
 #[repr(C)]
