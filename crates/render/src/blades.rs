@@ -972,7 +972,8 @@ impl BladeRenderer {
     }
 
     /// Reads back the instance lists of the last frame's culling passes and checks them against
-    /// the indirect draw arguments (waits for the GPU). For tests and tools.
+    /// the indirect draw arguments (with culling off: LOD 0's list, every blade); waits for the
+    /// GPU. For tests and tools.
     pub fn read_culling(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<CullLists, RenderError> {
         let words = |buffer: &wgpu::Buffer, count: u64, what: &str| -> Result<Vec<u32>, RenderError> {
             let staging = device.create_buffer(&wgpu::BufferDescriptor {
@@ -993,9 +994,14 @@ impl BladeRenderer {
             staging.unmap();
             Ok(out)
         };
-        let args = words(&self.own.work, 20, "culling draw arguments")?;
         let lists = words(&self.own.instances, LISTS_AT + 3 * self.blade_count as u64, "culling instance lists")?;
         let mut out = CullLists::default();
+        if !self.culling.enabled {
+            // Every blade, in LOD 0's list (`cs_pose_all`; the draw is not indirect).
+            out.lods[0] = lists[LISTS_AT as usize..].chunks_exact(3).map(|e| e[0]).collect();
+            return Ok(out);
+        }
+        let args = words(&self.own.work, 20, "culling draw arguments")?;
         for l in 0..MAX_LODS.min(self.lods.count as usize) {
             let start = lists[l] as usize;
             let count = args[5 * l + 1] as usize;

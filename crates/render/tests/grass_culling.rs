@@ -372,3 +372,29 @@ fn culled_and_simplified_grass_stays_close_to_the_full_image() {
     }
     println!("drawn per LOD {counts:?} of {}", field().blade_count());
 }
+
+#[test]
+fn culling_off_draws_every_blade_and_bad_settings_are_refused() {
+    let mut r = renderer(GrassCulling::off());
+    let (_, view, model) = &cameras()[0];
+    draw(&r, &frame(view, *model));
+    let lists = r.read_culling(&gpu().device, &gpu().queue).unwrap();
+    assert_eq!(lists.lods[0], (0..field().blade_count() as u32).collect::<Vec<_>>());
+    assert!(lists.lods[1].is_empty() && lists.lods[2].is_empty());
+    // Switched on, the same renderer culls.
+    r.set_culling(&gpu().queue, tight()).unwrap();
+    draw(&r, &frame(view, *model));
+    assert!(r.read_culling(&gpu().device, &gpu().queue).unwrap().drawn() * 3 < field().blade_count());
+    // Out-of-range settings name the key, at creation and when changed.
+    let bad = GrassCulling { min_density: 0.0, ..GrassCulling::default() };
+    let settings = BladeSettings { culling: bad, ..BladeSettings::default() };
+    let err = BladeRenderer::new(gpu().pipelines(), &gpu().queue, field(), table(), &settings, &RenderTarget::desc())
+        .err()
+        .expect("min_density 0 is refused");
+    assert!(err.to_string().contains("grass_culling.min_density"), "{err}");
+    let err = r
+        .set_culling(&gpu().queue, GrassCulling { lod_distances_m: [f32::NAN, 1.0], ..GrassCulling::default() })
+        .unwrap_err();
+    assert!(err.to_string().contains("grass_culling.lod_distances_m"), "{err}");
+    assert_eq!(*r.culling(), tight(), "a refused setting leaves the last one");
+}
