@@ -257,12 +257,14 @@ mod tests {
         assert_eq!(got, rust);
     }
 
-    const SHADERS: [(&str, &str); 5] = [
+    const SHADERS: [(&str, &str); 7] = [
         ("skin.wgsl", SKIN_WGSL),
         ("shell.wgsl", SHELL_WGSL),
         ("fin.wgsl", FIN_WGSL),
         ("skinning.wgsl", SKINNING_WGSL),
         ("silhouette.wgsl", SILHOUETTE_WGSL),
+        ("blades.wgsl", BLADES_WGSL),
+        ("blade_cull.wgsl", BLADE_CULL_WGSL),
     ];
 
     #[test]
@@ -270,24 +272,41 @@ mod tests {
         let mut entry_points = Vec::new();
         for (name, source) in SHADERS {
             let (module, _) = validated(name, source);
-            entry_points.extend(module.entry_points.iter().map(|e| e.name.clone()));
+            entry_points.extend(module.entry_points.iter().map(|e| (e.name.clone(), e.workgroup_size)));
         }
         entry_points.sort();
+        let names: Vec<&str> = entry_points.iter().map(|(n, _)| n.as_str()).collect();
         assert_eq!(
-            entry_points,
+            names,
             [
+                "cs_blades",
+                "cs_compact",
+                "cs_cull_blades",
+                "cs_cull_clusters",
+                "cs_pose_all",
+                "cs_scan_blocks",
                 "cs_shell_positions",
                 "cs_silhouette",
                 "cs_skin",
+                "fs_blade",
                 "fs_fin",
                 "fs_shell",
                 "fs_skin",
+                "vs_blade",
                 "vs_fin",
                 "vs_shell",
                 "vs_silhouette_fin",
                 "vs_skin"
             ]
         );
+        // The dispatch sizes the Rust side computes from.
+        let size = |name: &str| entry_points.iter().find(|(n, _)| n == name).map(|(_, s)| s[0]);
+        let block = crate::culling::BLOCK;
+        assert_eq!(size("cs_blades"), Some(64));
+        assert_eq!(size("cs_cull_clusters"), Some(64));
+        for name in ["cs_cull_blades", "cs_scan_blocks", "cs_compact", "cs_pose_all"] {
+            assert_eq!(size(name), Some(block), "{name}");
+        }
     }
 
     /// (size, member names and offsets) of the WGSL struct `name`, from naga's layout.
@@ -328,7 +347,7 @@ mod tests {
             ("light_color", offset_of!(FrameUniforms, light_color)),
             ("model", offset_of!(FrameUniforms, model)),
         ];
-        assert_eq!(check_layout("Frame", size_of::<FrameUniforms>(), &frame), 3, "Frame is in all three shaders");
+        assert_eq!(check_layout("Frame", size_of::<FrameUniforms>(), &frame), 4, "Frame: the fur shaders, blades.wgsl");
         let fur = [
             ("tint", offset_of!(FurUniforms, tint)),
             ("fur_length_m", offset_of!(FurUniforms, fur_length_m)),
@@ -348,6 +367,45 @@ mod tests {
             ("pad0", offset_of!(SkinningParams, pad0)),
         ];
         assert_eq!(check_layout("SkinningParams", size_of::<SkinningParams>(), &params), 1, "in skinning.wgsl");
+        use crate::blades::BladeParams as B;
+        let pad = offset_of!(B, pad);
+        let params = [
+            ("color", offset_of!(B, color)),
+            ("blade_count", offset_of!(B, blade_count)),
+            ("vertex_count", offset_of!(B, vertex_count)),
+            ("stored_vectors", offset_of!(B, stored_vectors)),
+            ("stored_angles", offset_of!(B, stored_angles)),
+            ("magnitudes", offset_of!(B, magnitudes)),
+            ("angles", offset_of!(B, angles)),
+            ("mirror_x", offset_of!(B, mirror_x)),
+            ("mirror_z", offset_of!(B, mirror_z)),
+            ("magnitude_per_force", offset_of!(B, magnitude_per_force)),
+            ("angle_per_radian", offset_of!(B, angle_per_radian)),
+            ("scale", offset_of!(B, scale)),
+            ("encoding", offset_of!(B, encoding)),
+            ("interpolation", offset_of!(B, interpolation)),
+            ("lambert", offset_of!(B, lambert)),
+            ("delayed_sources", offset_of!(B, delayed_sources)),
+            ("corner_count", offset_of!(B, corner_count)),
+            ("cells_x", offset_of!(B, cells_x)),
+            ("pad0", pad),
+            ("pad1", pad + 4),
+            ("pad2", pad + 8),
+        ];
+        // grass_pose.wgsl, prepended to the draw and to the culling passes.
+        assert_eq!(check_layout("BladeParams", size_of::<B>(), &params), 2);
+        use crate::culling::CullParams as C;
+        let cull = [
+            ("planes", offset_of!(C, planes)),
+            ("eye", offset_of!(C, eye)),
+            ("lod", offset_of!(C, lod)),
+            ("distance", offset_of!(C, distance)),
+            ("shape", offset_of!(C, shape)),
+            ("index_count", offset_of!(C, index_count)),
+            ("first_index", offset_of!(C, first_index)),
+            ("counts", offset_of!(C, counts)),
+        ];
+        assert_eq!(check_layout("CullParams", size_of::<C>(), &cull), 2, "grass_common.wgsl, in both");
     }
 
     #[test]
@@ -379,6 +437,20 @@ mod tests {
             ("pad1", offset_of!(SilhouetteParams, pad1)),
         ];
         assert_eq!(check_layout("SilhouetteParams", size_of::<SilhouetteParams>(), &params), 1);
+        use crate::blades::{BladeGpu, DelayedSourceGpu};
+        let blade = [
+            ("root", offset_of!(BladeGpu, root)),
+            ("yaw", offset_of!(BladeGpu, yaw)),
+            ("cluster", offset_of!(BladeGpu, cluster)),
+            ("pad", offset_of!(BladeGpu, pad)),
+            ("weights", offset_of!(BladeGpu, weights)),
+        ];
+        assert_eq!(check_layout("Blade", size_of::<BladeGpu>(), &blade), 2, "grass_common.wgsl, in both");
+        let delayed = [
+            ("position_power", offset_of!(DelayedSourceGpu, position_power)),
+            ("params", offset_of!(DelayedSourceGpu, params)),
+        ];
+        assert_eq!(check_layout("DelayedSource", size_of::<DelayedSourceGpu>(), &delayed), 2);
     }
 
     #[test]
