@@ -183,6 +183,9 @@ pub fn pack_world(path: &Path, aspect: f32, target_bytes: u64, max_memory: u64) 
     root.insert("packs".into(), toml::Value::Array(vec![entry.into()]));
     let mut scene = Scene::from_toml_str(&root.to_string(), path, Path::new("")).map_err(failure::scene)?;
     scene.packs[0].path = path.to_path_buf();
+    // A pack alone says nothing of its units (the Fox glTF is in centimetres): distances in
+    // metres would cull its grass, so only the frustum culls (G switches that off too).
+    scene.grass_culling = furbake_runtime::GrassCulling::frustum_only();
     if pack.has(SectionKind::SKIN_MESH) && pack.has(SectionKind::SHELL_ATLAS) {
         let asset = FurAsset::from_pack(&pack, false).map_err(|e| preview_cmd::render_failure(e, path))?;
         scene.camera = Some(asset.auto_view(aspect).camera);

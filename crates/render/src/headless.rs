@@ -357,7 +357,8 @@ pub fn render_image(
 
 /// What `furbake preview` calls: opens the pack at `pack_path`, creates a headless device, frames
 /// the furry mesh automatically (three-quarter view) and renders it with the default settings,
-/// plus its grass blades when it has a blade field. Reads only the skin mesh, shell atlas, UV
+/// plus its grass blades when it has a blade field (every blade in view at full detail:
+/// `GrassCulling::frustum_only`). Reads only the skin mesh, shell atlas, UV
 /// map, fin atlas and fin edges (and the blade field and keyframe table, skin weights and morph
 /// targets when present; an animated pack is drawn in its bind pose).
 pub fn render_preview(pack_path: &Path, width: u32, height: u32) -> Result<image::RgbaImage, RenderError> {
@@ -379,8 +380,11 @@ pub fn render_pack(
     let desc = RenderTarget::desc();
     let fur = FurRenderer::new(gpu.pipelines(), &gpu.queue, &asset, settings, &desc)?;
     // Grass blades, when the pack has a blade field: drawn after the fur, depth-tested against
-    // it, in their rest pose (a still preview has no wind).
-    let blades = BladeRenderer::from_pack(gpu.pipelines(), &gpu.queue, &pack, &BladeSettings::default(), &desc)?;
+    // it, in their rest pose (a still preview has no wind). A pack alone has no scene to say
+    // what its units are (the Fox glTF is in centimetres, so its "metres" put the camera 300 m
+    // away), so only the frustum culls: the image of every blade at full detail.
+    let blade_settings = BladeSettings { culling: crate::GrassCulling::frustum_only(), ..BladeSettings::default() };
+    let blades = BladeRenderer::from_pack(gpu.pipelines(), &gpu.queue, &pack, &blade_settings, &desc)?;
     let target = RenderTarget::new(&gpu.device, width, height)?;
     let frame = view.uniforms(target.aspect());
     let mut encoder =

@@ -398,3 +398,42 @@ fn culling_off_draws_every_blade_and_bad_settings_are_refused() {
     assert!(err.to_string().contains("grass_culling.lod_distances_m"), "{err}");
     assert_eq!(*r.culling(), tight(), "a refused setting leaves the last one");
 }
+
+/// The preview of `gltf` baked with the grass preset (4 layers of 16², so it is quick; 2 m fur),
+/// with blades 15–25 m tall at `density` per m² or without.
+fn preview_of(gltf: &[u8], density: Option<f32>) -> RgbaImage {
+    let mesh = furbake_import::import_gltf_slice(gltf, "mesh.gltf", None, &Default::default()).unwrap();
+    let mut settings = furbake_bake::BakeSettings::preset("grass").unwrap();
+    (settings.volume.layers, settings.volume.resolution) = (4, 16);
+    // Short fur, tall blades: the blades stand out of the shells.
+    settings.shells.fur_length_m = Some(2.0);
+    settings.blades = density.map(|d| {
+        let mut b = furbake_bake::BladeSettings::default();
+        b.field.density_per_m2 = d;
+        (b.field.height_min_m, b.field.height_max_m) = (15.0, 25.0);
+        b.keyframes.grid.poses = 40;
+        b
+    });
+    let baked = furbake_bake::bake(&mesh, "mesh", &settings, &mut furbake_bake::NoProgress).unwrap();
+    if let Some((field, _)) = &baked.blades {
+        let h = field.height_scale.iter().copied().fold(0.0f32, f32::max);
+        println!("{} blades, tallest {h} m, fur {} m", field.blade_count(), baked.shells.fur_length_m);
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("mesh.fbk");
+    baked.to_writer().write_atomic(&path).unwrap();
+    furbake_render::render_preview(&path, 160, 120).unwrap()
+}
+
+#[test]
+fn a_pack_preview_draws_its_grass_whatever_its_units() {
+    // A sphere of radius 100 with blades of 15–25 (a glTF in centimetres reads so): the preview
+    // frames it from about 340 "metres", past the default max distance of 150 m. A pack alone has no scene to say its
+    // units, so its preview culls only by the frustum and the blades are drawn.
+    let gltf = furbake_import::testmesh::uv_sphere(12, 16, 100.0).gltf;
+    let with = preview_of(&gltf, Some(0.05));
+    let without = preview_of(&gltf, None);
+    let differ = with.pixels().zip(without.pixels()).filter(|(a, b)| a != b).count();
+    println!("{differ} of {} pixels differ with the blades", 160 * 120);
+    assert!(differ > 500, "the blades of a large pack are missing from its preview ({differ} pixels differ)");
+}
