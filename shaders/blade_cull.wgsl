@@ -77,6 +77,11 @@ fn cs_cull_clusters(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_
     decisions[c] = visible;
 }
 
+// The block (workgroup) index of a 256-blade pass dispatched as (x, y) workgroups.
+fn block_index(wid: vec3<u32>, groups: vec3<u32>) -> u32 {
+    return wid.x + wid.y * groups.x;
+}
+
 // The LOD of blade `b`, or CULLED (the CPU twin is `CullReference::classify`).
 fn classify(b: u32) -> u32 {
     let blade = blades[b];
@@ -134,7 +139,7 @@ fn cs_cull_blades(
     @builtin(workgroup_id) wid: vec3<u32>,
     @builtin(num_workgroups) groups: vec3<u32>,
 ) {
-    let block = wid.x + wid.y * groups.x;
+    let block = block_index(wid, groups);
     let b = block * BLOCK + local;
     if local == 0u {
         atomicStore(&block_total, 0u);
@@ -217,7 +222,7 @@ fn cs_compact(
     @builtin(workgroup_id) wid: vec3<u32>,
     @builtin(num_workgroups) groups: vec3<u32>,
 ) {
-    let block = wid.x + wid.y * groups.x;
+    let block = block_index(wid, groups);
     let b = block * BLOCK + local;
     var lod = CULLED;
     if b < cull.counts.x {

@@ -199,6 +199,8 @@ fn blades(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
         v[v.len() / 2]
     };
     let mut coverage = Vec::new();
+    // The CPU reference, for the visible-cluster count.
+    let reference = furbake_render::CullReference::new(&field, &table);
     for (name, eye, look_at) in cameras {
         let mut view = View::framing(center, radius);
         view.camera.eye = eye;
@@ -237,7 +239,7 @@ fn blades(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
             gpu.device.poll(wgpu::PollType::wait_indefinitely())?;
             pass_ms.push(start.elapsed().as_secs_f64() * 1e3);
         }
-        let clusters = furbake_render::CullReference::new(&field, &table).classify(&frame_uniforms, &culling);
+        let clusters = reference.classify(&frame_uniforms, &culling);
         let [c, u] = [median(&mut culled_ms), median(&mut unculled_ms)];
         let n = lists.counts();
         println!(

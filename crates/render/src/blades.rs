@@ -140,7 +140,6 @@ pub struct BladeRenderer {
     blade_count: u32,
     vertex_count: u32,
     corner_count: u32,
-    cluster_count: u32,
     /// The levels of detail (index lists, reach of any pose).
     lods: std::sync::Arc<BladeLods>,
     /// Culling and level of detail; off: one instanced draw of every blade at full detail.
@@ -557,7 +556,6 @@ impl BladeRenderer {
             blade_count: params.blade_count,
             vertex_count: vertex_count as u32,
             corner_count: corners as u32,
-            cluster_count: clusters,
             lods,
             culling: settings.culling,
             own,
@@ -594,7 +592,6 @@ impl BladeRenderer {
                 blade_count: self.blade_count,
                 vertex_count: self.vertex_count,
                 corner_count: self.corner_count,
-                cluster_count: self.cluster_count,
                 lods: self.lods.clone(),
                 culling: self.culling,
                 own,
@@ -899,7 +896,7 @@ impl BladeRenderer {
 
     /// The culling parameters of `frame` (what [`BladeRenderer::prepare`] uploads).
     pub fn cull_params(&self, frame: &FrameUniforms) -> CullParams {
-        CullParams::new(frame, &self.culling, &self.lods, self.blade_count, self.cluster_count)
+        CullParams::new(frame, &self.culling, &self.lods, self.blade_count, self.grid.clusters() as u32)
     }
 
     /// Writes `frame` (the host's view-projection, eye and light, and the field's model matrix,
@@ -935,7 +932,7 @@ impl BladeRenderer {
         let [clusters, blades, scan, compact, pose_all] = &self.cull_pipelines;
         if self.culling.enabled {
             let dispatches = [
-                (clusters, grid(self.cluster_count.div_ceil(64))),
+                (clusters, grid((self.grid.clusters() as u32).div_ceil(64))),
                 (blades, blocks),
                 (scan, (1, 1)),
                 (compact, blocks),
@@ -975,33 +972,15 @@ impl BladeRenderer {
     /// the indirect draw arguments (with culling off: LOD 0's list, every blade); waits for the
     /// GPU. For tests and tools.
     pub fn read_culling(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<CullLists, RenderError> {
-        let words = |buffer: &wgpu::Buffer, count: u64, what: &str| -> Result<Vec<u32>, RenderError> {
-            let staging = device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("furbake blade culling readback"),
-                size: count * 4,
-                usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-                mapped_at_creation: false,
-            });
-            let mut encoder = device
-                .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("furbake culling readback") });
-            encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, count * 4);
-            crate::blocking::submit(queue, [encoder.finish()]);
-            crate::headless::map_for_reading(device, &staging, what)?;
-            let out = {
-                let view = staging.get_mapped_range(..).map_err(|e| RenderError::Gpu { what: e.to_string() })?;
-                bytemuck::cast_slice(&view).to_vec()
-            };
-            staging.unmap();
-            Ok(out)
-        };
-        let lists = words(&self.own.instances, LISTS_AT + 3 * self.blade_count as u64, "culling instance lists")?;
+        let read = |buffer, count, what| crate::headless::read_buffer::<u32>(device, queue, buffer, count, what);
+        let lists = read(&self.own.instances, LISTS_AT + 3 * self.blade_count as u64, "culling instance lists")?;
         let mut out = CullLists::default();
         if !self.culling.enabled {
             // Every blade, in LOD 0's list (`cs_pose_all`; the draw is not indirect).
             out.lods[0] = lists[LISTS_AT as usize..].chunks_exact(3).map(|e| e[0]).collect();
             return Ok(out);
         }
-        let args = words(&self.own.work, 20, "culling draw arguments")?;
+        let args = read(&self.own.work, 20, "culling draw arguments")?;
         for l in 0..MAX_LODS.min(self.lods.count as usize) {
             let start = lists[l] as usize;
             let count = args[5 * l + 1] as usize;
@@ -1029,24 +1008,9 @@ impl BladeRenderer {
         if n == 0 {
             return Ok(Vec::new());
         }
-        let buffer = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("furbake blade positions readback"),
-            size: n * 16,
-            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-            mapped_at_creation: false,
-        });
-        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-            label: Some("furbake blade positions readback"),
-        });
-        encoder.copy_buffer_to_buffer(positions, 0, &buffer, 0, n * 16);
-        crate::blocking::submit(queue, [encoder.finish()]);
-        crate::headless::map_for_reading(device, &buffer, "blade positions readback")?;
-        let out = {
-            let view = buffer.get_mapped_range(..).map_err(|e| RenderError::Gpu { what: e.to_string() })?;
-            let words: &[[f32; 4]] = bytemuck::cast_slice(&view);
-            words.iter().map(|p| [p[0], p[1], p[2]]).collect()
-        };
-        buffer.unmap();
+        let words: Vec<[f32; 4]> =
+            crate::headless::read_buffer(device, queue, positions, n, "blade positions readback")?;
+        let out = words.iter().map(|p| [p[0], p[1], p[2]]).collect();
         Ok(out)
     }
 }
