@@ -13,6 +13,16 @@
 //!   any error. Only a process killed mid-write leaves one; the name says it is furbake's and
 //!   temporary, so it can safely be removed.
 //!
+//! The target must be a regular file or not exist: a device (`/dev/null` run as root), a FIFO, a
+//! socket or a directory is refused before anything is written and checked again just before the
+//! rename ([`refuse_special_target`]), so an output never replaces one.
+//!
+//! The temporary name (`.furbake-<pid>-XXXXXX.tmp`) carries the writer's process id. Where the
+//! target does not exist yet, the unnamed file is linked straight to its name and never has a
+//! temporary one. Each write first removes the temporary files in its directory whose writer is
+//! no longer running and which have not changed for a minute ([`remove_stale_temporaries`]): what
+//! a killed write left, never another live writer's file.
+//!
 //! Either way the file gets the permissions of an ordinary file write: created with mode
 //! `0o666` and the kernel applies the process umask (so `0o644` under umask `022`), without
 //! reading or changing the umask ourselves (`umask(2)` set-and-restore would race with other
@@ -29,9 +39,77 @@ use crate::error::{FormatError, Result};
 const ORDINARY_FILE_MODE: u32 = 0o666;
 
 /// Prefix and suffix of the named temporary files (the fallback, and the instant between
-/// linking an unnamed file and renaming it into place).
+/// linking an unnamed file and renaming it into place): `.furbake-<pid>-XXXXXX.tmp`.
 const TEMP_PREFIX: &str = ".furbake-";
 const TEMP_SUFFIX: &str = ".tmp";
+
+/// How long a temporary file of a writer that is no longer running must have been unchanged
+/// before another write removes it.
+const STALE_AFTER: std::time::Duration = std::time::Duration::from_secs(60);
+
+/// The prefix of this process's temporary names.
+fn temp_prefix() -> String {
+    format!("{TEMP_PREFIX}{}-", std::process::id())
+}
+
+/// Refuses a target that exists and is not a regular file (followed through symlinks: a link to
+/// `/dev/null` is `/dev/null`). A missing target, or one whose type cannot be read, is left to
+/// the write itself.
+pub(crate) fn refuse_special_target(path: &Path) -> std::io::Result<()> {
+    match std::fs::metadata(path) {
+        Ok(m) => match crate::input::irregular_kind(m.file_type()) {
+            Some(kind) => Err(std::io::Error::new(
+                std::io::ErrorKind::InvalidInput,
+                format!("is {kind}; furbake writes only regular files and never replaces anything else"),
+            )),
+            None => Ok(()),
+        },
+        Err(_) => Ok(()),
+    }
+}
+
+/// Removes the temporary files in `dir` that a killed write left: named as ours, a regular file
+/// owned by this user, unchanged for [`STALE_AFTER`], and whose writer's process id is not a
+/// running process. Errors are ignored (the file stays, and the write goes on).
+#[cfg(unix)]
+fn remove_stale_temporaries(dir: &Path) {
+    use std::os::unix::fs::MetadataExt;
+    let Ok(entries) = std::fs::read_dir(dir) else { return };
+    // SAFETY: geteuid has no preconditions and cannot fail.
+    let uid = unsafe { libc::geteuid() };
+    for entry in entries.flatten() {
+        let name = entry.file_name();
+        let Some(pid) = name.to_str().and_then(stale_name_pid) else { continue };
+        let Ok(m) = entry.path().symlink_metadata() else { continue };
+        let old = m.modified().ok().and_then(|t| t.elapsed().ok()).is_some_and(|age| age >= STALE_AFTER);
+        if !m.file_type().is_file() || m.uid() != uid || !old || process_is_running(pid) {
+            continue;
+        }
+        let _ = std::fs::remove_file(entry.path());
+    }
+}
+
+#[cfg(not(unix))]
+fn remove_stale_temporaries(_dir: &Path) {}
+
+/// The writer's process id in a temporary name `.furbake-<pid>-XXXXXX.tmp`.
+fn stale_name_pid(name: &str) -> Option<u32> {
+    let rest = name.strip_prefix(TEMP_PREFIX)?.strip_suffix(TEMP_SUFFIX)?;
+    let (pid, random) = rest.split_once('-')?;
+    if random.is_empty() || pid.is_empty() || !pid.bytes().all(|b| b.is_ascii_digit()) {
+        return None;
+    }
+    pid.parse().ok().filter(|&p| p > 0)
+}
+
+/// Whether `pid` names a running process (a process of another user counts as running).
+#[cfg(unix)]
+fn process_is_running(pid: u32) -> bool {
+    let Ok(pid) = libc::pid_t::try_from(pid) else { return true };
+    // SAFETY: signal 0 only checks that the process exists; nothing is sent.
+    let rc = unsafe { libc::kill(pid, 0) };
+    rc == 0 || std::io::Error::last_os_error().raw_os_error() != Some(libc::ESRCH)
+}
 
 /// Writes `bytes` to `path` atomically: `path` is either the old file or the complete new one,
 /// never half-written, and a failed write leaves no temporary file. See the module docs for how
@@ -86,6 +164,8 @@ pub(crate) fn write_atomic_with(
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),
     };
+    refuse_special_target(path).map_err(io)?;
+    remove_stale_temporaries(&dir);
     #[cfg(target_os = "linux")]
     if method != Method::Named {
         match unnamed::write(&dir, path, &mut *fill, written) {
@@ -119,7 +199,8 @@ pub(crate) fn write_atomic_with(
 /// umask) renamed into place; dropping it on any error (the `?`s) removes it.
 fn write_named(dir: &Path, path: &Path, fill: Fill, written: &mut dyn FnMut(&Path)) -> std::io::Result<()> {
     let mut builder = tempfile::Builder::new();
-    builder.prefix(TEMP_PREFIX).suffix(TEMP_SUFFIX);
+    let prefix = temp_prefix();
+    builder.prefix(&prefix).suffix(TEMP_SUFFIX);
     #[cfg(unix)]
     {
         use std::os::unix::fs::PermissionsExt;
@@ -128,6 +209,7 @@ fn write_named(dir: &Path, path: &Path, fill: Fill, written: &mut dyn FnMut(&Pat
     let mut tmp = builder.tempfile_in(dir)?;
     fill_file(tmp.as_file_mut(), fill)?;
     written(dir);
+    refuse_special_target(path)?;
     tmp.persist(path).map_err(|e| e.error)?;
     Ok(())
 }
@@ -144,7 +226,7 @@ mod unnamed {
     use std::os::unix::fs::OpenOptionsExt;
     use std::path::Path;
 
-    use super::{Fill, ORDINARY_FILE_MODE, TEMP_PREFIX, TEMP_SUFFIX, fill_file};
+    use super::{Fill, ORDINARY_FILE_MODE, TEMP_SUFFIX, fill_file, refuse_special_target, temp_prefix};
 
     pub(super) enum Error {
         /// This file system or kernel cannot do it: fall back to a named temporary file (nothing
@@ -170,11 +252,17 @@ mod unnamed {
             .map_err(|e| if unsupported(&e) { Error::Unsupported(e) } else { Error::Failed(e) })?;
         fill_file(&mut file, fill).map_err(Error::Failed)?;
         written(dir);
+        // A target that does not exist gets the file's first and only name at once: no
+        // temporary name ever appears. (A link cannot replace an existing file: EEXIST.)
+        if link(&file, path).is_ok() {
+            return Ok(());
+        }
         // The unnamed file gets a temporary name (a link cannot replace an existing file), which
         // the rename then moves over the target at once; on any error dropping `linked` removes
         // the name again. A name clash is retried with another random name.
         let mut refused = None;
-        let linked = tempfile::Builder::new().prefix(TEMP_PREFIX).suffix(TEMP_SUFFIX).make_in(dir, |candidate| {
+        let prefix = temp_prefix();
+        let linked = tempfile::Builder::new().prefix(&prefix).suffix(TEMP_SUFFIX).make_in(dir, |candidate| {
             link(&file, candidate).inspect_err(|e| {
                 if e.kind() != std::io::ErrorKind::AlreadyExists {
                     refused = Some(e.raw_os_error());
@@ -190,6 +278,7 @@ mod unnamed {
             }
             Err(e) => return Err(Error::Failed(e)),
         };
+        refuse_special_target(path).map_err(Error::Failed)?;
         linked.persist(path).map_err(|e| Error::Failed(e.error))?;
         Ok(())
     }
@@ -343,5 +432,75 @@ mod tests {
             failed += 1;
         }
         assert_eq!(failed, 2);
+    }
+
+    #[cfg(unix)]
+    fn mkfifo(path: &Path) {
+        use std::os::unix::ffi::OsStrExt;
+        let c = std::ffi::CString::new(path.as_os_str().as_bytes()).unwrap();
+        // SAFETY: a valid NUL-terminated path; mkfifo keeps nothing.
+        assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_fifo_a_directory_or_a_link_to_a_device_is_never_replaced() {
+        use std::os::unix::fs::FileTypeExt;
+        let dir = tempfile::tempdir().unwrap();
+        let fifo = dir.path().join("out.fbk");
+        mkfifo(&fifo);
+        let link = dir.path().join("null.fbk");
+        std::os::unix::fs::symlink("/dev/null", &link).unwrap();
+        let sub = dir.path().join("sub");
+        std::fs::create_dir(&sub).unwrap();
+        for (target, kind) in [(&fifo, "a FIFO"), (&link, "a character device"), (&sub, "a directory")] {
+            for method in [Method::Best, Method::Named] {
+                let e = write_atomic_with(target, &mut |w| w.write_all(b"pack"), method, &mut |_| {}).unwrap_err();
+                assert!(e.to_string().contains(kind), "{target:?} {method:?}: {e}");
+            }
+        }
+        assert!(std::fs::symlink_metadata(&fifo).unwrap().file_type().is_fifo());
+        assert!(std::fs::symlink_metadata(&link).unwrap().file_type().is_symlink());
+        assert!(std::fs::metadata("/dev/null").unwrap().file_type().is_char_device());
+        assert_eq!(names(dir.path()), ["null.fbk", "out.fbk", "sub"], "no temporary file left");
+    }
+
+    #[test]
+    fn temporary_names_carry_the_writer_and_parse_back() {
+        let name = format!("{}abc123{TEMP_SUFFIX}", temp_prefix());
+        assert_eq!(stale_name_pid(&name), Some(std::process::id()));
+        for other in [".furbake-abc123.tmp", ".furbake--x.tmp", ".furbake-12-.tmp", "furbake-12-x.tmp", ".furbake-0-x.tmp"] {
+            assert_eq!(stale_name_pid(other), None, "{other}");
+        }
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_write_removes_what_killed_writes_left_and_nothing_of_live_ones() {
+        let dir = tempfile::tempdir().unwrap();
+        // A process that has exited: its id names no running process (until reused, which the
+        // kernel does only after cycling through the id space).
+        let mut child = std::process::Command::new("true").spawn().unwrap();
+        let dead = child.id();
+        child.wait().unwrap();
+        let old = std::time::SystemTime::now() - 2 * STALE_AFTER;
+        let make = |name: &str, modified: std::time::SystemTime| {
+            let path = dir.path().join(name);
+            std::fs::write(&path, b"half a pack").unwrap();
+            std::fs::File::options().append(true).open(&path).unwrap().set_modified(modified).unwrap();
+        };
+        make(&format!(".furbake-{dead}-killed{TEMP_SUFFIX}"), old);
+        make(&format!(".furbake-{dead}-fresh{TEMP_SUFFIX}"), std::time::SystemTime::now());
+        make(&format!("{}live{TEMP_SUFFIX}", temp_prefix()), old);
+        make(&format!(".furbake-{dead}-x.json"), old);
+        write_file_atomic(&dir.path().join("pack.fbk"), b"pack").unwrap();
+        let mut want = vec![
+            format!(".furbake-{dead}-fresh{TEMP_SUFFIX}"),
+            format!(".furbake-{dead}-x.json"),
+            format!("{}live{TEMP_SUFFIX}", temp_prefix()),
+            "pack.fbk".to_owned(),
+        ];
+        want.sort();
+        assert_eq!(names(dir.path()), want);
     }
 }

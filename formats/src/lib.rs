@@ -26,6 +26,7 @@ mod atomic;
 mod consistency;
 mod container;
 mod error;
+pub mod input;
 mod kind;
 mod pack;
 pub mod record;

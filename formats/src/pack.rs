@@ -113,8 +113,8 @@ impl Pack {
     pub fn open(path: impl AsRef<Path>) -> Result<Pack> {
         let path = path.as_ref();
         let io = |source| FormatError::Io { path: path.to_path_buf(), source };
-        let file = File::open(path).map_err(io)?;
-        let len = file.metadata().map_err(io)?.len();
+        // Never blocks (a FIFO is refused at once), and only a regular file's length is real.
+        let (file, len) = crate::input::open_regular(path).map_err(io)?;
         let mut head = [0u8; HEADER_SIZE];
         let got = read_up_to_at(&file, 0, &mut head).map_err(io)?;
         let header = parse_header(&head[..got], len).map_err(|e| e.with_path(path))?;
@@ -140,10 +140,18 @@ impl Pack {
     }
 
     /// Reads the whole container at `path` into memory and validates it as
-    /// [`Pack::from_bytes`] does; errors carry the path.
+    /// [`Pack::from_bytes`] does; errors carry the path. Only a regular file is read, never
+    /// blocking; its header (the size it declares) is checked against the file's length before
+    /// the body is read, and a container above [`crate::input::MAX_PACK_BYTES`] is refused.
     pub fn read(path: impl AsRef<Path>) -> Result<Pack> {
         let path = path.as_ref();
-        let bytes = std::fs::read(path).map_err(|source| FormatError::Io { path: path.to_path_buf(), source })?;
+        let io = |source| FormatError::Io { path: path.to_path_buf(), source };
+        let (file, len) = crate::input::open_regular(path).map_err(io)?;
+        let mut head = [0u8; HEADER_SIZE];
+        let got = read_up_to_at(&file, 0, &mut head).map_err(io)?;
+        parse_header(&head[..got], len).map_err(|e| e.with_path(path))?;
+        let limit = crate::input::MAX_PACK_BYTES;
+        let bytes = crate::input::read_open_bounded(file, len, limit, "a pack read whole").map_err(io)?;
         let mut pack = Pack::from_bytes(&bytes).map_err(|e| e.with_path(path))?;
         pack.path = Some(path.to_path_buf());
         Ok(pack)

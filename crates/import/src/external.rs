@@ -179,6 +179,21 @@ impl ExternalFiles<'_> {
     pub fn read(&self, uri: &str, need: Need) -> Result<(Vec<u8>, String), UriProblem> {
         let decoded = percent_decode(uri)?;
         let relative = relative_path(&decoded)?;
+        let (file, len, real) = self.open(relative)?;
+        Ok((read_needed(file, len, need, &real)?, normalised_name(relative)))
+    }
+
+    /// Steps 2–5 of the module docs for a path that needs no percent-decoding (a name a pack's
+    /// manifest recorded): the opened regular file, its length and its canonical path.
+    pub fn open_name(&self, name: &str) -> Result<(File, u64, PathBuf), UriProblem> {
+        if name.contains('\0') {
+            return Err(UriProblem::NulByte);
+        }
+        self.open(relative_path(name)?)
+    }
+
+    /// Steps 3–5 of the module docs for a relative path already checked by [`relative_path`].
+    fn open(&self, relative: &Path) -> Result<(File, u64, PathBuf), UriProblem> {
         let base_dir = self.base_dir.ok_or(UriProblem::NoBaseDirectory)?;
         let canonical = |p: &Path| std::fs::canonicalize(p).map_err(|source| UriProblem::Io { path: p.into(), source });
         let base = canonical(base_dir)?;
@@ -197,7 +212,7 @@ impl ExternalFiles<'_> {
             return Err(outside(real));
         }
         let (file, len) = open_regular_file(&real, &roots)?;
-        Ok((read_needed(file, len, need, &real)?, normalised_name(relative)))
+        Ok((file, len, real))
     }
 }
 

@@ -142,6 +142,21 @@ fn import_file(path: &Path, extra_root: Option<&Path>, settings: &ImportSettings
     import(&bytes, path, true, external::ExternalFiles { base_dir: Some(base_dir), extra_root }, settings)
 }
 
+/// Opens the input file `name` as a pack's manifest records it (relative to the glTF's
+/// directory `gltf_dir`, `/`-separated) under exactly the rules the import reads external files
+/// by (see `external.rs`): it must resolve inside `gltf_dir` or `asset_root`, symlinks followed,
+/// and be a regular file, opened without blocking. Returns the file and its length; a refusal
+/// says why. `furbake batch` re-reads recorded inputs through this to decide whether a pack is up
+/// to date, so a planted manifest cannot make it read anything the bake could not.
+pub fn open_recorded_input(
+    gltf_dir: &Path,
+    asset_root: Option<&Path>,
+    name: &str,
+) -> Result<(std::fs::File, u64), UriProblem> {
+    let files = external::ExternalFiles { base_dir: Some(gltf_dir), extra_root: asset_root };
+    files.open_name(name).map(|(file, len, _)| (file, len))
+}
+
 /// Imports glTF bytes held in memory. `name_for_errors` names the input in errors and warnings;
 /// `base_dir` resolves external buffer and image URIs, which must lie inside it (`None`: only
 /// GLB-embedded or `data:` buffers work).

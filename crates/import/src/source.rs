@@ -248,9 +248,10 @@ pub(crate) fn load_asset(bytes: &[u8], file: &Path, external: ExternalFiles<'_>)
     Ok(Asset { root, buffers, input_bytes, input_hasher: hasher, warnings, files })
 }
 
-/// Reads the main glTF file the caller named, at most [`MAX_FILE_BYTES`]: its size is checked on
-/// the opened handle before reading, and the read goes through `take`, so a file that is not
-/// what its size says (a device such as `/dev/zero`, a pipe) cannot exhaust memory.
+/// Reads the main glTF file the caller named, at most [`MAX_FILE_BYTES`]: opened without
+/// blocking and refused unless the opened handle is a regular file (a FIFO or a device such as
+/// `/dev/zero` is named as what it is, `furbake_formats::input`), its size checked before
+/// reading, and the read bounded by `take`.
 pub(crate) fn read_file_limited(path: &Path, file: &Path) -> Result<Vec<u8>, ImportError> {
     let io = |source| ImportError::Io { file: file.to_path_buf(), what: path.to_path_buf(), source };
     let too_large = |count| ImportError::TooLarge {
@@ -259,8 +260,7 @@ pub(crate) fn read_file_limited(path: &Path, file: &Path) -> Result<Vec<u8>, Imp
         count,
         limit: MAX_FILE_BYTES,
     };
-    let handle = std::fs::File::open(path).map_err(io)?;
-    let len = handle.metadata().map_err(io)?.len();
+    let (handle, len) = furbake_formats::input::open_regular(path).map_err(io)?;
     if len > MAX_FILE_BYTES {
         return Err(too_large(len));
     }

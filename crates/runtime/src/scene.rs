@@ -830,10 +830,12 @@ impl Effect {
 
 impl Scene {
     /// Reads, parses and validates the scene file at `path`; relative pack paths are resolved
-    /// against its directory.
+    /// against its directory. Only a regular file of at most
+    /// [`furbake_formats::input::MAX_TEXT_BYTES`] is read, never blocking on a FIFO.
     pub fn load(path: impl AsRef<Path>) -> Result<Scene, SceneError> {
         let path = path.as_ref();
-        let text = std::fs::read_to_string(path).map_err(|source| SceneError::Io { path: path.into(), source })?;
+        let text = furbake_formats::input::read_text(path, "a scene")
+            .map_err(|source| SceneError::Io { path: path.into(), source })?;
         let base = path.parent().unwrap_or(Path::new(""));
         Scene::from_toml_str(&text, path, base)
     }
