@@ -5,7 +5,7 @@ use std::io::IsTerminal;
 use std::path::Path;
 use std::time::Instant;
 
-use anyhow::{Context, anyhow};
+use anyhow::anyhow;
 use furbake_bake::validate::check_against_mesh;
 use furbake_bake::{BakeSettings, BakedPack, Progress, Stage, bake, estimate_bake_memory, settings::dotted_override};
 use furbake_import::{ImportError, ImportedMesh, import_gltf, import_gltf_with_asset_root};
@@ -14,6 +14,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use crate::args::{BakeArgs, format_bytes};
 use crate::bake_files::{ReportInputs, StageTime, depfile_text, report_json, write_text};
 use crate::failure::{Classify, Failure};
+use crate::files::Files;
 
 /// Stage two of argument parsing: the preset, the config file, `--set` and the named flags,
 /// merged in that order and validated as a whole, plus the output paths. Runs before the input is
@@ -23,10 +24,8 @@ use crate::failure::{Classify, Failure};
 pub fn plan(args: &BakeArgs) -> Result<BakeSettings, Failure> {
     let mut settings = BakeSettings::preset(&args.preset).usage()?;
     if let Some(path) = &args.config {
-        let text =
-            std::fs::read_to_string(path).with_context(|| format!("{}: cannot read config", path.display())).input()?;
-        let value: serde_json::Value =
-            toml::from_str(&text).with_context(|| format!("{}: invalid TOML", path.display())).input()?;
+        let text = crate::files::read_text(path, "the config")?;
+        let value = crate::files::toml_overrides(&text, path)?;
         settings = settings.with_overrides(&value).map_err(|e| anyhow!("{e} (in {})", path.display())).usage()?;
     }
     let mut sets: Vec<String> = args.set.clone();
@@ -58,6 +57,25 @@ pub fn plan(args: &BakeArgs) -> Result<BakeSettings, Failure> {
     Ok(settings)
 }
 
+/// The bake's files: its glTF and config as inputs; the pack (`-o -`: stdout), the depfile and
+/// the report as outputs, each a regular file or new, none an input or another output
+/// ([`crate::files::Files`]). The glTF's own buffers and images join the check once it is read
+/// ([`bake_job`]).
+pub fn plan_files(args: &BakeArgs) -> Result<Files, Failure> {
+    let mut files = Files::with_inputs(std::iter::once(args.mesh.as_path()).chain(args.config.as_deref()));
+    files.stream_output("--output", &args.output)?;
+    if let Some(d) = &args.depfile {
+        if crate::files::is_stdout(&args.output) {
+            return Err(Failure::Usage(anyhow!("--depfile needs a pack file to name: --output - is stdout")));
+        }
+        files.output("--depfile", d)?;
+    }
+    if let Some(r) = &args.report {
+        files.stream_output("--report", r)?;
+    }
+    Ok(files)
+}
+
 /// The pack goes into an existing directory and is not one; `--png-dir`, when it exists, is a
 /// directory; `--asset-root` is an existing directory. Checked with the settings, so a typo costs
 /// no bake.
@@ -70,6 +88,9 @@ fn check_output_paths(args: &BakeArgs) -> Result<(), Failure> {
         }
     }
     let out = &args.output;
+    if crate::files::is_stdout(out) {
+        return Ok(());
+    }
     if out.is_dir() {
         return Err(Failure::Usage(anyhow!("--output {}: is a directory, not a pack file", out.display())));
     }
@@ -177,11 +198,15 @@ pub struct Job<'a> {
     pub depfile: Option<&'a Path>,
     pub report: Option<&'a Path>,
     pub max_memory: u64,
+    /// Every output of the command (of the whole batch for `furbake batch`), checked against the
+    /// files the glTF names once it is read.
+    pub files: &'a Files,
 }
 
 impl<'a> Job<'a> {
-    fn of(args: &'a BakeArgs) -> Job<'a> {
+    fn of(args: &'a BakeArgs, files: &'a Files) -> Job<'a> {
         Job {
+            files,
             mesh: &args.mesh,
             output: &args.output,
             asset_root: args.asset_root.as_deref(),
@@ -203,6 +228,7 @@ pub struct Done {
 /// Runs `furbake bake`.
 pub fn run(args: BakeArgs, quiet: bool) -> Result<(), Failure> {
     let settings = plan(&args)?;
+    let files = plan_files(&args)?;
     let show = !quiet && std::io::stderr().is_terminal();
     let bar = show.then(|| {
         let bar = ProgressBar::new(Stage::ALL.len() as u64 + 2);
@@ -214,7 +240,7 @@ pub fn run(args: BakeArgs, quiet: bool) -> Result<(), Failure> {
         bar.set_message("importing glTF");
         bar
     });
-    let job = Job::of(&args);
+    let job = Job::of(&args, &files);
     let done = bake_job(&job, &settings, bar)?;
     if !quiet {
         for w in &done.imported.warnings {
@@ -266,6 +292,7 @@ pub fn bake_job(job: &Job, settings: &BakeSettings, bar: Option<ProgressBar>) ->
         }
         Err(e) => return Err(Failure::Input(e.into())),
     };
+    job.files.check_inputs(imported.inputs.iter().map(|f| f.path.as_path()).filter(|p| !p.as_os_str().is_empty()))?;
     check_memory_budget(job, settings, &imported)?;
     let mut progress = Bar(bar, vec![("import", started)]);
     progress.stage_done_import();
@@ -285,7 +312,7 @@ pub fn bake_job(job: &Job, settings: &BakeSettings, bar: Option<ProgressBar>) ->
     progress.1.push(("write", Instant::now()));
     let writer = baked.to_writer();
     let pack_bytes = writer.to_bytes();
-    furbake_formats::write_file_atomic(job.output, &pack_bytes).input()?;
+    crate::files::write_output(job.output, &pack_bytes, "the pack")?;
     if let Some(dir) = job.png_dir {
         crate::png::write_atlases(dir, &baked.shells, &baked.fins).input()?;
     }
@@ -307,7 +334,7 @@ pub fn bake_job(job: &Job, settings: &BakeSettings, bar: Option<ProgressBar>) ->
             stages: &stages,
             total: end - started,
         });
-        write_text(path, &report, "the bake report").input()?;
+        crate::files::write_output(path, report.as_bytes(), "the bake report")?;
     }
     if let Some(bar) = &progress.0 {
         bar.finish_and_clear();

@@ -20,6 +20,7 @@ use sha2::{Digest, Sha256};
 use crate::args::BatchArgs;
 use crate::bake_cmd::{Job, bake_job};
 use crate::failure::{Classify, Failure};
+use crate::files::Files;
 
 /// Keys shared by `[defaults]` and every `[[asset]]`.
 #[derive(Deserialize, Default, Clone)]
@@ -89,9 +90,7 @@ enum Outcome {
 
 /// Runs `furbake batch`.
 pub fn run(args: BatchArgs, quiet: bool) -> Result<(), Failure> {
-    let text = std::fs::read_to_string(&args.file)
-        .with_context(|| format!("{}: cannot read the batch file", args.file.display()))
-        .input()?;
+    let text = crate::files::read_text(&args.file, "the batch file")?;
     let file: BatchFile =
         toml::from_str(&text).with_context(|| format!("{}: invalid batch file", args.file.display())).input()?;
     let base = match args.file.parent() {
@@ -102,7 +101,7 @@ pub fn run(args: BatchArgs, quiet: bool) -> Result<(), Failure> {
     if file.assets.is_empty() {
         return Err(Failure::Input(anyhow!("{}: lists no [[asset]]", args.file.display())));
     }
-    let plans = plan(&file, &base, &args.file)?;
+    let (plans, files) = plan(&file, &base, &args.file)?;
     let jobs = args.jobs.map_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()), usize::from);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(jobs)
@@ -121,7 +120,7 @@ pub fn run(args: BatchArgs, quiet: bool) -> Result<(), Failure> {
         plans
             .par_iter()
             .map(|p| {
-                let outcome = run_one(p, args.force);
+                let outcome = run_one(p, &files, args.force);
                 if let Some(bar) = &bar {
                     bar.inc(1);
                     bar.set_message(file_name(&p.output));
@@ -163,8 +162,10 @@ pub fn run(args: BatchArgs, quiet: bool) -> Result<(), Failure> {
     Ok(())
 }
 
-/// Resolves every asset's paths and settings before anything is baked.
-fn plan(file: &BatchFile, base: &Path, batch: &Path) -> Result<Vec<Planned>, Failure> {
+/// Resolves every asset's paths and settings before anything is baked, and checks the outputs
+/// of the whole batch ([`Files`]): no pack or depfile is the batch file, any asset's input or
+/// config, or another output (compared as resolved files), or a device, FIFO or directory.
+fn plan(file: &BatchFile, base: &Path, batch: &Path) -> Result<(Vec<Planned>, Files), Failure> {
     let d = &file.defaults.common;
     let out_dir = file.defaults.out_dir.as_ref().map_or_else(|| base.to_path_buf(), |o| base.join(o));
     let mut plans: Vec<Planned> = Vec::with_capacity(file.assets.len());
@@ -175,16 +176,19 @@ fn plan(file: &BatchFile, base: &Path, batch: &Path) -> Result<Vec<Planned>, Fai
         let mut settings = BakeSettings::preset(preset).map_err(|e| anyhow!("{}: {e}", what())).usage()?;
         let config = c.config.as_ref().or(d.config.as_ref()).map(|p| base.join(p));
         if let Some(path) = &config {
-            let text = std::fs::read_to_string(path)
-                .with_context(|| format!("{}: {}: cannot read config", what(), path.display()))
-                .input()?;
-            let value: serde_json::Value = toml::from_str(&text)
-                .with_context(|| format!("{}: {}: invalid TOML", what(), path.display()))
-                .input()?;
+            let in_asset = |f: Failure| match f {
+                Failure::Input(e) => Failure::Input(e.context(what())),
+                Failure::Usage(e) => Failure::Usage(e.context(what())),
+                other => other,
+            };
+            let text = crate::files::read_text(path, "the config").map_err(in_asset)?;
+            let value = crate::files::toml_overrides(&text, path).map_err(in_asset)?;
             settings = settings.with_overrides(&value).map_err(|e| anyhow!("{}: {e}", what())).usage()?;
         }
         for table in [&d.settings, &c.settings].into_iter().flatten() {
-            let value = serde_json::to_value(table).map_err(|e| anyhow!("{}: settings: {e}", what())).usage()?;
+            let value = crate::files::table_overrides(table)
+                .map_err(|e| anyhow!("{}: settings.{e}", what()))
+                .usage()?;
             settings = settings.with_overrides(&value).map_err(|e| anyhow!("{}: {e}", what())).usage()?;
         }
         settings.validate().map_err(|e| anyhow!("{}: {e}", what())).usage()?;
@@ -196,14 +200,6 @@ fn plan(file: &BatchFile, base: &Path, batch: &Path) -> Result<Vec<Planned>, Fai
                 out_dir.join(format!("{}.fbk", stem.to_string_lossy()))
             }
         };
-        if let Some(other) = plans.iter().position(|p| p.output == output) {
-            return Err(Failure::Usage(anyhow!(
-                "{}: writes {}, as asset {} does",
-                what(),
-                output.display(),
-                other + 1
-            )));
-        }
         let max_memory = match c.max_memory.as_deref().or(d.max_memory.as_deref()) {
             Some(v) => crate::args::parse_bytes(v).map_err(|e| anyhow!("{}: max_memory: {e}", what())).usage()?,
             None => crate::args::DEFAULT_MAX_MEMORY,
@@ -213,12 +209,35 @@ fn plan(file: &BatchFile, base: &Path, batch: &Path) -> Result<Vec<Planned>, Fai
         let asset_root = c.asset_root.as_ref().or(d.asset_root.as_ref()).map(|p| base.join(p));
         plans.push(Planned { input, output, config, asset_root, depfile, max_memory, settings });
     }
-    Ok(plans)
+    let mut files = Files::with_inputs(std::iter::once(batch));
+    for p in &plans {
+        files.input(&p.input);
+        if let Some(c) = &p.config {
+            files.input(c);
+        }
+    }
+    for (i, p) in plans.iter().enumerate() {
+        let in_asset = |f: Failure| match f {
+            Failure::Usage(e) => {
+                Failure::Usage(e.context(format!("{} asset {} ({})", batch.display(), i + 1, p.input.display())))
+            }
+            other => other,
+        };
+        files.output("output", &p.output).map_err(in_asset)?;
+        if let Some(d) = &p.depfile {
+            files.output("depfile", d).map_err(in_asset)?;
+        }
+    }
+    Ok((plans, files))
 }
 
-fn run_one(p: &Planned, force: bool) -> Outcome {
-    if !force && p.depfile.as_ref().is_none_or(|d| d.is_file()) && up_to_date(&p.output, &p.input, &p.settings) {
-        return Outcome::Skipped;
+fn run_one(p: &Planned, files: &Files, force: bool) -> Outcome {
+    if !force && p.depfile.as_ref().is_none_or(|d| d.is_file()) {
+        match up_to_date(&p.output, &p.input, p.asset_root.as_deref(), &p.settings) {
+            Freshness::UpToDate => return Outcome::Skipped,
+            Freshness::Stale => {}
+            Freshness::Refused(why) => eprintln!("furbake: warning: {}: not up to date: {why}", p.output.display()),
+        }
     }
     if let Some(dir) = p.output.parent().filter(|d| !d.as_os_str().is_empty()) {
         if let Err(e) = std::fs::create_dir_all(dir) {
@@ -235,6 +254,7 @@ fn run_one(p: &Planned, force: bool) -> Outcome {
         depfile: p.depfile.as_deref(),
         report: None,
         max_memory: p.max_memory,
+        files,
     };
     match bake_job(&job, &p.settings, None) {
         Ok(_) => Outcome::Baked(started.elapsed().as_secs_f64()),
@@ -242,14 +262,28 @@ fn run_one(p: &Planned, force: bool) -> Outcome {
     }
 }
 
-/// True when `output` is a pack whose manifest records this tool version, these resolved
+/// Whether a pack is up to date with its inputs.
+pub enum Freshness {
+    /// The manifest records this tool version, these settings and, for every input file, the
+    /// bytes it holds now.
+    UpToDate,
+    /// Something differs, or the pack is missing or unreadable: bake.
+    Stale,
+    /// The manifest names a file the bake could not have read (outside the asset roots, not a
+    /// regular file, …): bake, and say why (a planted manifest must not make batch read it).
+    Refused(String),
+}
+
+/// Whether `output` is a pack whose manifest records this tool version, these resolved
 /// settings, `input`'s file name first and, for every input file, the same bytes now (named
-/// relative to the glTF's directory). A file longer than recorded counts as changed (a buffer
-/// file with bytes past its `byteLength` is then always rebaked: safe, rare). Anything
-/// unreadable means "not up to date".
-pub fn up_to_date(output: &Path, input: &Path, settings: &BakeSettings) -> bool {
-    let Ok(pack) = furbake_formats::Pack::open(output) else { return false };
-    let Ok(m) = pack.manifest() else { return false };
+/// relative to the glTF's directory). Each recorded file is opened through the importer's
+/// confined reader (`furbake_import::open_recorded_input`: inside the glTF's directory or
+/// `asset_root`, a regular file, opened without blocking) and read at most as far as the
+/// recorded size; a file longer than recorded counts as changed (a buffer file with bytes past
+/// its `byteLength` is then always rebaked: safe, rare).
+pub fn up_to_date(output: &Path, input: &Path, asset_root: Option<&Path>, settings: &BakeSettings) -> Freshness {
+    let Ok(pack) = furbake_formats::Pack::open(output) else { return Freshness::Stale };
+    let Ok(m) = pack.manifest() else { return Freshness::Stale };
     let settings_json = serde_json::to_string(settings).expect("settings are plain serde structs");
     let name = input.file_name().map(|n| n.to_string_lossy().into_owned());
     if m.tool != "furbake"
@@ -257,17 +291,27 @@ pub fn up_to_date(output: &Path, input: &Path, settings: &BakeSettings) -> bool 
         || m.settings_json != settings_json
         || m.inputs.first().map(|f| &f.name) != name.as_ref()
     {
-        return false;
+        return Freshness::Stale;
     }
-    let dir = input.parent().unwrap_or(Path::new("."));
-    m.inputs.iter().all(|f| same_bytes(&dir.join(&f.name), f.bytes, &f.sha256))
+    let dir = match input.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    for f in &m.inputs {
+        let file = match furbake_import::open_recorded_input(dir, asset_root, &f.name) {
+            Ok((file, len)) if len == f.bytes => file,
+            Ok(_) => return Freshness::Stale,
+            Err(e) if e.is_refusal() => return Freshness::Refused(format!("its manifest names {:?}, which {e}", f.name)),
+            Err(_) => return Freshness::Stale,
+        };
+        if !same_bytes(file, f.bytes, &f.sha256) {
+            return Freshness::Stale;
+        }
+    }
+    Freshness::UpToDate
 }
 
-fn same_bytes(path: &Path, bytes: u64, sha256: &str) -> bool {
-    let Ok(file) = std::fs::File::open(path) else { return false };
-    if file.metadata().map(|m| m.len()).ok() != Some(bytes) {
-        return false;
-    }
+fn same_bytes(file: std::fs::File, bytes: u64, sha256: &str) -> bool {
     let mut hasher = Sha256::new();
     let mut reader = file.take(bytes);
     if std::io::copy(&mut reader, &mut hasher).ok() != Some(bytes) {

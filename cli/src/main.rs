@@ -10,6 +10,7 @@ mod describe;
 mod export_cmd;
 mod extract_cmd;
 mod failure;
+mod files;
 mod keyframes_cmd;
 mod png;
 mod preview_cmd;
