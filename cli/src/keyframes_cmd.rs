@@ -26,6 +26,7 @@ pub fn plan(args: &KeyframesArgs) -> Result<KeyframeSettings, Failure> {
 /// Runs `furbake keyframes`.
 pub fn run(args: KeyframesArgs, quiet: bool) -> Result<(), Failure> {
     let settings = plan(&args)?;
+    crate::files::Files::default().output("--output", &args.output)?;
     let table = match bake_keyframe_table(&settings) {
         Ok(t) => t,
         Err(e @ GrassError::Parameter { .. }) | Err(e @ GrassError::Limit { .. }) => {
