@@ -294,6 +294,12 @@ pub fn bake_job(job: &Job, settings: &BakeSettings, bar: Option<ProgressBar>) ->
     };
     job.files.check_inputs(imported.inputs.iter().map(|f| f.path.as_path()).filter(|p| !p.as_os_str().is_empty()))?;
     check_memory_budget(job, settings, &imported)?;
+    // The depfile's text before anything is written: a path it cannot hold leaves no pack behind
+    // (docs/design.md "Depfiles").
+    let depfile = match job.depfile {
+        Some(path) => Some((path, depfile_text(job.output, &imported, job.config).input()?)),
+        None => None,
+    };
     let mut progress = Bar(bar, vec![("import", started)]);
     progress.stage_done_import();
     let name = file_name(job.mesh);
@@ -316,9 +322,8 @@ pub fn bake_job(job: &Job, settings: &BakeSettings, bar: Option<ProgressBar>) ->
     if let Some(dir) = job.png_dir {
         crate::png::write_atlases(dir, &baked.shells, &baked.fins).input()?;
     }
-    if let Some(path) = job.depfile {
-        let text = depfile_text(job.output, &imported, job.config).input()?;
-        write_text(path, &text, "the depfile").input()?;
+    if let Some((path, text)) = &depfile {
+        write_text(path, text, "the depfile").input()?;
     }
     if let Some(path) = job.report {
         let end = Instant::now();
