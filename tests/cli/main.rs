@@ -9,6 +9,7 @@ mod batch;
 mod closed_stdout;
 mod common;
 mod confinement;
+mod depfile;
 mod export;
 mod file_modes;
 mod fuzz_gltf;
