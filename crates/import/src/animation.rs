@@ -22,7 +22,7 @@ use furbake_formats::sections::animation_clips::{
     AnimationClip, AnimationClips, ChannelTarget, ClipChannel, Interpolation,
 };
 use furbake_formats::sections::morph_targets::{MorphGroup, MorphTargets};
-use furbake_formats::sections::skeleton::{MAX_NAME_BYTES, MIN_INVERSE_BIND_DETERMINANT, Skeleton};
+use furbake_formats::sections::skeleton::{AFFINE_TOLERANCE, MAX_NAME_BYTES, MIN_INVERSE_BIND_DETERMINANT, Skeleton};
 use furbake_formats::sections::skin_weights::{SkinWeightStats, SkinWeights};
 use glam::{DMat3, DMat4, DQuat, DVec3};
 use gltf::json;
@@ -80,6 +80,20 @@ fn cut_name(name: &str) -> String {
         end -= 1;
     }
     name[..end].to_string()
+}
+
+/// `m` with its bottom row exactly `0, 0, 0, 1` when it is that within the stored form's
+/// tolerance (`skeleton::AFFINE_TOLERANCE`: an inverse bind is affine, and readers refuse any other
+/// bottom row), else `None`.
+fn affine(m: DMat4) -> Option<DMat4> {
+    let row = m.row(3);
+    let tolerance = f64::from(AFFINE_TOLERANCE);
+    let near = [row.x, row.y, row.z, row.w - 1.0].iter().all(|x| x.abs() <= tolerance);
+    near.then(|| {
+        let mut m = m;
+        (m.x_axis.w, m.y_axis.w, m.z_axis.w, m.w_axis.w) = (0.0, 0.0, 0.0, 1.0);
+        m
+    })
 }
 
 fn mat4_array(m: DMat4) -> [f32; 16] {
@@ -201,6 +215,13 @@ impl Rig {
                     ),
                 ));
             }
+            let Some(m) = affine(m) else {
+                return Err(Rig::error(
+                    file,
+                    at,
+                    format!("the inverse bind matrix of joint {slot} is not affine (bottom row {:?})", m.row(3)),
+                ));
+            };
             binds.push(self.add_bind(BindKey::Skin { skin, slot }, m, file)?);
         }
         self.skin_binds.insert(skin, binds.clone());
@@ -214,13 +235,15 @@ impl Rig {
         let usable = det.abs() >= MIN_INVERSE_BIND_DETERMINANT
             && DMat3::from_mat4(inverse).determinant().abs() >= MIN_INVERSE_BIND_DETERMINANT
             && inverse.abs().to_cols_array().iter().all(|x| *x <= 1e7);
-        let inverse = if usable {
-            inverse
-        } else {
-            // Every triangle of such a node is (nearly) degenerate; the bind only has to be valid.
-            self.warnings
-                .push(format!("node {node}: a (nearly) singular rest transform; its rigid bind uses the identity"));
-            DMat4::IDENTITY
+        let inverse = match affine(inverse).filter(|_| usable) {
+            Some(inverse) => inverse,
+            None => {
+                // Every triangle of such a node is (nearly) degenerate; the bind only has to be valid.
+                self.warnings.push(format!(
+                    "node {node}: a (nearly) singular or non-affine rest transform; its rigid bind uses the identity"
+                ));
+                DMat4::IDENTITY
+            }
         };
         self.add_bind(BindKey::Rigid { node }, inverse, file)
     }

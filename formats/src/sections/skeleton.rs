@@ -24,6 +24,12 @@ pub const MAX_NAME_BYTES: usize = 128;
 /// Smallest `|det|` of an inverse bind matrix's 3×3 part a reader accepts (a non-invertible
 /// inverse bind is refused on import; this is its stored form, with room for tiny scales).
 pub const MIN_INVERSE_BIND_DETERMINANT: f64 = 1e-24;
+/// Largest deviation of an inverse bind matrix's bottom row from `0, 0, 0, 1` a reader accepts.
+/// An inverse bind is an affine transform (the Khronos glTF-Validator refuses any other bottom row
+/// of a glTF skin's `inverseBindMatrices` as `ACCESSOR_INVALID_IBM`), and the importer stores it
+/// so; the tolerance only admits rounding, and [`Skeleton::affine_inverse_bind`] gives the exact
+/// row back.
+pub const AFFINE_TOLERANCE: f32 = 1e-6;
 
 /// The joint hierarchy and the skinning palette, struct of arrays.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -60,6 +66,20 @@ impl Skeleton {
     pub fn bind_count(&self) -> usize {
         self.bind_joints.len()
     }
+
+    /// Inverse bind `b` with its bottom row exactly `0, 0, 0, 1` (the decoder accepted it within
+    /// [`AFFINE_TOLERANCE`]), as glTF requires of an inverse bind matrix.
+    pub fn affine_inverse_bind(&self, b: usize) -> [f32; 16] {
+        let mut m = self.inverse_binds[b];
+        (m[3], m[7], m[11], m[15]) = (0.0, 0.0, 0.0, 1.0);
+        m
+    }
+}
+
+/// True when the bottom row of the column-major `m` is `0, 0, 0, 1` within [`AFFINE_TOLERANCE`]
+/// (false for a non-finite row).
+pub fn is_affine(m: &[f32; 16]) -> bool {
+    [m[3], m[7], m[11], m[15] - 1.0].iter().all(|x| x.abs() <= AFFINE_TOLERANCE)
 }
 
 #[derive(Serialize, Deserialize)]
@@ -142,6 +162,13 @@ impl Section for Skeleton {
             ibm.chunks_exact(16).map(|c| std::array::from_fn(|k| c[k])).collect::<Vec<_>>();
         if let Some(i) = inverse_binds.iter().position(|m| det3(m).abs() < MIN_INVERSE_BIND_DETERMINANT) {
             return Err(FormatError::invalid(format!("inverse binds[{i}] is not invertible")));
+        }
+        if let Some(i) = inverse_binds.iter().position(|m| !is_affine(m)) {
+            let m = &inverse_binds[i];
+            return Err(FormatError::invalid(format!(
+                "inverse binds[{i}] is not affine: its bottom row is {:?}, not [0, 0, 0, 1]",
+                [m[3], m[7], m[11], m[15]]
+            )));
         }
         if let Some(root) = m.skin_root.filter(|&r| r as usize >= j) {
             return Err(FormatError::invalid(format!("skin_root = {root} is out of range (must be below {j})")));
