@@ -31,6 +31,7 @@ mod kind;
 mod pack;
 pub mod record;
 pub mod sections;
+mod verify;
 
 pub use atomic::{write_file_atomic, write_file_atomic_from};
 pub use consistency::{PackSections, check_consistency};
@@ -42,6 +43,7 @@ pub use error::{FormatError, OutOfRange, Result};
 pub use kind::SectionKind;
 pub use pack::{Pack, Payload};
 pub use sections::Section;
+pub use verify::{DecodedSections, VerifySummary};
 
 /// Decodes a payload as section type `S` after checking the entry's kind and layout version.
 pub fn decode_section<S: Section>(index: usize, entry: &SectionEntry, payload: &[u8]) -> Result<S> {
