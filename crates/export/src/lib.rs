@@ -19,7 +19,8 @@
 //!    map's repeat, `v` = 0 at the tip and 1 at the root, textured with the fin atlas (the
 //!    self-shadow ramp baked into its colour, the atlas in its alpha);
 //! 4. when the pack has a skeleton and skin weights: the joints as nodes (rest TRS), one glTF
-//!    skin (one joint per bind, inverse bind matrices), `JOINTS_n`/`WEIGHTS_n` on the skin, every
+//!    skin (one joint per bind, exactly affine inverse bind matrices), `JOINTS_n`/`WEIGHTS_n` on
+//!    the skin (a bind repeated within a vertex merged into one influence), every
 //!    shell layer and the fins (a fin corner takes its edge vertex's influences), and every clip
 //!    as an animation with its samplers' interpolation as stored, so the shells and fins follow
 //!    the character in any viewer.
@@ -299,8 +300,8 @@ fn build(input: &Input<'_>, options: &ExportOptions, notes: &mut Vec<String>) ->
     let shared = match input.rig {
         Some((sk, w)) => {
             let k = w.influences_per_vertex as usize;
-            Shared { influences: Some((k, w.binds.clone(), w.weights.clone())), skin: Some(0) }
-                .with_bind_count(sk.bind_count())
+            let (binds, weights) = gltf_influences(w);
+            Shared { influences: Some((k, binds, weights)), skin: Some(0) }.with_bind_count(sk.bind_count())
         }
         None => Shared { influences: None, skin: None },
     };
@@ -527,7 +528,8 @@ fn build(input: &Input<'_>, options: &ExportOptions, notes: &mut Vec<String>) ->
             r
         };
         scene_nodes.push(root);
-        let ibm: Vec<f32> = sk.inverse_binds.iter().flatten().copied().collect();
+        // Exactly affine (the decoder accepts rounding in the bottom row; glTF does not).
+        let ibm: Vec<f32> = (0..sk.bind_count()).flat_map(|b| sk.affine_inverse_bind(b)).collect();
         let mut skin = json!({ "name": "skin", "joints": joints, "skeleton": root });
         if !ibm.is_empty() {
             skin["inverseBindMatrices"] = json!(b.mat4(&ibm));
@@ -629,6 +631,44 @@ fn build(input: &Input<'_>, options: &ExportOptions, notes: &mut Vec<String>) ->
     b.finish(doc)
 }
 
+/// Every welded vertex's influences as glTF `JOINTS_n`/`WEIGHTS_n` carry them, in the pack's
+/// slot count: a bind that a vertex names twice becomes one slot with the summed weight (glTF
+/// requires distinct joints per vertex — the Khronos glTF-Validator's
+/// `ACCESSOR_JOINTS_INDEX_DUPLICATE` — and skinning sums weighted matrices, so the pose is the
+/// same), largest weight first, unused slots bind 0 with weight 0, and the weights renormalised in
+/// `f64` so that their `f32` sum is 1 within the validator's rounding allowance (a pack's sums are
+/// within 1e-3 of 1, docs/format.md "Value ranges readers enforce").
+fn gltf_influences(w: &SkinWeights) -> (Vec<u16>, Vec<f32>) {
+    let k = w.influences_per_vertex as usize;
+    let (mut binds, mut weights) = (Vec::with_capacity(w.binds.len()), Vec::with_capacity(w.weights.len()));
+    let mut slots: Vec<(u16, f64)> = Vec::with_capacity(k);
+    for v in 0..w.vertex_count() {
+        slots.clear();
+        for (b, x) in w.influences(v).filter(|&(_, x)| x > 0.0) {
+            match slots.iter_mut().find(|(c, _)| *c == b) {
+                Some(slot) => slot.1 += f64::from(x),
+                None => slots.push((b, f64::from(x))),
+            }
+        }
+        // Stable: equal weights keep the pack's order.
+        slots.sort_by(|a, b| b.1.total_cmp(&a.1));
+        let sum: f64 = slots.iter().map(|&(_, x)| x).sum();
+        for j in 0..k {
+            match slots.get(j) {
+                Some(&(b, x)) if sum > 0.0 => {
+                    binds.push(b);
+                    weights.push((x / sum) as f32);
+                }
+                _ => {
+                    binds.push(0);
+                    weights.push(0.0);
+                }
+            }
+        }
+    }
+    (binds, weights)
+}
+
 impl Shared {
     fn with_bind_count(self, binds: usize) -> Shared {
         if binds == 0 { Shared { influences: None, skin: None } } else { self }
@@ -672,4 +712,29 @@ fn unit_quat(q: [f32; 4]) -> [f32; 4] {
 
 fn dist(a: [f32; 3], b: [f32; 3]) -> f32 {
     ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+}
+
+#[cfg(test)]
+mod tests {
+    use furbake_formats::sections::skin_weights::SkinWeightStats;
+
+    use super::*;
+
+    #[test]
+    fn a_repeated_bind_is_merged_and_the_weights_renormalised() {
+        let w = SkinWeights {
+            influences_per_vertex: 4,
+            bind_count: 3,
+            // Vertex 0 names bind 1 twice; vertex 1 sums to 0.9995 (a pack allows 1e-3).
+            binds: vec![1, 2, 1, 0, 2, 0, 0, 0],
+            weights: vec![0.25, 0.3, 0.45, 0.0, 0.9995, 0.0, 0.0, 0.0],
+            stats: SkinWeightStats::default(),
+        };
+        let (binds, weights) = gltf_influences(&w);
+        assert_eq!(binds, [1, 2, 0, 0, 2, 0, 0, 0], "bind 1 once, largest weight first, unused slots 0");
+        for (got, want) in weights.iter().zip([0.7, 0.3, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0]) {
+            assert!((got - want).abs() < 1e-6, "{weights:?}");
+        }
+        assert_eq!(weights[4], 1.0);
+    }
 }
