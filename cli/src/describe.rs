@@ -1,5 +1,7 @@
-//! `furbake inspect` and `furbake verify`: decode every section of a file with its typed decoder,
-//! describe it (human table or stable JSON), and check cross-section consistency.
+//! `furbake inspect` and `furbake verify`: validate a file as `Pack::verify` does (every section
+//! decoded with its typed decoder, every checksum, cross-section consistency) and describe it
+//! (human table or stable JSON); [`open_verified`], the same validation for the commands that use
+//! a pack.
 //!
 //! JSON layout (stable; documented in the README):
 //! `{ "file", "format_version", "file_size", "sections": [ { "index", "kind", "version",
@@ -8,6 +10,7 @@
 //! (e.g. a topology's `kind` becomes `spring_topology_kind`).
 
 use std::path::Path;
+use std::sync::Arc;
 
 use furbake_formats::sections::animation_clips::AnimationClips;
 use furbake_formats::sections::blade_field::BladeField;
@@ -22,102 +25,95 @@ use furbake_formats::sections::skin_mesh::SkinMesh;
 use furbake_formats::sections::skin_weights::SkinWeights;
 use furbake_formats::sections::spring_topology::SpringTopology;
 use furbake_formats::sections::triangle_uv_map::TriangleUvMap;
-use furbake_formats::{Pack, PackSections, Section, SectionKind};
+use furbake_formats::{DecodedSections, Pack, Section, SectionKind, VerifySummary};
+use furbake_runtime::{Scene, World};
 use serde_json::{Map, Value, json};
 
 use crate::args::{InspectArgs, VerifyArgs};
-use crate::failure::{Classify, Failure};
+use crate::failure::{self, Classify, Failure};
 
-/// Every section of a pack, decoded.
-#[derive(Default)]
+/// Every section of a pack, decoded (shared with the pack's cache), and one summary per section.
 pub struct Decoded {
-    pub manifest: Option<BakeManifest>,
-    pub mesh: Option<SkinMesh>,
-    pub shells: Option<ShellAtlas>,
-    pub fins: Option<FinAtlas>,
-    pub uv_map: Option<TriangleUvMap>,
-    pub fin_edges: Option<FinEdges>,
-    pub blade_fields: Vec<BladeField>,
-    pub keyframe_tables: Vec<KeyframeTable>,
-    pub topologies: Vec<SpringTopology>,
-    pub skeleton: Option<Skeleton>,
-    pub skin_weights: Option<SkinWeights>,
-    pub morph_targets: Option<MorphTargets>,
-    pub clips: Option<AnimationClips>,
+    /// The decoded sections (`Pack::decoded_sections`).
+    pub sections: DecodedSections,
     /// One summary per section, in table order (`None` for unknown kinds).
     pub summaries: Vec<Option<Value>>,
+    /// What `Pack::verify` checked.
+    pub verified: VerifySummary,
 }
 
-/// Decodes every known section of `pack` (unknown kinds are listed, not decoded).
+impl std::ops::Deref for Decoded {
+    type Target = DecodedSections;
+    fn deref(&self) -> &DecodedSections {
+        &self.sections
+    }
+}
+
+/// Validates `pack` as `verify` does (`Pack::verify`: every known section decoded, every
+/// checksum, `furbake_formats::check_consistency`) and describes every section from the decoded
+/// sections it leaves in the pack's cache (nothing is decoded twice; unknown kinds are listed, not
+/// decoded).
 pub fn decode_all(pack: &Pack) -> furbake_formats::Result<Decoded> {
-    let mut d = Decoded::default();
+    let verified = pack.verify()?;
+    let sections = pack.decoded_sections()?;
+    let mut summaries = Vec::with_capacity(pack.sections().len());
     for (i, e) in pack.sections().iter().enumerate() {
         let summary = match e.kind {
-            SectionKind::BAKE_MANIFEST => keep(&mut d.manifest, pack.decode(i)?),
-            SectionKind::SKIN_MESH => keep(&mut d.mesh, pack.decode(i)?),
-            SectionKind::SHELL_ATLAS => keep(&mut d.shells, pack.decode(i)?),
-            SectionKind::FIN_ATLAS => keep(&mut d.fins, pack.decode(i)?),
-            SectionKind::TRIANGLE_UV_MAP => keep(&mut d.uv_map, pack.decode(i)?),
-            SectionKind::FIN_EDGES => keep(&mut d.fin_edges, pack.decode(i)?),
-            SectionKind::BLADE_FIELD => push(&mut d.blade_fields, pack.decode(i)?),
-            SectionKind::KEYFRAME_TABLE => push(&mut d.keyframe_tables, pack.decode(i)?),
-            SectionKind::SPRING_TOPOLOGY => push(&mut d.topologies, pack.decode(i)?),
-            SectionKind::SKELETON => keep(&mut d.skeleton, pack.decode(i)?),
-            SectionKind::SKIN_WEIGHTS => keep(&mut d.skin_weights, pack.decode(i)?),
-            SectionKind::MORPH_TARGETS => keep(&mut d.morph_targets, pack.decode(i)?),
-            SectionKind::ANIMATION_CLIPS => keep(&mut d.clips, pack.decode(i)?),
+            SectionKind::BAKE_MANIFEST => summary::<BakeManifest>(pack, i)?,
+            SectionKind::SKIN_MESH => summary::<SkinMesh>(pack, i)?,
+            SectionKind::SHELL_ATLAS => summary::<ShellAtlas>(pack, i)?,
+            SectionKind::FIN_ATLAS => summary::<FinAtlas>(pack, i)?,
+            SectionKind::TRIANGLE_UV_MAP => summary::<TriangleUvMap>(pack, i)?,
+            SectionKind::FIN_EDGES => summary::<FinEdges>(pack, i)?,
+            SectionKind::BLADE_FIELD => summary::<BladeField>(pack, i)?,
+            SectionKind::KEYFRAME_TABLE => summary::<KeyframeTable>(pack, i)?,
+            SectionKind::SPRING_TOPOLOGY => summary::<SpringTopology>(pack, i)?,
+            SectionKind::SKELETON => summary::<Skeleton>(pack, i)?,
+            SectionKind::SKIN_WEIGHTS => summary::<SkinWeights>(pack, i)?,
+            SectionKind::MORPH_TARGETS => summary::<MorphTargets>(pack, i)?,
+            SectionKind::ANIMATION_CLIPS => summary::<AnimationClips>(pack, i)?,
             _ => None,
         };
-        d.summaries.push(summary);
+        summaries.push(summary);
     }
-    Ok(d)
+    Ok(Decoded { sections, summaries, verified })
 }
 
-fn keep<S: Section>(slot: &mut Option<S>, value: S) -> Option<Value> {
-    let s = value.summary();
-    if slot.is_none() {
-        *slot = Some(value);
-    }
-    Some(s)
+/// The summary of section `index` (of `S`'s kind), from the pack's cache.
+fn summary<S: Section + Send + Sync + 'static>(pack: &Pack, index: usize) -> furbake_formats::Result<Option<Value>> {
+    let Some(n) = pack.find(S::KIND).position(|i| i == index) else { return Ok(None) };
+    Ok(pack.sections_of::<S>()?.get(n).map(|s| s.summary()))
 }
 
-fn push<S: Section>(list: &mut Vec<S>, value: S) -> Option<Value> {
-    let s = value.summary();
-    list.push(value);
-    Some(s)
-}
-
-/// Cross-section checks (`furbake_formats::check_consistency`, the one place they live): every
-/// artifact agrees with the skin mesh it was baked from, a blade field has its keyframe table,
-/// skin weights, morph targets and clips agree with the skeleton and the skin.
-/// Returns the number of checks made.
-pub fn check_consistency(pack: &Pack, d: &Decoded) -> furbake_formats::Result<usize> {
-    let topologies: Vec<&SpringTopology> = d.topologies.iter().collect();
-    let blade_fields: Vec<&BladeField> = d.blade_fields.iter().collect();
-    let keyframe_tables: Vec<&KeyframeTable> = d.keyframe_tables.iter().collect();
-    let sections = PackSections {
-        mesh: d.mesh.as_ref(),
-        shells: d.shells.as_ref(),
-        fins: d.fins.as_ref(),
-        uv_map: d.uv_map.as_ref(),
-        fin_edges: d.fin_edges.as_ref(),
-        topologies: &topologies,
-        blade_fields: &blade_fields,
-        keyframe_tables: &keyframe_tables,
-        skeleton: d.skeleton.as_ref(),
-        skin_weights: d.skin_weights.as_ref(),
-        morph_targets: d.morph_targets.as_ref(),
-        clips: d.clips.as_ref(),
-    };
-    furbake_formats::check_consistency(pack.sections(), &sections)
-}
-
-/// Reads, validates and decodes `path`.
+/// Reads and validates `path` as `verify` does, and decodes it for a description.
 pub fn load(path: &Path) -> Result<(Pack, Decoded), Failure> {
     let pack = Pack::read(path).input()?;
     let decoded = decode_all(&pack).map_err(|e| e.with_path(path)).input()?;
-    check_consistency(&pack, &decoded).map_err(|e| e.with_path(path)).input()?;
     Ok((pack, decoded))
+}
+
+/// Opens the pack at `path` for a command that uses it (`export`, `preview`, `view`) and
+/// validates it as `verify` does before anything reads it (docs/design.md "Runtime: packs"):
+/// a pack `verify` rejects is bad input (exit 1), its one-line message naming the file. The
+/// sections stay decoded in the pack, so the command decodes nothing again.
+pub fn open_verified(path: &Path) -> Result<Pack, Failure> {
+    let pack = Pack::open(path).input()?;
+    pack.verify().map_err(|e| e.with_path(path)).input()?;
+    Ok(pack)
+}
+
+/// The packs of the runtime scene at `scene_path`, opened once per file (`World::open_packs`) and
+/// each validated as `verify` does (see [`open_verified`]) before the world reads them
+/// (`simulate`, `preview`, `view`). A pack `verify` rejects is bad input (exit 1), the message
+/// naming the scene and the pack.
+pub fn open_scene_packs(scene: &Scene, scene_path: &Path) -> Result<Vec<Arc<Pack>>, Failure> {
+    let packs = World::open_packs(scene).map_err(|e| failure::runtime(e, scene_path))?;
+    for (i, pack) in packs.iter().enumerate() {
+        if !packs[..i].iter().any(|p| Arc::ptr_eq(p, pack)) {
+            pack.verify().map_err(|e| failure::runtime(e.into(), scene_path))?;
+        }
+    }
+    Ok(packs)
 }
 
 /// The JSON description of a pack (the `inspect --json` document).
@@ -306,13 +302,14 @@ fn compact(v: &Value) -> String {
 
 /// Runs `furbake verify`.
 pub fn run_verify(args: VerifyArgs, quiet: bool) -> Result<(), Failure> {
-    let (pack, decoded) = load(&args.file)?;
-    let checks = check_consistency(&pack, &decoded).map_err(|e| e.with_path(&args.file)).input()?;
+    let (_, decoded) = load(&args.file)?;
     if !quiet {
+        let v = decoded.verified;
         crate::stdout::line(format_args!(
-            "{}: ok ({} sections decoded and checksummed, {checks} cross-section checks)",
+            "{}: ok ({} sections decoded and checksummed, {} cross-section checks)",
             args.file.display(),
-            pack.sections().len()
+            v.sections,
+            v.checks
         ))?;
     }
     Ok(())

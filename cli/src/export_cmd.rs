@@ -1,5 +1,5 @@
-//! `furbake export`: a pack as a self-contained binary glTF (`furbake_export`), written
-//! atomically; what the file cannot carry is printed as warnings.
+//! `furbake export`: a pack, validated as `verify` does, as a self-contained binary glTF
+//! (`furbake_export`), written atomically; what the file cannot carry is printed as warnings.
 
 use anyhow::anyhow;
 use furbake_export::{ExportError, ExportOptions, ShellAlpha, export};
@@ -18,7 +18,8 @@ pub fn run(args: ExportArgs, quiet: bool) -> Result<(), Failure> {
             None => ShellAlpha::Blend,
         },
     };
-    let pack = furbake_formats::Pack::open(&args.file).input()?;
+    // Validated as `verify` does before anything is exported (docs/design.md "Runtime: packs").
+    let pack = crate::describe::open_verified(&args.file)?;
     let file = args.file.display();
     let done = export(&pack, &options).map_err(|e| match e {
         // A flag that does not fit this pack (more layers than its atlas, a cutoff outside

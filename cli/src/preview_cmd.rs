@@ -17,8 +17,8 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{Context, anyhow};
-use furbake_render::{HeadlessGpu, RenderError, RenderTarget, SceneRenderer, read_back, render_preview};
-use furbake_runtime::{Scene, World};
+use furbake_render::{HeadlessGpu, RenderError, RenderTarget, SceneRenderer, read_back, render_preview_of};
+use furbake_runtime::{Scene, World, WorldOptions};
 
 use crate::args::PreviewArgs;
 use crate::failure::{self, Classify, Failure};
@@ -121,7 +121,8 @@ pub(crate) fn input_kind(path: &Path) -> Result<InputKind, Failure> {
 }
 
 fn run_pack(pack: &Path, output: &Path, (w, h): (u32, u32), quiet: bool) -> Result<(), Failure> {
-    let image = match render_preview(pack, w, h) {
+    let opened = crate::describe::open_verified(pack)?;
+    let image = match render_preview_of(&opened, w, h) {
         Ok(img) => img,
         Err(e @ RenderError::Parameter { .. }) => return Err(Failure::Usage(e.into())),
         Err(e) => {
@@ -198,12 +199,16 @@ impl SceneRun {
     }
 }
 
-/// Loads the runtime scene at `path` and builds its world (`furbake preview` and `furbake view`).
+/// Loads the runtime scene at `path`, validates its packs and builds its world (`furbake preview`
+/// and `furbake view`).
 /// The renderers' GPU memory is then checked against `max_memory` before anything is created on
 /// the GPU ([`check_gpu_memory`]).
 pub(crate) fn open_scene_world(path: &Path, target_bytes: u64, max_memory: u64) -> Result<World, Failure> {
     let scene = Scene::load(path).map_err(failure::scene)?;
-    let world = World::new(scene).map_err(|e| failure::runtime(e, path))?;
+    // Every pack validated as `verify` does before the world reads it (docs/design.md "Runtime:
+    // packs"); the world and the renderers share what verification decoded.
+    let packs = crate::describe::open_scene_packs(&scene, path)?;
+    let world = World::with_packs(scene, packs, WorldOptions::default()).map_err(|e| failure::runtime(e, path))?;
     check_gpu_memory(&world, path, target_bytes, max_memory)?;
     Ok(world)
 }

@@ -7,15 +7,18 @@
 //! displacement, substeps, CG iterations, guard triggers). `--state-out` writes the final state
 //! of every pack in world space (README "`simulate --state-out`").
 //!
-//! Before the world is built, the run's memory is estimated from the scene and its packs' section
-//! tables ([`estimate_run_memory`]) and a run above `--max-memory` exits 2 naming what drives it.
+//! Before the world is built, every pack of the scene is validated as `verify` does (a pack
+//! `verify` rejects exits 1), then the run's memory is estimated from the scene and its packs'
+//! section tables ([`estimate_run_memory`]) and a run above `--max-memory` exits 2 naming what
+//! drives it.
 //!
 //! The former `simulate PACK --scene SIM.toml` form is retired: it and a furbake-sim scene file
 //! exit 2 with a one-line message saying how to write the scene now.
 
 use std::fs::File;
 use std::io::{Read, Seek, SeekFrom, Write};
-use std::path::{Path, PathBuf};
+use std::path::Path;
+use std::sync::Arc;
 use std::time::Instant;
 
 use anyhow::anyhow;
@@ -76,9 +79,13 @@ pub fn run(args: SimulateArgs, quiet: bool) -> Result<(), Failure> {
         None => frames.div_ceil(MAX_STEP_RECORDS).max(1),
     };
     let wants_report = args.json || args.output.is_some();
-    check_memory_budget(&scene, path, args.state_out.is_some(), args.max_memory)?;
+    // Every pack is validated as `verify` does before anything else reads it, so a corrupt pack
+    // is bad input (exit 1) even when the estimate below would refuse the run too
+    // (docs/design.md "Runtime: packs").
+    let packs = crate::describe::open_scene_packs(&scene, path)?;
+    check_memory_budget(&scene, &packs, path, args.state_out.is_some(), args.max_memory)?;
     let options = WorldOptions { step_statistics: wants_report, ..WorldOptions::default() };
-    let mut world = World::with_options(scene, options).map_err(|e| failure::runtime(e, path))?;
+    let mut world = World::with_packs(scene, packs, options).map_err(|e| failure::runtime(e, path))?;
     // The report streams — its head, each step record as it is taken, then its tail — into the
     // -o file (named only once the run succeeds) and to stdout with --json; nothing is kept.
     let head =
@@ -415,8 +422,14 @@ struct RunPart {
 
 /// Refuses a run whose estimated memory ([`estimate_run_memory`]) is above `max_memory`: exit 2
 /// naming the scene, the estimate, the budget and what drives the largest part.
-fn check_memory_budget(scene: &Scene, path: &Path, state_out: bool, max_memory: u64) -> Result<(), Failure> {
-    let mut parts = estimate_run_memory(scene, state_out).map_err(|e| failure::runtime(e, path))?;
+fn check_memory_budget(
+    scene: &Scene,
+    packs: &[Arc<Pack>],
+    path: &Path,
+    state_out: bool,
+    max_memory: u64,
+) -> Result<(), Failure> {
+    let mut parts = estimate_run_memory(scene, packs, state_out).map_err(|e| failure::runtime(e, path))?;
     let need: u64 = parts.iter().map(|p| p.bytes).sum();
     if need <= max_memory {
         return Ok(());
@@ -434,43 +447,30 @@ fn check_memory_budget(scene: &Scene, path: &Path, state_out: bool, max_memory: 
     )))
 }
 
-/// Estimates what running `scene` holds, before the world is built: per scene entry, the
-/// sections its stages decode (counted once per file, as the world shares them; a decoded
-/// section is about as large as its payload, and the largest payload is held once more while it
-/// is decoded), its solver state, shell vertices, animation and grass corners; the `--state-out`
-/// text (the report's step records are streamed, never kept). Reads only the packs' section tables and the
-/// heads of the sections whose counts it needs (the record layout of docs/format.md); the stages
-/// are planned as the world plans them ([`plan_stages`], [`choose_topology`]). A pack that cannot
-/// be opened fails as the world would.
-fn estimate_run_memory(scene: &Scene, state_out: bool) -> Result<Vec<RunPart>, RuntimeError> {
-    let mut files: Vec<(PathBuf, Pack, Vec<bool>)> = Vec::new();
-    let mut file_of = Vec::with_capacity(scene.packs.len());
-    for sp in &scene.packs {
-        let key = std::fs::canonicalize(&sp.path).unwrap_or_else(|_| sp.path.clone());
-        let index = match files.iter().position(|(k, _, _)| *k == key) {
-            Some(i) => i,
-            None => {
-                let pack = Pack::open(&sp.path)?;
-                let read = vec![false; pack.sections().len()];
-                files.push((key, pack, read));
-                files.len() - 1
-            }
-        };
-        file_of.push(index);
-    }
+/// Estimates what running `scene` holds, before the world is built: per pack file, every section
+/// that verification decoded (a decoded section is about as large as its payload, the pack keeps
+/// each for the run, and the largest payload is held once more while it is decoded), counted for
+/// the first scene entry that names the file, as the world shares it; per scene entry, its solver
+/// state, shell vertices, animation and grass corners; the `--state-out` text (the report's step
+/// records are streamed, never kept). The counts come from the packs' section tables and the heads
+/// of the sections whose counts it needs (the record layout of docs/format.md); the stages are
+/// planned as the world plans them ([`plan_stages`], [`choose_topology`]). `packs` are the
+/// scene's packs, one per entry, as [`World::open_packs`] opened them (and `Pack::verify`
+/// validated them).
+fn estimate_run_memory(scene: &Scene, packs: &[Arc<Pack>], state_out: bool) -> Result<Vec<RunPart>, RuntimeError> {
+    // One slot per file (entries naming one file share its `Pack`): whether it is counted yet.
+    let file_of: Vec<usize> = packs.iter().map(|p| packs.iter().position(|q| Arc::ptr_eq(p, q)).unwrap_or(0)).collect();
+    let mut counted = vec![false; packs.len()];
     let roles: Vec<PackRole> = scene
         .packs
         .iter()
-        .zip(&file_of)
-        .map(|(sp, &f)| {
-            let p = &files[f].1;
-            PackRole {
-                fur: p.has(SectionKind::SHELL_ATLAS) || p.has(SectionKind::SPRING_TOPOLOGY),
-                grass: p.has(SectionKind::BLADE_FIELD),
-                moving: sp.motion.len() > 1,
-                topology: p.has(SectionKind::SPRING_TOPOLOGY),
-                animated: sp.animation.is_some(),
-            }
+        .zip(packs)
+        .map(|(sp, p)| PackRole {
+            fur: p.has(SectionKind::SHELL_ATLAS) || p.has(SectionKind::SPRING_TOPOLOGY),
+            grass: p.has(SectionKind::BLADE_FIELD),
+            moving: sp.motion.len() > 1,
+            topology: p.has(SectionKind::SPRING_TOPOLOGY),
+            animated: sp.animation.is_some(),
         })
         .collect();
     let stages = plan_stages(&scene.effects, &roles);
@@ -480,18 +480,17 @@ fn estimate_run_memory(scene: &Scene, state_out: bool) -> Result<Vec<RunPart>, R
     let (mut largest_payload, mut reading_entry) = (0u64, 0usize);
     for (i, sp) in scene.packs.iter().enumerate() {
         let planned = |k: StageKind| stages.iter().any(|s| s.pack == i && s.kind == k);
-        let (_, pack, read) = &mut files[file_of[i]];
-        let mut sections = SectionReads { pack: &*pack, read, bytes: 0, largest: 0 };
-        let mesh = sections.first(SectionKind::SKIN_MESH).map(|e| peek_record(&pack.display_path(), &e));
+        let pack = &*packs[i];
+        let first = |kind: SectionKind| pack.find(kind).next().map(|k| pack.sections()[k]);
+        let mesh = first(SectionKind::SKIN_MESH).map(|e| (peek_record(&pack.display_path(), &e), e.length));
         let (vertices, triangles) = match &mesh {
-            Some(Some(head)) => (head.count(0) / 3, head.count(3) / 3),
-            Some(None) => (sections.length(SectionKind::SKIN_MESH) / 40, 0),
+            Some((Some(head), _)) => (head.count(0) / 3, head.count(3) / 3),
+            Some((None, length)) => (length / 40, 0),
             None => (0, 0),
         };
         let mut own = 0;
         let mut masses = 0;
         if roles[i].fur {
-            sections.decode(SectionKind::SKIN_MESH);
             let topology = if planned(StageKind::FurSolver) {
                 let kinds = pack.topology_kinds()?;
                 let available: Vec<TopologyKind> = kinds.iter().map(|&(_, k)| k).collect();
@@ -503,7 +502,6 @@ fn estimate_run_memory(scene: &Scene, state_out: bool) -> Result<Vec<RunPart>, R
             match topology {
                 Some((kind, index)) => {
                     let entry = pack.sections()[index];
-                    sections.decode_index(index);
                     let counts = peek_record(&pack.display_path(), &entry)
                         .map(|h| (h.count(1), h.count(3) / 2 + h.count(7) / 2, h.count(9) / 2));
                     let (m, links, shell) = counts.unwrap_or((entry.length / 17, 0, vertices));
@@ -521,20 +519,10 @@ fn estimate_run_memory(scene: &Scene, state_out: bool) -> Result<Vec<RunPart>, R
             }
         }
         if roles[i].animated {
-            sections.decode(SectionKind::SKIN_MESH);
-            for kind in [
-                SectionKind::SKELETON,
-                SectionKind::SKIN_WEIGHTS,
-                SectionKind::MORPH_TARGETS,
-                SectionKind::ANIMATION_CLIPS,
-            ] {
-                sections.decode(kind);
-            }
             own += vertices * BYTES_PER_ANIMATED_VERTEX;
         }
         if planned(StageKind::GrassForces) {
-            if let Some(entry) = sections.first(SectionKind::BLADE_FIELD) {
-                sections.decode(SectionKind::BLADE_FIELD);
+            if let Some(entry) = first(SectionKind::BLADE_FIELD) {
                 // The blade field's metadata starts with its cluster grid: origin and cell size
                 // (`[f32; 2]` each), then `cells_x` and `cells_z` (`u32`).
                 let corners = peek_record(&pack.display_path(), &entry)
@@ -545,12 +533,18 @@ fn estimate_run_memory(scene: &Scene, state_out: bool) -> Result<Vec<RunPart>, R
         }
         if state_out {
             // `--state-out` reports every pack's skin.
-            sections.decode(SectionKind::SKIN_MESH);
             state_vectors += vertices;
         }
-        let shared = sections.bytes;
-        if sections.largest > largest_payload {
-            (largest_payload, reading_entry) = (sections.largest, i);
+        // The decoded sections of the file, counted once, for its first entry.
+        let mut shared = 0;
+        if !std::mem::replace(&mut counted[file_of[i]], true) {
+            let decoded = pack.sections().iter().filter(|e| SectionKind::KNOWN.contains(&e.kind));
+            for e in decoded {
+                shared += e.length;
+                if e.length > largest_payload {
+                    (largest_payload, reading_entry) = (e.length, i);
+                }
+            }
         }
         let what = match masses {
             0 => {
@@ -577,45 +571,6 @@ fn estimate_run_memory(scene: &Scene, state_out: bool) -> Result<Vec<RunPart>, R
     Ok(parts)
 }
 
-/// The sections of one pack file the world will decode, each counted once per file.
-struct SectionReads<'a> {
-    pack: &'a Pack,
-    /// Per table entry: already counted (by this or an earlier scene entry on the same file).
-    read: &'a mut Vec<bool>,
-    /// Payload bytes newly counted for this scene entry.
-    bytes: u64,
-    /// The largest payload newly counted.
-    largest: u64,
-}
-
-impl SectionReads<'_> {
-    /// The first table entry of `kind`.
-    fn first(&self, kind: SectionKind) -> Option<SectionEntry> {
-        self.pack.find(kind).next().map(|i| self.pack.sections()[i])
-    }
-
-    /// The payload length of the first section of `kind` (0 when there is none).
-    fn length(&self, kind: SectionKind) -> u64 {
-        self.first(kind).map_or(0, |e| e.length)
-    }
-
-    /// Counts the first section of `kind`, when there is one.
-    fn decode(&mut self, kind: SectionKind) {
-        if let Some(i) = self.pack.find(kind).next() {
-            self.decode_index(i);
-        }
-    }
-
-    /// Counts table entry `index`.
-    fn decode_index(&mut self, index: usize) {
-        if !std::mem::replace(&mut self.read[index], true) {
-            let length = self.pack.sections()[index].length;
-            self.bytes += length;
-            self.largest = self.largest.max(length);
-        }
-    }
-}
-
 /// The head of a record section (docs/format.md "the record layout"): its arrays' element counts
 /// and the first bytes of its metadata.
 struct RecordHead {
@@ -637,8 +592,7 @@ impl RecordHead {
 
 /// Reads the head of the record at `entry` in the file at `path`: at most 64 arrays and 64 bytes
 /// of metadata, inside the section. `None` when anything does not fit or cannot be read (the
-/// estimate then falls back on the payload length, and the world reports a bad section when it
-/// decodes it).
+/// estimate then falls back on the payload length).
 fn peek_record(path: &Path, entry: &SectionEntry) -> Option<RecordHead> {
     const MAX_ARRAYS: u64 = 64;
     const META_BYTES: u64 = 64;
@@ -660,8 +614,8 @@ fn peek_record(path: &Path, entry: &SectionEntry) -> Option<RecordHead> {
         return None;
     }
     let table = read_at(8, 24 * arrays)?;
-    // Not validated yet (the world does that when it decodes): a count is capped at the payload's
-    // length, so a lying head cannot overflow the estimate.
+    // Read again from the file, which may have changed since it was verified: a count is capped at
+    // the payload's length, so a lying head cannot overflow the estimate.
     let counts = table
         .chunks_exact(24)
         .map(|e| u64::from_le_bytes(e[16..24].try_into().unwrap_or([0; 8])).min(entry.length))

@@ -21,6 +21,7 @@ mod plan_first;
 mod preview_scene;
 mod schemas;
 mod simulate_scene;
+mod verify_first;
 mod view;
 use common::*;
 

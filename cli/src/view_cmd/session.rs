@@ -165,7 +165,8 @@ impl Session {
 /// checked against `max_memory` as for a scene.
 pub fn pack_world(path: &Path, aspect: f32, target_bytes: u64, max_memory: u64) -> Result<World, Failure> {
     let input = |e: anyhow::Error| Failure::Input(e.context(format!("{}: cannot view", path.display())));
-    let pack = Pack::open(path).map_err(|e| input(e.into()))?;
+    // Validated as `verify` does before anything reads it (docs/design.md "Runtime: packs").
+    let pack = crate::describe::open_verified(path)?;
     let first_clip = pack
         .animation_clips()
         .map_err(|e| input(e.into()))?

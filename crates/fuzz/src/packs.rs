@@ -612,7 +612,8 @@ pub fn run_pack(bytes: &[u8], scene: Scene, steps: u32) -> (PackOutcome, Option<
             out
         }
     };
-    // `furbake export` reads a pack without verifying it first: it must refuse, never panic.
+    // The exporter, a library call (`furbake export` verifies the pack first), meets packs that
+    // `verify` refuses: it must refuse them, never panic.
     let _ = furbake_export::export(&pack, &furbake_export::ExportOptions::default());
     (outcome, Some(world))
 }

@@ -365,6 +365,12 @@ pub fn render_preview(pack_path: &Path, width: u32, height: u32) -> Result<image
     render_pack(pack_path, width, height, None, &RenderSettings::default())
 }
 
+/// [`render_preview`] of a pack the caller opened (and, as `furbake preview` does, validated with
+/// `Pack::verify`: the sections it decoded are drawn, none is decoded again).
+pub fn render_preview_of(pack: &Pack, width: u32, height: u32) -> Result<image::RgbaImage, RenderError> {
+    render_opened_pack(pack, width, height, None, &RenderSettings::default())
+}
+
 /// [`render_preview`] with a chosen view (`None`: framed automatically) and settings.
 pub fn render_pack(
     pack_path: &Path,
@@ -373,8 +379,18 @@ pub fn render_pack(
     view: Option<View>,
     settings: &RenderSettings,
 ) -> Result<image::RgbaImage, RenderError> {
-    let pack = Pack::open(pack_path)?;
-    let asset = FurAsset::from_pack(&pack, settings.fins)?;
+    render_opened_pack(&Pack::open(pack_path)?, width, height, view, settings)
+}
+
+/// [`render_pack`] of a pack the caller opened.
+pub fn render_opened_pack(
+    pack: &Pack,
+    width: u32,
+    height: u32,
+    view: Option<View>,
+    settings: &RenderSettings,
+) -> Result<image::RgbaImage, RenderError> {
+    let asset = FurAsset::from_pack(pack, settings.fins)?;
     let gpu = HeadlessGpu::new()?;
     let view = view.unwrap_or_else(|| asset.auto_view(width as f32 / height.max(1) as f32));
     let desc = RenderTarget::desc();
@@ -384,7 +400,7 @@ pub fn render_pack(
     // what its units are (the Fox glTF is in centimetres, so its "metres" put the camera 300 m
     // away), so only the frustum culls: the image of every blade at full detail.
     let blade_settings = BladeSettings { culling: crate::GrassCulling::frustum_only(), ..BladeSettings::default() };
-    let blades = BladeRenderer::from_pack(gpu.pipelines(), &gpu.queue, &pack, &blade_settings, &desc)?;
+    let blades = BladeRenderer::from_pack(gpu.pipelines(), &gpu.queue, pack, &blade_settings, &desc)?;
     let target = RenderTarget::new(&gpu.device, width, height)?;
     let frame = view.uniforms(target.aspect());
     let mut encoder =

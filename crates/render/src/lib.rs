@@ -135,8 +135,8 @@ pub use culling::{CullLists, CullReference, GrassCulling};
 /// How scale vectors are indexed (re-exported from `furbake_runtime`, which produces them).
 pub use furbake_runtime::ShellVertexLayout;
 pub use headless::{
-    COLOR_FORMAT, DEPTH_FORMAT, HeadlessGpu, RenderTarget, read_back, read_back_texture, render_image, render_pack,
-    render_preview,
+    COLOR_FORMAT, DEPTH_FORMAT, HeadlessGpu, RenderTarget, read_back, read_back_texture, render_image,
+    render_opened_pack, render_pack, render_preview, render_preview_of,
 };
 pub use pipelines::PipelineCache;
 pub use renderer::{FurGpuAsset, FurRenderer, RenderSettings, ShellBlend};

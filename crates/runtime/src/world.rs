@@ -287,6 +287,14 @@ impl World {
     /// As [`World::new`], with `options`. Scene entries that name the same file share one opened
     /// pack, so its sections are read and decoded once however often the scene places it.
     pub fn with_options(scene: Scene, options: WorldOptions) -> Result<World, RuntimeError> {
+        let opened = World::open_packs(&scene)?;
+        World::with_packs(scene, opened, options)
+    }
+
+    /// Opens the packs of `scene` as [`World::with_options`] does — one [`Pack`] per file, shared
+    /// by every entry that names it (`Arc::ptr_eq`), header and table validated, no section read —
+    /// for a host that checks them (e.g. `Pack::verify`) before [`World::with_packs`].
+    pub fn open_packs(scene: &Scene) -> Result<Vec<Arc<Pack>>, RuntimeError> {
         let mut opened: Vec<Arc<Pack>> = Vec::with_capacity(scene.packs.len());
         let mut by_file: Vec<(std::path::PathBuf, Arc<Pack>)> = Vec::new();
         for sp in &scene.packs {
@@ -302,7 +310,7 @@ impl World {
             };
             opened.push(pack);
         }
-        World::with_packs(scene, opened, options)
+        Ok(opened)
     }
 
     /// As [`World::with_options`] with the scene's packs opened by the caller (one per
