@@ -11,6 +11,7 @@ mod common;
 mod confinement;
 mod depfile;
 mod export;
+mod export_fuzz;
 mod file_modes;
 mod fuzz_gltf;
 mod golden;
