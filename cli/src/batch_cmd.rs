@@ -186,9 +186,8 @@ fn plan(file: &BatchFile, base: &Path, batch: &Path) -> Result<(Vec<Planned>, Fi
             settings = settings.with_overrides(&value).map_err(|e| anyhow!("{}: {e}", what())).usage()?;
         }
         for table in [&d.settings, &c.settings].into_iter().flatten() {
-            let value = crate::files::table_overrides(table)
-                .map_err(|e| anyhow!("{}: settings.{e}", what()))
-                .usage()?;
+            let value =
+                crate::files::table_overrides(table).map_err(|e| anyhow!("{}: settings.{e}", what())).usage()?;
             settings = settings.with_overrides(&value).map_err(|e| anyhow!("{}: {e}", what())).usage()?;
         }
         settings.validate().map_err(|e| anyhow!("{}: {e}", what())).usage()?;
@@ -301,7 +300,9 @@ pub fn up_to_date(output: &Path, input: &Path, asset_root: Option<&Path>, settin
         let file = match furbake_import::open_recorded_input(dir, asset_root, &f.name) {
             Ok((file, len)) if len == f.bytes => file,
             Ok(_) => return Freshness::Stale,
-            Err(e) if e.is_refusal() => return Freshness::Refused(format!("its manifest names {:?}, which {e}", f.name)),
+            Err(e) if e.is_refusal() => {
+                return Freshness::Refused(format!("its manifest names {:?}, which {e}", f.name));
+            }
             Err(_) => return Freshness::Stale,
         };
         if !same_bytes(file, f.bytes, &f.sha256) {

@@ -5,7 +5,7 @@ use anyhow::anyhow;
 use furbake_export::{ExportError, ExportOptions, ShellAlpha, export};
 
 use crate::args::ExportArgs;
-use crate::failure::{Classify, Failure};
+use crate::failure::Failure;
 
 /// Runs `furbake export`.
 pub fn run(args: ExportArgs, quiet: bool) -> Result<(), Failure> {
@@ -18,6 +18,9 @@ pub fn run(args: ExportArgs, quiet: bool) -> Result<(), Failure> {
             None => ShellAlpha::Blend,
         },
     };
+    // The glb (`-o -`: stdout) may not replace the pack or anything but a regular file
+    // (docs/design.md "Safe outputs").
+    crate::files::Files::with_inputs([args.file.as_path()]).stream_output("--output", &args.output)?;
     // Validated as `verify` does before anything is exported (docs/design.md "Runtime: packs").
     let pack = crate::describe::open_verified(&args.file)?;
     let file = args.file.display();
@@ -27,12 +30,18 @@ pub fn run(args: ExportArgs, quiet: bool) -> Result<(), Failure> {
         e @ ExportError::Option { .. } => Failure::Usage(anyhow!("{file}: {e}")),
         e => Failure::Input(anyhow!("{file}: {e}")),
     })?;
-    furbake_formats::write_file_atomic(&args.output, &done.glb).input()?;
+    crate::files::write_output(&args.output, &done.glb, "the glTF")?;
     if !quiet {
         for note in &done.notes {
             eprintln!("furbake: warning: {file}: {note}");
         }
-        crate::stdout::line(format_args!("exported {file} → {} ({} bytes)", args.output.display(), done.glb.len()))?;
+        // With `-o -` stdout is the file: the summary goes to stderr.
+        let summary = format!("exported {file} → {} ({} bytes)", args.output.display(), done.glb.len());
+        if crate::files::is_stdout(&args.output) {
+            eprintln!("{summary}");
+        } else {
+            crate::stdout::line(summary)?;
+        }
     }
     Ok(())
 }

@@ -73,6 +73,7 @@ fn plan(args: PreviewArgs) -> Result<PreviewPlan, Failure> {
                 )));
             }
             let output = args.output.ok_or_else(|| Failure::Usage(anyhow!("a pack preview needs -o OUT.png")))?;
+            crate::files::Files::with_inputs([args.input.as_path()]).stream_output("--output", &output)?;
             Ok(PreviewPlan::Pack { pack: args.input, output, size: args.size })
         }
         InputKind::Scene => {
@@ -82,6 +83,23 @@ fn plan(args: PreviewArgs) -> Result<PreviewPlan, Failure> {
                 // clap enforces the pairs; this is the message should that ever change.
                 _ => return Err(Failure::Usage(anyhow!("give either -o OUT.png or --frames N --out-dir DIR"))),
             };
+            // The image may replace neither the scene nor a pack it names (docs/design.md "Safe
+            // outputs"); frames go into a directory.
+            let scene = furbake_runtime::Scene::load(&args.input).map_err(failure::scene)?;
+            let mut files = crate::files::Files::with_inputs(
+                std::iter::once(args.input.as_path()).chain(scene.packs.iter().map(|p| p.path.as_path())),
+            );
+            match &output {
+                SceneOutput::Still(png) => files.stream_output("--output", png)?,
+                SceneOutput::Frames { dir, .. } => {
+                    if std::fs::metadata(dir).is_ok_and(|m| !m.is_dir()) {
+                        return Err(Failure::Usage(anyhow!(
+                            "--out-dir {}: exists and is not a directory",
+                            dir.display()
+                        )));
+                    }
+                }
+            }
             let default = if matches!(output, SceneOutput::Still(_)) { DEFAULT_STILL_SETTLE_S } else { 0.0 };
             let settle_s = args.settle.unwrap_or(default);
             if !(settle_s.is_finite() && (0.0..=MAX_SETTLE_S).contains(&settle_s)) {
@@ -102,7 +120,12 @@ pub(crate) fn input_kind(path: &Path) -> Result<InputKind, Failure> {
         Some("fbk") => return Ok(InputKind::Pack),
         _ => {}
     }
-    let Ok(bytes) = std::fs::read(path) else { return Ok(InputKind::Pack) };
+    // Read bounded and never blocking: a FIFO, a device or a huge file is handed to the pack
+    // reader, whose error says what it is.
+    let Ok(bytes) = furbake_formats::input::read_bounded(path, furbake_formats::input::MAX_TEXT_BYTES, "a scene")
+    else {
+        return Ok(InputKind::Pack);
+    };
     if bytes.starts_with(&furbake_formats::MAGIC) {
         return Ok(InputKind::Pack);
     }
@@ -243,8 +266,21 @@ fn run_scene(
     let started = Instant::now();
     let mut run = SceneRun::start(path, (w, h), max_memory)?;
     let step_s = run.world.scene().time_step_s;
-    let settle_steps = (settle_s / step_s as f64 - 1e-9).ceil().max(0.0) as u64;
-    for _ in 0..settle_steps {
+    let settle_steps = (settle_s / step_s as f64 - 1e-9).ceil().max(0.0);
+    let frames = match output {
+        SceneOutput::Frames { count, .. } => u64::from(*count),
+        SceneOutput::Still(_) => 1,
+    };
+    if settle_steps + frames as f64 > crate::args::MAX_STEPS as f64 {
+        return Err(Failure::Usage(anyhow!(
+            "{}: settling {settle_s} s at time_step_s = {step_s} and rendering {frames} frames is {} steps, above \
+             {}; lengthen time_step_s, settle less (--settle) or render fewer frames",
+            path.display(),
+            settle_steps + frames as f64,
+            crate::args::MAX_STEPS
+        )));
+    }
+    for _ in 0..settle_steps as u64 {
         run.step()?;
     }
     let start_time_s = run.world.time_s();
@@ -295,7 +331,7 @@ pub(crate) fn write_png(path: &Path, image: &image::RgbaImage) -> Result<(), Fai
         .write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png)
         .with_context(|| format!("{}: cannot encode PNG", path.display()))
         .input()?;
-    furbake_formats::write_file_atomic(path, &bytes).input()
+    crate::files::write_output(path, &bytes, "the image")
 }
 
 /// A render error of the scene at `scene`: a bad parameter (the target size against the

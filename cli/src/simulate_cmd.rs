@@ -15,7 +15,6 @@
 //! The former `simulate PACK --scene SIM.toml` form is retired: it and a furbake-sim scene file
 //! exit 2 with a one-line message saying how to write the scene now.
 
-use std::fs::File;
 use std::io::{Read, Seek, SeekFrom, Write};
 use std::path::Path;
 use std::sync::Arc;
@@ -29,12 +28,12 @@ use furbake_sim::TopologyKind;
 use serde::Serialize;
 
 use crate::args::{SimulateArgs, format_bytes};
-use crate::failure::{self, Classify, Failure};
+use crate::failure::{self, Failure};
 
 /// Scene time a scene without `duration_s` runs for when `--frames` is not given, seconds.
 const DEFAULT_SCENE_TIME_S: f64 = 2.0;
-/// Most frames one run may take (a typo guard: 10⁷ steps is hours of scene time).
-const MAX_FRAMES: u64 = 10_000_000;
+/// Most frames one run may take ([`crate::args::MAX_STEPS`]).
+const MAX_FRAMES: u64 = crate::args::MAX_STEPS;
 /// Most step records a report writes per pack by default; longer runs record every k-th step
 /// (the report's `record_every`), so the report's size stays bounded whatever `--frames` is (its
 /// records are streamed, never kept, so memory does not grow with it either).
@@ -57,6 +56,7 @@ pub fn run(args: SimulateArgs, quiet: bool) -> Result<(), Failure> {
         )));
     }
     let scene = Scene::load(path).map_err(failure::scene)?;
+    plan_files(&args, &scene)?;
     let dt = scene.time_step_s;
     let frames = match args.frames {
         Some(n) if n > MAX_FRAMES => return Err(Failure::Usage(anyhow!("--frames {n} is above {MAX_FRAMES}"))),
@@ -106,6 +106,7 @@ pub fn run(args: SimulateArgs, quiet: bool) -> Result<(), Failure> {
         }
     };
     let written = match &args.output {
+        Some(out) if crate::files::is_stdout(out) => produce(&mut std::io::stdout().lock()),
         Some(out) => furbake_formats::write_file_atomic_from(out, &mut |file| {
             if args.json { produce(&mut Tee { file, stdout: std::io::stdout().lock() }) } else { produce(file) }
         })
@@ -133,10 +134,10 @@ pub fn run(args: SimulateArgs, quiet: bool) -> Result<(), Failure> {
             .map_err(|e| failure::runtime(e, path))?;
         let state = StateFile { scene: path.display().to_string(), time_s: world.time_s(), steps: frames, packs };
         let json = serde_json::to_string_pretty(&state).expect("the state is plain serde data");
-        furbake_formats::write_file_atomic(out, format!("{json}\n").as_bytes()).input()?;
+        crate::files::write_output(out, format!("{json}\n").as_bytes(), "the state")?;
     }
     let tail = report_tail(&world, wall_s);
-    if !args.json {
+    if !args.json && !streams_to_stdout(&args) {
         crate::stdout::write(&stage_table(&tail, frames))?;
     }
     if !quiet {
@@ -318,11 +319,43 @@ struct StateFile {
     packs: Vec<PackState>,
 }
 
+/// The run's files (docs/design.md "Safe outputs"): the report (`-o`) and the state
+/// (`--state-out`) may be neither the scene nor a pack it names nor each other, nor anything but
+/// a regular file; `-` is stdout, which only one of `--json`, `-o -` and `--state-out -` may use.
+fn plan_files(args: &SimulateArgs, scene: &Scene) -> Result<(), Failure> {
+    let mut files = crate::files::Files::with_inputs(
+        std::iter::once(args.input.as_path()).chain(scene.packs.iter().map(|p| p.path.as_path())),
+    );
+    let on_stdout = [
+        ("--json", args.json),
+        ("-o -", args.output.as_deref().is_some_and(crate::files::is_stdout)),
+        ("--state-out -", args.state_out.as_deref().is_some_and(crate::files::is_stdout)),
+    ];
+    let users: Vec<&str> = on_stdout.iter().filter(|(_, on)| *on).map(|(name, _)| *name).collect();
+    if users.len() > 1 {
+        return Err(Failure::Usage(anyhow!("{} all write to stdout; choose one", users.join(" and "))));
+    }
+    if let Some(o) = &args.output {
+        files.stream_output("--output", o)?;
+    }
+    if let Some(o) = &args.state_out {
+        files.stream_output("--state-out", o)?;
+    }
+    Ok(())
+}
+
+/// Whether a file output of the run is stdout (the stage table then stays off it).
+fn streams_to_stdout(args: &SimulateArgs) -> bool {
+    [&args.output, &args.state_out].into_iter().flatten().any(|p| crate::files::is_stdout(p))
+}
+
 /// True when `path` starts with the container's magic (a pack passed where a scene belongs).
 fn looks_like_a_pack(path: &Path) -> bool {
     use std::io::Read;
     let mut magic = [0u8; 8];
-    std::fs::File::open(path).and_then(|mut f| f.read_exact(&mut magic)).is_ok() && magic == furbake_formats::MAGIC
+    // Never blocks: a FIFO or device is no pack, and the scene reader then says what it is.
+    furbake_formats::input::open_regular(path).and_then(|(mut f, _)| f.read_exact(&mut magic)).is_ok()
+        && magic == furbake_formats::MAGIC
 }
 
 /// The report's fields known once the run has ended.
@@ -596,7 +629,7 @@ impl RecordHead {
 fn peek_record(path: &Path, entry: &SectionEntry) -> Option<RecordHead> {
     const MAX_ARRAYS: u64 = 64;
     const META_BYTES: u64 = 64;
-    let mut file = File::open(path).ok()?;
+    let (mut file, _) = furbake_formats::input::open_regular(path).ok()?;
     let mut read_at = |at: u64, len: u64| -> Option<Vec<u8>> {
         let end = at.checked_add(len)?;
         if end > entry.length {

@@ -109,6 +109,10 @@ fn plan(args: ViewArgs) -> Result<ViewPlan, Failure> {
         // clap enforces it; this is the message should that ever change.
         return Err(Failure::Usage(anyhow!("--screenshot needs --frames N (the frame it writes is the last)")));
     }
+    if let Some(png) = &args.screenshot {
+        // The screenshot may not replace what is viewed (docs/design.md "Safe outputs").
+        crate::files::Files::with_inputs([args.input.as_path()]).output("--screenshot", png)?;
+    }
     Ok(ViewPlan {
         input: args.input,
         kind,

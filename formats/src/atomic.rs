@@ -469,7 +469,9 @@ mod tests {
     fn temporary_names_carry_the_writer_and_parse_back() {
         let name = format!("{}abc123{TEMP_SUFFIX}", temp_prefix());
         assert_eq!(stale_name_pid(&name), Some(std::process::id()));
-        for other in [".furbake-abc123.tmp", ".furbake--x.tmp", ".furbake-12-.tmp", "furbake-12-x.tmp", ".furbake-0-x.tmp"] {
+        for other in
+            [".furbake-abc123.tmp", ".furbake--x.tmp", ".furbake-12-.tmp", "furbake-12-x.tmp", ".furbake-0-x.tmp"]
+        {
             assert_eq!(stale_name_pid(other), None, "{other}");
         }
     }

@@ -92,11 +92,7 @@ pub fn format_size(bytes: u64) -> String {
 pub fn too_large(len: u64, limit: u64, what: &str) -> std::io::Error {
     std::io::Error::new(
         std::io::ErrorKind::FileTooLarge,
-        format!(
-            "is {} ({len} bytes), more than the limit of {} for {what}",
-            format_size(len),
-            format_size(limit)
-        ),
+        format!("is {} ({len} bytes), more than the limit of {} for {what}", format_size(len), format_size(limit)),
     )
 }
 

@@ -16,6 +16,7 @@ mod file_modes;
 mod fuzz_gltf;
 mod golden;
 mod hermetic;
+mod hostile;
 mod memory_budget;
 mod pipeline;
 mod plan_first;
