@@ -67,7 +67,8 @@ pub enum Offence {
     Empty,
     /// A character refused wherever it stands.
     Char(char),
-    /// A character refused as the path's first (after any `./`).
+    /// A character refused as the path's first (after any `./`; a target's byte-order mark as
+    /// the depfile's very first character).
     Leading(char),
     /// A character refused as the path's last.
     Trailing(char),
@@ -146,10 +147,20 @@ fn depfile_path(p: &Path) -> Result<String, DepfileRefusal> {
     Ok(out)
 }
 
-/// The target's path in depfile syntax: [`depfile_path`], and not a GNU make special target
-/// (`.PHONY: inputs` would make the inputs phony, `.SECONDEXPANSION:` expand later rules twice).
+/// The target's path in depfile syntax: [`depfile_path`], not a GNU make special target
+/// (`.PHONY: inputs` would make the inputs phony, `.SECONDEXPANSION:` expand later rules twice),
+/// and not led by a byte-order mark (the target is the depfile's first text, and GNU make skips
+/// a BOM at the start of a makefile it reads, so the rule would name another file; found by the
+/// pipelines fuzzer, `crates/fuzz/src/pipelines.rs`).
 fn depfile_target(p: &Path) -> Result<String, DepfileRefusal> {
     let out = depfile_path(p)?;
+    if out.starts_with('\u{feff}') {
+        return Err(DepfileRefusal {
+            path: p.to_string_lossy().into_owned(),
+            offence: Offence::Leading('\u{feff}'),
+            why: "GNU make skips a byte-order mark at the start of the depfile, so the rule would name another file",
+        });
+    }
     let name = without_dot_slash(&out);
     if name.len() > 1 && name.starts_with('.') && name[1..].bytes().all(|b| b.is_ascii_uppercase() || b == b'_') {
         let path = p.to_string_lossy().into_owned();
@@ -371,6 +382,19 @@ mod tests {
         for s in [".hidden.fbk", "packs/.PHONY", ".Phony", "."] {
             assert_eq!(depfile_target(Path::new(s)).unwrap(), s);
         }
+    }
+
+    #[test]
+    fn a_target_led_by_a_byte_order_mark_is_refused() {
+        // GNU make 4.3 skips a UTF-8 BOM at the start of an included makefile and files the rule
+        // under `x.fbk`; ninja keeps it.
+        let e = depfile_target(Path::new("\u{feff}x.fbk")).unwrap_err();
+        assert_eq!(e.offence, Offence::Leading('\u{feff}'));
+        assert!(e.to_string().contains("byte-order mark") && !e.to_string().contains('\n'), "{e}");
+        // Anywhere else, and in a prerequisite, it is an ordinary character.
+        assert_eq!(depfile_target(Path::new("x\u{feff}.fbk")).unwrap(), "x\u{feff}.fbk");
+        assert_eq!(depfile_target(Path::new("./\u{feff}x.fbk")).unwrap(), "./\u{feff}x.fbk");
+        assert_eq!(path("\u{feff}x.bin").unwrap(), "\u{feff}x.bin");
     }
 
     #[cfg(unix)]
