@@ -325,3 +325,16 @@ fn values_outside_their_documented_ranges_are_rejected() {
     // The samples themselves are in range.
     assert!(ShellAtlas::decode(&sample_shells().encode()).is_ok() && SkinMesh::decode(&sample_mesh().encode()).is_ok());
 }
+
+#[test]
+fn a_skin_mesh_whose_weld_tolerance_is_not_a_distance_is_rejected() {
+    for bad in [f32::NAN, f32::INFINITY, -1.0] {
+        let mut mesh = sample_mesh();
+        mesh.stats.weld_tolerance_m = bad;
+        let err = SkinMesh::decode(&mesh.encode()).unwrap_err();
+        assert!(err.to_string().contains("weld_tolerance_m"), "{bad}: {err}");
+    }
+    let mut mesh = sample_mesh();
+    mesh.stats.weld_tolerance_m = 1e-6;
+    assert_eq!(SkinMesh::decode(&mesh.encode()).unwrap(), mesh);
+}

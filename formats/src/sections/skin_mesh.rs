@@ -124,6 +124,12 @@ impl Section for SkinMesh {
         if let Some(i) = fur.iter().position(|&x| x > 1) {
             return Err(FormatError::invalid(format!("fur_mask[{i}] = {} (must be 0 or 1)", fur[i])));
         }
+        let tolerance = m.stats.weld_tolerance_m;
+        if !(tolerance.is_finite() && tolerance >= 0.0) {
+            return Err(FormatError::invalid(format!(
+                "stats.weld_tolerance_m = {tolerance} (must be a finite distance, at least 0)"
+            )));
+        }
         Ok(SkinMesh {
             positions: positions.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
             normals: normals.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
