@@ -68,6 +68,16 @@ fn private_device(path: &Path) -> &'static str {
     "a symlink to /dev/null"
 }
 
+/// Copies the real `TwoSidedPlane` (a .gltf with an external buffer and textures) into the new
+/// directory `dir`.
+fn copy_plane(dir: &Path) {
+    std::fs::create_dir(dir).unwrap();
+    for e in std::fs::read_dir(real_fixture("TwoSidedPlane")).unwrap() {
+        let e = e.unwrap().path();
+        std::fs::copy(&e, dir.join(e.file_name().unwrap())).unwrap();
+    }
+}
+
 fn is_fifo(p: &Path) -> bool {
     std::fs::symlink_metadata(p).unwrap().file_type().is_fifo()
 }
@@ -153,11 +163,7 @@ fn outputs_equal_to_inputs_or_to_each_other_are_refused() {
     assert!(!d.join("o/x.fbk").exists());
     // A file the glTF names (its external buffer) is an input too, known once it is read.
     let plane = d.join("plane");
-    std::fs::create_dir(&plane).unwrap();
-    for e in std::fs::read_dir(real_fixture("TwoSidedPlane")).unwrap() {
-        let e = e.unwrap().path();
-        std::fs::copy(&e, plane.join(e.file_name().unwrap())).unwrap();
-    }
+    copy_plane(&plane);
     let bin = plane.join("TwoSidedPlane.bin");
     let bin_bytes = std::fs::read(&bin).unwrap();
     let out = quick(&["bake", s(&plane.join("TwoSidedPlane.gltf")), "-o", s(&bin), "-q", "--resolution", "8"]);
@@ -327,11 +333,7 @@ fn a_planted_manifest_cannot_make_batch_read_outside_the_asset_root_or_wait_on_a
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let assets = d.join("assets");
-    std::fs::create_dir(&assets).unwrap();
-    for e in std::fs::read_dir(real_fixture("TwoSidedPlane")).unwrap() {
-        let e = e.unwrap().path();
-        std::fs::copy(&e, assets.join(e.file_name().unwrap())).unwrap();
-    }
+    copy_plane(&assets);
     let secret = d.join("secret.txt");
     std::fs::write(&secret, b"the build machine's secret").unwrap();
     let batch = assets.join("assets.toml");

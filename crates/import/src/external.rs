@@ -22,7 +22,9 @@
 //! `--asset-root DIR`), a wider directory for pipelines that keep textures in shared folders.
 
 use std::fmt;
-use std::fs::{File, FileType, OpenOptions};
+use std::fs::{File, OpenOptions};
+
+use furbake_formats::input::irregular_kind;
 use std::io::Read;
 use std::path::{Component, Path, PathBuf};
 
@@ -310,36 +312,6 @@ fn join_lexically(base: &Path, relative: &Path) -> PathBuf {
 fn inside(path: &Path, roots: &[PathBuf]) -> bool {
     // `starts_with` compares whole components: `/a/bc` is not inside `/a/b`.
     roots.iter().any(|root| path.starts_with(root))
-}
-
-/// What a file type is when it is not a regular file.
-fn irregular_kind(t: FileType) -> Option<&'static str> {
-    if t.is_file() {
-        return None;
-    }
-    if t.is_dir() {
-        return Some("a directory");
-    }
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::FileTypeExt;
-        if t.is_fifo() {
-            return Some("a FIFO");
-        }
-        if t.is_char_device() {
-            return Some("a character device");
-        }
-        if t.is_block_device() {
-            return Some("a block device");
-        }
-        if t.is_socket() {
-            return Some("a socket");
-        }
-    }
-    if t.is_symlink() {
-        return Some("a symbolic link");
-    }
-    Some("a special file")
 }
 
 /// Opens `path` (canonical, inside a root) for reading and returns it with its length, refusing
