@@ -30,6 +30,8 @@ pub enum Target {
     Gltf,
     /// Mutated scenes.
     Scenes,
+    /// The `furbake` binary in hostile build pipelines ([`crate::pipelines`]; needs `--cli`).
+    Pipelines,
     /// Cases that fail on purpose (panic, abort, exhaust memory, hang), to test the supervisor.
     Canary,
 }
@@ -41,13 +43,16 @@ impl Target {
             Target::Packs => "packs",
             Target::Gltf => "gltf",
             Target::Scenes => "scenes",
+            Target::Pipelines => "pipelines",
             Target::Canary => "canary",
         }
     }
 
     /// The target called `name`.
     pub fn from_name(name: &str) -> Option<Target> {
-        [Target::Packs, Target::Gltf, Target::Scenes, Target::Canary].into_iter().find(|t| t.name() == name)
+        [Target::Packs, Target::Gltf, Target::Scenes, Target::Pipelines, Target::Canary]
+            .into_iter()
+            .find(|t| t.name() == name)
     }
 }
 
@@ -62,7 +67,7 @@ pub struct Config {
     pub hang: Duration,
     /// Address-space limit of the worker, MiB.
     pub max_memory_mib: u64,
-    /// The `furbake` binary for the glTF target's child-process sample.
+    /// The `furbake` binary for the glTF target's child-process sample and the pipelines target.
     pub cli: Option<PathBuf>,
     /// Every how many glTF cases one also goes through the binary.
     pub cli_every: u64,
@@ -79,12 +84,22 @@ pub struct Corpus {
     scenes: Vec<String>,
     /// Holds the base packs the scenes name.
     scene_dir: Option<tempfile::TempDir>,
+    /// The pipelines target's mesh.
+    #[cfg(unix)]
+    pipelines: Option<crate::pipelines::Fixture>,
 }
 
 impl Corpus {
     /// Makes what `target` needs (baking the base packs takes a few seconds).
     pub fn new(target: Target) -> Result<Corpus, String> {
-        let mut c = Corpus { bases: Vec::new(), gltf: Vec::new(), scenes: Vec::new(), scene_dir: None };
+        let mut c = Corpus {
+            bases: Vec::new(),
+            gltf: Vec::new(),
+            scenes: Vec::new(),
+            scene_dir: None,
+            #[cfg(unix)]
+            pipelines: None,
+        };
         match target {
             Target::Packs | Target::Scenes => {
                 let baked = corpus::base_packs()?;
@@ -108,6 +123,10 @@ impl Corpus {
                 c.gltf = corpus::gltf_json_seeds();
                 c.gltf.extend(corpus::glb_seeds().map_err(|e| e.to_string())?);
             }
+            #[cfg(unix)]
+            Target::Pipelines => c.pipelines = Some(crate::pipelines::Fixture::new()?),
+            #[cfg(not(unix))]
+            Target::Pipelines => return Err("the pipelines target needs a Unix system".into()),
             Target::Canary => {}
         }
         Ok(c)
@@ -127,6 +146,12 @@ impl Corpus {
                 let seed = self.scenes[rng.below(self.scenes.len())].clone();
                 (scenes::mutate_scene(&mut rng, &seed).into_bytes(), "toml")
             }
+            // The case's description (its first line names the seed and the case); not `.txt`,
+            // which is what the reproducer's note is called.
+            #[cfg(unix)]
+            Target::Pipelines => (crate::pipelines::PipelineCase::generate(seed, case).describe().into_bytes(), "case"),
+            #[cfg(not(unix))]
+            Target::Pipelines => (Vec::new(), "case"),
             Target::Canary => (case.to_le_bytes().to_vec(), "bin"),
         }
     }
@@ -166,8 +191,28 @@ impl Corpus {
                 let text = String::from_utf8_lossy(bytes);
                 Ok(format!("{:?}", scenes::run_scene(&text, &dir, config.steps)))
             }
+            Target::Pipelines => self.run_pipelines(config, bytes),
             Target::Canary => canary(case),
         }
+    }
+
+    /// A pipelines case, regenerated from the seed and case its description names (so a saved
+    /// reproducer replays), run with `config.cli` under a 2 GiB address-space limit and a time
+    /// limit per command of four times `config.slow`.
+    #[cfg(unix)]
+    fn run_pipelines(&self, config: &Config, bytes: &[u8]) -> Result<String, String> {
+        use crate::pipelines::{Limits, PipelineCase, run_case};
+        let cli = config.cli.as_ref().ok_or("the pipelines target needs --cli PATH/TO/furbake")?;
+        let fixture = self.pipelines.as_ref().ok_or("no pipelines fixture")?;
+        let text = String::from_utf8_lossy(bytes);
+        let (seed, case) = PipelineCase::from_description(&text).ok_or("not a pipelines case description")?;
+        let limits = Limits { max_memory_mib: 2048, command: config.slow * 4 };
+        run_case(cli, fixture, &PipelineCase::generate(seed, case), &limits)
+    }
+
+    #[cfg(not(unix))]
+    fn run_pipelines(&self, _config: &Config, _bytes: &[u8]) -> Result<String, String> {
+        Err("the pipelines target needs a Unix system".into())
     }
 }
 
@@ -246,8 +291,9 @@ pub fn worker(target: Target, config: &Config, from: u64, to: u64) -> Result<(),
         let _ = writeln!(out, "{line}");
         let _ = out.flush();
     };
-    // A glTF case imports, bakes and may run the binary: four times the budget.
-    let budget = if target == Target::Gltf { config.slow * 4 } else { config.slow };
+    // A glTF case imports, bakes and may run the binary, a pipelines case runs several
+    // commands: four times the budget.
+    let budget = if matches!(target, Target::Gltf | Target::Pipelines) { config.slow * 4 } else { config.slow };
     for case in from..to {
         say(format!("start {case}"));
         let (bytes, ext) = corpus.case(target, config.seed, case);

@@ -4,14 +4,18 @@
 //! structure-aware mutators seeded per case, and a supervisor that runs the cases in a worker
 //! process so that even an abort or a hang is caught, attributed to its case and saved.
 //!
-//! Three targets, each mutating real inputs made in-process ([`corpus`]):
+//! Four targets, the first three mutating real inputs made in-process ([`corpus`]):
 //! - [`packs`]: packs baked from the test meshes and the Fox, mutated at the record, section and
 //!   container level with checksums recomputed; run through [`furbake_formats::Pack`], every
 //!   section decoder, `check_consistency` and a stepped `furbake_runtime::World`;
 //! - [`gltf`]: glTF JSON and `.glb` mutants through the importer, a tiny bake whose pack must
 //!   verify, and (a sample) the `furbake bake` binary under a memory limit, checking exit codes
 //!   and leftover files;
-//! - [`scenes`]: fixture scenes mutated as TOML, parsed and stepped.
+//! - [`scenes`]: fixture scenes mutated as TOML, parsed and stepped;
+//! - [`pipelines`]: the `furbake` binary in hostile build pipelines (needs `--cli`): outputs
+//!   that are devices, FIFOs, directories, inputs or each other; hostile file names driven
+//!   through real GNU make and ninja as depfiles; planted manifests under `batch`; special
+//!   files as every input.
 //!
 //! [`campaign`] holds the case runner (in-process, under `catch_unwind`, timed) and the
 //! supervisor; `src/main.rs` is the `furbake-fuzz` binary (`make fuzz` runs the long campaign,
@@ -34,6 +38,8 @@ pub mod campaign;
 pub mod corpus;
 pub mod gltf;
 pub mod packs;
+#[cfg(unix)]
+pub mod pipelines;
 pub mod rng;
 pub mod scenes;
 

@@ -1,12 +1,15 @@
 //! `furbake-fuzz`: the fuzzing campaign's command line (the work is in the library).
 //!
 //! ```text
-//! furbake-fuzz [--packs N] [--gltf N] [--scenes N] [--canary N] [--seed S] [--out DIR]
+//! furbake-fuzz [--packs N] [--gltf N] [--scenes N] [--pipelines N] [--canary N] [--seed S] [--out DIR]
 //!              [--slow-ms MS] [--hang-s S] [--max-memory-mib MIB] [--steps N]
 //!              [--cli PATH/TO/furbake] [--cli-every K]
 //! furbake-fuzz replay TARGET FILE [...]      # one reproducer, in-process, panics shown
 //! furbake-fuzz worker TARGET FROM TO [...]   # what the supervisor runs
 //! ```
+//!
+//! `--pipelines N` runs the `furbake` binary that `--cli` names in hostile build pipelines
+//! (`furbake_fuzz::pipelines`); it needs `--cli`, GNU make and ninja.
 //!
 //! Prints per target the cases run, their outcomes, the slowest case and the wall time, and
 //! every failure with its seed and case; exits 1 when any case failed, 2 on bad usage.
@@ -92,7 +95,10 @@ fn main() {
         Some(other) => usage(&format!("unknown command {other}")),
         None => {
             if counts.is_empty() {
-                usage("nothing to do: give --packs N, --gltf N, --scenes N");
+                usage("nothing to do: give --packs N, --gltf N, --scenes N, --pipelines N");
+            }
+            if counts.iter().any(|(t, _)| *t == Target::Pipelines) && config.cli.is_none() {
+                usage("--pipelines needs --cli PATH/TO/furbake");
             }
             let exe = std::env::current_exe().unwrap_or_else(|e| usage(&format!("own path: {e}")));
             let mut failed = 0;
