@@ -14,6 +14,7 @@ mod export;
 mod export_fuzz;
 mod file_modes;
 mod fuzz_gltf;
+mod fuzz_pipelines;
 mod golden;
 mod hermetic;
 mod hostile;
