@@ -8,8 +8,9 @@
 // f16, unorm8 or snorm8) with the mirror flags of fig. 3.8–3.9, and writes world-space vertex
 // positions to a storage buffer. The draw (`vs_blade` / `fs_blade`) takes each instance's blade
 // and grid coordinates from the instance lists (blade_cull.wgsl), poses its vertices with the
-// same functions (`pose_from`, `vertex_position`) and shades the blade two-sided with Lambert
-// diffuse and a flat colour. grass_common.wgsl (the Blade struct, the culling parameters) and
+// same functions (`pose_from`, `vertex_position`) and shades it (`fs_blade`: the grass thesis's
+// fig. 4.1 pipeline and what shipped grass adds, docs/design.md "Grass blade shading"), or, with
+// shading off, two-sided Lambert diffuse of a flat colour. grass_common.wgsl (the Blade struct, the culling parameters) and
 // grass_pose.wgsl (the uniform and source structs, `blade_grid`) are prepended.
 
 struct Frame {
@@ -212,7 +213,32 @@ fn cs_blades(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
 struct BladeOut {
     @builtin(position) clip: vec4<f32>,
     @location(0) world: vec3<f32>,
+    // u across the blade (0 left … 1 right), v along it (0 root … 1 tip).
+    @location(1) uv: vec2<f32>,
+    // The blade's width axis in world space (the direction of increasing u).
+    @location(2) width_axis: vec3<f32>,
+    // x: the blade, y: its clump (cluster).
+    @location(3) @interpolate(flat) ids: vec2<u32>,
 };
+
+// A well-mixed 32-bit hash (lowbias32) as a number in [0, 1).
+fn hash01(x: u32) -> f32 {
+    var h = x;
+    h ^= h >> 16u;
+    h *= 0x7feb352du;
+    h ^= h >> 15u;
+    h *= 0x846ca68bu;
+    h ^= h >> 16u;
+    return f32(h >> 8u) * (1.0 / 16777216.0);
+}
+
+// (u, v) of reference vertex `v` (furbake-grass `ReferenceBlade`: segment k owns vertices 4k..4k+4
+// = left-bottom, right-bottom, left-top, right-top; level k + (v mod 4)/2 of `segments`).
+fn blade_uv(v: u32) -> vec2<f32> {
+    let segments = max(params.vertex_count / 4u, 1u);
+    let level = v / 4u + (v % 4u) / 2u;
+    return vec2<f32>(f32(v & 1u), f32(level) / f32(segments));
+}
 
 // The draw reads each instance's blade and its pose-grid coordinates from the instance lists the
 // compute passes wrote (blade_cull.wgsl: once per drawn blade), so each vertex only picks its
@@ -233,15 +259,33 @@ fn vs_blade(@builtin(vertex_index) vi: u32, @builtin(instance_index) instance: u
         let d = distance(cull.eye.xyz, blades[b].root.xyz);
         widen = 1.0 / thinning_keep(cull.distance.y, cull.distance.z, d);
     }
-    let world = (frame.model * vec4<f32>(vertex_position(pose_from(b, grid), v, widen), 1.0)).xyz;
+    let pose = pose_from(b, grid);
+    let world = (frame.model * vec4<f32>(vertex_position(pose, v, widen), 1.0)).xyz;
     var out: BladeOut;
     out.clip = frame.view_proj * vec4<f32>(world, 1.0);
     out.world = world;
+    out.uv = blade_uv(v);
+    out.width_axis = normalize((frame.model * vec4<f32>(pose.width, 0.0)).xyz);
+    out.ids = vec2<u32>(b, blades[b].cluster);
     return out;
+}
+
+// Linear colour of a blade before lighting: `color` at the root to `tip_color` at the tip, its
+// clump turned towards a dry green and its brightness spread, both from the bake's seed.
+fn blade_albedo(ids: vec2<u32>, v: f32) -> vec3<f32> {
+    var albedo = mix(params.color.rgb, params.tip_color.rgb, v);
+    let clump = hash01(ids.y ^ (params.seed * 0x9e3779b9u));
+    let dry = vec3<f32>(0.50, 0.52, 0.16) * dot(albedo, vec3<f32>(0.35, 0.55, 0.10)) * 2.2;
+    albedo = mix(albedo, dry, params.shade.z * clump * clump);
+    let blade = hash01(ids.x ^ (params.seed + 0x632be5abu));
+    return albedo * (1.0 + params.shade.y * (blade - 0.5));
 }
 
 @fragment
 fn fs_blade(in: BladeOut) -> @location(0) vec4<f32> {
+    if params.shading != 0u {
+        return vec4<f32>(shade_blade(in), 1.0);
+    }
     var shade = vec3<f32>(1.0);
     if params.lambert != 0u {
         // Flat face normal from the screen-space derivatives; blades are two-sided, so the side
@@ -252,4 +296,36 @@ fn fs_blade(in: BladeOut) -> @location(0) vec4<f32> {
         shade = frame.light_color.rgb * (ambient + (1.0 - ambient) * d);
     }
     return vec4<f32>(params.color.rgb * shade, 1.0);
+}
+
+// The blade shading (docs/design.md "Grass blade shading"). The face normal comes from the
+// screen-space derivatives, turned towards the viewer (blades are two-sided) and rounded
+// outwards across the width; diffuse is Lambert on the side facing the light plus translucency
+// when the light is behind the blade; v-shadowing darkens the root, edge darkening the sides
+// (fig. 4.1's alpha × diffuse); a normalised Blinn–Phong gloss rises towards the tip.
+fn shade_blade(in: BladeOut) -> vec3<f32> {
+    let v = clamp(in.uv.y, 0.0, 1.0);
+    let across = clamp(in.uv.x, 0.0, 1.0) * 2.0 - 1.0;
+    let albedo = blade_albedo(in.ids, v);
+    if params.lambert == 0u {
+        return albedo;
+    }
+    let to_eye = normalize(frame.camera_pos.xyz - in.world);
+    var n = normalize(cross(dpdx(in.world), dpdy(in.world)));
+    n = select(n, -n, dot(n, to_eye) < 0.0);
+    n = normalize(n + in.width_axis * (across * params.gloss.z));
+    let l = frame.light_dir.xyz;
+    let front = max(dot(n, l), 0.0);
+    // Light through the blade: from behind (the side away from the viewer is lit), thinner and
+    // brighter towards the tip, strongest looking into the light.
+    let forward = max(dot(-to_eye, l), 0.0);
+    let back = max(dot(-n, l), 0.0) * params.shade.w * (0.4 + 0.6 * v) * (0.6 + 0.4 * forward * forward);
+    let ambient = frame.light_color.a;
+    let occlusion = 1.0 - params.shade.x * (1.0 - smoothstep(0.0, 1.0, v));
+    let edge = 1.0 - params.gloss.w * pow(abs(across), 3.0);
+    let diffuse = albedo * (ambient + (1.0 - ambient) * front + 1.2 * back);
+    let h = normalize(l + to_eye);
+    let e = params.gloss.y;
+    let gloss = params.gloss.x * v * v * (e + 8.0) / 25.1327412 * pow(max(dot(n, h), 0.0), e) * front;
+    return frame.light_color.rgb * (diffuse * occlusion * edge + vec3<f32>(gloss * occlusion));
 }

@@ -41,9 +41,17 @@ struct BladeParams {
     corner_count: u32,
     // Cells along x of the cluster grid.
     cells_x: u32,
+    // Seed of the per-blade and per-clump colour variation (the blade field's bake seed).
+    seed: u32,
+    // 1: the blade shading of `BladeShading` (blades.wgsl `fs_blade`); 0: flat colour × Lambert.
+    shading: u32,
     pad0: u32,
-    pad1: u32,
-    pad2: u32,
+    // rgb: linear colour at the tip (the root takes `color`).
+    tip_color: vec4<f32>,
+    // x root occlusion, y blade variation, z clump variation, w translucency (all 0..1).
+    shade: vec4<f32>,
+    // x gloss (0..1), y gloss exponent, z normal rounding (0..1), w edge darkening (0..1).
+    gloss: vec4<f32>,
 };
 
 // A wind source with delayed attenuation (eq. 4.1 evaluated per blade).

@@ -67,8 +67,18 @@ pub struct BladeParams {
     pub corner_count: u32,
     /// Cells along x of the cluster grid (a blade's corners follow from its cluster).
     pub cells_x: u32,
+    /// Seed of the per-blade and per-clump colour variation (the blade field's bake seed).
+    pub seed: u32,
+    /// 1: the blade shading of [`BladeShading`]; 0: flat colour × two-sided Lambert.
+    pub shading: u32,
     /// Unused (uniform alignment).
-    pub pad: [u32; 3],
+    pub pad: u32,
+    /// Linear RGB colour at the tip (the root takes `color`); a unused.
+    pub tip_color: [f32; 4],
+    /// x root occlusion, y blade variation, z clump variation, w translucency.
+    pub shade: [f32; 4],
+    /// x gloss, y gloss exponent, z normal rounding, w edge darkening.
+    pub gloss: [f32; 4],
 }
 
 /// One wind source with delayed attenuation as `blades.wgsl` reads it (`DelayedSource`,
@@ -119,6 +129,9 @@ pub struct BladeSettings {
     /// Culling and level of detail ([`crate::culling`]). Default [`GrassCulling::default`]; a
     /// runtime scene's `[grass_culling]`.
     pub culling: GrassCulling,
+    /// How a blade is shaded (docs/design.md "Grass blade shading"). Default
+    /// [`BladeShading::default`]; [`BladeShading::FLAT`] is the flat colour × Lambert of before.
+    pub shading: BladeShading,
 }
 
 impl Default for BladeSettings {
@@ -128,7 +141,103 @@ impl Default for BladeSettings {
             color: [0.18, 0.45, 0.08],
             lambert: true,
             culling: GrassCulling::default(),
+            shading: BladeShading::default(),
         }
+    }
+}
+
+/// The blade shading of the grass thesis's fig. 4.1 pipeline and of shipped grass
+/// (docs/design.md "Grass blade shading"): a root-to-tip colour, v-coordinate shadowing towards
+/// the root, edge darkening across the width, normals rounded across the width, per-blade and
+/// per-clump colour variation from the bake's seed, two-sided translucency and a gloss that rises
+/// towards the tip. Every amount is in `0..=1` except `gloss_exponent` (`1..=512`); the colour is
+/// linear RGB, finite and non-negative.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BladeShading {
+    /// Off: the flat colour × two-sided Lambert (every other field ignored). Default true.
+    pub enabled: bool,
+    /// Linear RGB colour at the tip; the root takes [`BladeSettings::color`]. Default a lighter,
+    /// yellower green `[0.36, 0.58, 0.12]`.
+    pub tip_color: [f32; 3],
+    /// How much darker the root is than the tip (grass thesis fig. 4.1's v-shadowing: the
+    /// blades around shade it): brightness `1 − root_occlusion` at the root rising to 1 at the
+    /// tip. Default 0.65.
+    pub root_occlusion: f32,
+    /// Brightness spread between blades (± half of it). Default 0.3.
+    pub blade_variation: f32,
+    /// How far a clump (a cluster of the blade field) may turn towards a dry, yellower green.
+    /// Default 0.5.
+    pub clump_variation: f32,
+    /// Light through a blade lit from behind (two-sided translucency), relative to the diffuse
+    /// term. Default 0.6.
+    pub translucency: f32,
+    /// Strength of the normalised Blinn–Phong gloss, reached at the tip (none at the root).
+    /// Default 0.15.
+    pub gloss: f32,
+    /// Exponent of the gloss lobe. Default 32.
+    pub gloss_exponent: f32,
+    /// How far normals turn outwards towards the blade's edges (a blade is rounded across its
+    /// width, not flat). Default 0.6.
+    pub rounding: f32,
+    /// Darkening at the blade's edges (fig. 4.1's alpha × diffuse). Default 0.35.
+    pub edge_darkening: f32,
+}
+
+impl Default for BladeShading {
+    fn default() -> Self {
+        BladeShading {
+            enabled: true,
+            tip_color: [0.36, 0.58, 0.12],
+            root_occlusion: 0.65,
+            blade_variation: 0.3,
+            clump_variation: 0.5,
+            translucency: 0.6,
+            gloss: 0.15,
+            gloss_exponent: 32.0,
+            rounding: 0.6,
+            edge_darkening: 0.35,
+        }
+    }
+}
+
+impl BladeShading {
+    /// The flat colour × two-sided Lambert shading of before (every term off).
+    pub const FLAT: BladeShading = BladeShading {
+        enabled: false,
+        tip_color: [0.0; 3],
+        root_occlusion: 0.0,
+        blade_variation: 0.0,
+        clump_variation: 0.0,
+        translucency: 0.0,
+        gloss: 0.0,
+        gloss_exponent: 1.0,
+        rounding: 0.0,
+        edge_darkening: 0.0,
+    };
+
+    /// Checks every range; the error names the field.
+    pub fn validate(&self) -> Result<(), RenderError> {
+        let bad = |what: String| Err(RenderError::Parameter { what });
+        if self.tip_color.iter().any(|c| !c.is_finite() || *c < 0.0) {
+            return bad(format!("blade shading tip_color {:?} must be finite and non-negative", self.tip_color));
+        }
+        for (name, v) in [
+            ("root_occlusion", self.root_occlusion),
+            ("blade_variation", self.blade_variation),
+            ("clump_variation", self.clump_variation),
+            ("translucency", self.translucency),
+            ("gloss", self.gloss),
+            ("rounding", self.rounding),
+            ("edge_darkening", self.edge_darkening),
+        ] {
+            if !(0.0..=1.0).contains(&v) {
+                return bad(format!("blade shading {name} = {v} is outside 0..=1"));
+            }
+        }
+        if !(1.0..=512.0).contains(&self.gloss_exponent) {
+            return bad(format!("blade shading gloss_exponent = {} is outside 1..=512", self.gloss_exponent));
+        }
+        Ok(())
     }
 }
 
@@ -414,6 +523,7 @@ impl BladeRenderer {
             return Err(RenderError::Parameter { what: "blade colour must be finite and non-negative".into() });
         }
         check_culling(&settings.culling)?;
+        settings.shading.validate()?;
         // The checks of `KeyframeDecoder::new`, so a hand-built table cannot index out of range.
         let g = table.grid;
         let factor = table.symmetry.factor();
@@ -490,6 +600,7 @@ impl BladeRenderer {
 
         let (payload, encoding) = pack_payload(&table.displacements);
         let [r, gr, b] = settings.color;
+        let sh = &settings.shading;
         let params = BladeParams {
             color: [r, gr, b, 1.0],
             blade_count: blades.len() as u32,
@@ -510,7 +621,12 @@ impl BladeRenderer {
             delayed_sources: 0,
             corner_count: corners as u32,
             cells_x: field.grid.cells_x,
-            pad: [0; 3],
+            seed: (field.params.seed ^ (field.params.seed >> 32)) as u32,
+            shading: settings.shading.enabled as u32,
+            pad: 0,
+            tip_color: [sh.tip_color[0], sh.tip_color[1], sh.tip_color[2], 1.0],
+            shade: [sh.root_occlusion, sh.blade_variation, sh.clump_variation, sh.translucency],
+            gloss: [sh.gloss, sh.gloss_exponent, sh.rounding, sh.edge_darkening],
         };
         let init = |label, contents: &[u8], usage| {
             device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage })

@@ -128,7 +128,7 @@ use furbake_runtime::{Camera, Light, RuntimeError};
 use glam::Vec3;
 
 pub use asset::FurAsset;
-pub use blades::{BladeRenderer, BladeSettings};
+pub use blades::{BladeRenderer, BladeSettings, BladeShading};
 #[doc(hidden)]
 pub use blocking::blocking_calls_on_this_thread;
 pub use culling::{CullLists, CullReference, GrassCulling};

@@ -388,9 +388,12 @@ mod tests {
             ("delayed_sources", offset_of!(B, delayed_sources)),
             ("corner_count", offset_of!(B, corner_count)),
             ("cells_x", offset_of!(B, cells_x)),
+            ("seed", offset_of!(B, seed)),
+            ("shading", offset_of!(B, shading)),
             ("pad0", pad),
-            ("pad1", pad + 4),
-            ("pad2", pad + 8),
+            ("tip_color", offset_of!(B, tip_color)),
+            ("shade", offset_of!(B, shade)),
+            ("gloss", offset_of!(B, gloss)),
         ];
         // grass_pose.wgsl, prepended to the draw and to the culling passes.
         assert_eq!(check_layout("BladeParams", size_of::<B>(), &params), 2);

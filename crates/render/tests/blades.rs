@@ -17,7 +17,7 @@ use furbake_grass::{
     BladeFieldSettings, BladeMaterial, BladeShape, ForceField, ForceScene, Interpolation, KeyframeDecoder, WindSource,
     build_reference_blade, compress_poses, ground_grid_mesh, scatter_blades, simulate_poses,
 };
-use furbake_render::{BladeRenderer, BladeSettings, HeadlessGpu, RenderTarget, View, read_back};
+use furbake_render::{BladeRenderer, BladeSettings, BladeShading, HeadlessGpu, RenderTarget, View, read_back};
 use furbake_runtime::{Camera, Light};
 use glam::{Vec2, Vec3, Vec3Swizzles};
 use image::RgbaImage;
@@ -378,11 +378,12 @@ fn blades_draw_over_what_the_target_holds_without_a_clear() {
     let target = RenderTarget::new(device, SIZE, SIZE).unwrap();
     let view =
         View { camera: Camera { eye: [0.3, 0.5, 2.2], target: [0.3, 0.12, 0.0], ..side_view().camera }, ..side_view() };
+    // Flat shading: this test is about compositing, and a flat teal is recognisable exactly.
+    let flat_green = BladeSettings { shading: BladeShading::FLAT, ..Default::default() };
     let first =
-        BladeRenderer::new(gpu().pipelines(), queue, &left, &table, &BladeSettings::default(), &RenderTarget::desc())
-            .unwrap();
+        BladeRenderer::new(gpu().pipelines(), queue, &left, &table, &flat_green, &RenderTarget::desc()).unwrap();
     first.render_to(device, queue, &target, &view, Some([0.0, 0.0, 1.0, 1.0])).unwrap();
-    let teal = BladeSettings { color: [0.0, 0.5, 0.5], ..Default::default() };
+    let teal = BladeSettings { color: [0.0, 0.5, 0.5], shading: BladeShading::FLAT, ..Default::default() };
     let second = BladeRenderer::new(gpu().pipelines(), queue, &right, &table, &teal, &RenderTarget::desc()).unwrap();
     second.render_to(device, queue, &target, &view, None).unwrap();
     let image = read_back(device, queue, &target).unwrap();
