@@ -392,9 +392,22 @@ pub fn render_opened_pack(
 ) -> Result<image::RgbaImage, RenderError> {
     let asset = FurAsset::from_pack(pack, settings.fins)?;
     let gpu = HeadlessGpu::new()?;
-    let view = view.unwrap_or_else(|| asset.auto_view(width as f32 / height.max(1) as f32));
+    let rest = rest_pose(pack)?;
+    let aspect = width as f32 / height.max(1) as f32;
+    let view = view.unwrap_or_else(|| match &rest {
+        // An animated pack is framed as it stands in its rest pose, not in raw bind space.
+        Some(rest) => {
+            View::fit_points(&rest.positions, asset.shells().fur_length_m, aspect, rest.bounding_sphere(&asset))
+        }
+        None => asset.auto_view(aspect),
+    });
     let desc = RenderTarget::desc();
     let fur = FurRenderer::new(gpu.pipelines(), &gpu.queue, &asset, settings, &desc)?;
+    if let (Some(rest), Some(_)) = (&rest, fur.skinning()) {
+        fur.set_pose(&gpu.queue, &rest.skinning, &rest.morph_weights)?;
+        // Unsheared fur in the posed frame: s = n of the posed skin (eq. 3.35 at rest).
+        fur.set_scale_vectors(&gpu.queue, &rest.normals)?;
+    }
     // Grass blades, when the pack has a blade field: drawn after the fur, depth-tested against
     // it, in their rest pose (a still preview has no wind). A pack alone has no scene to say
     // what its units are (the Fox glTF is in centimetres, so its "metres" put the camera 300 m
@@ -420,6 +433,57 @@ pub fn render_opened_pack(
     let image = read_back(&gpu.device, &gpu.queue, &target)?;
     gpu.check()?;
     Ok(image)
+}
+
+/// An animated pack in its rest pose: the skeleton's node transforms (glTF's rest TRS of every
+/// joint, which often carries an export's up-axis rotation) and the default morph weights, as
+/// skinning matrices for [`FurRenderer::set_pose`] and as the posed skin positions for framing.
+struct RestPose {
+    skinning: Vec<glam::Mat4>,
+    morph_weights: Vec<f32>,
+    positions: Vec<[f32; 3]>,
+    normals: Vec<[f32; 3]>,
+}
+
+impl RestPose {
+    /// The sphere around the posed skin and its fur (as [`FurAsset::bounding_sphere`] in bind
+    /// space).
+    fn bounding_sphere(&self, asset: &FurAsset) -> ([f32; 3], f32) {
+        use glam::Vec3;
+        let (lo, hi) = self
+            .positions
+            .iter()
+            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| (lo.min(Vec3::from(p)), hi.max(Vec3::from(p))));
+        let center = (lo + hi) * 0.5;
+        let far = self.positions.iter().map(|&p| Vec3::from(p).distance(center)).fold(0.0f32, f32::max);
+        (center.to_array(), far + asset.shells().fur_length_m)
+    }
+}
+
+/// The rest pose of `pack` when it is animated (skin weights or morph targets), `None` for a
+/// static pack (docs/design.md "Rendering": a pack alone is drawn as it stands).
+fn rest_pose(pack: &Pack) -> Result<Option<RestPose>, RenderError> {
+    use furbake_runtime::animation::{Pose, joint_world_matrices, morph_and_skin, skinning_matrices};
+    let (weights, morphs) = (pack.skin_weights()?, pack.morph_targets()?);
+    if weights.is_none() && morphs.is_none() {
+        return Ok(None);
+    }
+    let skeleton = pack.skeleton()?;
+    let mesh = pack.skin_mesh()?;
+    let pose = Pose::rest(skeleton.as_deref(), morphs.as_deref());
+    let invalid = |e: furbake_runtime::AnimationError| RenderError::InvalidAsset { what: format!("rest pose: {e}") };
+    let mut skinning = Vec::new();
+    if let (Some(skeleton), Some(_)) = (&skeleton, &weights) {
+        let mut world = vec![glam::Mat4::IDENTITY; skeleton.joint_count()];
+        joint_world_matrices(skeleton, &pose, &mut world).map_err(invalid)?;
+        skinning = vec![glam::Mat4::IDENTITY; skeleton.bind_count()];
+        skinning_matrices(skeleton, &world, &mut skinning).map_err(invalid)?;
+    }
+    let v = mesh.positions.len();
+    let (mut positions, mut normals) = (vec![[0.0; 3]; v], vec![[0.0; 3]; v]);
+    let morph_input = morphs.as_deref().map(|m| (m, pose.morph_weights.as_slice()));
+    morph_and_skin(&mesh, weights.as_deref(), morph_input, &skinning, &mut positions, &mut normals).map_err(invalid)?;
+    Ok(Some(RestPose { skinning, morph_weights: pose.morph_weights, positions, normals }))
 }
 
 /// Copies the first `count` elements of `source` (a `COPY_SRC` buffer) into a staging buffer,
