@@ -88,10 +88,13 @@ report:
 
 # The long fuzzing campaign (issue 10, item 7; crates/fuzz): release build, 200,000 pack, 3,000
 # glTF (every 10th also through the debug `furbake` binary under a 2 GiB limit) and 3,000 scene
-# mutants; exits 1 on any panic, abort, hang or slow case, with reproducers in
-# target/fuzz-reproducers. `make fuzz FUZZ_SEED=7` runs other mutants.
+# mutants, then 5,000 hostile pipeline cases through the debug `furbake` binary (outputs over
+# devices, FIFOs, directories, inputs and each other; depfile names through GNU make and ninja;
+# planted manifests under batch; special files as inputs — about 2.5 minutes; needs make and ninja,
+# see `make deps`); exits 1 on any panic, abort, hang, slow case or broken rule, with reproducers
+# in target/fuzz-reproducers. `make fuzz FUZZ_SEED=7` runs other mutants.
 FUZZ_SEED ?= 1
 fuzz:
 	$(CARGO) build -p furbake-cli
-	$(CARGO) run --release -p furbake-fuzz -- --packs 200000 --gltf 3000 --scenes 3000 \
+	$(CARGO) run --release -p furbake-fuzz -- --packs 200000 --gltf 3000 --scenes 3000 --pipelines 5000 \
 		--seed $(FUZZ_SEED) --cli $(FURBAKE) --cli-every 10 --slow-ms 2000 --out target/fuzz-reproducers
