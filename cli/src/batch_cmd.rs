@@ -214,6 +214,10 @@ fn plan(file: &BatchFile, base: &Path, batch: &Path) -> Result<(Vec<Planned>, Fi
         if let Some(c) = &p.config {
             files.input(c);
         }
+        // Its buffers and images too: one asset's pack must not land on another's texture.
+        for named in furbake_import::referenced_files(&p.input) {
+            files.input(&named);
+        }
     }
     for (i, p) in plans.iter().enumerate() {
         let in_asset = |f: Failure| match f {

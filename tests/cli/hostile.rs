@@ -442,3 +442,32 @@ fn simulate_preview_and_export_outputs_follow_the_same_rules_and_dash_is_stdout(
     let streamed = stdout_of(&["bake", s(&real_fixture("Box.glb")), "-o", "-", "--resolution", "8", "-q"]);
     assert_eq!(streamed, pack_bytes, "bake -o - writes the same pack");
 }
+
+#[test]
+fn a_batch_output_never_lands_on_another_assets_buffer() {
+    // Found by the pipelines fuzzer: the buffers of asset 1 were checked only when asset 1 was
+    // read, after asset 2 had written its pack over one of them.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    copy_plane(&d.join("a"));
+    copy_plane(&d.join("b"));
+    let bin = d.join("a/TwoSidedPlane.bin");
+    let before = std::fs::read(&bin).unwrap();
+    let batch = d.join("assets.toml");
+    std::fs::write(
+        &batch,
+        "[defaults.settings]\nvolume.resolution = 8\n[[asset]]\ninput = \"a/TwoSidedPlane.gltf\"\n\
+         [[asset]]\ninput = \"b/TwoSidedPlane.gltf\"\noutput = \"a/TwoSidedPlane.bin\"\n",
+    )
+    .unwrap();
+    for jobs in ["1", "2"] {
+        let out = quick(&["batch", s(&batch), "-j", jobs, "-q"]);
+        assert_eq!(out.status.code(), Some(2), "-j {jobs}: {}", stderr(&out));
+        assert!(
+            stderr(&out).contains("is the input") && stderr(&out).contains("TwoSidedPlane.bin"),
+            "{}",
+            stderr(&out)
+        );
+        assert_eq!(std::fs::read(&bin).unwrap(), before, "-j {jobs}: the buffer is untouched");
+    }
+}

@@ -274,6 +274,13 @@ pub(crate) fn scheme(uri: &str) -> Option<&str> {
     valid.then_some(scheme)
 }
 
+/// The relative path a URI names after the checks of steps 1–2 (module docs), `None` where they
+/// refuse it.
+pub(crate) fn relative_uri_path(uri: &str) -> Option<PathBuf> {
+    let decoded = percent_decode(uri).ok()?;
+    relative_path(&decoded).ok().map(Path::to_path_buf)
+}
+
 /// Refuses a decoded path that names a scheme, is absolute or uses backslashes.
 fn relative_path(decoded: &str) -> Result<&Path, UriProblem> {
     if let Some(scheme) = scheme(decoded) {

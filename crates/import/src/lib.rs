@@ -142,6 +142,14 @@ fn import_file(path: &Path, extra_root: Option<&Path>, settings: &ImportSettings
     import(&bytes, path, true, external::ExternalFiles { base_dir: Some(base_dir), extra_root }, settings)
 }
 
+/// The external files (buffers and images) the glTF at `path` names, joined to its directory,
+/// read from its JSON alone: nothing they name is opened, nothing else is validated, and a file
+/// that cannot be read or parsed names none (its import then says why). `furbake batch` adds
+/// them to its plan's inputs, so no asset's output can be another asset's buffer or texture.
+pub fn referenced_files(path: &Path) -> Vec<PathBuf> {
+    source::referenced_files(path)
+}
+
 /// Opens the input file `name` as a pack's manifest records it (relative to the glTF's
 /// directory `gltf_dir`, `/`-separated) under exactly the rules the import reads external files
 /// by (see `external.rs`): it must resolve inside `gltf_dir` or `asset_root`, symlinks followed,

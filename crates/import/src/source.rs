@@ -248,6 +248,36 @@ pub(crate) fn load_asset(bytes: &[u8], file: &Path, external: ExternalFiles<'_>)
     Ok(Asset { root, buffers, input_bytes, input_hasher: hasher, warnings, files })
 }
 
+/// The external files the glTF at `path` names (buffer and image URIs that are not `data:`),
+/// percent-decoded and joined to its directory, without reading them or validating anything
+/// else: what a caller planning outputs must not write over before the import runs. A URI the
+/// import would refuse (a scheme, an absolute path, a bad escape) is left out — the import
+/// refuses it — and so is everything of a file that cannot be read or parsed.
+pub(crate) fn referenced_files(path: &Path) -> Vec<std::path::PathBuf> {
+    let Ok(bytes) = read_file_limited(path, path) else { return Vec::new() };
+    let json_bytes = if bytes.starts_with(GLB_MAGIC) {
+        match split_glb(&bytes) {
+            Ok(glb) => glb.json,
+            Err(_) => return Vec::new(),
+        }
+    } else {
+        &bytes[..]
+    };
+    let Ok(doc) = serde_json::from_slice::<serde_json::Value>(json_bytes) else { return Vec::new() };
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let uris = ["buffers", "images"]
+        .into_iter()
+        .filter_map(|key| doc.get(key).and_then(|v| v.as_array()))
+        .flatten()
+        .filter_map(|item| item.get("uri").and_then(|u| u.as_str()));
+    uris.filter(|uri| !uri.starts_with("data:"))
+        .filter_map(|uri| crate::external::relative_uri_path(uri).map(|p| dir.join(p)))
+        .collect()
+}
+
 /// Reads the main glTF file the caller named, at most [`MAX_FILE_BYTES`]: opened without
 /// blocking and refused unless the opened handle is a regular file (a FIFO or a device such as
 /// `/dev/zero` is named as what it is, `furbake_formats::input`), its size checked before
