@@ -3,12 +3,15 @@
 // it is perpendicular to the surface and as tall as the outermost shell. Alpha from the fin atlas
 // (u along the edge in texture repeats, v from tip (0) to root (1)), faded by how much the
 // surface faces the viewer: fins fill the gaps between shells where the surface is seen
-// edge-on, and vanish where the shells already read well.
+// edge-on, and vanish where the shells already read well. Shaded as the shells are (fur_common.wgsl
+// `strand_shade`, docs/design.md "Fur shading"): the hair direction of eq. 3.36 at the fin
+// vertex's height, the self-shadow of the layer at that height, the noise of the fin texel's
+// column (one hair), so fins and shells match where they meet.
 // An animated pack's fins stand on the skinning pass's posed vertices, and their face normal is
 // computed here from the posed corners of the triangle they grow from (a bind-pose face normal
 // would fade them by the wrong facing once the skin moves).
 // Prepended at load time: fur_common.wgsl (uniforms, switches, bindings 0–3 and 8, SurfaceIn,
-// posed_vertex, shell_offset, lambert).
+// posed_vertex, shell_offset, strand_tangent, lambert, strand_shade).
 
 @group(0) @binding(6) var fin_alpha: texture_2d<f32>;
 @group(0) @binding(7) var fin_sampler: sampler;
@@ -43,6 +46,8 @@ struct FinOut {
     // Multiplies the fin's alpha: 1 for the always-on fins, the selection's fade for the
     // silhouette fins.
     @location(6) fade: f32,
+    // World-space hair direction (unit before interpolation).
+    @location(7) tangent: vec3<f32>,
 };
 
 // Normal (not necessarily unit) of the furry triangle a fin grows from: the bind-pose face normal
@@ -78,6 +83,10 @@ fn vs_fin(v: FinIn) -> FinOut {
     out.face_normal = normal_to_world(fin_face_normal(v, n));
     out.height = v.height;
     out.fade = 1.0;
+    out.tangent = out.normal;
+    if STRAND {
+        out.tangent = normal_to_world(strand_tangent(n, s, v.height));
+    }
     return out;
 }
 
@@ -128,6 +137,10 @@ fn vs_silhouette_fin(@builtin(vertex_index) vi: u32, @builtin(instance_index) ii
     out.face_normal = normal_to_world(face);
     out.height = height;
     out.fade = inst.fade;
+    out.tangent = out.normal;
+    if STRAND {
+        out.tangent = normal_to_world(strand_tangent(n, s, height));
+    }
     if inst.fade <= 0.0 {
         // An unselected edge inside the drawn prefix: a degenerate quad outside the clip volume.
         out.clip = vec4<f32>(2.0, 2.0, 2.0, 1.0);
@@ -149,12 +162,24 @@ fn fs_fin(in: FinOut) -> @location(0) vec4<f32> {
     if alpha <= fur.alpha_threshold {
         discard;
     }
-    var shade = lambert(in.normal);
-    if SHADOW {
-        let layer = min(fur.atlas_layers - 1u, u32(in.height * f32(fur.atlas_layers)));
-        shade = shade * shadow[layer];
+    var rgb: vec3<f32>;
+    if STRAND && LAMBERT {
+        var direct = 1.0;
+        if SHADOW {
+            direct = shadow[min(fur.atlas_layers - 1u, u32(in.height * f32(fur.atlas_layers)))];
+        }
+        // A fin texel column is one hair (u along the edge, v root to tip).
+        let width = i32(textureDimensions(fin_alpha).x);
+        let column = ((i32(floor(in.uv.x * f32(width))) % width) + width) % width;
+        rgb = strand_shade(in.color.rgb * fur.tint.rgb, in.normal, in.tangent, to_eye, in.height, direct, strand_mask(column, -1));
+    } else {
+        var shade = lambert(in.normal);
+        if SHADOW {
+            let layer = min(fur.atlas_layers - 1u, u32(in.height * f32(fur.atlas_layers)));
+            shade = shade * shadow[layer];
+        }
+        rgb = in.color.rgb * fur.tint.rgb * shade;
     }
-    let rgb = in.color.rgb * fur.tint.rgb * shade;
     if ALPHA_BLEND {
         return vec4<f32>(rgb, alpha);
     }

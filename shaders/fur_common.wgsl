@@ -2,8 +2,10 @@
 // checked against its #[repr(C)] Rust twin in crates/render/src/shaders.rs), the effect switches
 // (pipeline-overridable constants, set from the scene's effects), the bindings of group 0, the
 // surface vertex layout, the posed root of a vertex (the bind pose, or the skinning pass's output
-// for an animated pack), the eq. 3.36 shell offset, the object→world model transform and Lambert
-// shading. The renderer prepends this file to each of them (WGSL has no includes).
+// for an animated pack), the eq. 3.36 shell offset and the strand tangent (its derivative along
+// the hair), the object→world model transform, Lambert shading and the strand shading
+// (docs/design.md "Fur shading"). The renderer prepends this file to each of them (WGSL has no
+// includes).
 
 struct Frame {
     view_proj: mat4x4<f32>,
@@ -36,10 +38,24 @@ struct Fur {
     // corner, 3·triangle + corner (corner_index; separable topologies, where fur parts).
     scale_layout: u32,
     pad1: u32,
+    // The strand shading's parameters (FurShading in crates/render/src/shading.rs; read only when
+    // STRAND). rgb: colour multiplier at the hair tips (1 at the roots); a: ambient occlusion at
+    // the roots (none at the tips).
+    tip_color: vec4<f32>,
+    // rgb: tint of the secondary highlight (× the fur colour); a: depth of its noise mask.
+    secondary_tint: vec4<f32>,
+    // x, y: primary highlight strength and exponent; z, w: secondary strength and exponent.
+    specular: vec4<f32>,
+    // x, y: primary and secondary shift; z: back-light strength; w: Kajiya–Kay share of the
+    // diffuse term.
+    strand: vec4<f32>,
 };
 
 override LAMBERT: bool = true;
 override SHADOW: bool = true;
+// The strand shading (`strand_shade`) instead of Lambert × self-shadow; needs LAMBERT (unlit fur
+// stays unlit). Off: exactly the earlier Lambert path.
+override STRAND: bool = true;
 // Eq. 3.36 shearing from the scale-vector buffer; off for static fur (s = n everywhere).
 override SHEAR: bool = true;
 // true: alpha-blended output; false: alpha-tested (opaque) output.
@@ -110,6 +126,28 @@ fn shell_offset(n: vec3<f32>, s: vec3<f32>, t: f32) -> vec3<f32> {
     return offset * fur.fur_length_m;
 }
 
+// Unit direction of the hair at relative height t above a vertex with unit normal n and scale
+// vector s: the derivative of `shell_offset` along t, n + k·t^(k−1)·(s − n) (eq. 3.36), so it
+// follows the fur as the physics moves it, and is n at rest (s = n) or without SHEAR. Where
+// `shell_offset` lays the hair flat (an inward scale vector), the inward part is dropped here as
+// well. The CPU twin is `furbake_render::shading::strand_tangent`.
+fn strand_tangent(n: vec3<f32>, s: vec3<f32>, t: f32) -> vec3<f32> {
+    if !SHEAR {
+        return n;
+    }
+    let k = fur.shear_exponent;
+    // t^(k−1) is unbounded at the root for k < 1; the skin side of a fin (t = 0) takes t = 1e-4.
+    var d = n + k * pow(max(t, 1e-4), k - 1.0) * (s - n);
+    if dot(n * t + pow(t, k) * (s - n), n) < 0.0 {
+        d = d - dot(d, n) * n;
+    }
+    let len2 = dot(d, d);
+    if !(len2 > 1e-12) {
+        return n;
+    }
+    return d * inverseSqrt(len2);
+}
+
 // Object → world position.
 fn to_world(p: vec3<f32>) -> vec3<f32> {
     return (frame.model * vec4<f32>(p, 1.0)).xyz;
@@ -128,4 +166,85 @@ fn lambert(n: vec3<f32>) -> vec3<f32> {
     let d = max(dot(normalize(n), frame.light_dir.xyz), 0.0);
     let ambient = frame.light_color.a;
     return frame.light_color.rgb * (ambient + (1.0 - ambient) * d);
+}
+
+// A deterministic number in [0, 1) per integer cell (the PCG hash of Jarzynski & Olano 2020,
+// "Hash Functions for GPU Rendering"): the per-hair noise of the secondary highlight, keyed by
+// the shell or fin texel a hair stands on, so one hair is masked alike on every layer.
+fn cell_noise(x: i32, y: i32) -> f32 {
+    var h = bitcast<u32>(x) * 747796405u + 2891336453u;
+    h = h ^ (bitcast<u32>(y) * 277803737u);
+    h = ((h >> ((h >> 28u) + 4u)) ^ h) * 277803737u;
+    h = (h >> 22u) ^ h;
+    return f32(h >> 8u) / 16777216.0;
+}
+
+// One highlight lobe of the strand specular: Kajiya–Kay's sin(T', H)^p of the tangent T' shifted
+// by `shift` (Scheuermann 2004: T' = normalize(T + shift·N)), where N is the strand's normal on
+// H's side, the unit vector perpendicular to T in the plane of T and H (on a hair lying in the
+// surface and lit from outside, that is the surface normal), so T'·H = (T·H + shift·sin(T, H)) /
+// √(1 + shift²) and the lobe is defined for hair standing along the normal too. Normalised by
+// (p + 2)/(2π), as Unity HDRP's Kajiya–Kay lobe, so a narrower highlight is brighter, not dimmer.
+fn strand_lobe(th: f32, shift: f32, exponent: f32) -> f32 {
+    let sin_th = sqrt(max(1.0 - th * th, 0.0));
+    let shifted = (th + shift * sin_th) * inverseSqrt(1.0 + shift * shift);
+    let sin2 = max(1.0 - shifted * shifted, 0.0);
+    return (exponent + 2.0) * 0.15915494 * pow(sin2, 0.5 * exponent);
+}
+
+// The strand shading (docs/design.md "Fur shading") of fur with colour `albedo` (vertex colour ×
+// tint), surface normal `n`, hair direction `tangent` (`strand_tangent`), unit vector `to_eye`,
+// relative height `h` in [0, 1] (0 at the roots), the bake's self-shadow factor `direct` of that
+// layer (1 without SHADOW) and the secondary highlight's noise mask `mask` in [0, 1]. With
+// L the light, V the eye, H = normalize(L + V), a the ambient share and body = saturate((N·L +
+// 0.15)/1.15) (the body's own shadow on its coat: Lambert's cosine wrapped a little past the
+// terminator, where hair tips still stand in the light):
+//   colour    = albedo · mix(1, tip_color, h)
+//   diffuse   = mix(max(N·L, 0), sin(T, L) · body, kajiya_kay_diffuse)
+//   specular  = body · (primary · lobe₁ + secondary · lobe₂ · secondary_tint · colour · mask)
+//   back      = back_light · colour · ((1 − V·L)/2)⁴ · sin²(T, V) · (1 + N·L)/2
+//   rgb       = light · (colour · (a · occlusion + (1 − a) · diffuse · direct)
+//                        + (1 − a) · direct · (specular + back))
+// with occlusion = 1 − root_occlusion · (1 − h). The self-shadow table darkens the direct light
+// (diffuse, highlights, transmission) and the root occlusion the ambient light, so no term is
+// darkened twice for the same depth in the coat.
+fn strand_shade(albedo: vec3<f32>, n_in: vec3<f32>, tangent: vec3<f32>, to_eye: vec3<f32>, h: f32, direct: f32, mask: f32) -> vec3<f32> {
+    let n = normalize(n_in);
+    var t = n;
+    if dot(tangent, tangent) > 1e-12 {
+        t = normalize(tangent);
+    }
+    let l = frame.light_dir.xyz;
+    let v = to_eye;
+    let ambient = frame.light_color.a;
+    let colour = albedo * mix(vec3<f32>(1.0), fur.tip_color.rgb, h);
+    let nl = dot(n, l);
+    let body = saturate((nl + 0.15) / 1.15);
+    let wrap = 0.5 + 0.5 * nl;
+    let tl = dot(t, l);
+    let kajiya_kay = sqrt(max(1.0 - tl * tl, 0.0));
+    let diffuse = mix(max(nl, 0.0), kajiya_kay * body, fur.strand.w);
+    // L = −V (the light straight behind the eye's line) has no half vector: take N's.
+    var half_vector = n;
+    let lv = l + v;
+    if dot(lv, lv) > 1e-8 {
+        half_vector = normalize(lv);
+    }
+    let th = dot(t, half_vector);
+    let primary = fur.specular.x * strand_lobe(th, fur.strand.x, fur.specular.y);
+    let secondary = fur.specular.z * strand_lobe(th, fur.strand.y, fur.specular.w) * mask;
+    let specular = body * (vec3<f32>(primary) + secondary * fur.secondary_tint.rgb * colour);
+    let tv = dot(t, v);
+    let behind = 0.5 - 0.5 * dot(v, l);
+    let behind2 = behind * behind;
+    let back = fur.strand.z * colour * (behind2 * behind2) * max(1.0 - tv * tv, 0.0) * wrap;
+    let occlusion = 1.0 - fur.tip_color.a * (1.0 - h);
+    let direct_share = 1.0 - ambient;
+    return frame.light_color.rgb
+        * (colour * (ambient * occlusion + direct_share * diffuse * direct) + direct_share * direct * (specular + back));
+}
+
+// The mask of the secondary highlight for the hair on integer texel (x, y): 1 − depth·noise.
+fn strand_mask(x: i32, y: i32) -> f32 {
+    return 1.0 - fur.secondary_tint.a * cell_noise(x, y);
 }

@@ -4,15 +4,19 @@
 // sheared towards its scale vector s by t^k·(s − n)·fur_length (eq. 3.35–3.36, §3.4.2); the
 // scale vectors live in a storage buffer the physics rewrites every frame (initially s = n, i.e.
 // no shear), one per welded vertex or — separable topologies, parted fur (§3.4.1) — one per
-// triangle corner, so two triangles sharing a vertex can shear apart. Fragment: alpha from the shell texture array, colour = vertex colour ×
-// tint × per-layer self-shadow factor × Lambert.
+// triangle corner, so two triangles sharing a vertex can shear apart. Fragment: alpha from the
+// shell texture array; colour = the strand shading (fur_common.wgsl `strand_shade`, docs/design.md
+// "Fur shading") of vertex colour × tint along the layer's hair direction (`strand_tangent`, the
+// eq. 3.36 derivative), at the layer's height, with its self-shadow factor and the noise of the
+// hair's texel — or, with STRAND off, vertex colour × tint × per-layer self-shadow × Lambert.
 // An animated pack's shells grow from the skinning pass's posed vertices (fur_common.wgsl
 // `posed_vertex`), so every layer reads one skinned root instead of re-skinning; its scale
 // vectors are already in the posed mesh frame (the runtime poses the physics on the skinned
 // surface, docs/design.md "Animated skins in the runtime").
 // Prepended at load time: fur_common.wgsl (uniforms, switches, bindings 0–3 and 8, SurfaceIn,
-// posed_vertex, shell_offset, to_world, lambert). Also a compute entry point,
-// `cs_shell_positions`, that reads back `shell_vertex` for tests.
+// posed_vertex, shell_offset, strand_tangent, to_world, lambert, strand_shade). Also a compute
+// entry point, `cs_shell_positions`, that reads back `shell_vertex` and `shell_tangent` for
+// tests.
 
 @group(0) @binding(4) var shell_alpha: texture_2d_array<f32>;
 @group(0) @binding(5) var repeat_sampler: sampler;
@@ -23,6 +27,11 @@ struct ShellOut {
     @location(1) color: vec4<f32>,
     @location(2) uv: vec2<f32>,
     @location(3) @interpolate(flat) slice: u32,
+    // World-space hair direction (unit before interpolation).
+    @location(4) tangent: vec3<f32>,
+    @location(5) world: vec3<f32>,
+    // Relative height t of the layer, (layer + 1)/drawn_layers.
+    @location(6) @interpolate(flat) height: f32,
 };
 
 // Object-space position of a skin vertex (welded index, bind position and normal, scale-vector
@@ -38,6 +47,14 @@ fn shell_vertex(vertex_index: u32, position: vec3<f32>, normal: vec3<f32>, scale
     return root.position.xyz + shell_offset(n, s, t);
 }
 
+// Object-space hair direction at that shell vertex (`strand_tangent` at the layer's t); shared
+// by the draw and the probe like `shell_vertex`.
+fn shell_tangent(vertex_index: u32, position: vec3<f32>, normal: vec3<f32>, scale_at: u32, layer: u32) -> vec3<f32> {
+    let t = f32(layer + 1u) / f32(fur.drawn_layers);
+    let n = normalize(posed_vertex(vertex_index, position, normal).normal.xyz);
+    return strand_tangent(n, scale_vectors[scale_at].xyz, t);
+}
+
 @vertex
 fn vs_shell(v: SurfaceIn, @builtin(instance_index) layer: u32) -> ShellOut {
     let scale_at = scale_index(v.vertex_index, v.corner_index);
@@ -48,6 +65,13 @@ fn vs_shell(v: SurfaceIn, @builtin(instance_index) layer: u32) -> ShellOut {
     out.color = v.color;
     out.uv = v.uv;
     out.slice = min(fur.atlas_layers - 1u, (layer * fur.atlas_layers) / fur.drawn_layers);
+    out.world = world;
+    out.height = f32(layer + 1u) / f32(fur.drawn_layers);
+    if STRAND {
+        out.tangent = normal_to_world(shell_tangent(v.vertex_index, v.position, v.normal, scale_at, layer));
+    } else {
+        out.tangent = out.normal;
+    }
     return out;
 }
 
@@ -64,11 +88,26 @@ fn fs_shell(in: ShellOut) -> @location(0) vec4<f32> {
     if alpha <= fur.alpha_threshold {
         discard;
     }
-    var shade = lambert(in.normal);
-    if SHADOW {
-        shade = shade * shadow[in.slice];
+    var rgb: vec3<f32>;
+    if STRAND && LAMBERT {
+        var direct = 1.0;
+        if SHADOW {
+            direct = shadow[in.slice];
+        }
+        // The hair on this texel (the same texel on every layer: the same hair).
+        let size = vec2<i32>(textureDimensions(shell_alpha));
+        let texel = vec2<i32>(floor(in.uv * vec2<f32>(size)));
+        let cell = ((texel % size) + size) % size;
+        let to_eye = normalize(frame.camera_pos.xyz - in.world);
+        let albedo = in.color.rgb * fur.tint.rgb;
+        rgb = strand_shade(albedo, in.normal, in.tangent, to_eye, in.height, direct, strand_mask(cell.x, cell.y));
+    } else {
+        var shade = lambert(in.normal);
+        if SHADOW {
+            shade = shade * shadow[in.slice];
+        }
+        rgb = in.color.rgb * fur.tint.rgb * shade;
     }
-    let rgb = in.color.rgb * fur.tint.rgb * shade;
     if ALPHA_BLEND {
         return vec4<f32>(rgb, alpha);
     }
@@ -90,8 +129,11 @@ struct ProbeVertex {
 @group(1) @binding(0) var<storage, read> probe_vertices: array<ProbeVertex>;
 // Output, layer-major: probe_out[layer · vertices + vertex] = object-space shell position.
 @group(1) @binding(1) var<storage, read_write> probe_out: array<vec4<f32>>;
+// Output, in the same order: probe_tangents[i] = object-space hair direction (`shell_tangent`).
+@group(1) @binding(2) var<storage, read_write> probe_tangents: array<vec4<f32>>;
 
-// Evaluates `shell_vertex` for every (layer, vertex) pair, in object space (no model transform).
+// Evaluates `shell_vertex` and `shell_tangent` for every (layer, vertex) pair, in object space
+// (no model transform).
 @compute @workgroup_size(64)
 fn cs_shell_positions(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = gid.x + gid.y * groups.x * 64u;
@@ -103,4 +145,5 @@ fn cs_shell_positions(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(nu
     let layer = i / count;
     let p = probe_vertices[v];
     probe_out[i] = vec4<f32>(shell_vertex(p.vertex_index, p.position.xyz, p.normal.xyz, v, layer), 1.0);
+    probe_tangents[i] = vec4<f32>(shell_tangent(p.vertex_index, p.position.xyz, p.normal.xyz, v, layer), 0.0);
 }

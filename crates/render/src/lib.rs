@@ -101,7 +101,8 @@
 //! ```
 //!
 //! The frame of a fur pack: the skin (Lambert × vertex colour), the shells as one instanced draw
-//! (instance = layer, so layers rasterise innermost first), then the fins on the pack's fin
+//! (instance = layer, so layers rasterise innermost first; each hair lit along its sheared
+//! direction by the strand shading, [`shading`], [`FurShading`]), then the fins on the pack's fin
 //! edges (borders, fur/bare edges: always on), then the silhouette fins: the interior edges on or
 //! near this frame's silhouette, selected by a compute pass that `prepare` records and drawn
 //! indirectly, faded by their faces' n·v ([`silhouette`]; [`RenderSettings::silhouette_fins`]). Several packs in one frame, each with its model matrix and this frame's physics (scale
@@ -120,6 +121,7 @@ mod pipelines;
 mod renderer;
 pub mod scene;
 pub mod shaders;
+pub mod shading;
 pub mod silhouette;
 mod skinning;
 mod target;
@@ -142,6 +144,7 @@ pub use pipelines::PipelineCache;
 pub use renderer::{FurGpuAsset, FurRenderer, RenderSettings, ShellBlend};
 pub use scene::{BladeForces, PackInput, PackRenderers, SceneFrame, SceneObject, SceneRenderer};
 pub use shaders::FrameUniforms;
+pub use shading::FurShading;
 pub use skinning::{PosedVertices, SkinningPass};
 pub use target::{ColorTarget, DepthTarget, TargetDesc};
 
@@ -196,6 +199,15 @@ pub enum RenderError {
     #[error("invalid render parameter: {what}")]
     Parameter {
         /// What is wrong.
+        what: String,
+    },
+    /// A fur shading parameter ([`FurShading`]) is out of range. Blame: the caller (a scene's
+    /// `[packs.shading]` is refused when the scene is read, naming `packs[i].shading.FIELD`).
+    #[error("invalid fur shading: {field}: {what}")]
+    Shading {
+        /// The [`FurShading`] field (`primary_exponent`).
+        field: String,
+        /// What is wrong with its value.
         what: String,
     },
     /// The asset exceeds a device limit.

@@ -27,6 +27,8 @@ pub(crate) struct FurSwitches {
     pub lambert: bool,
     pub shadow: bool,
     pub skinned: bool,
+    /// The strand shading (`FurShading::enabled`; docs/design.md "Fur shading").
+    pub strand: bool,
     pub shear: bool,
     pub alpha_blend: bool,
 }
@@ -37,6 +39,7 @@ impl FurSwitches {
             lambert: settings.lambert,
             shadow: settings.self_shadow,
             skinned,
+            strand: settings.shading.enabled,
             shear: settings.shearing,
             alpha_blend: settings.blend == ShellBlend::AlphaBlend,
         }
@@ -376,10 +379,11 @@ impl PipelineCache {
             ("LAMBERT", flag(s.lambert)),
             ("SHADOW", flag(s.shadow)),
             ("SKINNED", flag(s.skinned)),
+            ("STRAND", flag(s.strand)),
             ("SHEAR", flag(s.shear)),
             ("ALPHA_BLEND", flag(s.alpha_blend)),
         ];
-        let constants: &[(&str, f64)] = if stage == FurStage::Skin { &all[..3] } else { &all };
+        let constants: &[(&str, f64)] = if stage == FurStage::Skin { &all[..4] } else { &all };
         let options = wgpu::PipelineCompilationOptions { constants, zero_initialize_workgroup_memory: false };
         let surface_layout = wgpu::VertexBufferLayout {
             array_stride: std::mem::size_of::<SurfaceVertex>() as u64,

@@ -27,7 +27,7 @@ use wgpu::util::DeviceExt;
 use crate::asset::{FurAsset, mip_chain};
 use crate::pipelines::{FurPipelines, FurSwitches};
 use crate::shaders::{FrameUniforms, FurUniforms, ProbeVertex, SHELL_WGSL, SkinnedVertex, SurfaceVertex};
-use crate::{PipelineCache, RenderError, SkinningPass, TargetDesc};
+use crate::{FurShading, PipelineCache, RenderError, SkinningPass, TargetDesc};
 
 /// How shell and fin fragments combine with what is behind them.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -73,6 +73,11 @@ pub struct RenderSettings {
     pub tint: [f32; 3],
     /// Linear RGBA clear colour. Default opaque dark grey.
     pub background: [f32; 4],
+    /// The fur's strand shading (docs/design.md "Fur shading"): its parameters, and with
+    /// [`FurShading::enabled`] off the earlier Lambert × self-shadow look (a pipeline switch, the
+    /// `STRAND` override). Default [`FurShading::default`]; a scene pack's `[packs.shading]`
+    /// overrides it ([`crate::SceneRenderer::for_target`]).
+    pub shading: FurShading,
 }
 
 impl Default for RenderSettings {
@@ -90,6 +95,7 @@ impl Default for RenderSettings {
             alpha_threshold: 0.02,
             tint: [1.0, 1.0, 1.0],
             background: [0.06, 0.06, 0.07, 1.0],
+            shading: FurShading::default(),
         }
     }
 }
@@ -119,7 +125,7 @@ impl RenderSettings {
         if self.shell_layers.is_some_and(|n| n > furbake_formats::sections::shell_atlas::MAX_LAYERS) {
             return bad("shell_layers is above the atlas layer limit");
         }
-        Ok(())
+        crate::shading::check(&self.shading)
     }
 }
 
@@ -395,7 +401,9 @@ impl FurRenderer {
             fin_repeat_m: asset.uv_map().repeat_m,
             scale_layout: 0,
             pad1: 0,
+            ..Default::default()
         };
+        let fur = crate::shading::with_shading(fur, &settings.shading);
         let init = |label, contents: &[u8], usage| {
             device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage })
         };
@@ -722,6 +730,31 @@ impl FurRenderer {
         queue: &wgpu::Queue,
         asset: &FurAsset,
     ) -> Result<Vec<[f32; 3]>, RenderError> {
+        Ok(self.shell_probe(device, queue, asset)?.0)
+    }
+
+    /// Reads back the hair directions the shell shader shades along (docs/design.md "Fur
+    /// shading"), computed on the GPU by the same WGSL function the draw uses (`shell_tangent` in
+    /// `shell.wgsl`, the eq. 3.36 derivative `strand_tangent`), in the order and object frame of
+    /// [`FurRenderer::shell_positions`]: unit vectors, the normal at rest. For tests against
+    /// [`crate::shading::strand_tangent`]; waits for the GPU.
+    pub fn shell_tangents(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        asset: &FurAsset,
+    ) -> Result<Vec<[f32; 3]>, RenderError> {
+        Ok(self.shell_probe(device, queue, asset)?.1)
+    }
+
+    /// The shell probe (`cs_shell_positions`): positions and hair directions of every shell
+    /// vertex, layer-major.
+    fn shell_probe(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        asset: &FurAsset,
+    ) -> Result<ShellProbe, RenderError> {
         let mesh = asset.mesh();
         if mesh.positions.len() != self.gpu.vertex_count as usize
             || mesh.triangles.len() != self.gpu.triangle_count as usize
@@ -739,7 +772,7 @@ impl FurRenderer {
         let vertices = asset.shell_vertices(self.scale_layout());
         let count = vertices.len() as u64 * self.drawn_layers as u64;
         if count == 0 {
-            return Ok(Vec::new());
+            return Ok((Vec::new(), Vec::new()));
         }
         let limit = device.limits().max_storage_buffer_binding_size;
         if count * 16 > limit {
@@ -766,18 +799,20 @@ impl FurRenderer {
             contents: bytemuck::cast_slice(&probe),
             usage: wgpu::BufferUsages::STORAGE,
         });
-        let output = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("furbake shell probe output"),
-            size: count * 16,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
-        let readback = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("furbake shell probe readback"),
-            size: count * 16,
-            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-            mapped_at_creation: false,
-        });
+        let buffer = |label, usage| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: count * 16,
+                usage,
+                mapped_at_creation: false,
+            })
+        };
+        let out_usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
+        let read_usage = wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ;
+        let output = buffer("furbake shell probe output", out_usage);
+        let tangents = buffer("furbake shell probe tangents", out_usage);
+        let readback = buffer("furbake shell probe readback", read_usage);
+        let tangent_readback = buffer("furbake shell probe tangent readback", read_usage);
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("furbake shell probe"),
             source: wgpu::ShaderSource::Wgsl(SHELL_WGSL.into()),
@@ -818,6 +853,7 @@ impl FurRenderer {
             entries: &[
                 wgpu::BindGroupEntry { binding: 0, resource: input.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 1, resource: output.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 2, resource: tangents.as_entire_binding() },
             ],
         });
         let groups = (count as u32).div_ceil(64);
@@ -839,20 +875,27 @@ impl FurRenderer {
             pass.dispatch_workgroups(x, y, 1);
         }
         encoder.copy_buffer_to_buffer(&output, 0, &readback, 0, count * 16);
+        encoder.copy_buffer_to_buffer(&tangents, 0, &tangent_readback, 0, count * 16);
         crate::blocking::submit(queue, [encoder.finish()]);
         if let Some(e) = crate::blocking::block_on(scope.pop()) {
             return Err(RenderError::Gpu { what: e.to_string() });
         }
-        crate::headless::map_for_reading(device, &readback, "shell probe readback")?;
-        let out = {
-            let view = readback.get_mapped_range(..).map_err(|e| RenderError::Gpu { what: e.to_string() })?;
-            let words: &[[f32; 4]] = bytemuck::cast_slice(&view);
-            words.iter().map(|p| [p[0], p[1], p[2]]).collect()
+        let read = |buffer: &wgpu::Buffer, what| -> Result<Vec<[f32; 3]>, RenderError> {
+            crate::headless::map_for_reading(device, buffer, what)?;
+            let out = {
+                let view = buffer.get_mapped_range(..).map_err(|e| RenderError::Gpu { what: e.to_string() })?;
+                let words: &[[f32; 4]] = bytemuck::cast_slice(&view);
+                words.iter().map(|p| [p[0], p[1], p[2]]).collect()
+            };
+            buffer.unmap();
+            Ok(out)
         };
-        readback.unmap();
-        Ok(out)
+        Ok((read(&readback, "shell probe readback")?, read(&tangent_readback, "shell probe tangent readback")?))
     }
 }
+
+/// What the shell probe reads back: shell positions and hair directions, layer-major.
+type ShellProbe = (Vec<[f32; 3]>, Vec<[f32; 3]>);
 
 /// The eye of `frame` in the object frame (the inverse model matrix applied to it), where the
 /// silhouette selection compares it with the posed vertices.
@@ -870,7 +913,7 @@ fn layout_code(layout: ShellVertexLayout) -> u32 {
 }
 
 /// Group 0 (the fur uniforms, scale vectors and posed vertices `cs_shell_positions` reads) and
-/// group 1 (probe input and output) of the shell readback probe.
+/// group 1 (probe input, positions and hair directions out) of the shell readback probe.
 fn probe_bind_group_layouts(device: &wgpu::Device) -> [wgpu::BindGroupLayout; 2] {
     let entry = crate::compute_buffer_entry;
     let read = wgpu::BufferBindingType::Storage { read_only: true };
@@ -884,7 +927,11 @@ fn probe_bind_group_layouts(device: &wgpu::Device) -> [wgpu::BindGroupLayout; 2]
         ),
         layout(
             "furbake shell probe io",
-            &[entry(0, read), entry(1, wgpu::BufferBindingType::Storage { read_only: false })],
+            &[
+                entry(0, read),
+                entry(1, wgpu::BufferBindingType::Storage { read_only: false }),
+                entry(2, wgpu::BufferBindingType::Storage { read_only: false }),
+            ],
         ),
     ]
 }

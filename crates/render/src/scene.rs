@@ -313,8 +313,9 @@ impl SceneRenderer {
     /// mesh + shell atlas + UV map, fins, skin weights and morph targets when present; an animated
     /// pack's renderer owns a skinning pass, posed from the world's animation by
     /// [`SceneRenderer::prepare_world`] and in its bind pose until then) and its blade field, with
-    /// the shader features the scene's effects need ([`RenderSettings::for_scene`]) and the
-    /// scene's `[grass_culling]` for the blades, every
+    /// the shader features the scene's effects need ([`RenderSettings::for_scene`]), each fur
+    /// pack's `[packs.shading]` ([`crate::FurShading`]) and the scene's `[grass_culling]` for the
+    /// blades, every
     /// renderer drawing into passes like `target` with pipelines from `pipelines` (packs with the
     /// same settings share them). A pack with neither fur nor blades is an
     /// [`RenderError::InvalidAsset`].
@@ -344,6 +345,9 @@ impl SceneRenderer {
                     }
                 };
                 let (_, asset, gpu) = &uploaded[k];
+                // The entry's own `[packs.shading]`; entries that only differ there share pipelines
+                // unless one switches the strand shading off.
+                let settings = RenderSettings { shading: p.shading, ..settings };
                 Some(FurRenderer::with_gpu_asset(pipelines, asset, gpu.clone(), &settings, target)?)
             } else {
                 None

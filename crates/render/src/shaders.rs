@@ -3,15 +3,17 @@
 //! shader with naga and check each `#[repr(C)]` struct's size and member offsets against naga's
 //! layout of the WGSL struct of the same name, so the two can never drift apart silently.
 
-/// Skin: Lambert-lit vertex colour (fur thesis §3.2). Like the shell and fin shaders it is
-/// `fur_common.wgsl` (uniforms, effect switches, bindings 0–3 and 8, `posed_vertex`,
-/// `shell_offset`, `lambert`) followed by its own file: WGSL has no includes, so the shared part
+/// Skin: Lambert-lit vertex colour (fur thesis §3.2), strand-shaded under fur. Like the shell and
+/// fin shaders it is `fur_common.wgsl` (uniforms, effect switches, bindings 0–3 and 8,
+/// `posed_vertex`, `shell_offset`, `strand_tangent`, `lambert`, `strand_shade`) followed by its
+/// own file: WGSL has no includes, so the shared part
 /// is prepended here.
 pub const SKIN_WGSL: &str =
     concat!(include_str!("../../../shaders/fur_common.wgsl"), include_str!("../../../shaders/skin.wgsl"));
-/// Shells: extrusion, eq. 3.36 shearing, shell alpha, self-shadow, Lambert (§3.2, §3.4.2); also
-/// the `cs_shell_positions` compute entry point that reads back the sheared shell positions
-/// ([`crate::FurRenderer::shell_positions`]).
+/// Shells: extrusion, eq. 3.36 shearing, shell alpha, self-shadow, strand shading or Lambert
+/// (§3.2, §3.4.2; docs/design.md "Fur shading"); also the `cs_shell_positions` compute entry
+/// point that reads back the sheared shell positions and hair directions
+/// ([`crate::FurRenderer::shell_positions`], [`crate::FurRenderer::shell_tangents`]).
 pub const SHELL_WGSL: &str =
     concat!(include_str!("../../../shaders/fur_common.wgsl"), include_str!("../../../shaders/shell.wgsl"));
 /// Fins on fin edges (§3.2, fig. 3.16) and on the silhouette (`vs_silhouette_fin`, with the
@@ -122,6 +124,15 @@ pub struct FurUniforms {
     pub scale_layout: u32,
     /// Padding to 16 bytes.
     pub pad1: u32,
+    /// The strand shading ([`crate::FurShading`], `fur_common.wgsl` `strand_shade`): tip colour
+    /// multiplier (rgb) and root occlusion (a).
+    pub tip_color: [f32; 4],
+    /// Secondary highlight tint (rgb) and noise depth (a).
+    pub secondary_tint: [f32; 4],
+    /// Primary strength and exponent, secondary strength and exponent.
+    pub specular: [f32; 4],
+    /// Primary shift, secondary shift, back-light strength, Kajiya–Kay share of the diffuse term.
+    pub strand: [f32; 4],
 }
 
 /// The skinning pass's counts (`SkinningParams` in `skinning.wgsl`; binding 0), written once.
@@ -358,6 +369,10 @@ mod tests {
             ("fin_repeat_m", offset_of!(FurUniforms, fin_repeat_m)),
             ("scale_layout", offset_of!(FurUniforms, scale_layout)),
             ("pad1", offset_of!(FurUniforms, pad1)),
+            ("tip_color", offset_of!(FurUniforms, tip_color)),
+            ("secondary_tint", offset_of!(FurUniforms, secondary_tint)),
+            ("specular", offset_of!(FurUniforms, specular)),
+            ("strand", offset_of!(FurUniforms, strand)),
         ];
         assert_eq!(check_layout("Fur", size_of::<FurUniforms>(), &fur), 3, "Fur is in all three shaders");
         let params = [

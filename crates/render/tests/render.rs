@@ -3,7 +3,8 @@
 //! Properties checked: the fur silhouette extends beyond the bare skin's, nothing is drawn below
 //! the surface (also when the scale vectors point into it), the eq. 3.36 shear follows the
 //! scale-vector buffer, the image is not blank; plus a comparison with a committed reference
-//! image (regenerate with `FURBAKE_BLESS=1 cargo test -p furbake-render --test render`).
+//! image of the Lambert × self-shadow path, drawn with the strand shading off (regenerate with
+//! `FURBAKE_BLESS=1 cargo test -p furbake-render --test render`).
 //! Renders stay small (≤ 256², ≤ 16 layers): lavapipe costs ~0.3 s per 256²×64-layer frame.
 
 use std::path::{Path, PathBuf};
@@ -12,7 +13,8 @@ use std::sync::{Arc, OnceLock};
 use furbake_bake::{BakeSettings, NoProgress, bake};
 use furbake_import::{ImportSettings, import_gltf_slice, testmesh};
 use furbake_render::{
-    FurAsset, FurRenderer, HeadlessGpu, RenderSettings, RenderTarget, ShellBlend, View, read_back, render_image,
+    FurAsset, FurRenderer, FurShading, HeadlessGpu, RenderSettings, RenderTarget, ShellBlend, View, read_back,
+    render_image,
 };
 use furbake_runtime::{Camera, Light};
 use image::RgbaImage;
@@ -174,7 +176,11 @@ fn scale_vectors_shear_the_fur_towards_them() {
 
 #[test]
 fn matches_the_reference_image() {
-    let image = render_image(gpu(), sphere(), &RenderSettings::default(), &sphere_view(), SIZE, SIZE).unwrap();
+    // The reference is the Lambert × self-shadow path (made before the strand shading existed),
+    // kept reachable with the strand shading off; `fur_shading.rs` checks the strand-shaded frame
+    // against it.
+    let lambert = RenderSettings { shading: FurShading::off(), ..Default::default() };
+    let image = render_image(gpu(), sphere(), &lambert, &sphere_view(), SIZE, SIZE).unwrap();
     let reference_path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/reference/sphere_fur16_128.png");
     image.save(out_dir().join("sphere_fur16_128.png")).unwrap();
     if std::env::var_os("FURBAKE_BLESS").is_some() {
@@ -193,7 +199,7 @@ fn matches_the_reference_image() {
 
     // The tolerance is tight enough to catch a broken effect: the same frame without the
     // self-shadow table must fail it.
-    let unshadowed = RenderSettings { self_shadow: false, ..Default::default() };
+    let unshadowed = RenderSettings { self_shadow: false, ..lambert };
     let wrong = render_image(gpu(), sphere(), &unshadowed, &sphere_view(), SIZE, SIZE).unwrap();
     let (far_wrong, _) = pixels_beyond_tolerance(&wrong, &reference);
     assert!(

@@ -429,6 +429,115 @@ pub struct ScenePack {
     /// `play_clip` events switch clips later.
     #[serde(default)]
     pub animation: Option<PackAnimation>,
+    /// How the pack's fur is shaded (`[packs.shading]`: the strand model's parameters, each
+    /// optional). Default: [`FurShading::default`].
+    #[serde(default)]
+    pub shading: FurShading,
+}
+
+/// The fur's strand shading (docs/design.md "Fur shading"): each hair lit as a thin cylinder along
+/// its sheared direction (Kajiya & Kay 1989; the fur thesis §2 names their model as the one shells
+/// adapt, and §3.2 leaves the specular term out only for its cost), with two shifted highlights
+/// (Scheuermann 2004: a light-coloured primary and a fur-coloured, noise-masked secondary, each
+/// lobe energy-normalised as Unity HDRP's hair does), light transmitted through the hair tips when
+/// it comes from behind, ambient occlusion by shell height and a root-to-tip colour gradient.
+/// Used by `furbake-render` (`furbake_render::FurShading`, `RenderSettings::shading`), in a scene
+/// per pack as `[packs.shading]`. The defaults are tuned on the bundled Fox and the generated
+/// furry sphere. Colours are linear RGB multipliers.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct FurShading {
+    /// The strand model at all. Off: the fur is shaded as before it existed (vertex colour ×
+    /// tint × Lambert × the bake's per-layer self-shadow, fur thesis §3.2), the parameters below
+    /// unused. A pipeline switch, not a uniform. Default on.
+    pub enabled: bool,
+    /// How much of the diffuse term is Kajiya–Kay's `sin(T, L)` (gated by the body's own shadow,
+    /// a slightly wrapped Lambert) rather than Lambert's `max(N·L, 0)`, in [0, 1]. Default 0.15.
+    pub kajiya_kay_diffuse: f32,
+    /// Strength of the primary (light-coloured) highlight, in [0, 16]. Default 0.1.
+    pub primary_strength: f32,
+    /// Its exponent (the narrower, the higher), in [1, 1024]. Default 80.
+    pub primary_exponent: f32,
+    /// Its shift along the strand's normal (Scheuermann's tangent shift, `tan` of the angle the
+    /// highlight moves towards the root), in [-1, 1]. Default 0.1.
+    pub primary_shift: f32,
+    /// Strength of the secondary highlight (tinted by the fur colour and masked by noise), in
+    /// [0, 16]. Default 0.5.
+    pub secondary_strength: f32,
+    /// Its exponent, in [1, 1024]. Default 10.
+    pub secondary_exponent: f32,
+    /// Its shift, in [-1, 1]; negative moves it towards the tips. Default -0.25.
+    pub secondary_shift: f32,
+    /// Colour multiplier of the secondary highlight on top of the fur colour, each channel in
+    /// [0, 16]. Default `[1, 1, 1]`.
+    pub secondary_tint: [f32; 3],
+    /// How deeply the per-hair noise masks the secondary highlight, in [0, 1] (0: unmasked).
+    /// Default 0.8.
+    pub secondary_noise: f32,
+    /// Strength of the light transmitted through the hairs when the light is behind the fur
+    /// relative to the viewer, in [0, 16]. Default 2.
+    pub back_light: f32,
+    /// Ambient occlusion at the roots, fading linearly to none at the tips, in [0, 1] (applied
+    /// to the ambient term only; the direct light has the bake's self-shadow table). Default
+    /// 0.65: the roots keep 0.35 of the ambient light, the `fur` preset's `shadow_min`, so both
+    /// lights darken alike towards the skin.
+    pub root_occlusion: f32,
+    /// Colour multiplier at the hair tips, blended linearly from none at the roots, each channel
+    /// in [0, 4]. Default `[1.15, 1.08, 1.0]` (lighter, warmer tips).
+    pub tip_color: [f32; 3],
+}
+
+impl Default for FurShading {
+    fn default() -> Self {
+        FurShading {
+            enabled: true,
+            kajiya_kay_diffuse: 0.15,
+            primary_strength: 0.1,
+            primary_exponent: 80.0,
+            primary_shift: 0.1,
+            secondary_strength: 0.5,
+            secondary_exponent: 10.0,
+            secondary_shift: -0.25,
+            secondary_tint: [1.0, 1.0, 1.0],
+            secondary_noise: 0.8,
+            back_light: 2.0,
+            root_occlusion: 0.65,
+            tip_color: [1.15, 1.08, 1.0],
+        }
+    }
+}
+
+impl FurShading {
+    /// The shading of fur before the strand model: Lambert and the self-shadow table only.
+    pub fn off() -> Self {
+        FurShading { enabled: false, ..FurShading::default() }
+    }
+
+    /// Checks every value's range; the error names the field (`primary_exponent`) and what is
+    /// wrong with it.
+    pub fn validate(&self) -> Result<(), (String, String)> {
+        let scalars = [
+            ("kajiya_kay_diffuse", self.kajiya_kay_diffuse, 0.0, 1.0),
+            ("primary_strength", self.primary_strength, 0.0, 16.0),
+            ("primary_exponent", self.primary_exponent, 1.0, 1024.0),
+            ("primary_shift", self.primary_shift, -1.0, 1.0),
+            ("secondary_strength", self.secondary_strength, 0.0, 16.0),
+            ("secondary_exponent", self.secondary_exponent, 1.0, 1024.0),
+            ("secondary_shift", self.secondary_shift, -1.0, 1.0),
+            ("secondary_noise", self.secondary_noise, 0.0, 1.0),
+            ("back_light", self.back_light, 0.0, 16.0),
+            ("root_occlusion", self.root_occlusion, 0.0, 1.0),
+        ];
+        for (field, x, lo, hi) in scalars {
+            range(x, lo, hi, field)?;
+        }
+        for (field, color, hi) in [("secondary_tint", self.secondary_tint, 16.0), ("tip_color", self.tip_color, 4.0)] {
+            for c in color {
+                range(c, 0.0, hi, field)?;
+            }
+        }
+        Ok(())
+    }
 }
 
 /// What a pack's animation plays from time 0 (the fur thesis's future work, §3.4.1: the skin's
@@ -982,6 +1091,7 @@ impl Scene {
                 range(a.start_s, 0.0, 1e6, &g("start_s"))?;
                 range(a.cut_speed_m_per_s, 1e-3, 1e9, &g("cut_speed_m_per_s"))?;
             }
+            p.shading.validate().map_err(|(k, what)| (format!("packs[{i}].shading.{k}"), what))?;
         }
         self.check_effects()?;
         self.grass_culling.validate()?;
