@@ -169,8 +169,8 @@ fn fs_fin(in: FinOut) -> @location(0) vec4<f32> {
             direct = shadow[min(fur.atlas_layers - 1u, u32(in.height * f32(fur.atlas_layers)))];
         }
         // A fin texel column is one hair (u along the edge, v root to tip).
-        let width = i32(textureDimensions(fin_alpha).x);
-        let column = ((i32(floor(in.uv.x * f32(width))) % width) + width) % width;
+        let width = f32(textureDimensions(fin_alpha).x);
+        let column = i32(min(floor(fract(in.uv.x) * width), width - 1.0));
         rgb = strand_shade(in.color.rgb * fur.tint.rgb, in.normal, in.tangent, to_eye, in.height, direct, strand_mask(column, -1));
     } else {
         var shade = lambert(in.normal);

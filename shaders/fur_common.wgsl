@@ -179,14 +179,14 @@ fn cell_noise(x: i32, y: i32) -> f32 {
     return f32(h >> 8u) / 16777216.0;
 }
 
-// One highlight lobe of the strand specular: Kajiya–Kay's sin(T', H)^p of the tangent T' shifted
-// by `shift` (Scheuermann 2004: T' = normalize(T + shift·N)), where N is the strand's normal on
-// H's side, the unit vector perpendicular to T in the plane of T and H (on a hair lying in the
-// surface and lit from outside, that is the surface normal), so T'·H = (T·H + shift·sin(T, H)) /
-// √(1 + shift²) and the lobe is defined for hair standing along the normal too. Normalised by
+// One highlight lobe of the strand specular (th = T·H, sin_th = sin(T, H)): Kajiya–Kay's
+// sin(T', H)^p of the tangent T' shifted by `shift` (Scheuermann 2004: T' = normalize(T +
+// shift·N)), where N is the strand's normal on H's side, the unit vector perpendicular to T in
+// the plane of T and H (on a hair lying in the surface and lit from outside, that is the surface
+// normal), so T'·H = (T·H + shift·sin(T, H)) / √(1 + shift²) and the lobe is defined for hair
+// standing along the normal too. Normalised by
 // (p + 2)/(2π), as Unity HDRP's Kajiya–Kay lobe, so a narrower highlight is brighter, not dimmer.
-fn strand_lobe(th: f32, shift: f32, exponent: f32) -> f32 {
-    let sin_th = sqrt(max(1.0 - th * th, 0.0));
+fn strand_lobe(th: f32, sin_th: f32, shift: f32, exponent: f32) -> f32 {
     let shifted = (th + shift * sin_th) * inverseSqrt(1.0 + shift * shift);
     let sin2 = max(1.0 - shifted * shifted, 0.0);
     return (exponent + 2.0) * 0.15915494 * pow(sin2, 0.5 * exponent);
@@ -231,8 +231,9 @@ fn strand_shade(albedo: vec3<f32>, n_in: vec3<f32>, tangent: vec3<f32>, to_eye: 
         half_vector = normalize(lv);
     }
     let th = dot(t, half_vector);
-    let primary = fur.specular.x * strand_lobe(th, fur.strand.x, fur.specular.y);
-    let secondary = fur.specular.z * strand_lobe(th, fur.strand.y, fur.specular.w) * mask;
+    let sin_th = sqrt(max(1.0 - th * th, 0.0));
+    let primary = fur.specular.x * strand_lobe(th, sin_th, fur.strand.x, fur.specular.y);
+    let secondary = fur.specular.z * strand_lobe(th, sin_th, fur.strand.y, fur.specular.w) * mask;
     let specular = body * (vec3<f32>(primary) + secondary * fur.secondary_tint.rgb * colour);
     let tv = dot(t, v);
     let behind = 0.5 - 0.5 * dot(v, l);

@@ -95,9 +95,8 @@ fn fs_shell(in: ShellOut) -> @location(0) vec4<f32> {
             direct = shadow[in.slice];
         }
         // The hair on this texel (the same texel on every layer: the same hair).
-        let size = vec2<i32>(textureDimensions(shell_alpha));
-        let texel = vec2<i32>(floor(in.uv * vec2<f32>(size)));
-        let cell = ((texel % size) + size) % size;
+        let size = vec2<f32>(textureDimensions(shell_alpha));
+        let cell = vec2<i32>(min(floor(fract(in.uv) * size), size - 1.0));
         let to_eye = normalize(frame.camera_pos.xyz - in.world);
         let albedo = in.color.rgb * fur.tint.rgb;
         rgb = strand_shade(albedo, in.normal, in.tangent, to_eye, in.height, direct, strand_mask(cell.x, cell.y));

@@ -379,3 +379,54 @@ fn scenes_set_the_shading_of_each_pack_and_refuse_bad_values() {
         Ok(_) => panic!("a negative secondary_noise was accepted"),
     }
 }
+
+/// The GPU cost of the strand shading (docs/performance.md "Fur shading"): the bundled Fox and the
+/// 3,120-triangle sphere of `examples/frame_time.rs`, baked with the `fur` preset (16 layers of
+/// 128²), drawn with strand shading on and off alternately frame by frame (so both see the same
+/// machine load), each frame waited for; median frame times and their ratio. A measurement:
+/// `cargo test -p furbake-render --test fur_shading -- --ignored --nocapture strand_shading_frame_cost`.
+#[test]
+#[ignore = "a measurement, not a check"]
+fn strand_shading_frame_cost() {
+    use std::time::Instant;
+    let g = gpu();
+    let fox = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/real/Fox.glb");
+    let meshes = [
+        ("Fox", furbake_import::import_gltf(&fox, &ImportSettings::default()).unwrap()),
+        ("sphere", {
+            let gltf = testmesh::uv_sphere(40, 40, 1.0).gltf;
+            import_gltf_slice(&gltf, "sphere.gltf", None, &ImportSettings::default()).unwrap()
+        }),
+    ];
+    const FRAMES: usize = 15;
+    for (name, imported) in meshes {
+        let baked = bake(&imported, name, &BakeSettings::preset("fur").unwrap(), &mut NoProgress).unwrap();
+        let fins = Some((Arc::new(baked.fins), Arc::new(baked.fin_edges)));
+        let asset = FurAsset::new(Arc::new(baked.mesh), Arc::new(baked.shells), Arc::new(baked.uv_map), fins).unwrap();
+        let (center, radius) = asset.bounding_sphere();
+        let view = View::framing(center, radius);
+        let renderers = [FurShading::default(), FurShading::off()].map(|shading| {
+            let settings = RenderSettings { shading, ..Default::default() };
+            FurRenderer::new(g.pipelines(), &g.queue, &asset, &settings, &RenderTarget::desc()).unwrap()
+        });
+        for (w, h) in [(256u32, 256u32), (640, 480), (1280, 720)] {
+            let target = RenderTarget::new(&g.device, w, h).unwrap();
+            let mut times = [Vec::new(), Vec::new()];
+            for frame in 0..FRAMES + 3 {
+                for (k, renderer) in renderers.iter().enumerate() {
+                    let start = Instant::now();
+                    renderer.render_to(&g.device, &g.queue, &target, &view).unwrap();
+                    g.device.poll(wgpu::PollType::wait_indefinitely()).unwrap();
+                    if frame >= 3 {
+                        times[k].push(start.elapsed().as_secs_f64() * 1e3);
+                    }
+                }
+            }
+            let [on, off] = times.map(|mut t| {
+                t.sort_by(f64::total_cmp);
+                t[t.len() / 2]
+            });
+            println!("{name} {w}×{h}: strand on {on:.1} ms, off {off:.1} ms, ratio {:.2}", on / off);
+        }
+    }
+}
