@@ -454,7 +454,7 @@ pub struct FurShading {
     /// How much of the diffuse term is Kajiya–Kay's `sin(T, L)` (gated by the body's own shadow,
     /// a slightly wrapped Lambert) rather than Lambert's `max(N·L, 0)`, in [0, 1]. Default 0.15.
     pub kajiya_kay_diffuse: f32,
-    /// Strength of the primary (light-coloured) highlight, in [0, 16]. Default 0.1.
+    /// Strength of the primary (light-coloured) highlight, in [0, 16]. Default 0.03.
     pub primary_strength: f32,
     /// Its exponent (the narrower, the higher), in [1, 1024]. Default 80.
     pub primary_exponent: f32,
@@ -462,7 +462,7 @@ pub struct FurShading {
     /// highlight moves towards the root), in [-1, 1]. Default 0.1.
     pub primary_shift: f32,
     /// Strength of the secondary highlight (tinted by the fur colour and masked by noise), in
-    /// [0, 16]. Default 0.5.
+    /// [0, 16]. Default 0.25.
     pub secondary_strength: f32,
     /// Its exponent, in [1, 1024]. Default 10.
     pub secondary_exponent: f32,
@@ -492,10 +492,10 @@ impl Default for FurShading {
         FurShading {
             enabled: true,
             kajiya_kay_diffuse: 0.15,
-            primary_strength: 0.1,
+            primary_strength: 0.03,
             primary_exponent: 80.0,
             primary_shift: 0.1,
-            secondary_strength: 0.5,
+            secondary_strength: 0.25,
             secondary_exponent: 10.0,
             secondary_shift: -0.25,
             secondary_tint: [1.0, 1.0, 1.0],
