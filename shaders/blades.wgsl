@@ -221,17 +221,6 @@ struct BladeOut {
     @location(3) @interpolate(flat) ids: vec2<u32>,
 };
 
-// A well-mixed 32-bit hash (lowbias32) as a number in [0, 1).
-fn hash01(x: u32) -> f32 {
-    var h = x;
-    h ^= h >> 16u;
-    h *= 0x7feb352du;
-    h ^= h >> 15u;
-    h *= 0x846ca68bu;
-    h ^= h >> 16u;
-    return f32(h >> 8u) * (1.0 / 16777216.0);
-}
-
 // (u, v) of reference vertex `v` (furbake-grass `ReferenceBlade`: segment k owns vertices 4k..4k+4
 // = left-bottom, right-bottom, left-top, right-top; level k + (v mod 4)/2 of `segments`).
 fn blade_uv(v: u32) -> vec2<f32> {
@@ -274,10 +263,12 @@ fn vs_blade(@builtin(vertex_index) vi: u32, @builtin(instance_index) instance: u
 // clump turned towards a dry green and its brightness spread, both from the bake's seed.
 fn blade_albedo(ids: vec2<u32>, v: f32) -> vec3<f32> {
     var albedo = mix(params.color.rgb, params.tip_color.rgb, v);
-    let clump = hash01(ids.y ^ (params.seed * 0x9e3779b9u));
+    // grass_common.wgsl's per-blade random numbers, salted by the bake's seed (a clump's by its
+    // cluster index).
+    let clump = blade_random(ids.y, params.seed ^ 0x1b873593u);
     let dry = vec3<f32>(0.50, 0.52, 0.16) * dot(albedo, vec3<f32>(0.35, 0.55, 0.10)) * 2.2;
     albedo = mix(albedo, dry, params.shade.z * clump * clump);
-    let blade = hash01(ids.x ^ (params.seed + 0x632be5abu));
+    let blade = blade_random(ids.x, params.seed ^ 0x632be5abu);
     return albedo * (1.0 + params.shade.y * (blade - 0.5));
 }
 
