@@ -134,6 +134,18 @@ pub struct BladeSettings {
     pub shading: BladeShading,
 }
 
+impl BladeSettings {
+    /// The colour the ground under these blades is drawn in — the fur renderer's tint for a pack
+    /// with a blade field whose host set none (docs/design.md "Grass blade shading"): the root
+    /// colour, half as dark as the root occlusion makes the blades' bases, so gaps between
+    /// blades show grass-coloured ground rather than the mesh's own (often white or grey)
+    /// vertex colours.
+    pub fn ground_tint(&self) -> [f32; 3] {
+        let dim = if self.shading.enabled { 1.0 - 0.5 * self.shading.root_occlusion } else { 1.0 };
+        self.color.map(|c| c * dim)
+    }
+}
+
 impl Default for BladeSettings {
     fn default() -> Self {
         BladeSettings {

@@ -402,6 +402,13 @@ pub fn render_opened_pack(
         None => asset.auto_view(aspect),
     });
     let desc = RenderTarget::desc();
+    // The blades of a grass pack, and the ground under them in their colour (as scenes draw it).
+    let blade_settings = BladeSettings { culling: crate::GrassCulling::frustum_only(), ..BladeSettings::default() };
+    let mut settings = settings.clone();
+    if pack.has(furbake_formats::SectionKind::BLADE_FIELD) && settings.tint == RenderSettings::default().tint {
+        settings.tint = blade_settings.ground_tint();
+    }
+    let settings = &settings;
     let fur = FurRenderer::new(gpu.pipelines(), &gpu.queue, &asset, settings, &desc)?;
     if let (Some(rest), Some(_)) = (&rest, fur.skinning()) {
         fur.set_pose(&gpu.queue, &rest.skinning, &rest.morph_weights)?;
@@ -412,7 +419,6 @@ pub fn render_opened_pack(
     // it, in their rest pose (a still preview has no wind). A pack alone has no scene to say
     // what its units are (the Fox glTF is in centimetres, so its "metres" put the camera 300 m
     // away), so only the frustum culls: the image of every blade at full detail.
-    let blade_settings = BladeSettings { culling: crate::GrassCulling::frustum_only(), ..BladeSettings::default() };
     let blades = BladeRenderer::from_pack(gpu.pipelines(), &gpu.queue, pack, &blade_settings, &desc)?;
     let target = RenderTarget::new(&gpu.device, width, height)?;
     let frame = view.uniforms(target.aspect());

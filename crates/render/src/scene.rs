@@ -347,7 +347,11 @@ impl SceneRenderer {
                 let (_, asset, gpu) = &uploaded[k];
                 // The entry's own `[packs.shading]`; entries that only differ there share pipelines
                 // unless one switches the strand shading off.
-                let settings = RenderSettings { shading: p.shading, ..settings };
+                let mut settings = RenderSettings { shading: p.shading, ..settings };
+                if pack.has(SectionKind::BLADE_FIELD) && settings.tint == RenderSettings::default().tint {
+                    // The ground under the blades takes the grass colour.
+                    settings.tint = BladeSettings::default().ground_tint();
+                }
                 Some(FurRenderer::with_gpu_asset(pipelines, asset, gpu.clone(), &settings, target)?)
             } else {
                 None

@@ -190,3 +190,30 @@ fn out_of_range_shading_is_refused_by_name() {
     }
     assert_eq!(checked, 4);
 }
+
+#[test]
+fn the_ground_under_the_blades_takes_the_grass_colour() {
+    use furbake_bake::{BakeSettings, NoProgress, bake};
+    use furbake_import::{ImportSettings, import_gltf_slice};
+    // The thesis's grass patch (white vertex colours) baked with shells and blades, previewed
+    // alone: the gaps between blades show the ground, which is drawn in the blades' colour.
+    let mesh = furbake_import::testmesh::grass_patch(2.0);
+    let imported = import_gltf_slice(&mesh.gltf, "patch.gltf", None, &ImportSettings::default()).unwrap();
+    let mut settings = BakeSettings::preset("grass").unwrap();
+    settings.volume.resolution = 16;
+    settings = settings.with_overrides(&serde_json::json!({"blades": {"field": {"density_per_m2": 100.0}}})).unwrap();
+    let baked = bake(&imported, "patch.gltf", &settings, &mut NoProgress).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("patch.fbk");
+    baked.to_writer().write_atomic(&path).unwrap();
+    let pack = furbake_runtime::Pack::open(&path).unwrap();
+    let image =
+        furbake_render::render_opened_pack(&pack, 160, 120, None, &furbake_render::RenderSettings::default()).unwrap();
+    image.save(std::env::temp_dir().join("furbake-render-tests").join("blade_shading_ground.png")).unwrap();
+    let bg = *image.get_pixel(0, 0);
+    let drawn: Vec<_> = image.pixels().filter(|p| p.0.iter().zip(bg.0).any(|(a, b)| a.abs_diff(b) > 12)).collect();
+    let green = drawn.iter().filter(|p| p[1] > p[0] && p[1] > p[2]).count();
+    println!("{green} of {} drawn pixels green", drawn.len());
+    assert!(drawn.len() > 2000, "the patch is drawn: {} pixels", drawn.len());
+    assert!(green * 100 >= drawn.len() * 98, "grey ground shows: {green} of {} drawn pixels green", drawn.len());
+}
