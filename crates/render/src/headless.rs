@@ -404,7 +404,7 @@ pub fn render_opened_pack(
     let desc = RenderTarget::desc();
     // The blades of a grass pack, and the ground under them in their colour (as scenes draw it).
     let blade_settings = BladeSettings { culling: crate::GrassCulling::frustum_only(), ..BladeSettings::default() };
-    let mut settings = settings.clone();
+    let mut settings = *settings;
     if pack.has(furbake_formats::SectionKind::BLADE_FIELD) && settings.tint == RenderSettings::default().tint {
         settings.tint = blade_settings.ground_tint();
     }
