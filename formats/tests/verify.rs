@@ -9,37 +9,11 @@ use std::path::Path;
 
 use furbake_formats::sections::fin_atlas::FinAtlas;
 use furbake_formats::sections::skeleton::{AFFINE_TOLERANCE, Skeleton};
-use furbake_formats::sections::skin_mesh::SkinMesh;
 use furbake_formats::sections::skin_weights::{SkinWeightStats, SkinWeights};
 use furbake_formats::{Pack, PackWriter, Section, SectionKind, VerifySummary};
 
-const IDENTITY: [f32; 16] = [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0];
-
-fn mesh() -> SkinMesh {
-    SkinMesh {
-        positions: vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
-        normals: vec![[0.0, 0.0, 1.0]; 3],
-        colors: vec![[1.0; 4]; 3],
-        triangles: vec![[0, 1, 2]],
-        fur_mask: vec![1],
-        ..SkinMesh::default()
-    }
-}
-
-fn skeleton() -> Skeleton {
-    let mut shifted = IDENTITY;
-    shifted[13] = -1.0;
-    Skeleton {
-        names: vec!["root".into(), "bone".into()],
-        parents: vec![Skeleton::NO_PARENT, 0],
-        translations: vec![[0.0; 3], [0.0, 1.0, 0.0]],
-        rotations: vec![[0.0, 0.0, 0.0, 1.0]; 2],
-        scales: vec![[1.0; 3]; 2],
-        bind_joints: vec![0, 1],
-        inverse_binds: vec![IDENTITY, shifted],
-        skin_root: Some(0),
-    }
-}
+mod rig;
+use rig::{mesh, skeleton};
 
 fn weights(vertices: usize) -> SkinWeights {
     let mut w = SkinWeights {

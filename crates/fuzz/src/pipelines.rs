@@ -274,7 +274,7 @@ pub enum Planted {
     /// Control: a regular file inside the asset directory with this name and the buffer's
     /// bytes — up to date, must be skipped.
     Inside(String),
-    /// Control: `../shared/x.bin`, inside the batch's `asset_root` — must be skipped.
+    /// Control: `../common/x.bin`, inside the batch's `asset_root` — must be skipped.
     SharedRoot,
 }
 
@@ -1351,17 +1351,17 @@ impl Ctx<'_> {
     fn manifest(&self, c: &ManifestCase) -> Result<String, String> {
         let d = self.dir;
         let assets = d.join("assets");
-        let shared = d.join("shared");
-        for sub in [&assets, &shared] {
+        let common = d.join("common");
+        for sub in [&assets, &common] {
             std::fs::create_dir(sub).map_err(|e| format!("setup: {e}"))?;
         }
         self.fixture.write(&assets, "in.gltf", "in.bin")?;
         let bin = &self.fixture.bin;
         write(&d.join("secret.bin"), bin)?;
-        write(&shared.join("x.bin"), bin)?;
+        write(&common.join("x.bin"), bin)?;
         write(
             &assets.join("assets.toml"),
-            b"[defaults]\nasset_root = \"../shared\"\n[defaults.settings]\nvolume.resolution = 8\nvolume.layers = 2\n\
+            b"[defaults]\nasset_root = \"../common\"\n[defaults.settings]\nvolume.resolution = 8\nvolume.layers = 2\n\
               [[asset]]\ninput = \"in.gltf\"\n",
         )?;
         let first = self.furbake_in(&assets, &["batch", "assets.toml", "-j", "1"])?;
@@ -1428,7 +1428,7 @@ impl Ctx<'_> {
                 write(&assets.join(name), bin)?;
                 (name.clone(), "inside", false)
             }
-            Planted::SharedRoot => ("../shared/x.bin".into(), "inside", false),
+            Planted::SharedRoot => ("../common/x.bin".into(), "inside", false),
         };
         let entry = furbake_formats::sections::manifest::ManifestInput {
             name: name.clone(),
