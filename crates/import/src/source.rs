@@ -254,16 +254,8 @@ pub(crate) fn load_asset(bytes: &[u8], file: &Path, external: ExternalFiles<'_>)
 /// import would refuse (a scheme, an absolute path, a bad escape) is left out — the import
 /// refuses it — and so is everything of a file that cannot be read or parsed.
 pub(crate) fn referenced_files(path: &Path) -> Vec<std::path::PathBuf> {
-    let Ok(bytes) = read_file_limited(path, path) else { return Vec::new() };
-    let json_bytes = if bytes.starts_with(GLB_MAGIC) {
-        match split_glb(&bytes) {
-            Ok(glb) => glb.json,
-            Err(_) => return Vec::new(),
-        }
-    } else {
-        &bytes[..]
-    };
-    let Ok(doc) = serde_json::from_slice::<serde_json::Value>(json_bytes) else { return Vec::new() };
+    let Some(json) = json_chunk(path) else { return Vec::new() };
+    let Ok(doc) = serde_json::from_slice::<serde_json::Value>(&json) else { return Vec::new() };
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
@@ -276,6 +268,30 @@ pub(crate) fn referenced_files(path: &Path) -> Vec<std::path::PathBuf> {
     uris.filter(|uri| !uri.starts_with("data:"))
         .filter_map(|uri| crate::external::relative_uri_path(uri).map(|p| dir.join(p)))
         .collect()
+}
+
+/// The JSON of the glTF at `path` and nothing more: a `.glb`'s 12-byte header and first chunk
+/// (its binary chunk, which may be most of the file, is not read), or a `.gltf` whole, within
+/// [`MAX_FILE_BYTES`]; `None` when it cannot be read.
+fn json_chunk(path: &Path) -> Option<Vec<u8>> {
+    let (mut file, len) = furbake_formats::input::open_regular(path).ok()?;
+    if len > MAX_FILE_BYTES {
+        return None;
+    }
+    let mut head = [0u8; 20];
+    let got = (&mut file).take(20).read(&mut head).ok()?;
+    if got == 20 && head.starts_with(GLB_MAGIC) && read_u32(&head, 16) == Some(CHUNK_JSON) {
+        let chunk = u64::from(read_u32(&head, 12)?);
+        if 20 + chunk > len {
+            return None;
+        }
+        let mut json = vec![0u8; chunk as usize];
+        file.read_exact(&mut json).ok()?;
+        return Some(json);
+    }
+    let mut bytes = head[..got].to_vec();
+    file.take(MAX_FILE_BYTES).read_to_end(&mut bytes).ok()?;
+    (!bytes.starts_with(GLB_MAGIC)).then_some(bytes)
 }
 
 /// Reads the main glTF file the caller named, at most [`MAX_FILE_BYTES`]: opened without
@@ -305,6 +321,27 @@ pub(crate) fn read_file_limited(path: &Path, file: &Path) -> Result<Vec<u8>, Imp
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn referenced_files_come_from_the_json_alone_for_glb_and_gltf() {
+        let dir = tempfile::tempdir().unwrap();
+        let json = br#"{"buffers":[{"uri":"data:,x"},{"uri":"ext%20a.bin"},{"uri":"/etc/passwd"}],"images":[{"uri":"t/b.png"}]}  "#;
+        let mut glb = b"glTF".to_vec();
+        glb.extend_from_slice(&2u32.to_le_bytes());
+        glb.extend_from_slice(&((20 + json.len() + 8 + 4) as u32).to_le_bytes());
+        glb.extend_from_slice(&(json.len() as u32).to_le_bytes());
+        glb.extend_from_slice(&CHUNK_JSON.to_le_bytes());
+        glb.extend_from_slice(json);
+        glb.extend_from_slice(&4u32.to_le_bytes());
+        glb.extend_from_slice(&CHUNK_BIN.to_le_bytes());
+        glb.extend_from_slice(&[0; 4]);
+        std::fs::write(dir.path().join("m.glb"), &glb).unwrap();
+        std::fs::write(dir.path().join("m.gltf"), json).unwrap();
+        let want = vec![dir.path().join("ext a.bin"), dir.path().join("t/b.png")];
+        assert_eq!(referenced_files(&dir.path().join("m.glb")), want);
+        assert_eq!(referenced_files(&dir.path().join("m.gltf")), want);
+        assert!(referenced_files(&dir.path().join("missing.glb")).is_empty());
+    }
 
     #[test]
     fn glb_splitting_rejects_lying_lengths() {
