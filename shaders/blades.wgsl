@@ -10,21 +10,8 @@
 // and grid coordinates from the instance lists (blade_cull.wgsl), poses its vertices with the
 // same functions (`pose_from`, `vertex_position`) and shades it (`fs_blade`: the grass thesis's
 // fig. 4.1 pipeline and what shipped grass adds, docs/design.md "Grass blade shading"), or, with
-// shading off, two-sided Lambert diffuse of a flat colour. grass_common.wgsl (the Blade struct, the culling parameters) and
+// shading off, two-sided Lambert diffuse of a flat colour. lighting.wgsl (the frame uniforms and the lights), grass_common.wgsl (the Blade struct, the culling parameters) and
 // grass_pose.wgsl (the uniform and source structs, `blade_grid`) are prepended.
-
-struct Frame {
-    view_proj: mat4x4<f32>,
-    // xyz: eye position in metres; w unused.
-    camera_pos: vec4<f32>,
-    // xyz: unit vector from the surface towards the light; w unused.
-    light_dir: vec4<f32>,
-    // rgb: light colour × intensity; a: ambient term in [0, 1].
-    light_color: vec4<f32>,
-    // Model matrix of the blade field (pack frame → world): rotation, translation, uniform scale.
-    // The compute pass writes pack-frame positions; only the draw applies it.
-    model: mat4x4<f32>,
-};
 
 const STATIC_VERTEX: u32 = 0xffffffffu;
 
@@ -280,11 +267,13 @@ fn fs_blade(in: BladeOut) -> @location(0) vec4<f32> {
     var shade = vec3<f32>(1.0);
     if params.lambert != 0u {
         // Flat face normal from the screen-space derivatives; blades are two-sided, so the side
-        // facing the light is lit.
+        // facing each light is lit, and the ambient comes from the side facing up.
         let n = normalize(cross(dpdx(in.world), dpdy(in.world)));
-        let d = abs(dot(n, frame.light_dir.xyz));
-        let ambient = frame.light_color.a;
-        shade = frame.light_color.rgb * (ambient + (1.0 - ambient) * d);
+        shade = ambient_at(select(n, -n, n.y < 0.0));
+        for (var i = 0u; i < light_count(); i++) {
+            let light = light_at(i, in.world);
+            shade += light.radiance * abs(dot(n, light.l));
+        }
     }
     return vec4<f32>(params.color.rgb * shade, 1.0);
 }
@@ -305,18 +294,22 @@ fn shade_blade(in: BladeOut) -> vec3<f32> {
     var n = normalize(cross(dpdx(in.world), dpdy(in.world)));
     n = select(n, -n, dot(n, to_eye) < 0.0);
     n = normalize(n + in.width_axis * (across * params.gloss.z));
-    let l = frame.light_dir.xyz;
-    let front = max(dot(n, l), 0.0);
-    // Light through the blade: from behind (the side away from the viewer is lit), thinner and
-    // brighter towards the tip, strongest looking into the light.
-    let forward = max(dot(-to_eye, l), 0.0);
-    let back = max(dot(-n, l), 0.0) * params.shade.w * (0.4 + 0.6 * v) * (0.6 + 0.4 * forward * forward);
-    let ambient = frame.light_color.a;
+    // Light through the blade (from behind: the side away from the viewer is lit) is stronger
+    // towards the thinner tip and looking into the light.
     let occlusion = 1.0 - params.shade.x * (1.0 - smoothstep(0.0, 1.0, v));
     let edge = 1.0 - params.gloss.w * pow(abs(across), 3.0);
-    let diffuse = albedo * (ambient + (1.0 - ambient) * front + 1.2 * back);
-    let h = normalize(l + to_eye);
     let e = params.gloss.y;
-    let gloss = params.gloss.x * v * v * (e + 8.0) / 25.1327412 * pow(max(dot(n, h), 0.0), e) * front;
-    return frame.light_color.rgb * (diffuse * occlusion * edge + vec3<f32>(gloss * occlusion));
+    let gloss_scale = params.gloss.x * v * v * (e + 8.0) / 25.1327412;
+    var lit = vec3<f32>(0.0);
+    for (var i = 0u; i < light_count(); i++) {
+        let light = light_at(i, in.world);
+        let l = light.l;
+        let front = max(dot(n, l), 0.0);
+        let forward = max(dot(-to_eye, l), 0.0);
+        let back = max(dot(-n, l), 0.0) * params.shade.w * (0.4 + 0.6 * v) * (0.6 + 0.4 * forward * forward);
+        let h = normalize(l + to_eye);
+        let gloss = gloss_scale * pow(max(dot(n, h), 0.0), e) * front;
+        lit += light.radiance * (albedo * (front + 1.2 * back) * edge + vec3<f32>(gloss));
+    }
+    return (albedo * ambient_at(n) * edge + lit) * occlusion;
 }

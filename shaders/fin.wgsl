@@ -171,9 +171,9 @@ fn fs_fin(in: FinOut) -> @location(0) vec4<f32> {
         // A fin texel column is one hair (u along the edge, v root to tip).
         let width = f32(textureDimensions(fin_alpha).x);
         let column = i32(min(floor(fract(in.uv.x) * width), width - 1.0));
-        rgb = strand_shade(in.color.rgb * fur.tint.rgb, in.normal, in.tangent, to_eye, in.height, direct, strand_mask(column, -1));
+        rgb = strand_shade(in.color.rgb * fur.tint.rgb, in.normal, in.tangent, in.world, to_eye, in.height, direct, strand_mask(column, -1));
     } else {
-        var shade = lambert(in.normal);
+        var shade = lambert(in.normal, in.world);
         if SHADOW {
             let layer = min(fur.atlas_layers - 1u, u32(in.height * f32(fur.atlas_layers)));
             shade = shade * shadow[layer];

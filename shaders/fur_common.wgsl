@@ -1,24 +1,12 @@
-// fur_common.wgsl — what the skin, shell and fin shaders share: the frame and fur uniforms (each
-// checked against its #[repr(C)] Rust twin in crates/render/src/shaders.rs), the effect switches
+// fur_common.wgsl — what the skin, shell and fin shaders share after lighting.wgsl (the frame
+// uniforms and the lights): the fur uniforms (checked against its #[repr(C)] Rust twin in
+// crates/render/src/shaders.rs), the effect switches
 // (pipeline-overridable constants, set from the scene's effects), the bindings of group 0, the
 // surface vertex layout, the posed root of a vertex (the bind pose, or the skinning pass's output
 // for an animated pack), the eq. 3.36 shell offset and the strand tangent (its derivative along
 // the hair), the object→world model transform, Lambert shading and the strand shading
 // (docs/design.md "Fur shading"). The renderer prepends this file to each of them (WGSL has no
 // includes).
-
-struct Frame {
-    view_proj: mat4x4<f32>,
-    // xyz: eye position in metres; w unused.
-    camera_pos: vec4<f32>,
-    // xyz: unit vector from the surface towards the light; w unused.
-    light_dir: vec4<f32>,
-    // rgb: light colour × intensity; a: ambient term in [0, 1].
-    light_color: vec4<f32>,
-    // Model matrix of the drawn object (object/pack frame → world): rotation, translation and a
-    // uniform positive scale. Identity for a single object.
-    model: mat4x4<f32>,
-};
 
 struct Fur {
     // rgb: colour multiplier applied to every vertex colour; a unused.
@@ -158,14 +146,18 @@ fn normal_to_world(n: vec3<f32>) -> vec3<f32> {
     return normalize((frame.model * vec4<f32>(n, 0.0)).xyz);
 }
 
-// Lambert diffuse (fur thesis §3.2) with an ambient term.
-fn lambert(n: vec3<f32>) -> vec3<f32> {
+// Lambert diffuse (fur thesis §3.2) of every light at `world` plus the ambient term.
+fn lambert(n_in: vec3<f32>, world: vec3<f32>) -> vec3<f32> {
     if !LAMBERT {
         return vec3<f32>(1.0);
     }
-    let d = max(dot(normalize(n), frame.light_dir.xyz), 0.0);
-    let ambient = frame.light_color.a;
-    return frame.light_color.rgb * (ambient + (1.0 - ambient) * d);
+    let n = normalize(n_in);
+    var rgb = ambient_at(n);
+    for (var i = 0u; i < light_count(); i++) {
+        let light = light_at(i, world);
+        rgb += light.radiance * max(dot(n, light.l), 0.0);
+    }
+    return rgb;
 }
 
 // A deterministic number in [0, 1) per integer cell (the PCG hash of Jarzynski & Olano 2020,
@@ -192,57 +184,60 @@ fn strand_lobe(th: f32, sin_th: f32, shift: f32, exponent: f32) -> f32 {
     return (exponent + 2.0) * 0.15915494 * pow(sin2, 0.5 * exponent);
 }
 
-// The strand shading (docs/design.md "Fur shading") of fur with colour `albedo` (vertex colour ×
-// tint), surface normal `n`, hair direction `tangent` (`strand_tangent`), unit vector `to_eye`,
-// relative height `h` in [0, 1] (0 at the roots), the bake's self-shadow factor `direct` of that
-// layer (1 without SHADOW) and the secondary highlight's noise mask `mask` in [0, 1]. With
-// L the light, V the eye, H = normalize(L + V), a the ambient share and body = saturate((N·L +
-// 0.15)/1.15) (the body's own shadow on its coat: Lambert's cosine wrapped a little past the
-// terminator, where hair tips still stand in the light):
+// The strand shading (docs/design.md "Fur shading") at world position `world` of fur with colour
+// `albedo` (vertex colour × tint), surface normal `n`, hair direction `tangent`
+// (`strand_tangent`), unit vector `to_eye`, relative height `h` in [0, 1] (0 at the roots), the
+// bake's self-shadow factor `direct` of that layer (1 without SHADOW) and the secondary
+// highlight's noise mask `mask` in [0, 1]. For each light (`light_at`: L towards it, E its
+// radiance), with V the eye, H = normalize(L + V) and body = saturate((N·L + 0.15)/1.15) (the
+// body's own shadow on its coat: Lambert's cosine wrapped a little past the terminator, where hair
+// tips still stand in the light):
 //   colour    = albedo · mix(1, tip_color, h)
 //   diffuse   = mix(max(N·L, 0), sin(T, L) · body, kajiya_kay_diffuse)
 //   specular  = body · (primary · lobe₁ + secondary · lobe₂ · secondary_tint · colour · mask)
 //   back      = back_light · colour · ((1 − V·L)/2)⁴ · sin²(T, V) · (1 + N·L)/2
-//   rgb       = light · (colour · (a · occlusion + (1 − a) · diffuse · direct)
-//                        + (1 − a) · direct · (specular + back))
-// with occlusion = 1 − root_occlusion · (1 − h). The self-shadow table darkens the direct light
-// (diffuse, highlights, transmission) and the root occlusion the ambient light, so no term is
-// darkened twice for the same depth in the coat.
-fn strand_shade(albedo: vec3<f32>, n_in: vec3<f32>, tangent: vec3<f32>, to_eye: vec3<f32>, h: f32, direct: f32, mask: f32) -> vec3<f32> {
+//   rgb       = colour · A(N) · occlusion + Σ E · direct · (colour · diffuse + specular + back)
+// with A the hemisphere ambient (`ambient_at`) and occlusion = 1 − root_occlusion · (1 − h). The
+// self-shadow table darkens the direct light (diffuse, highlights, transmission) and the root
+// occlusion the ambient light, so no term is darkened twice for the same depth in the coat.
+fn strand_shade(albedo: vec3<f32>, n_in: vec3<f32>, tangent: vec3<f32>, world: vec3<f32>, to_eye: vec3<f32>, h: f32, direct: f32, mask: f32) -> vec3<f32> {
     let n = normalize(n_in);
     var t = n;
     if dot(tangent, tangent) > 1e-12 {
         t = normalize(tangent);
     }
-    let l = frame.light_dir.xyz;
     let v = to_eye;
-    let ambient = frame.light_color.a;
     let colour = albedo * mix(vec3<f32>(1.0), fur.tip_color.rgb, h);
-    let nl = dot(n, l);
-    let body = saturate((nl + 0.15) / 1.15);
-    let wrap = 0.5 + 0.5 * nl;
-    let tl = dot(t, l);
-    let kajiya_kay = sqrt(max(1.0 - tl * tl, 0.0));
-    let diffuse = mix(max(nl, 0.0), kajiya_kay * body, fur.strand.w);
-    // L = −V (the light straight behind the eye's line) has no half vector: take N's.
-    var half_vector = n;
-    let lv = l + v;
-    if dot(lv, lv) > 1e-8 {
-        half_vector = normalize(lv);
-    }
-    let th = dot(t, half_vector);
-    let sin_th = sqrt(max(1.0 - th * th, 0.0));
-    let primary = fur.specular.x * strand_lobe(th, sin_th, fur.strand.x, fur.specular.y);
-    let secondary = fur.specular.z * strand_lobe(th, sin_th, fur.strand.y, fur.specular.w) * mask;
-    let specular = body * (vec3<f32>(primary) + secondary * fur.secondary_tint.rgb * colour);
-    let tv = dot(t, v);
-    let behind = 0.5 - 0.5 * dot(v, l);
-    let behind2 = behind * behind;
-    let back = fur.strand.z * colour * (behind2 * behind2) * max(1.0 - tv * tv, 0.0) * wrap;
     let occlusion = 1.0 - fur.tip_color.a * (1.0 - h);
-    let direct_share = 1.0 - ambient;
-    return frame.light_color.rgb
-        * (colour * (ambient * occlusion + direct_share * diffuse * direct) + direct_share * direct * (specular + back));
+    var rgb = colour * ambient_at(n) * occlusion;
+    let tv = dot(t, v);
+    let sin2_tv = max(1.0 - tv * tv, 0.0);
+    for (var i = 0u; i < light_count(); i++) {
+        let light = light_at(i, world);
+        let l = light.l;
+        let nl = dot(n, l);
+        let body = saturate((nl + 0.15) / 1.15);
+        let wrap = 0.5 + 0.5 * nl;
+        let tl = dot(t, l);
+        let kajiya_kay = sqrt(max(1.0 - tl * tl, 0.0));
+        let diffuse = mix(max(nl, 0.0), kajiya_kay * body, fur.strand.w);
+        // L = −V (the light straight behind the eye's line) has no half vector: take N's.
+        var half_vector = n;
+        let lv = l + v;
+        if dot(lv, lv) > 1e-8 {
+            half_vector = normalize(lv);
+        }
+        let th = dot(t, half_vector);
+        let sin_th = sqrt(max(1.0 - th * th, 0.0));
+        let primary = fur.specular.x * strand_lobe(th, sin_th, fur.strand.x, fur.specular.y);
+        let secondary = fur.specular.z * strand_lobe(th, sin_th, fur.strand.y, fur.specular.w) * mask;
+        let specular = body * (vec3<f32>(primary) + secondary * fur.secondary_tint.rgb * colour);
+        let behind = 0.5 - 0.5 * dot(v, l);
+        let behind2 = behind * behind;
+        let back = fur.strand.z * colour * (behind2 * behind2) * sin2_tv * wrap;
+        rgb += light.radiance * direct * (colour * diffuse + specular + back);
+    }
+    return rgb;
 }
 
 // The mask of the secondary highlight for the hair on integer texel (x, y): 1 − depth·noise.

@@ -99,9 +99,9 @@ fn fs_shell(in: ShellOut) -> @location(0) vec4<f32> {
         let cell = vec2<i32>(min(floor(fract(in.uv) * size), size - 1.0));
         let to_eye = normalize(frame.camera_pos.xyz - in.world);
         let albedo = in.color.rgb * fur.tint.rgb;
-        rgb = strand_shade(albedo, in.normal, in.tangent, to_eye, in.height, direct, strand_mask(cell.x, cell.y));
+        rgb = strand_shade(albedo, in.normal, in.tangent, in.world, to_eye, in.height, direct, strand_mask(cell.x, cell.y));
     } else {
-        var shade = lambert(in.normal);
+        var shade = lambert(in.normal, in.world);
         if SHADOW {
             shade = shade * shadow[in.slice];
         }

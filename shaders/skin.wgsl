@@ -37,10 +37,10 @@ fn fs_skin(in: SkinOut) -> @location(0) vec4<f32> {
         }
         let to_eye = normalize(frame.camera_pos.xyz - in.world);
         let mask = 1.0 - 0.5 * fur.secondary_tint.a;
-        let rgb = strand_shade(in.color.rgb * fur.tint.rgb, in.normal, in.normal, to_eye, 0.0, direct, mask);
+        let rgb = strand_shade(in.color.rgb * fur.tint.rgb, in.normal, in.normal, in.world, to_eye, 0.0, direct, mask);
         return vec4<f32>(rgb, 1.0);
     }
-    var shade = lambert(in.normal);
+    var shade = lambert(in.normal, in.world);
     if SHADOW && (in.flags & 1u) != 0u {
         shade = shade * shadow[0];
     }

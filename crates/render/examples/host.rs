@@ -25,7 +25,7 @@ use furbake_render::{
     BladeRenderer, BladeSettings, FurAsset, FurRenderer, HeadlessGpu, PipelineCache, RenderSettings, SceneFrame,
     SceneObject, ShellVertexLayout, TargetDesc, View, read_back_texture,
 };
-use furbake_runtime::{Camera, Light, Pack};
+use furbake_runtime::{Camera, Light, LightSource, Pack};
 use glam::{Mat4, Vec3};
 use wgpu::util::DeviceExt;
 
@@ -184,7 +184,7 @@ impl Placement {
             box_center: Vec3::ZERO,
             box_half_m: 0.0,
         };
-        let frame = SceneFrame { camera: Some(camera), light: Light::default(), background: [0.0; 4] };
+        let frame = SceneFrame { camera: Some(camera), lighting: Light::default().into(), background: [0.0; 4] };
         placement.view = frame.view(&furbake.objects(&placement));
         // The box: between the camera and the Fox's centre, a fifth of the Fox's size.
         let (center, radius) = furbake.fox.bounding_sphere();
@@ -451,11 +451,16 @@ impl Host {
         placement: &Placement,
         furbake: Option<&Furbake>,
     ) {
-        let light = &placement.view.light;
-        let to_light = -Vec3::from(light.direction).normalize_or(Vec3::NEG_Y);
+        // The host lights its own geometry with furbake's first light (a directional one here)
+        // and the ambient from above.
+        let lighting = &placement.view.lighting;
+        let to_light = match lighting.sources().first() {
+            Some(LightSource::Directional { direction, .. }) => -Vec3::from(*direction).normalize_or(Vec3::NEG_Y),
+            _ => Vec3::Y,
+        };
         let camera = HostCamera {
             view_proj: placement.view.view_proj(self.aspect()).to_cols_array_2d(),
-            light_dir: [to_light.x, to_light.y, to_light.z, light.ambient],
+            light_dir: [to_light.x, to_light.y, to_light.z, lighting.ambient.sky[0]],
         };
         queue.write_buffer(&self.camera, 0, bytemuck::bytes_of(&camera));
         if let Some(furbake) = furbake {

@@ -180,11 +180,11 @@ pub struct BladeShading {
     /// How far a clump (a cluster of the blade field) may turn towards a dry, yellower green.
     /// Default 0.5.
     pub clump_variation: f32,
-    /// Light through a blade lit from behind (two-sided translucency), relative to the diffuse
-    /// term. Default 0.6.
+    /// Light through a blade lit from behind (two-sided translucency), relative to the direct
+    /// diffuse term. Default 0.8.
     pub translucency: f32,
     /// Strength of the normalised Blinn–Phong gloss, reached at the tip (none at the root).
-    /// Default 0.15.
+    /// Default 0.2.
     pub gloss: f32,
     /// Exponent of the gloss lobe. Default 32.
     pub gloss_exponent: f32,
@@ -203,8 +203,8 @@ impl Default for BladeShading {
             root_occlusion: 0.65,
             blade_variation: 0.3,
             clump_variation: 0.5,
-            translucency: 0.6,
-            gloss: 0.15,
+            translucency: 0.8,
+            gloss: 0.2,
             gloss_exponent: 32.0,
             rounding: 0.6,
             edge_darkening: 0.35,
@@ -290,18 +290,19 @@ pub struct BladeRenderer {
 }
 
 /// The frame uniforms and the culling parameters in one uniform buffer, so a frame uploads both
-/// with one `queue.write_buffer`: the culling parameters at byte 256, the largest uniform binding
-/// offset alignment a device may require.
+/// with one `queue.write_buffer`: the culling parameters at byte 512, a multiple of 256 (the
+/// largest uniform binding offset alignment a device may require) past the frame uniforms.
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
 struct FrameAndCull {
     frame: FrameUniforms,
-    pad: [f32; 20],
+    pad: [f32; CULL_PAD],
     cull: CullParams,
 }
 
 /// Byte offset of [`FrameAndCull::cull`].
-const CULL_OFFSET: u64 = 256;
+const CULL_OFFSET: u64 = 512;
+const CULL_PAD: usize = (CULL_OFFSET as usize - std::mem::size_of::<FrameUniforms>()) / 4;
 const _: () = assert!(std::mem::offset_of!(FrameAndCull, cull) == CULL_OFFSET as usize);
 
 /// One blade renderer's own buffers: frame uniforms, parameters, corner forces, the delayed
@@ -337,7 +338,7 @@ impl InstanceBuffers {
         let limits = device.limits();
         let frame = init(
             "furbake blade frame uniforms",
-            bytemuck::bytes_of(&FrameAndCull { frame: FrameUniforms::default(), pad: [0.0; 20], cull: *cull }),
+            bytemuck::bytes_of(&FrameAndCull { frame: FrameUniforms::default(), pad: [0.0; CULL_PAD], cull: *cull }),
             wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
         );
         let params = init(
@@ -1043,7 +1044,7 @@ impl BladeRenderer {
             return;
         }
         if self.culling.enabled {
-            let both = FrameAndCull { frame: *frame, pad: [0.0; 20], cull: self.cull_params(frame) };
+            let both = FrameAndCull { frame: *frame, pad: [0.0; CULL_PAD], cull: self.cull_params(frame) };
             queue.write_buffer(&self.own.frame, 0, bytemuck::bytes_of(&both));
         } else {
             // The culling parameters (culling off) were written by `new` or `set_culling`.

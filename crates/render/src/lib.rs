@@ -126,7 +126,7 @@ pub mod silhouette;
 mod skinning;
 mod target;
 
-use furbake_runtime::{Camera, Light, RuntimeError};
+use furbake_runtime::{Camera, Lighting, RuntimeError};
 use glam::Vec3;
 
 pub use asset::FurAsset;
@@ -289,8 +289,8 @@ pub(crate) fn typed_gpu_error(e: wgpu::Error, what: &str) -> RenderError {
 pub struct View {
     /// The camera (`furbake-runtime`'s scene camera).
     pub camera: Camera,
-    /// The light (`furbake-runtime`'s scene light).
-    pub light: Light,
+    /// What the frame is lit by (`furbake-runtime`'s lights and ambient).
+    pub lighting: Lighting,
     /// Centre and radius of a sphere holding everything drawn, in metres (fits near/far planes).
     pub bounds_center: [f32; 3],
     /// Radius of that sphere in metres.
@@ -313,7 +313,7 @@ impl View {
             up: [0.0, 1.0, 0.0],
             fov_y_deg,
         };
-        View { camera, light: Light::default(), bounds_center: center.to_array(), bounds_radius: radius }
+        View { camera, lighting: Lighting::default(), bounds_center: center.to_array(), bounds_radius: radius }
     }
 
     /// The same three-quarter direction as [`View::framing`], aimed at the centre of the points'
@@ -380,6 +380,6 @@ impl View {
     /// The `Frame` uniforms for a target of the given aspect ratio and an object placed by
     /// `model` (object/pack frame → world; rotation, translation, uniform positive scale).
     pub fn uniforms_with_model(&self, aspect: f32, model: glam::Mat4) -> shaders::FrameUniforms {
-        shaders::FrameUniforms::new(self.view_proj(aspect), Vec3::from(self.camera.eye), &self.light, model)
+        shaders::FrameUniforms::new(self.view_proj(aspect), Vec3::from(self.camera.eye), self.lighting, model)
     }
 }

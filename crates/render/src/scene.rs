@@ -27,7 +27,7 @@ use std::path::PathBuf;
 
 use furbake_formats::SectionKind;
 use furbake_grass::{ForceField, ForceScene};
-use furbake_runtime::{Camera, Light, Scene, ShellVertexLayout, World};
+use furbake_runtime::{Camera, Lighting, Scene, ShellVertexLayout, World};
 use glam::{Mat4, Vec3};
 
 use crate::shaders::FrameUniforms;
@@ -133,21 +133,25 @@ fn merge(a: (Vec3, f32), b: (Vec3, f32)) -> (Vec3, f32) {
     (center, radius)
 }
 
-/// Camera, light and clear colour of a scene frame.
+/// Camera, lights and clear colour of a scene frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SceneFrame {
     /// The camera; `None` frames every object automatically ([`View::framing`] of their union).
     pub camera: Option<Camera>,
-    /// The directional light.
-    pub light: Light,
+    /// What the frame is lit by.
+    pub lighting: Lighting,
     /// Linear RGBA clear colour. Default [`RenderSettings::default`]'s background.
     pub background: [f32; 4],
 }
 
 impl SceneFrame {
-    /// The scene's camera and light, the default background.
+    /// The scene's camera and lighting ([`Scene::lighting`]), the default background.
     pub fn from_scene(scene: &Scene) -> SceneFrame {
-        SceneFrame { camera: scene.camera, light: scene.light, background: RenderSettings::default().background }
+        SceneFrame {
+            camera: scene.camera,
+            lighting: scene.lighting(),
+            background: RenderSettings::default().background,
+        }
     }
 
     /// The view of this frame for `objects`: the near and far planes fit the union of the
@@ -161,7 +165,7 @@ impl SceneFrame {
     fn view_of(&self, bounds: Option<(Vec3, f32)>) -> View {
         let bounds = bounds.unwrap_or((Vec3::ZERO, 1.0));
         let mut view = View::framing(bounds.0.to_array(), bounds.1);
-        view.light = self.light;
+        view.lighting = self.lighting;
         if let Some(camera) = self.camera {
             view.camera = camera;
         }

@@ -4,21 +4,28 @@
 //! layout of the WGSL struct of the same name, so the two can never drift apart silently.
 
 /// Skin: Lambert-lit vertex colour (fur thesis §3.2), strand-shaded under fur. Like the shell and
-/// fin shaders it is `fur_common.wgsl` (uniforms, effect switches, bindings 0–3 and 8,
+/// fin shaders it is `lighting.wgsl` (the frame uniforms and lights), `fur_common.wgsl` (fur uniforms, effect switches, bindings 0–3 and 8,
 /// `posed_vertex`, `shell_offset`, `strand_tangent`, `lambert`, `strand_shade`) followed by its
 /// own file: WGSL has no includes, so the shared part
 /// is prepended here.
-pub const SKIN_WGSL: &str =
-    concat!(include_str!("../../../shaders/fur_common.wgsl"), include_str!("../../../shaders/skin.wgsl"));
+pub const SKIN_WGSL: &str = concat!(
+    include_str!("../../../shaders/lighting.wgsl"),
+    include_str!("../../../shaders/fur_common.wgsl"),
+    include_str!("../../../shaders/skin.wgsl")
+);
 /// Shells: extrusion, eq. 3.36 shearing, shell alpha, self-shadow, strand shading or Lambert
 /// (§3.2, §3.4.2; docs/design.md "Fur shading"); also the `cs_shell_positions` compute entry
 /// point that reads back the sheared shell positions and hair directions
 /// ([`crate::FurRenderer::shell_positions`], [`crate::FurRenderer::shell_tangents`]).
-pub const SHELL_WGSL: &str =
-    concat!(include_str!("../../../shaders/fur_common.wgsl"), include_str!("../../../shaders/shell.wgsl"));
+pub const SHELL_WGSL: &str = concat!(
+    include_str!("../../../shaders/lighting.wgsl"),
+    include_str!("../../../shaders/fur_common.wgsl"),
+    include_str!("../../../shaders/shell.wgsl")
+);
 /// Fins on fin edges (§3.2, fig. 3.16) and on the silhouette (`vs_silhouette_fin`, with the
 /// structs of `silhouette_common.wgsl`).
 pub const FIN_WGSL: &str = concat!(
+    include_str!("../../../shaders/lighting.wgsl"),
     include_str!("../../../shaders/fur_common.wgsl"),
     include_str!("../../../shaders/silhouette_common.wgsl"),
     include_str!("../../../shaders/fin.wgsl")
@@ -40,6 +47,7 @@ pub const SILHOUETTE_WGSL: &str =
 /// culling parameters, the per-blade random numbers) and `grass_pose.wgsl` (the blade's force as
 /// pose-grid coordinates) are prepended.
 pub const BLADES_WGSL: &str = concat!(
+    include_str!("../../../shaders/lighting.wgsl"),
     include_str!("../../../shaders/grass_common.wgsl"),
     include_str!("../../../shaders/grass_pose.wgsl"),
     include_str!("../../../shaders/blades.wgsl")
@@ -53,7 +61,35 @@ pub const BLADE_CULL_WGSL: &str = concat!(
     include_str!("../../../shaders/blade_cull.wgsl")
 );
 
-/// Per-frame uniforms (`Frame` in every shader; binding 0).
+/// One light of the frame uniforms (`Light` in `shaders/lighting.wgsl`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct LightUniform {
+    /// Directional: unit vector from the surface towards the light, w = 0. Point: its position
+    /// in world metres, w = 1.
+    pub vector: [f32; 4],
+    /// Colour × intensity (rgb); a point light's range in metres (a; 0 = unbounded).
+    pub radiance: [f32; 4],
+}
+
+impl LightUniform {
+    fn new(source: &furbake_runtime::LightSource) -> LightUniform {
+        use furbake_runtime::LightSource;
+        let [r, g, b] = source.radiance();
+        match *source {
+            LightSource::Directional { direction, .. } => {
+                let to_light = -glam::Vec3::from(direction).normalize_or(glam::Vec3::NEG_Y);
+                LightUniform { vector: to_light.extend(0.0).to_array(), radiance: [r, g, b, 0.0] }
+            }
+            LightSource::Point { position, range_m, .. } => {
+                LightUniform { vector: glam::Vec3::from(position).extend(1.0).to_array(), radiance: [r, g, b, range_m] }
+            }
+        }
+    }
+}
+
+/// Per-frame uniforms (`Frame` in `shaders/lighting.wgsl`, prepended to every drawing shader;
+/// binding 0): camera, lights and the drawn object's model matrix.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct FrameUniforms {
@@ -61,10 +97,14 @@ pub struct FrameUniforms {
     pub view_proj: [[f32; 4]; 4],
     /// Eye position in metres (w unused).
     pub camera_pos: [f32; 4],
-    /// Unit vector from the surface towards the light (w unused).
-    pub light_dir: [f32; 4],
-    /// Light colour × intensity (rgb) and ambient term (a, in [0, 1]).
-    pub light_color: [f32; 4],
+    /// Hemisphere ambient from above (+Y), linear RGB (a unused).
+    pub ambient_sky: [f32; 4],
+    /// Hemisphere ambient from below, linear RGB (a unused).
+    pub ambient_ground: [f32; 4],
+    /// How many of `lights` are lit (x; yzw unused).
+    pub light_count: [u32; 4],
+    /// The light sources; the first `light_count[0]` are lit.
+    pub lights: [LightUniform; furbake_runtime::MAX_LIGHTS],
     /// Column-major model matrix of the drawn object (object/pack frame → world): rotation,
     /// translation and a uniform positive scale (normals are transformed by it too). Identity
     /// for a single object.
@@ -74,17 +114,28 @@ pub struct FrameUniforms {
 impl FrameUniforms {
     /// The uniforms of one object drawn from a host's camera: `view_proj` (world → clip, wgpu clip
     /// space; any projection the host uses for its own geometry, reversed-Z included), the eye
-    /// position in metres, the directional `light` (`furbake_runtime::Light`: direction the light
-    /// travels, colour × intensity, ambient term) and the object's `model` matrix (object → world:
-    /// rotation, translation, uniform positive scale).
-    pub fn new(view_proj: glam::Mat4, eye: glam::Vec3, light: &furbake_runtime::Light, model: glam::Mat4) -> Self {
-        let to_light = -glam::Vec3::from(light.direction).normalize_or(glam::Vec3::NEG_Y);
-        let [r, g, b] = light.color;
+    /// position in metres, what the frame is lit by (`furbake_runtime::Lighting`: up to
+    /// `MAX_LIGHTS` directional and point lights and a hemisphere ambient, or the one directional
+    /// `furbake_runtime::Light` of a scene's `[light]`) and the object's `model` matrix (object →
+    /// world: rotation, translation, uniform positive scale). Allocates nothing.
+    pub fn new(
+        view_proj: glam::Mat4,
+        eye: glam::Vec3,
+        lighting: impl Into<furbake_runtime::Lighting>,
+        model: glam::Mat4,
+    ) -> Self {
+        let lighting = lighting.into();
+        let mut lights = [LightUniform::default(); furbake_runtime::MAX_LIGHTS];
+        for (slot, source) in lights.iter_mut().zip(lighting.sources()) {
+            *slot = LightUniform::new(source);
+        }
         FrameUniforms {
             view_proj: view_proj.to_cols_array_2d(),
             camera_pos: [eye.x, eye.y, eye.z, 1.0],
-            light_dir: [to_light.x, to_light.y, to_light.z, 0.0],
-            light_color: [r, g, b, light.ambient],
+            ambient_sky: glam::Vec3::from(lighting.ambient.sky).extend(0.0).to_array(),
+            ambient_ground: glam::Vec3::from(lighting.ambient.ground).extend(0.0).to_array(),
+            light_count: [lighting.sources().len() as u32, 0, 0, 0],
+            lights,
             model: model.to_cols_array_2d(),
         }
     }
@@ -354,8 +405,10 @@ mod tests {
         let frame = [
             ("view_proj", offset_of!(FrameUniforms, view_proj)),
             ("camera_pos", offset_of!(FrameUniforms, camera_pos)),
-            ("light_dir", offset_of!(FrameUniforms, light_dir)),
-            ("light_color", offset_of!(FrameUniforms, light_color)),
+            ("ambient_sky", offset_of!(FrameUniforms, ambient_sky)),
+            ("ambient_ground", offset_of!(FrameUniforms, ambient_ground)),
+            ("light_count", offset_of!(FrameUniforms, light_count)),
+            ("lights", offset_of!(FrameUniforms, lights)),
             ("model", offset_of!(FrameUniforms, model)),
         ];
         assert_eq!(check_layout("Frame", size_of::<FrameUniforms>(), &frame), 4, "Frame: the fur shaders, blades.wgsl");

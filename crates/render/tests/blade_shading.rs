@@ -51,7 +51,7 @@ fn patch() -> &'static BladeField {
 fn view(light: [f32; 3]) -> View {
     View {
         camera: Camera { eye: [0.0, 0.35, 1.6], target: [0.0, 0.12, 0.0], up: [0.0, 1.0, 0.0], fov_y_deg: 30.0 },
-        light: Light { direction: light, ..Light::default() },
+        lighting: Light { direction: light, ..Light::default() }.into(),
         bounds_center: [0.0, 0.12, 0.0],
         bounds_radius: 1.2,
     }

@@ -294,7 +294,7 @@ fn small_patch() -> BladeField {
 fn side_view() -> View {
     View {
         camera: Camera { eye: [0.0, 0.5, 1.8], target: [0.0, 0.12, 0.0], up: [0.0, 1.0, 0.0], fov_y_deg: 35.0 },
-        light: Light::default(),
+        lighting: Light::default().into(),
         bounds_center: [0.0, 0.12, 0.0],
         bounds_radius: 1.0,
     }

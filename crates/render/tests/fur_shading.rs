@@ -28,7 +28,7 @@ use furbake_render::shading::strand_tangent;
 use furbake_render::{
     FurAsset, FurRenderer, FurShading, HeadlessGpu, RenderSettings, RenderTarget, View, render_image,
 };
-use furbake_runtime::{Camera, Light, Scene, SceneError, World};
+use furbake_runtime::{Camera, Light, LightSource, Scene, SceneError, World};
 use glam::{Vec3, Vec4Swizzles};
 use image::RgbaImage;
 
@@ -68,7 +68,7 @@ fn sphere() -> &'static FurAsset {
 fn view(eye: Vec3, light_direction: Vec3) -> View {
     View {
         camera: Camera { eye: eye.to_array(), target: [0.0; 3], up: [0.0, 1.0, 0.0], fov_y_deg: 40.0 },
-        light: Light { direction: light_direction.to_array(), ..Light::default() },
+        lighting: Light { direction: light_direction.to_array(), ..Light::default() }.into(),
         bounds_center: [0.0; 3],
         bounds_radius: 1.0 + FUR_M,
     }
@@ -123,7 +123,10 @@ fn lobe(th: f32, shift: f32, exponent: f32) -> f32 {
 /// The specular term of `strand_shade` for hair along the normal `n` at `p = n·(1 + L/2)`, white
 /// fur, unmasked: what the difference image of (a) shows, up to blending and sRGB.
 fn predicted_specular(view: &View, n: Vec3, shading: &FurShading) -> f32 {
-    let l = -Vec3::from(view.light.direction).normalize();
+    let Some(LightSource::Directional { direction, .. }) = view.lighting.sources().first().copied() else {
+        panic!("the test views have one directional light")
+    };
+    let l = -Vec3::from(direction).normalize();
     let p = n * (1.0 + 0.5 * FUR_M);
     let v = (Vec3::from(view.camera.eye) - p).normalize();
     let h = (l + v).normalize();

@@ -420,7 +420,7 @@ fn the_host_matches_the_headless_preview_where_they_overlap() {
     let headless = furbake(&RenderTarget::desc());
     let target = RenderTarget::new(&g.device, W, H).unwrap();
     let placement = Placement::new(&headless);
-    let frame = SceneFrame { camera: Some(placement.view.camera), light: placement.view.light, background };
+    let frame = SceneFrame { camera: Some(placement.view.camera), lighting: placement.view.lighting, background };
     let view = frame.render(&g.device, &g.queue, &target, &headless.objects(&placement)).unwrap();
     let reference = read_back(&g.device, &g.queue, &target).unwrap();
     save(&reference, "host_reference_headless.png");

@@ -220,7 +220,7 @@ fn edge_on(settings: &RenderSettings, scale_vectors: Option<&[[f32; 3]]>) -> Rgb
     let (asset, _) = plane();
     let view = View {
         camera: Camera { eye: [0.0, 0.0, 4.0], target: [0.0, 0.0, 0.0], up: [0.0, 1.0, 0.0], fov_y_deg: 40.0 },
-        light: Light::default(),
+        lighting: Light::default().into(),
         bounds_center: [0.0, 0.0, 0.0],
         bounds_radius: 1.6,
     };
@@ -304,7 +304,7 @@ fn simulated_wind_shifts_the_sphere_silhouette_towards_plus_x() {
             up: [0.0, 1.0, 0.0],
             fov_y_deg: 35.0,
         },
-        light: Light::default(),
+        lighting: Light::default().into(),
         bounds_center: center,
         bounds_radius: radius,
     };

@@ -110,7 +110,7 @@ fn edge_on(scale_vectors: Option<Vec<[f32; 3]>>) -> (RgbaImage, u32) {
     let plane = PLANE.get_or_init(|| bake_asset(&testmesh::plane_with_bare_region(8, 2.0).gltf, "plane.gltf", 0.3));
     let view = View {
         camera: Camera { eye: [0.0, 0.0, 4.0], target: [0.0, 0.0, 0.0], up: [0.0, 1.0, 0.0], fov_y_deg: 40.0 },
-        light: Light::default(),
+        lighting: Light::default().into(),
         bounds_center: [0.0, 0.0, 0.0],
         bounds_radius: 1.6,
     };

@@ -182,7 +182,7 @@ fn the_gpu_selects_the_cpu_reference_edges_on_the_sphere() {
         // gets is in the world, and the selection must bring it back.
         let view = framing(asset, dir);
         let eye_world = model.transform_point3(Vec3::from(view.camera.eye));
-        let frame = furbake_render::FrameUniforms::new(view.view_proj(1.0), eye_world, &view.light, model);
+        let frame = furbake_render::FrameUniforms::new(view.view_proj(1.0), eye_world, view.lighting, model);
         let sel = renderer.silhouette_selection(&g.device, &g.queue, &frame).unwrap();
         let camera_obj = model.inverse().transform_point3(eye_world);
         compare(what, &sel, positions, &edges, camera_obj, band);

@@ -14,8 +14,17 @@
 //! [camera]
 //! eye = [0.0, 1.0, 3.0]
 //! target = [0.0, 0.5, 0.0]
-//! [light]
+//! [[lights]]
+//! type = "directional"
 //! direction = [-0.3, -1.0, -0.4]
+//! [[lights]]
+//! type = "point"
+//! position = [1.0, 1.5, 1.0]
+//! color = [1.0, 0.8, 0.6]
+//! intensity = 2.0
+//! [ambient]
+//! sky = [0.3, 0.32, 0.35]
+//! ground = [0.15, 0.14, 0.12]
 //! [[packs]]
 //! name = "fox"
 //! path = "fox.fbk"
@@ -92,9 +101,18 @@ pub struct Scene {
     /// The viewpoint. Default: framed automatically from the packs' bounds (`None`).
     #[serde(default)]
     pub camera: Option<Camera>,
-    /// The directional light. Default: [`Light::default`].
+    /// The single directional light with its ambient share (`[light]`), the shorthand of
+    /// `lights` + `ambient`. `None` with no `lights`: [`Light::default`]. A scene gives either
+    /// `[light]` or `[[lights]]`/`[ambient]`, not both; [`Scene::lighting`] is what is drawn.
     #[serde(default)]
-    pub light: Light,
+    pub light: Option<Light>,
+    /// Up to [`MAX_LIGHTS`] light sources (`[[lights]]`, `type = "directional"` or `"point"`).
+    #[serde(default)]
+    pub lights: Vec<LightSource>,
+    /// The hemisphere ambient light (`[ambient]`) that goes with `lights`. Default
+    /// [`Ambient::default`].
+    #[serde(default)]
+    pub ambient: Option<Ambient>,
     /// The packs to load, at least one.
     pub packs: Vec<ScenePack>,
     /// The effects the scene asks for; anything absent is not built.
@@ -399,6 +417,148 @@ fn default_ambient() -> f32 {
 impl Default for Light {
     fn default() -> Self {
         Light { direction: default_light_dir(), color: default_light_color(), ambient: default_ambient() }
+    }
+}
+
+/// The most light sources one frame is lit by (the frame uniforms hold this many).
+pub const MAX_LIGHTS: usize = 4;
+
+/// One light source of a scene or a host's frame (`[[lights]]`; docs/design.md "Lights").
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
+pub enum LightSource {
+    /// Light from infinitely far away, travelling along `direction`.
+    Directional {
+        /// Direction the light travels (from the light towards the scene); need not be unit
+        /// length.
+        direction: [f32; 3],
+        /// Linear RGB colour. Default white.
+        #[serde(default = "default_light_color")]
+        color: [f32; 3],
+        /// Multiplier of `color`, ≥ 0. Default 1.
+        #[serde(default = "default_intensity")]
+        intensity: f32,
+    },
+    /// Light from a point, falling off with the inverse square of the distance: at 1 m it lights
+    /// as a directional light of the same colour and intensity does.
+    Point {
+        /// Where the light is, world metres.
+        position: [f32; 3],
+        /// Linear RGB colour. Default white.
+        #[serde(default = "default_light_color")]
+        color: [f32; 3],
+        /// Multiplier of `color` (the radiance at 1 m), ≥ 0. Default 1.
+        #[serde(default = "default_intensity")]
+        intensity: f32,
+        /// Distance beyond which the light reaches nothing, metres, ≥ 0; the inverse square is
+        /// windowed smoothly to zero there, `(1 − (d/range)⁴)²` (Karis 2013, as in Unreal and
+        /// Filament). 0: unbounded. Default 0.
+        #[serde(default)]
+        range_m: f32,
+    },
+}
+
+fn default_intensity() -> f32 {
+    1.0
+}
+
+impl LightSource {
+    /// Linear RGB colour × intensity.
+    pub fn radiance(&self) -> [f32; 3] {
+        let (LightSource::Directional { color, intensity, .. } | LightSource::Point { color, intensity, .. }) = *self;
+        (Vec3::from(color) * intensity).to_array()
+    }
+
+    fn validate(&self, field: &str) -> Result<(), (String, String)> {
+        let (LightSource::Directional { color, intensity, .. } | LightSource::Point { color, intensity, .. }) = *self;
+        finite3(&color, &format!("{field}.color"))?;
+        if color.iter().any(|&c| c < 0.0) {
+            return Err((format!("{field}.color"), "must not be negative".into()));
+        }
+        range(intensity, 0.0, 1e9, &format!("{field}.intensity"))?;
+        match self {
+            LightSource::Directional { direction, .. } => nonzero3(direction, &format!("{field}.direction")),
+            LightSource::Point { position, range_m, .. } => {
+                finite3(position, &format!("{field}.position"))?;
+                range(*range_m, 0.0, 1e9, &format!("{field}.range_m"))
+            }
+        }
+    }
+}
+
+/// Hemisphere ambient light (`[ambient]`): `sky` on surfaces facing up (+Y), `ground` on those
+/// facing down, blended by the normal's height, `mix(ground, sky, (1 + n.y)/2)`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Ambient {
+    /// Linear RGB from above. Default `[0.25, 0.25, 0.25]` (the `[light]` default's ambient).
+    #[serde(default = "default_ambient_rgb")]
+    pub sky: [f32; 3],
+    /// Linear RGB from below. Default `[0.25, 0.25, 0.25]`.
+    #[serde(default = "default_ambient_rgb")]
+    pub ground: [f32; 3],
+}
+
+fn default_ambient_rgb() -> [f32; 3] {
+    [default_ambient(); 3]
+}
+
+impl Default for Ambient {
+    fn default() -> Self {
+        Ambient { sky: default_ambient_rgb(), ground: default_ambient_rgb() }
+    }
+}
+
+/// What a frame is lit by: up to [`MAX_LIGHTS`] sources and a hemisphere ambient term
+/// (docs/design.md "Lights"). Fixed-size, `Copy`: a host builds one per frame without
+/// allocating.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lighting {
+    sources: [LightSource; MAX_LIGHTS],
+    count: usize,
+    /// The ambient term.
+    pub ambient: Ambient,
+}
+
+impl Lighting {
+    /// The lighting of `sources` (at most [`MAX_LIGHTS`]: more are an error naming the count)
+    /// and `ambient`.
+    pub fn new(sources: &[LightSource], ambient: Ambient) -> Result<Lighting, String> {
+        if sources.len() > MAX_LIGHTS {
+            return Err(format!("{} light sources; at most {MAX_LIGHTS} light one frame", sources.len()));
+        }
+        let none = LightSource::Directional { direction: [0.0, -1.0, 0.0], color: [0.0; 3], intensity: 0.0 };
+        let mut all = [none; MAX_LIGHTS];
+        all[..sources.len()].copy_from_slice(sources);
+        Ok(Lighting { sources: all, count: sources.len(), ambient })
+    }
+
+    /// The light sources.
+    pub fn sources(&self) -> &[LightSource] {
+        &self.sources[..self.count]
+    }
+}
+
+impl Default for Lighting {
+    /// [`Light::default`] as a [`Lighting`].
+    fn default() -> Self {
+        Lighting::from(Light::default())
+    }
+}
+
+impl From<Light> for Lighting {
+    /// The `[light]` shorthand: one directional light of colour `(1 − ambient) · color` and a
+    /// uniform ambient of `ambient · color`, so `lambert = color · (ambient + (1 − ambient) ·
+    /// N·L)` as before there were several lights.
+    fn from(light: Light) -> Lighting {
+        let color = Vec3::from(light.color);
+        let direct = LightSource::Directional {
+            direction: light.direction,
+            color: (color * (1.0 - light.ambient)).to_array(),
+            intensity: 1.0,
+        };
+        let ambient = (color * light.ambient).to_array();
+        Lighting::new(&[direct], Ambient { sky: ambient, ground: ambient }).expect("one light")
     }
 }
 
@@ -966,6 +1126,18 @@ impl Scene {
         Ok(scene)
     }
 
+    /// What the scene is lit by: its `[[lights]]` and `[ambient]`, or its `[light]` shorthand,
+    /// or [`Lighting::default`].
+    pub fn lighting(&self) -> Lighting {
+        match self.light {
+            Some(light) => Lighting::from(light),
+            None if self.lights.is_empty() && self.ambient.is_none() => Lighting::default(),
+            None => {
+                Lighting::new(&self.lights, self.ambient.unwrap_or_default()).expect("validated: at most MAX_LIGHTS")
+            }
+        }
+    }
+
     /// The effects the scene declares.
     pub fn effects(&self) -> Vec<Effect> {
         self.effects.enabled()
@@ -1047,12 +1219,37 @@ impl Scene {
             }
             range(c.fov_y_deg, 1.0, 179.0, "camera.fov_y_deg")?;
         }
-        nonzero3(&self.light.direction, "light.direction")?;
-        finite3(&self.light.color, "light.color")?;
-        if self.light.color.iter().any(|&c| c < 0.0) {
-            return bad("light.color", "must not be negative");
+        if let Some(light) = &self.light {
+            nonzero3(&light.direction, "light.direction")?;
+            finite3(&light.color, "light.color")?;
+            if light.color.iter().any(|&c| c < 0.0) {
+                return bad("light.color", "must not be negative");
+            }
+            range(light.ambient, 0.0, 1.0, "light.ambient")?;
+            if !self.lights.is_empty() || self.ambient.is_some() {
+                return bad(
+                    "light",
+                    "give either [light] (one light with an ambient share) or [[lights]] and [ambient], not both",
+                );
+            }
         }
-        range(self.light.ambient, 0.0, 1.0, "light.ambient")?;
+        if self.lights.len() > MAX_LIGHTS {
+            return Err((
+                "lights".into(),
+                format!("{} lights; at most {MAX_LIGHTS} light one frame", self.lights.len()),
+            ));
+        }
+        for (i, light) in self.lights.iter().enumerate() {
+            light.validate(&format!("lights[{i}]"))?;
+        }
+        if let Some(ambient) = &self.ambient {
+            for (rgb, field) in [(&ambient.sky, "ambient.sky"), (&ambient.ground, "ambient.ground")] {
+                finite3(rgb, field)?;
+                if rgb.iter().any(|&c| c < 0.0) {
+                    return bad(field, "must not be negative");
+                }
+            }
+        }
         range(self.solver.implicit_iterations as f32, 1.0, 1000.0, "solver.implicit_iterations")?;
         range(self.solver.xpbd_iterations as f32, 1.0, 1000.0, "solver.xpbd_iterations")?;
         range(self.solver.local_global_iterations as f32, 1.0, 1000.0, "solver.local_global_iterations")?;

@@ -106,6 +106,21 @@ fn out_of_range_values_name_their_key() {
         (format!("[camera]\neye = [0.0, 0.0, 1.0]\ntarget = [0.0, 0.0, 1.0]\n{MINIMAL}"), "camera.target"),
         (format!("[camera]\neye = [0.0, 1.0, 0.0]\ntarget = [0.0, 0.0, 0.0]\n{MINIMAL}"), "camera.up"),
         (format!("[light]\ndirection = [0.0, 0.0, 0.0]\n{MINIMAL}"), "light.direction"),
+        (format!("[light]\n[ambient]\n{MINIMAL}"), "light"),
+        (format!("[[lights]]\ntype = \"directional\"\ndirection = [0.0, 0.0, 0.0]\n{MINIMAL}"), "lights[0].direction"),
+        (
+            format!("[[lights]]\ntype = \"point\"\nposition = [0.0, 1.0, 0.0]\nintensity = -1.0\n{MINIMAL}"),
+            "lights[0].intensity",
+        ),
+        (
+            format!("[[lights]]\ntype = \"point\"\nposition = [0.0, 1.0, 0.0]\nrange_m = nan\n{MINIMAL}"),
+            "lights[0].range_m",
+        ),
+        (
+            format!("{}{MINIMAL}", "[[lights]]\ntype = \"directional\"\ndirection = [0.0, -1.0, 0.0]\n".repeat(5)),
+            "lights",
+        ),
+        (format!("[ambient]\nsky = [0.1, -0.1, 0.1]\n{MINIMAL}"), "ambient.sky"),
         (format!("{MINIMAL}[effects.wind]\nvelocity_m_per_s = [nan, 0.0, 0.0]\n"), "effects.wind.velocity_m_per_s"),
         (
             format!("{MINIMAL}[[effects.wind_sources]]\nposition = [0.0, 0.0, 0.0]\npower = -1.0\n"),
@@ -148,7 +163,36 @@ fn out_of_range_values_name_their_key() {
             other => panic!("expected {key} to be rejected in {text:?}, got {other:?}"),
         }
     }
-    assert_eq!(cases.len(), 20);
+    assert_eq!(cases.len(), 26);
+}
+
+#[test]
+fn lights_and_ambient_parse_into_the_lighting() {
+    use furbake_runtime::{Ambient, Light, LightSource, Lighting};
+    let text = format!(
+        "[[lights]]\ntype = \"directional\"\ndirection = [0.0, -1.0, 0.0]\n\
+         [[lights]]\ntype = \"point\"\nposition = [1.0, 2.0, 3.0]\ncolor = [1.0, 0.5, 0.25]\nintensity = 3.0\nrange_m = 10.0\n\
+         [ambient]\nsky = [0.2, 0.3, 0.4]\n{MINIMAL}"
+    );
+    let lighting = parse(&text).unwrap().lighting();
+    assert_eq!(
+        lighting.sources(),
+        [
+            LightSource::Directional { direction: [0.0, -1.0, 0.0], color: [1.0; 3], intensity: 1.0 },
+            LightSource::Point { position: [1.0, 2.0, 3.0], color: [1.0, 0.5, 0.25], intensity: 3.0, range_m: 10.0 },
+        ]
+    );
+    assert_eq!(lighting.ambient, Ambient { sky: [0.2, 0.3, 0.4], ground: Ambient::default().ground });
+    assert_eq!(parse(MINIMAL).unwrap().lighting(), Lighting::from(Light::default()));
+    let unknown = parse(&format!("[[lights]]\ntype = \"spot\"\ndirection = [0.0, -1.0, 0.0]\n{MINIMAL}"));
+    assert!(matches!(unknown, Err(SceneError::Parse { .. })), "{unknown:?}");
+    assert!(
+        Lighting::new(
+            &[LightSource::Directional { direction: [0.0, -1.0, 0.0], color: [1.0; 3], intensity: 1.0 }; 5],
+            Ambient::default()
+        )
+        .is_err()
+    );
 }
 
 #[test]
