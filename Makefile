@@ -82,9 +82,13 @@ golden:
 
 # Regenerate docs/accuracy.md and its SVG charts from measurements (release build; a few minutes
 # on 2 cores). It runs the report crate's example — the same library call as `furbake report
-# accuracy -o docs` — so it does not build the renderer (wgpu) in release.
-report:
-	$(CARGO) run --release -p furbake-report --example accuracy_report -- docs
+# accuracy -o docs` — without the crate's `render` feature, so it does not build the renderer
+# (wgpu) in release. Then docs/rendering-accuracy.md (shells and fins against a ray-marched
+# reference of the hair volume, furbake_report::rendering) in the dev profile on the GPU or
+# lavapipe: about 6 minutes on 2 cores.
+report: deps
+	$(CARGO) run --release -p furbake-report --no-default-features --example accuracy_report -- docs
+	$(CARGO) run -p furbake-report --example rendering_report -- docs
 
 # The long fuzzing campaign (issue 10, item 7; crates/fuzz): release build, 200,000 pack, 3,000
 # glTF (every 10th also through the debug `furbake` binary under a 2 GiB limit) and 3,000 scene

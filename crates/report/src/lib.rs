@@ -15,6 +15,10 @@
 //!   one chart per scene with its Pareto front; and time per step against size.
 //! - [`grass`]: pose error by keyframe count × selection × encoding against decode time (with its
 //!   chart), quantisation, force error by cluster size, with decode and update times.
+//! - `rendering` (the `render` feature, on by default): `docs/rendering-accuracy.md`, furbake's
+//!   shells and fins (fur thesis §3.2) against a CPU ray-marcher of the baked hair volume (§3.1):
+//!   FLIP and coverage IoU per scene × view angle × shell count × fins, fragment counts and frame
+//!   times, the error-against-cost chart and the level-of-detail knee table.
 //! - [`svg`]: the small plotting module the charts share (legend outside the plots, log axes
 //!   marked, label collision avoidance).
 //!
@@ -47,6 +51,8 @@ use std::path::{Path, PathBuf};
 
 pub mod fur;
 pub mod grass;
+#[cfg(feature = "render")]
+pub mod rendering;
 pub mod svg;
 
 /// Errors of the report, split by blame: the physics refused a measurement's settings (the

@@ -1,0 +1,34 @@
+//! Regenerates `docs/rendering-accuracy.md`, its chart and images (`make report`): furbake's
+//! shells and fins against a ray-marched reference of the baked hair volume
+//! (`furbake_report::rendering`). Usage: `rendering_report [OUT_DIR] [--quick]` (default `docs`;
+//! `--quick`: 64 px, 9 samples per pixel, two shell counts, for a smoke run).
+
+use std::path::PathBuf;
+
+use furbake_report::rendering::report::{RenderingOptions, rendering_report};
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let quick = args.iter().any(|a| a == "--quick");
+    let out = args.iter().find(|a| !a.starts_with("--")).map_or_else(|| PathBuf::from("docs"), PathBuf::from);
+    let fixtures = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../fixtures");
+    let mut options = RenderingOptions::new(&fixtures);
+    if quick {
+        (options.size, options.strata, options.shells, options.timed_frames) = (64, 3, vec![4, 16], 1);
+        options.lod_lengths_px = vec![2.0, 8.0];
+    }
+    let report = match rendering_report(&options, |line| eprintln!("{line}")) {
+        Ok(r) => r,
+        Err(e) => {
+            eprintln!("rendering report failed: {e}");
+            std::process::exit(1);
+        }
+    };
+    match report.write_into(&out) {
+        Ok(path) => println!("wrote {}", path.display()),
+        Err(e) => {
+            eprintln!("rendering report: {e}");
+            std::process::exit(1);
+        }
+    }
+}

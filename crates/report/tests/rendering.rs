@@ -1,0 +1,127 @@
+//! The rendering report's claims at a small scale (`furbake_report::rendering`; the full-size
+//! numbers are in docs/rendering-accuracy.md): the reference traces the bake's own hairs, converges
+//! as samples are added, covers a flat patch seen from above as much as the hairs' projected area
+//! does, and furbake's shells approach it as layers are added, with fins helping at grazing views.
+
+use furbake_bake::BakeSettings;
+use furbake_bake::volume::slice_shell_atlas;
+use furbake_report::rendering::reference::{ReferenceSettings, render_reference};
+use furbake_report::rendering::report::{FinMode, reference_camera, reference_of, render_settings};
+use furbake_report::rendering::scenes::{FurScene, SceneKind, bake_scene};
+use furbake_report::rendering::score::score;
+use furbake_report::rendering::shade::ShadeParams;
+use furbake_runtime::scene::FurShading;
+
+fn fixtures() -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures")
+}
+
+/// The `fur` preset with a 32² tile (hairs four times as thick relative to the fur: quick).
+fn small_fur() -> BakeSettings {
+    let mut s = BakeSettings::preset("fur").unwrap();
+    s.volume.resolution = 32;
+    s
+}
+
+fn patch(settings: &BakeSettings) -> FurScene {
+    bake_scene(SceneKind::Patch, &fixtures(), settings).unwrap()
+}
+
+#[test]
+fn the_reference_traces_the_hairs_the_atlas_was_sliced_from() {
+    let scene = patch(&small_fur());
+    let atlas = scene.asset.shells();
+    let hairs = scene.volume.hairs();
+    assert!(hairs.len() > 100, "{} hairs", hairs.len());
+    let again = slice_shell_atlas(&atlas.params, hairs, atlas.seed, atlas.fur_length_m);
+    assert_eq!(again.alpha.len(), atlas.alpha.len());
+    assert!(again.alpha == atlas.alpha, "re-slicing the regrown hairs gives the atlas's bytes");
+}
+
+#[test]
+fn more_samples_per_pixel_change_the_reference_less() {
+    // Two seeds at k² samples: their difference is the sampling noise, which falls about as 1/k.
+    let scene = patch(&small_fur());
+    let view = scene.view(45.0, 12.0 * scene.fur_length_m);
+    let light = ShadeParams::new(&view.uniforms(1.0), FurShading::default());
+    let camera = reference_camera(&view);
+    let noise = |strata: u32| {
+        let image = |seed| {
+            let s = ReferenceSettings { strata, seed, ..Default::default() };
+            render_reference(&scene.volume, &camera, &light, 24, 24, &s).unwrap()
+        };
+        let (a, b) = (image(1), image(2));
+        let diff: f32 = a.rgb.iter().zip(&b.rgb).map(|(p, q)| (*p - *q).abs().element_sum()).sum();
+        diff / a.rgb.len() as f32
+    };
+    let (coarse, fine) = (noise(2), noise(6));
+    assert!(coarse > 0.0, "different seeds sample differently");
+    assert!(fine < 0.6 * coarse, "36 samples per pixel differ by {fine}, 4 by {coarse}");
+}
+
+#[test]
+fn seen_from_above_the_hairs_cover_their_projected_area() {
+    // Straight, untapered hairs of one coat seen along the normal from far away: the share of
+    // samples that hit a hair is the share of the tile their discs cover (counted here on a fine
+    // grid of the tile, wrapping at its border, independently of the marcher).
+    let mut settings = small_fur();
+    settings.volume.undercoat = None;
+    settings.volume.coat.max_deviation_texels = 0.0;
+    settings.volume.coat.taper = 0.0;
+    let scene = patch(&settings);
+    let hairs = scene.volume.hairs();
+    let res = hairs.resolution as f32;
+    let grid = 512;
+    let mut inside = 0u32;
+    for gy in 0..grid {
+        for gx in 0..grid {
+            let p = glam::Vec2::new((gx as f32 + 0.5) / grid as f32 * res, (gy as f32 + 0.5) / grid as f32 * res);
+            let hit = (0..hairs.len()).any(|i| {
+                let mut d = glam::Vec2::new(hairs.root_x[i], hairs.root_y[i]) - p;
+                d -= res * (d / res).round();
+                d.length() < hairs.radius_texels[i]
+            });
+            inside += u32::from(hit);
+        }
+    }
+    let area = inside as f32 / (grid * grid) as f32;
+    // 50 m up with a 0.4° field of view: rays within 0.2 mrad of the normal, about 0.35 m of the
+    // patch (many tile repeats of 4 fur lengths) in view.
+    let mut view = scene.view(0.0, 50.0);
+    view.camera.fov_y_deg = 0.4;
+    let light = ShadeParams::new(&view.uniforms(1.0), FurShading::default());
+    let s = ReferenceSettings { strata: 3, ..Default::default() };
+    let image = render_reference(&scene.volume, &reference_camera(&view), &light, 48, 48, &s).unwrap();
+    assert!(image.coverage.iter().all(|&c| c == 1.0), "the patch fills the view");
+    let covered = image.hair_coverage.iter().sum::<f32>() / image.hair_coverage.len() as f32;
+    assert!((0.1..0.6).contains(&area), "disc area share {area}");
+    assert!((covered - area).abs() < 0.03, "hairs cover {covered} of the view, their discs {area} of the tile");
+}
+
+#[test]
+fn shells_approach_the_reference_and_fins_help_at_grazing_angles() {
+    // Small: a 64² view of the patch 12 fur lengths away, 16 samples per pixel, the `fur` preset's
+    // own 128² tile (with a 32² tile the hairs are a third of their length wide, and seen along
+    // them the 4 shells beat 16: the anti-aliased disc edges compound over the stacked layers,
+    // docs/rendering-accuracy.md).
+    let scene = patch(&BakeSettings::preset("fur").unwrap());
+    let gpu = furbake_report::rendering::gpu::MeasuringGpu::new().unwrap();
+    let background = [0.06, 0.06, 0.07];
+    let flip = |angle: f32, shells: u32, fins: FinMode, reference: &_| {
+        let view = scene.view(angle, 12.0 * scene.fur_length_m);
+        let frame = gpu.measure(&scene.asset, &render_settings(shells, fins), &view, 64, 64, 1).unwrap();
+        score(reference, &frame.image, background).0.flip_mean
+    };
+    let mut checked = 0;
+    for angle in [0.0, 45.0] {
+        let reference = reference_of(&scene, &scene.view(angle, 12.0 * scene.fur_length_m), 64, 4).unwrap();
+        let (four, sixteen) =
+            (flip(angle, 4, FinMode::Silhouette, &reference), flip(angle, 16, FinMode::Silhouette, &reference));
+        assert!(sixteen < four, "at {angle}°: FLIP {four} with 4 shells, {sixteen} with 16");
+        checked += 1;
+    }
+    let reference = reference_of(&scene, &scene.view(70.0, 12.0 * scene.fur_length_m), 64, 4).unwrap();
+    let (off, on) = (flip(70.0, 16, FinMode::Off, &reference), flip(70.0, 16, FinMode::Silhouette, &reference));
+    assert!(on < off, "at 70°: FLIP {off} without fins, {on} with");
+    assert_eq!(checked, 2);
+}
