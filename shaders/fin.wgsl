@@ -159,7 +159,8 @@ fn fs_fin(in: FinOut) -> @location(0) vec4<f32> {
     let to_eye = normalize(frame.camera_pos.xyz - in.world);
     let facing = abs(dot(normalize(in.face_normal), to_eye));
     let alpha = texel * (1.0 - facing) * in.fade;
-    if alpha <= fur.alpha_threshold {
+    let edge = fwidth(alpha);
+    if alpha_discarded(alpha, edge) {
         discard;
     }
     var rgb: vec3<f32>;
@@ -182,6 +183,9 @@ fn fs_fin(in: FinOut) -> @location(0) vec4<f32> {
     }
     if ALPHA_BLEND {
         return vec4<f32>(rgb, alpha);
+    }
+    if ALPHA_TO_COVERAGE {
+        return vec4<f32>(rgb, coverage_alpha(alpha, edge));
     }
     return vec4<f32>(rgb, 1.0);
 }

@@ -48,6 +48,9 @@ override STRAND: bool = true;
 override SHEAR: bool = true;
 // true: alpha-blended output; false: alpha-tested (opaque) output.
 override ALPHA_BLEND: bool = true;
+// With the alpha test on a multisampled target: the shells and fins write a coverage alpha
+// (`coverage_alpha`) that the multisample mask turns into partial coverage of each pixel.
+override ALPHA_TO_COVERAGE: bool = false;
 // The pack is animated (skin weights or morph targets, glTF 2.0 "Skins", "Morph Targets"): the
 // skinning pass (skinning.wgsl) writes this frame's posed welded vertices into `skinned`, and
 // every stage reads its roots there by welded vertex index (no re-skinning per shell layer).
@@ -139,6 +142,23 @@ fn strand_tangent(n: vec3<f32>, s: vec3<f32>, t: f32) -> vec3<f32> {
 // Object → world position.
 fn to_world(p: vec3<f32>) -> vec3<f32> {
     return (frame.model * vec4<f32>(p, 1.0)).xyz;
+}
+
+// Alpha to coverage: the alpha test's step at the threshold widened to one pixel's change of
+// alpha (`edge`, fwidth taken where control flow is still uniform), so the multisample coverage
+// mask antialiases each hair's edge inside the shells instead of cutting it per pixel (the
+// "sharpened alpha to coverage" of foliage renderers).
+fn coverage_alpha(alpha: f32, edge: f32) -> f32 {
+    return saturate((alpha - fur.alpha_threshold) / max(edge, 1e-4) + 0.5);
+}
+
+// Whether the fragment with this alpha is discarded: at or below the threshold, or with alpha
+// to coverage where even its widened step covers nothing.
+fn alpha_discarded(alpha: f32, edge: f32) -> bool {
+    if ALPHA_TO_COVERAGE {
+        return coverage_alpha(alpha, edge) <= 0.0;
+    }
+    return alpha <= fur.alpha_threshold;
 }
 
 // Object → world direction of a normal (exact for rotation + uniform scale).

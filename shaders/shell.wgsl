@@ -85,7 +85,8 @@ fn fs_shell(in: ShellOut) -> @location(0) vec4<f32> {
     } else {
         alpha = textureSampleLevel(shell_alpha, repeat_sampler, in.uv, in.slice, 0.0).r;
     }
-    if alpha <= fur.alpha_threshold {
+    let edge = fwidth(alpha);
+    if alpha_discarded(alpha, edge) {
         discard;
     }
     var rgb: vec3<f32>;
@@ -109,6 +110,9 @@ fn fs_shell(in: ShellOut) -> @location(0) vec4<f32> {
     }
     if ALPHA_BLEND {
         return vec4<f32>(rgb, alpha);
+    }
+    if ALPHA_TO_COVERAGE {
+        return vec4<f32>(rgb, coverage_alpha(alpha, edge));
     }
     return vec4<f32>(rgb, 1.0);
 }

@@ -297,6 +297,72 @@ pub struct PreviewArgs {
     /// above it exits 2 naming this flag. Default 2G.
     #[arg(long, value_name = "SIZE", default_value = "2G", value_parser = parse_bytes)]
     pub max_memory: u64,
+    #[command(flatten)]
+    pub render: RenderFlags,
+}
+
+/// How `furbake preview` and `furbake view` draw (over a scene's `[render]` and `[packs.render]`;
+/// a pack alone starts from the renderer's defaults).
+#[derive(Args, Debug, Clone, Default)]
+pub struct RenderFlags {
+    /// Shell layers drawn (0: the bare skin). Default: one per atlas slice.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(0..=1024))]
+    pub shells: Option<u32>,
+    /// Draw no fins (neither on fin edges nor on the silhouette).
+    #[arg(long)]
+    pub no_fins: bool,
+    /// Draw no silhouette fins (fins on the pack's fin edges stay).
+    #[arg(long)]
+    pub no_silhouette_fins: bool,
+    /// Half-width of the silhouette fin band in units of n·v, in [0, 1].
+    #[arg(long, value_name = "X")]
+    pub silhouette_band: Option<f32>,
+    /// How shells and fins combine with what is behind them: alpha-blend (soft, default) or
+    /// alpha-test (hard, order-free; alpha to coverage on multisampled targets).
+    #[arg(long, value_enum)]
+    pub blend: Option<BlendFlag>,
+    /// Shell and fin fragments with alpha at or below this are discarded, in [0, 1). Default
+    /// 0.02 blending, 0.4 with --blend alpha-test.
+    #[arg(long, value_name = "X")]
+    pub alpha_threshold: Option<f32>,
+    /// Draw the earlier flat look: fur Lambert × self-shadow (no strand shading), grass a flat
+    /// colour with two-sided Lambert (no blade shading).
+    #[arg(long)]
+    pub flat: bool,
+}
+
+/// `--blend`.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BlendFlag {
+    AlphaBlend,
+    AlphaTest,
+}
+
+impl RenderFlags {
+    /// The render options these flags set (keys left out keep the scene's or the default), or
+    /// the flag and what is wrong with its value.
+    pub fn options(&self) -> Result<furbake_runtime::RenderOptions, (String, String)> {
+        use furbake_runtime::ShellBlendMode;
+        let options = furbake_runtime::RenderOptions {
+            shell_layers: self.shells,
+            fins: self.no_fins.then_some(false),
+            silhouette_fins: (self.no_fins || self.no_silhouette_fins).then_some(false),
+            silhouette_band: self.silhouette_band,
+            blend: self.blend.map(|b| match b {
+                BlendFlag::AlphaBlend => ShellBlendMode::AlphaBlend,
+                BlendFlag::AlphaTest => ShellBlendMode::AlphaTest,
+            }),
+            alpha_threshold: self.alpha_threshold,
+            strand_shading: self.flat.then_some(false),
+            blade_shading: self.flat.then_some(false),
+        };
+        options.validate().map_err(|(key, what)| {
+            let flag =
+                if key == "shell_layers" { "--shells".to_owned() } else { format!("--{}", key.replace('_', "-")) };
+            (flag, what)
+        })?;
+        Ok(options)
+    }
 }
 
 /// `furbake view`
@@ -324,6 +390,8 @@ pub struct ViewArgs {
     /// above it exits 2 naming this flag. Default 2G.
     #[arg(long, value_name = "SIZE", default_value = "2G", value_parser = parse_bytes)]
     pub max_memory: u64,
+    #[command(flatten)]
+    pub render: RenderFlags,
 }
 
 const VIEW_HELP: &str = "Controls (also printed on stderr at start):
@@ -340,6 +408,12 @@ const VIEW_HELP: &str = "Controls (also printed on stderr at start):
                        sources, object motion and interaction have a strength that is set to zero
                        and restored; collisions, windless areas, parting and the wrong-side guard
                        cannot be switched from the viewer
+  S                    shading off / on: flat fur (Lambert × self-shadow) and flat grass, to
+                       compare with the strand and blade shading
+  F                    every fin off / on (fin edges and silhouette fins)
+  T                    alpha blending / alpha test of shells and fins
+  [ ]                  halve / double the shells drawn
+  G                    grass culling and distance LOD off / on
   R                    reset: time 0, the scene's camera, effects and clips
   Esc, Q               quit
 

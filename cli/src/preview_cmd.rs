@@ -17,7 +17,8 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{Context, anyhow};
-use furbake_render::{HeadlessGpu, RenderError, RenderTarget, SceneRenderer, read_back, render_preview_of};
+use furbake_render::{HeadlessGpu, RenderError, RenderTarget, SceneRenderer, read_back, render_preview_with};
+use furbake_runtime::RenderOptions;
 use furbake_runtime::{Scene, World, WorldOptions};
 
 use crate::args::PreviewArgs;
@@ -32,9 +33,16 @@ const MAX_SETTLE_S: f64 = 3600.0;
 #[derive(Debug)]
 enum PreviewPlan {
     /// One still image of a pack.
-    Pack { pack: PathBuf, output: PathBuf, size: (u32, u32) },
+    Pack { pack: PathBuf, output: PathBuf, size: (u32, u32), render: RenderOptions },
     /// A runtime scene, as a still or as numbered frames.
-    Scene { scene: PathBuf, output: SceneOutput, size: (u32, u32), settle_s: f64, max_memory: u64 },
+    Scene {
+        scene: PathBuf,
+        output: SceneOutput,
+        size: (u32, u32),
+        settle_s: f64,
+        max_memory: u64,
+        render: RenderOptions,
+    },
 }
 
 /// Where a scene's images go.
@@ -54,9 +62,9 @@ pub(crate) enum InputKind {
 /// Runs `furbake preview`.
 pub fn run(args: PreviewArgs, quiet: bool) -> Result<(), Failure> {
     match plan(args)? {
-        PreviewPlan::Pack { pack, output, size } => run_pack(&pack, &output, size, quiet),
-        PreviewPlan::Scene { scene, output, size, settle_s, max_memory } => {
-            run_scene(&scene, &output, size, settle_s, max_memory, quiet)
+        PreviewPlan::Pack { pack, output, size, render } => run_pack(&pack, &output, size, &render, quiet),
+        PreviewPlan::Scene { scene, output, size, settle_s, max_memory, render } => {
+            run_scene(&scene, &output, size, settle_s, max_memory, &render, quiet)
         }
     }
 }
@@ -64,6 +72,7 @@ pub fn run(args: PreviewArgs, quiet: bool) -> Result<(), Failure> {
 /// Stage two of argument parsing: which form, and whether its flags fit it.
 fn plan(args: PreviewArgs) -> Result<PreviewPlan, Failure> {
     let kind = input_kind(&args.input)?;
+    let render = render_options(&args.render)?;
     match kind {
         InputKind::Pack => {
             if args.frames.is_some() || args.settle.is_some() {
@@ -74,7 +83,7 @@ fn plan(args: PreviewArgs) -> Result<PreviewPlan, Failure> {
             }
             let output = args.output.ok_or_else(|| Failure::Usage(anyhow!("a pack preview needs -o OUT.png")))?;
             crate::files::Files::with_inputs([args.input.as_path()]).stream_output("--output", &output)?;
-            Ok(PreviewPlan::Pack { pack: args.input, output, size: args.size })
+            Ok(PreviewPlan::Pack { pack: args.input, output, size: args.size, render })
         }
         InputKind::Scene => {
             let output = match (args.output, args.frames, args.out_dir) {
@@ -105,7 +114,14 @@ fn plan(args: PreviewArgs) -> Result<PreviewPlan, Failure> {
             if !(settle_s.is_finite() && (0.0..=MAX_SETTLE_S).contains(&settle_s)) {
                 return Err(Failure::Usage(anyhow!("--settle {settle_s}: seconds in 0..={MAX_SETTLE_S}")));
             }
-            Ok(PreviewPlan::Scene { scene: args.input, output, size: args.size, settle_s, max_memory: args.max_memory })
+            Ok(PreviewPlan::Scene {
+                scene: args.input,
+                output,
+                size: args.size,
+                settle_s,
+                max_memory: args.max_memory,
+                render,
+            })
         }
     }
 }
@@ -143,9 +159,20 @@ pub(crate) fn input_kind(path: &Path) -> Result<InputKind, Failure> {
     )))
 }
 
-fn run_pack(pack: &Path, output: &Path, (w, h): (u32, u32), quiet: bool) -> Result<(), Failure> {
+/// The render options of `--shells`, `--no-fins`, … (exit 2 naming the flag on a bad value).
+pub(crate) fn render_options(flags: &crate::args::RenderFlags) -> Result<RenderOptions, Failure> {
+    flags.options().map_err(|(flag, what)| Failure::Usage(anyhow!("{flag}: {what}")))
+}
+
+fn run_pack(
+    pack: &Path,
+    output: &Path,
+    (w, h): (u32, u32),
+    render: &RenderOptions,
+    quiet: bool,
+) -> Result<(), Failure> {
     let opened = crate::describe::open_verified(pack)?;
-    let image = match render_preview_of(&opened, w, h) {
+    let image = match render_preview_with(&opened, w, h, render) {
         Ok(img) => img,
         Err(e @ RenderError::Parameter { .. }) => return Err(Failure::Usage(e.into())),
         Err(e) => {
@@ -173,11 +200,13 @@ impl SceneRun {
     /// Loads the scene, builds its world, checks the renderers' estimated GPU memory against
     /// `max_memory` before creating anything on the GPU, and builds a renderer that shares the
     /// world's packs.
-    fn start(path: &Path, (w, h): (u32, u32), max_memory: u64) -> Result<SceneRun, Failure> {
+    fn start(path: &Path, (w, h): (u32, u32), max_memory: u64, render: &RenderOptions) -> Result<SceneRun, Failure> {
         // The headless target: colour and depth, 4 bytes a pixel each.
         let world = open_scene_world(path, 8 * w as u64 * h as u64, max_memory)?;
         let gpu = HeadlessGpu::new().map_err(|e| render_failure(e, path))?;
-        let renderer = SceneRenderer::new(&gpu.device, &gpu.queue, &world).map_err(|e| render_failure(e, path))?;
+        let renderer =
+            SceneRenderer::for_target_with(gpu.pipelines(), &gpu.queue, &world, &RenderTarget::desc(), render)
+                .map_err(|e| render_failure(e, path))?;
         let target = RenderTarget::new(&gpu.device, w, h).map_err(|e| render_failure(e, path))?;
         Ok(SceneRun { path: path.to_path_buf(), world, gpu, renderer, target })
     }
@@ -261,10 +290,11 @@ fn run_scene(
     (w, h): (u32, u32),
     settle_s: f64,
     max_memory: u64,
+    render: &RenderOptions,
     quiet: bool,
 ) -> Result<(), Failure> {
     let started = Instant::now();
-    let mut run = SceneRun::start(path, (w, h), max_memory)?;
+    let mut run = SceneRun::start(path, (w, h), max_memory, render)?;
     let step_s = run.world.scene().time_step_s;
     let settle_steps = (settle_s / step_s as f64 - 1e-9).ceil().max(0.0);
     let frames = match output {

@@ -60,7 +60,8 @@ const MAX_SKIPPED_FRAMES: u32 = 600;
 pub const VIEW_CONTROLS: &str = "\
 controls: left drag orbit · right drag or shift+left drag pan · wheel zoom
           Space play/pause · Right step forward (Shift: 10 steps) · Left step back (Shift: 10; re-simulates from 0)
-          C next animation clip · 1-9 switch the n-th declared effect off/on · R reset · Esc or Q quit";
+          C next animation clip · 1-9 switch the n-th declared effect off/on · R reset · Esc or Q quit
+          S shading on/off (flat) · F fins on/off · T alpha blend/test · [ ] halve/double the shells · G grass culling on/off";
 
 /// What `furbake view` will do, validated.
 #[derive(Debug)]
@@ -77,6 +78,8 @@ pub struct ViewPlan {
     screenshot: Option<PathBuf>,
     /// `--max-memory`, bytes.
     max_memory: u64,
+    /// `--shells`, `--no-fins`, `--blend`, `--flat`, …: over the scene's `[render]`.
+    render: furbake_runtime::RenderOptions,
 }
 
 /// Runs `furbake view`.
@@ -105,6 +108,7 @@ pub fn run(args: ViewArgs, quiet: bool) -> Result<(), Failure> {
 /// Stage two of argument parsing.
 fn plan(args: ViewArgs) -> Result<ViewPlan, Failure> {
     let kind = preview_cmd::input_kind(&args.input)?;
+    let render = preview_cmd::render_options(&args.render)?;
     if args.screenshot.is_some() && args.frames.is_none() {
         // clap enforces it; this is the message should that ever change.
         return Err(Failure::Usage(anyhow!("--screenshot needs --frames N (the frame it writes is the last)")));
@@ -120,6 +124,7 @@ fn plan(args: ViewArgs) -> Result<ViewPlan, Failure> {
         frames: args.frames,
         screenshot: args.screenshot,
         max_memory: args.max_memory,
+        render,
     })
 }
 
@@ -316,7 +321,7 @@ impl App {
             .with_resizable(self.plan.frames.is_none());
         let window = event_loop.create_window(attributes).map_err(|e| no_display(&os_message(&e.to_string())))?;
         let vsync = self.plan.frames.is_none();
-        let screen = Screen::new(Arc::new(window), &self.session.world, &self.session.path, vsync)?;
+        let screen = Screen::new(Arc::new(window), &self.session.world, &self.session.path, vsync, self.plan.render)?;
         if !self.quiet && screen.size() != self.plan.size {
             eprintln!(
                 "furbake: note: the window is {}x{}, not the --size asked for (the window system chose)",
@@ -499,6 +504,14 @@ impl App {
                     Some(clips) => say(format!("clip: {clips}")),
                     None => say("clip: no pack of this scene is animated".into()),
                 },
+                "s" | "f" | "t" | "[" | "]" => {
+                    let Some(screen) = self.screen.as_mut() else { return Ok(()) };
+                    let path = &self.session.path;
+                    let message = screen
+                        .toggle_render(c.to_ascii_lowercase().as_str(), &self.session.world)
+                        .map_err(|e| crate::preview_cmd::render_failure(e, path))?;
+                    say(message);
+                }
                 "g" => {
                     let Some(screen) = self.screen.as_mut() else { return Ok(()) };
                     let path = &self.session.path;
@@ -681,6 +694,7 @@ mod tests {
             frames: None,
             screenshot: Some("shot.png".into()),
             max_memory: 1 << 30,
+            render: Default::default(),
         };
         assert!(matches!(plan(args), Err(Failure::Usage(_))));
     }

@@ -246,6 +246,10 @@ fn preview_flag_misuse_is_a_usage_error_that_writes_nothing() {
         vec!["preview", s(&pack), "--frames", "3", "--out-dir", s(&frames_dir)],
         vec!["preview", s(&pack), "-o", s(&png), "--settle", "1"],
         vec!["preview", s(&junk), "-o", s(&png)],
+        vec!["preview", s(&scene), "-o", s(&png), "--silhouette-band", "2"],
+        vec!["preview", s(&pack), "-o", s(&png), "--alpha-threshold", "1"],
+        vec!["preview", s(&pack), "-o", s(&png), "--shells", "2000"],
+        vec!["preview", s(&pack), "-o", s(&png), "--blend", "additive"],
     ];
     let mut checked = 0;
     for args in &cases {
@@ -255,6 +259,8 @@ fn preview_flag_misuse_is_a_usage_error_that_writes_nothing() {
         checked += 1;
     }
     assert_eq!(checked, cases.len());
+    let err = stderr(&furbake(&["preview", s(&scene), "-o", s(&png), "--silhouette-band", "2"]));
+    assert!(err.contains("--silhouette-band") && err.contains("[0, 1]"), "{err}");
     let err = stderr(&furbake(&["preview", s(&junk), "-o", s(&png)]));
     assert!(err.contains("notes.txt") && err.contains("SCENE.toml"), "{err}");
 }

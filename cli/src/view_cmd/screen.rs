@@ -10,7 +10,7 @@ use std::sync::{Arc, Mutex};
 
 use anyhow::anyhow;
 use furbake_render::{COLOR_FORMAT, DEPTH_FORMAT, PipelineCache, RenderError, SceneRenderer, TargetDesc, View};
-use furbake_runtime::World;
+use furbake_runtime::{RenderOptions, ShellBlendMode, World};
 use winit::window::Window;
 
 use crate::failure::Failure;
@@ -37,6 +37,11 @@ pub struct Screen {
     present: PresentPass,
     frame: FrameTarget,
     renderer: SceneRenderer,
+    /// What the renderer was built with, to rebuild it when a key switches a render option.
+    pipelines: PipelineCache,
+    target: TargetDesc,
+    /// The render options over the scene's (the command's flags, then the keys).
+    options: RenderOptions,
     /// The surface said it no longer matches the window: reconfigure after presenting.
     reconfigure: bool,
     /// wgpu errors raised outside any error scope, and a lost device, in order.
@@ -50,7 +55,13 @@ impl Screen {
     /// the frame targets at the window's size and `world`'s renderers (sharing the world's packs).
     /// `vsync` paces presentation to the display (interactive); without it frames are presented
     /// as soon as they are drawn where the surface allows.
-    pub fn new(window: Arc<Window>, world: &World, path: &Path, vsync: bool) -> Result<Screen, Failure> {
+    pub fn new(
+        window: Arc<Window>,
+        world: &World,
+        path: &Path,
+        vsync: bool,
+        options: RenderOptions,
+    ) -> Result<Screen, Failure> {
         let gpu_failure = |what: String| Failure::Input(anyhow!("{}: {what}", path.display()));
         // The display handle is only used by the GLES backend, which this build leaves out.
         let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle());
@@ -127,8 +138,8 @@ impl Screen {
         let target = TargetDesc::new(COLOR_FORMAT).with_depth(DEPTH_FORMAT, wgpu::CompareFunction::LessEqual);
         target.validate(&device, Some(&adapter), true).map_err(|e| render_failure(e, path))?;
         let pipelines = PipelineCache::with_adapter(&device, &adapter);
-        let renderer =
-            SceneRenderer::for_target(&pipelines, &queue, world, &target).map_err(|e| render_failure(e, path))?;
+        let renderer = SceneRenderer::for_target_with(&pipelines, &queue, world, &target, &options)
+            .map_err(|e| render_failure(e, path))?;
         let present = PresentPass::new(&device, format);
         let frame = FrameTarget::new(&device, &present, width, height);
         let adapter = format!("{} ({:?})", info.name, info.backend);
@@ -143,6 +154,9 @@ impl Screen {
             present,
             frame,
             renderer,
+            pipelines,
+            target,
+            options,
             reconfigure: false,
             failures,
         };
@@ -165,6 +179,49 @@ impl Screen {
         (self.config.width, self.config.height) = (width, height);
         self.surface.configure(&self.device, &self.config);
         self.frame = FrameTarget::new(&self.device, &self.present, width, height);
+    }
+
+    /// Switches a render option from the keyboard and rebuilds the renderers with it (the packs
+    /// stay opened; their GPU data is uploaded again): `s` shading (strand and blade shading) off
+    /// or on, `f` every fin off or on, `t` alpha blending or the alpha test, `[` and `]` half or
+    /// twice the shells drawn. Returns what is drawn now, for the viewer's message.
+    pub fn toggle_render(&mut self, key: &str, world: &World) -> Result<String, RenderError> {
+        let drawn = self.renderer.packs.iter().find_map(|p| p.fur.as_ref()).map(|f| (f.settings(), f.drawn_layers()));
+        let Some((settings, layers)) = drawn else { return Ok("render: this scene has no fur".into()) };
+        let mut o = self.options;
+        let message = match key {
+            "s" => {
+                let on = !settings.shading.enabled;
+                (o.strand_shading, o.blade_shading) = (Some(on), Some(on));
+                if on {
+                    "shading: strand and blade shading"
+                } else {
+                    "shading: flat (Lambert × self-shadow, flat grass)"
+                }
+                .to_owned()
+            }
+            "f" => {
+                let on = !settings.fins;
+                (o.fins, o.silhouette_fins) = (Some(on), Some(on));
+                format!("fins: {}", if on { "on (fin edges and silhouette)" } else { "off" })
+            }
+            "t" => {
+                let test = settings.blend == furbake_render::ShellBlend::AlphaBlend;
+                o.blend = Some(if test { ShellBlendMode::AlphaTest } else { ShellBlendMode::AlphaBlend });
+                // Each mode's own default threshold.
+                o.alpha_threshold = None;
+                format!("blend: {}", if test { "alpha test" } else { "alpha blending" })
+            }
+            "[" | "]" => {
+                let n = if key == "[" { layers / 2 } else { (layers.max(1) * 2).min(1024) };
+                o.shell_layers = Some(n);
+                format!("shells: {n} drawn")
+            }
+            _ => return Ok(String::new()),
+        };
+        self.renderer = SceneRenderer::for_target_with(&self.pipelines, &self.queue, world, &self.target, &o)?;
+        self.options = o;
+        Ok(message)
     }
 
     /// Switches grass culling and distance LOD off, or back to the scene's `[grass_culling]`,

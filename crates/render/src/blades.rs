@@ -135,6 +135,14 @@ pub struct BladeSettings {
 }
 
 impl BladeSettings {
+    /// These settings with `options`' blade key (`blade_shading`) applied where it is given.
+    pub fn with_options(mut self, options: &furbake_runtime::RenderOptions) -> BladeSettings {
+        if let Some(on) = options.blade_shading {
+            self.shading.enabled = on;
+        }
+        self
+    }
+
     /// The colour the ground under these blades is drawn in — the fur renderer's tint for a pack
     /// with a blade field whose host set none (docs/design.md "Grass blade shading"): the root
     /// colour, half as dark as the root occlusion makes the blades' bases, so gaps between
@@ -998,6 +1006,11 @@ impl BladeRenderer {
     /// The pass description this renderer's draw pipeline was built for.
     pub fn target(&self) -> &TargetDesc {
         &self.target
+    }
+
+    /// Whether the blades are shaded ([`BladeShading::enabled`]) or drawn flat.
+    pub fn shading_enabled(&self) -> bool {
+        self.params.shading != 0
     }
 
     /// This renderer's culling and level-of-detail settings.

@@ -368,7 +368,27 @@ pub fn render_preview(pack_path: &Path, width: u32, height: u32) -> Result<image
 /// [`render_preview`] of a pack the caller opened (and, as `furbake preview` does, validated with
 /// `Pack::verify`: the sections it decoded are drawn, none is decoded again).
 pub fn render_preview_of(pack: &Pack, width: u32, height: u32) -> Result<image::RgbaImage, RenderError> {
-    render_opened_pack(pack, width, height, None, &RenderSettings::default())
+    render_preview_with(pack, width, height, &furbake_runtime::RenderOptions::default())
+}
+
+/// [`render_preview_of`] with `options` over the default fur and blade settings (what
+/// `furbake preview PACK` flags choose: shell count, fins, blending, shading switches).
+pub fn render_preview_with(
+    pack: &Pack,
+    width: u32,
+    height: u32,
+    options: &furbake_runtime::RenderOptions,
+) -> Result<image::RgbaImage, RenderError> {
+    options.validate().map_err(|(field, what)| RenderError::Parameter { what: format!("{field}: {what}") })?;
+    let blades = preview_blade_settings().with_options(options);
+    render_pack_with(pack, width, height, None, &RenderSettings::default().with_options(options), &blades)
+}
+
+/// The blade settings of a pack previewed alone: every blade in view at full detail (a pack has
+/// no scene to say what its units are — the Fox glTF is in centimetres — so only the frustum
+/// culls).
+fn preview_blade_settings() -> BladeSettings {
+    BladeSettings { culling: crate::GrassCulling::frustum_only(), ..BladeSettings::default() }
 }
 
 /// [`render_preview`] with a chosen view (`None`: framed automatically) and settings.
@@ -390,6 +410,17 @@ pub fn render_opened_pack(
     view: Option<View>,
     settings: &RenderSettings,
 ) -> Result<image::RgbaImage, RenderError> {
+    render_pack_with(pack, width, height, view, settings, &preview_blade_settings())
+}
+
+fn render_pack_with(
+    pack: &Pack,
+    width: u32,
+    height: u32,
+    view: Option<View>,
+    settings: &RenderSettings,
+    blade_settings: &BladeSettings,
+) -> Result<image::RgbaImage, RenderError> {
     let asset = FurAsset::from_pack(pack, settings.fins)?;
     let gpu = HeadlessGpu::new()?;
     let rest = rest_pose(pack)?;
@@ -403,7 +434,6 @@ pub fn render_opened_pack(
     });
     let desc = RenderTarget::desc();
     // The blades of a grass pack, and the ground under them in their colour (as scenes draw it).
-    let blade_settings = BladeSettings { culling: crate::GrassCulling::frustum_only(), ..BladeSettings::default() };
     let mut settings = *settings;
     if pack.has(furbake_formats::SectionKind::BLADE_FIELD) && settings.tint == RenderSettings::default().tint {
         settings.tint = blade_settings.ground_tint();
@@ -416,10 +446,8 @@ pub fn render_opened_pack(
         fur.set_scale_vectors(&gpu.queue, &rest.normals)?;
     }
     // Grass blades, when the pack has a blade field: drawn after the fur, depth-tested against
-    // it, in their rest pose (a still preview has no wind). A pack alone has no scene to say
-    // what its units are (the Fox glTF is in centimetres, so its "metres" put the camera 300 m
-    // away), so only the frustum culls: the image of every blade at full detail.
-    let blades = BladeRenderer::from_pack(gpu.pipelines(), &gpu.queue, pack, &blade_settings, &desc)?;
+    // it, in their rest pose (a still preview has no wind).
+    let blades = BladeRenderer::from_pack(gpu.pipelines(), &gpu.queue, pack, blade_settings, &desc)?;
     let target = RenderTarget::new(&gpu.device, width, height)?;
     let frame = view.uniforms(target.aspect());
     let mut encoder =

@@ -138,10 +138,10 @@ pub use culling::{CullLists, CullReference, GrassCulling};
 pub use furbake_runtime::ShellVertexLayout;
 pub use headless::{
     COLOR_FORMAT, DEPTH_FORMAT, HeadlessGpu, RenderTarget, read_back, read_back_texture, render_image,
-    render_opened_pack, render_pack, render_preview, render_preview_of,
+    render_opened_pack, render_pack, render_preview, render_preview_of, render_preview_with,
 };
 pub use pipelines::PipelineCache;
-pub use renderer::{FurGpuAsset, FurRenderer, RenderSettings, ShellBlend};
+pub use renderer::{ALPHA_TEST_THRESHOLD, FurGpuAsset, FurRenderer, RenderSettings, ShellBlend};
 pub use scene::{BladeForces, PackInput, PackRenderers, SceneFrame, SceneObject, SceneRenderer};
 pub use shaders::FrameUniforms;
 pub use shading::FurShading;

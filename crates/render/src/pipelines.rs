@@ -31,6 +31,9 @@ pub(crate) struct FurSwitches {
     pub strand: bool,
     pub shear: bool,
     pub alpha_blend: bool,
+    /// Alpha to coverage for the alpha-tested shells and fins
+    /// ([`RenderSettings::alpha_to_coverage`]; only on multisampled targets).
+    pub alpha_to_coverage: bool,
 }
 
 impl FurSwitches {
@@ -42,6 +45,7 @@ impl FurSwitches {
             strand: settings.shading.enabled,
             shear: settings.shearing,
             alpha_blend: settings.blend == ShellBlend::AlphaBlend,
+            alpha_to_coverage: settings.blend == ShellBlend::AlphaTest && settings.alpha_to_coverage,
         }
     }
 }
@@ -374,6 +378,8 @@ impl PipelineCache {
             }
         };
         let flag = |on: bool| if on { 1.0 } else { 0.0 };
+        // Alpha-tested shells and fins on a multisampled target turn their alpha into coverage.
+        let coverage = s.alpha_to_coverage && !s.alpha_blend && target.sample_count > 1 && stage != FurStage::Skin;
         // Overrides each shader declares (the skin has no shearing or blending switch).
         let all = [
             ("LAMBERT", flag(s.lambert)),
@@ -382,6 +388,7 @@ impl PipelineCache {
             ("STRAND", flag(s.strand)),
             ("SHEAR", flag(s.shear)),
             ("ALPHA_BLEND", flag(s.alpha_blend)),
+            ("ALPHA_TO_COVERAGE", flag(coverage)),
         ];
         let constants: &[(&str, f64)] = if stage == FurStage::Skin { &all[..4] } else { &all };
         let options = wgpu::PipelineCompilationOptions { constants, zero_initialize_workgroup_memory: false };
@@ -422,7 +429,7 @@ impl PipelineCache {
                 ..Default::default()
             },
             depth_stencil: target.depth_stencil(depth_write),
-            multisample: target.multisample(),
+            multisample: wgpu::MultisampleState { alpha_to_coverage_enabled: coverage, ..target.multisample() },
             fragment: Some(wgpu::FragmentState {
                 module,
                 entry_point: Some(fs),

@@ -38,6 +38,11 @@ pub enum ShellBlend {
     AlphaTest,
 }
 
+/// The alpha threshold [`RenderSettings::with_options`] gives the alpha test when the options
+/// choose it without a threshold of their own (the blending default, 0.02, would keep nearly
+/// every texel of the mip-averaged atlas).
+pub const ALPHA_TEST_THRESHOLD: f32 = 0.4;
+
 /// Rendering parameters of one asset.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RenderSettings {
@@ -69,6 +74,11 @@ pub struct RenderSettings {
     /// blending it only skips empty texels, so the faint mip-averaged coverage of sparse hair tips
     /// still softens the silhouette at a distance. Use about 0.4 with [`ShellBlend::AlphaTest`].
     pub alpha_threshold: f32,
+    /// With [`ShellBlend::AlphaTest`] on a multisampled target, turn the shells' and fins' alpha
+    /// into sample coverage (alpha to coverage, its step widened to one pixel), so each hair's
+    /// edge is antialiased by the multisampling instead of cut per pixel. No effect on a
+    /// single-sampled target or with blending. Default true.
+    pub alpha_to_coverage: bool,
     /// Linear RGB multiplier of the vertex colours. Default `[1, 1, 1]`.
     pub tint: [f32; 3],
     /// Linear RGBA clear colour. Default opaque dark grey.
@@ -93,6 +103,7 @@ impl Default for RenderSettings {
             silhouette_band: 0.05,
             blend: ShellBlend::AlphaBlend,
             alpha_threshold: 0.02,
+            alpha_to_coverage: true,
             tint: [1.0, 1.0, 1.0],
             background: [0.06, 0.06, 0.07, 1.0],
             shading: FurShading::default(),
@@ -106,6 +117,31 @@ impl RenderSettings {
     /// a static scene keeps s = n and skips the scale-vector math.
     pub fn for_scene(scene: &furbake_runtime::Scene) -> RenderSettings {
         RenderSettings { shearing: !scene.effects().is_empty(), ..Default::default() }
+    }
+
+    /// These settings with every key `options` gives applied (a scene's `[render]` and
+    /// `[packs.render]`, a command's flags; [`furbake_runtime::RenderOptions`]).
+    pub fn with_options(mut self, options: &furbake_runtime::RenderOptions) -> RenderSettings {
+        let o = options;
+        if let Some(n) = o.shell_layers {
+            self.shell_layers = Some(n);
+        }
+        self.fins = o.fins.unwrap_or(self.fins);
+        self.silhouette_fins = o.silhouette_fins.unwrap_or(self.silhouette_fins);
+        self.silhouette_band = o.silhouette_band.unwrap_or(self.silhouette_band);
+        self.alpha_threshold = o.alpha_threshold.unwrap_or(self.alpha_threshold);
+        if let Some(blend) = o.blend {
+            self.blend = match blend {
+                furbake_runtime::ShellBlendMode::AlphaBlend => ShellBlend::AlphaBlend,
+                furbake_runtime::ShellBlendMode::AlphaTest => ShellBlend::AlphaTest,
+            };
+            // The blending default threshold only skips empty texels; a test needs a real cut.
+            if blend == furbake_runtime::ShellBlendMode::AlphaTest && o.alpha_threshold.is_none() {
+                self.alpha_threshold = self.alpha_threshold.max(ALPHA_TEST_THRESHOLD);
+            }
+        }
+        self.shading.enabled = o.strand_shading.unwrap_or(self.shading.enabled);
+        self
     }
 
     fn validate(&self) -> Result<(), RenderError> {

@@ -27,7 +27,7 @@ use std::path::PathBuf;
 
 use furbake_formats::SectionKind;
 use furbake_grass::{ForceField, ForceScene};
-use furbake_runtime::{Camera, Lighting, Scene, ShellVertexLayout, World};
+use furbake_runtime::{Camera, Lighting, RenderOptions, Scene, ShellVertexLayout, World};
 use glam::{Mat4, Vec3};
 
 use crate::shaders::FrameUniforms;
@@ -329,29 +329,47 @@ impl SceneRenderer {
         world: &World,
         target: &TargetDesc,
     ) -> Result<SceneRenderer, RenderError> {
+        Self::for_target_with(pipelines, queue, world, target, &RenderOptions::default())
+    }
+
+    /// [`SceneRenderer::for_target`] with `overrides` over every pack's render options (what
+    /// `furbake preview` and `furbake view` flags and keys set): for each pack, `overrides` over
+    /// its `[packs.render]` over the scene's `[render]` over the defaults.
+    pub fn for_target_with(
+        pipelines: &PipelineCache,
+        queue: &wgpu::Queue,
+        world: &World,
+        target: &TargetDesc,
+        overrides: &RenderOptions,
+    ) -> Result<SceneRenderer, RenderError> {
+        overrides.validate().map_err(|(field, what)| RenderError::Parameter { what: format!("{field}: {what}") })?;
         let scene = world.scene();
-        let settings = RenderSettings::for_scene(scene);
+        let base = RenderSettings::for_scene(scene);
         let mut packs = Vec::with_capacity(scene.packs.len());
         // Entries naming the same file share the world's one opened pack, and here its one
-        // uploaded asset: atlases and vertex buffers are held once however often it is placed.
-        let mut uploaded: Vec<(&std::sync::Arc<furbake_runtime::Pack>, FurAsset, std::sync::Arc<FurGpuAsset>)> =
-            Vec::new();
+        // uploaded asset (per fin setting): atlases and vertex buffers are held once however often
+        // it is placed.
+        type Uploaded<'w> = (&'w std::sync::Arc<furbake_runtime::Pack>, bool, FurAsset, std::sync::Arc<FurGpuAsset>);
+        let mut uploaded: Vec<Uploaded<'_>> = Vec::new();
         for (i, p) in scene.packs.iter().enumerate() {
             let pack = world.pack(i);
+            let options = pack_options(scene, i, overrides);
+            let settings = RenderSettings { shading: p.shading, ..base }.with_options(&options);
             let fur = if pack.has(SectionKind::SKIN_MESH) && pack.has(SectionKind::SHELL_ATLAS) {
-                let k = match uploaded.iter().position(|(q, _, _)| std::sync::Arc::ptr_eq(q, pack)) {
+                let fins = settings.fins;
+                let k = match uploaded.iter().position(|(q, f, _, _)| std::sync::Arc::ptr_eq(q, pack) && *f == fins) {
                     Some(k) => k,
                     None => {
-                        let asset = FurAsset::from_pack(pack, settings.fins)?;
-                        let gpu = FurGpuAsset::new(pipelines.device(), queue, &asset, settings.fins)?;
-                        uploaded.push((pack, asset, gpu));
+                        let asset = FurAsset::from_pack(pack, fins)?;
+                        let gpu = FurGpuAsset::new(pipelines.device(), queue, &asset, fins)?;
+                        uploaded.push((pack, fins, asset, gpu));
                         uploaded.len() - 1
                     }
                 };
-                let (_, asset, gpu) = &uploaded[k];
-                // The entry's own `[packs.shading]`; entries that only differ there share pipelines
-                // unless one switches the strand shading off.
-                let mut settings = RenderSettings { shading: p.shading, ..settings };
+                let (_, _, asset, gpu) = &uploaded[k];
+                // The entry's own `[packs.shading]` and `[packs.render]`; entries that only differ
+                // in shading parameters share pipelines unless one switches a shader path.
+                let mut settings = settings;
                 if pack.has(SectionKind::BLADE_FIELD) && settings.tint == RenderSettings::default().tint {
                     // The ground under the blades takes the grass colour.
                     settings.tint = BladeSettings::default().ground_tint();
@@ -362,12 +380,12 @@ impl SceneRenderer {
             };
             // A grass pack placed again draws from the first placement's uploaded field.
             let first = (0..i).find(|&j| std::sync::Arc::ptr_eq(world.pack(j), pack));
-            let blades = match first.and_then(|j| packs.get(j)).and_then(|p: &PackRenderers| p.blades.as_ref()) {
+            let blade_settings =
+                BladeSettings { culling: scene.grass_culling, ..BladeSettings::default() }.with_options(&options);
+            let earlier = first.and_then(|j| packs.get(j)).and_then(|p: &PackRenderers| p.blades.as_ref());
+            let blades = match earlier.filter(|b| b.shading_enabled() == blade_settings.shading.enabled) {
                 Some(earlier) => Some(earlier.instance(pipelines)?),
-                None => {
-                    let blade_settings = BladeSettings { culling: scene.grass_culling, ..BladeSettings::default() };
-                    BladeRenderer::from_pack(pipelines, queue, pack, &blade_settings, target)?
-                }
+                None => BladeRenderer::from_pack(pipelines, queue, pack, &blade_settings, target)?,
             };
             if fur.is_none() && blades.is_none() {
                 return Err(RenderError::InvalidAsset {
@@ -391,10 +409,11 @@ impl SceneRenderer {
     /// anything is created, so a host can refuse a scene that would not fit instead of failing
     /// inside the driver. Reads (and shares) the sections the renderer would read.
     pub fn estimate_gpu_bytes(world: &World) -> Result<u64, RenderError> {
-        let settings = RenderSettings::for_scene(world.scene());
+        let base = RenderSettings::for_scene(world.scene());
         let mut total = 0u64;
         for i in 0..world.pack_count() {
             let pack = world.pack(i);
+            let settings = base.with_options(&pack_options(world.scene(), i, &RenderOptions::default()));
             // The first entry naming a file uploads what its entries share.
             let first = (0..i).find(|&j| std::sync::Arc::ptr_eq(world.pack(j), pack));
             if pack.has(SectionKind::SKIN_MESH) && pack.has(SectionKind::SHELL_ATLAS) {
@@ -591,6 +610,12 @@ impl SceneRenderer {
         crate::blocking::submit(queue, [encoder.finish()]);
         Ok(())
     }
+}
+
+/// The render options of scene pack `i`: `overrides` over its `[packs.render]` over the
+/// scene's `[render]`.
+fn pack_options(scene: &Scene, i: usize, overrides: &RenderOptions) -> RenderOptions {
+    overrides.over(&scene.packs[i].render.over(&scene.render))
 }
 
 /// Uploads one pack's inputs and records its work (see [`SceneRenderer::prepare_world`]).

@@ -92,8 +92,8 @@ pub use frame::{
 };
 pub use furbake_formats::Pack;
 pub use scene::{
-    Ambient, Camera, Effect, Effects, Event, GrassCulling, Light, LightSource, Lighting, MAX_LIGHTS, Scene, SceneError,
-    ScenePack, Solver, SolverChoice,
+    Ambient, Camera, Effect, Effects, Event, GrassCulling, Light, LightSource, Lighting, MAX_LIGHTS, RenderOptions,
+    Scene, SceneError, ScenePack, ShellBlendMode, Solver, SolverChoice,
 };
 pub use stages::{PlannedStage, StageKind, StageStats};
 pub use world::{FurFrame, GrassFrame, MAX_MASS_UPDATES_PER_STEP, PackState, ShellVertexLayout, World, WorldOptions};

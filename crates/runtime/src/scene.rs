@@ -122,6 +122,10 @@ pub struct Scene {
     /// first step that starts at or after their time, in file order among equal times.
     #[serde(default)]
     pub events: Vec<Event>,
+    /// How every pack is drawn (`[render]`: shell count, fins, blending, shading switches),
+    /// unless a pack's `[packs.render]` says otherwise. Default: the renderer's defaults.
+    #[serde(default)]
+    pub render: RenderOptions,
     /// How grass blades are culled and simplified with distance (`[grass_culling]`). Default:
     /// [`GrassCulling::default`].
     #[serde(default)]
@@ -593,6 +597,83 @@ pub struct ScenePack {
     /// optional). Default: [`FurShading::default`].
     #[serde(default)]
     pub shading: FurShading,
+    /// How this pack is drawn (`[packs.render]`): each key given here overrides the scene's
+    /// `[render]`. Default: nothing overridden.
+    #[serde(default)]
+    pub render: RenderOptions,
+}
+
+/// How shells and fins are blended into what is behind them (`blend` of [`RenderOptions`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ShellBlendMode {
+    /// Alpha blending, no depth writes (soft; the renderer's default).
+    AlphaBlend,
+    /// Alpha test: fragments above the threshold are opaque and write depth (hard, order-free).
+    AlphaTest,
+}
+
+/// Render settings a scene (`[render]`), a scene pack (`[packs.render]`) or a command's flags
+/// (`furbake preview`, `furbake view`) choose; every key is optional and a key left out keeps
+/// what the level below says (flags over the pack's keys, over the scene's, over the
+/// renderer's defaults: `furbake_render::RenderSettings`, `BladeSettings`, which document
+/// each). Validated with the scene, naming the key.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RenderOptions {
+    /// Shell layers drawn, at most the atlas limit (1024); 0 draws the bare skin. Default: one per
+    /// atlas slice.
+    pub shell_layers: Option<u32>,
+    /// Fins on the pack's fin edges (and, with `silhouette_fins`, on the silhouette).
+    pub fins: Option<bool>,
+    /// Fins on the interior edges on or near each frame's silhouette.
+    pub silhouette_fins: Option<bool>,
+    /// Half-width of the silhouette band in units of n·v, in [0, 1].
+    pub silhouette_band: Option<f32>,
+    /// `"alpha_blend"` or `"alpha_test"`.
+    pub blend: Option<ShellBlendMode>,
+    /// Shell and fin fragments with alpha at or below this are discarded, in [0, 1).
+    pub alpha_threshold: Option<f32>,
+    /// The fur's strand shading (off: Lambert × self-shadow); overrides `[packs.shading]
+    /// enabled`.
+    pub strand_shading: Option<bool>,
+    /// The grass blades' shading (off: a flat colour with two-sided Lambert).
+    pub blade_shading: Option<bool>,
+}
+
+impl RenderOptions {
+    /// These options with every key they leave out taken from `below`.
+    pub fn over(&self, below: &RenderOptions) -> RenderOptions {
+        RenderOptions {
+            shell_layers: self.shell_layers.or(below.shell_layers),
+            fins: self.fins.or(below.fins),
+            silhouette_fins: self.silhouette_fins.or(below.silhouette_fins),
+            silhouette_band: self.silhouette_band.or(below.silhouette_band),
+            blend: self.blend.or(below.blend),
+            alpha_threshold: self.alpha_threshold.or(below.alpha_threshold),
+            strand_shading: self.strand_shading.or(below.strand_shading),
+            blade_shading: self.blade_shading.or(below.blade_shading),
+        }
+    }
+
+    /// Checks the ranges; the error names the key (`shell_layers`) and what is wrong.
+    pub fn validate(&self) -> Result<(), (String, String)> {
+        let max = furbake_formats::sections::shell_atlas::MAX_LAYERS;
+        if let Some(n) = self.shell_layers
+            && n > max
+        {
+            return Err(("shell_layers".into(), format!("{n} is above the atlas layer limit of {max}")));
+        }
+        if let Some(b) = self.silhouette_band {
+            range(b, 0.0, 1.0, "silhouette_band")?;
+        }
+        if let Some(t) = self.alpha_threshold
+            && !(t.is_finite() && (0.0..1.0).contains(&t))
+        {
+            return Err(("alpha_threshold".into(), format!("{t} is not in [0, 1)")));
+        }
+        Ok(())
+    }
 }
 
 /// The fur's strand shading (docs/design.md "Fur shading"): each hair lit as a thin cylinder along
@@ -1233,6 +1314,7 @@ impl Scene {
                 );
             }
         }
+        self.render.validate().map_err(|(k, what)| (format!("render.{k}"), what))?;
         if self.lights.len() > MAX_LIGHTS {
             return Err((
                 "lights".into(),
@@ -1289,6 +1371,7 @@ impl Scene {
                 range(a.cut_speed_m_per_s, 1e-3, 1e9, &g("cut_speed_m_per_s"))?;
             }
             p.shading.validate().map_err(|(k, what)| (format!("packs[{i}].shading.{k}"), what))?;
+            p.render.validate().map_err(|(k, what)| (format!("packs[{i}].render.{k}"), what))?;
         }
         self.check_effects()?;
         self.grass_culling.validate()?;
