@@ -635,6 +635,11 @@ impl FurRenderer {
         self.gpu.bounds
     }
 
+    /// Distance from the skin to the outermost shell, metres.
+    pub(crate) fn fur_length_m(&self) -> f32 {
+        self.fur_uniforms.fur_length_m
+    }
+
     /// The pass description this renderer's pipelines were built for.
     pub fn target(&self) -> &TargetDesc {
         &self.target

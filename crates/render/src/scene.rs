@@ -260,6 +260,10 @@ pub struct PackRenderers {
     pub blades: Option<BladeRenderer>,
     /// Its placement at time 0 (`ScenePack::transform`), used when a [`PackInput`] gives none.
     pub model: Mat4,
+    /// An animated pack's bounding sphere (pack frame, metres, fur included) over the whole clip
+    /// the world plays, which the automatic framing covers instead of the bind pose; `None` for
+    /// a static pack.
+    pub clip_bounds: Option<([f32; 3], f32)>,
 }
 
 /// One pack's inputs for a frame (all optional: `PackInput::default()` redraws the last state).
@@ -392,12 +396,27 @@ impl SceneRenderer {
                     what: format!("scene pack {:?} ({}) has neither fur nor grass blades", p.name, p.path.display()),
                 });
             }
+            let clip_bounds = match (world.animation(i), &fur) {
+                (Some(animator), Some(fur)) => {
+                    let (lo, hi) = animator.clip_bounds(CLIP_BOUND_POSES).map_err(|source| {
+                        RenderError::Runtime(furbake_runtime::RuntimeError::Animation {
+                            path: pack.display_path(),
+                            source,
+                        })
+                    })?;
+                    let (lo, hi) = (Vec3::from(lo), Vec3::from(hi));
+                    let fur_m = fur.fur_length_m();
+                    Some((((lo + hi) * 0.5).to_array(), (hi - lo).length() * 0.5 + fur_m))
+                }
+                _ => None,
+            };
             packs.push(PackRenderers {
                 name: p.name.clone(),
                 path: p.path.clone(),
                 fur,
                 blades,
                 model: p.transform().to_mat4(),
+                clip_bounds,
             });
         }
         Ok(SceneRenderer { frame: SceneFrame::from_scene(scene), packs, target: target.clone() })
@@ -458,7 +477,7 @@ impl SceneRenderer {
         for (i, pack) in self.packs.iter().enumerate() {
             let m = model(i);
             let spheres = [
-                pack.fur.as_ref().map(FurRenderer::bounding_sphere),
+                pack.clip_bounds.or_else(|| pack.fur.as_ref().map(FurRenderer::bounding_sphere)),
                 pack.blades.as_ref().map(BladeRenderer::bounding_sphere),
             ];
             for sphere in spheres.into_iter().flatten() {
@@ -611,6 +630,10 @@ impl SceneRenderer {
         Ok(())
     }
 }
+
+/// Poses sampled over an animated pack's clip for its framing bounds
+/// ([`PackRenderers::clip_bounds`]).
+const CLIP_BOUND_POSES: u32 = 32;
 
 /// The render options of scene pack `i`: `overrides` over its `[packs.render]` over the
 /// scene's `[render]`.

@@ -620,3 +620,40 @@ fn a_world_playing_a_clip_is_drawn_in_the_worlds_pose() {
     let changed = run_image.pixels().zip(bind_image.pixels()).filter(|(a, b)| a != b).count();
     assert!(changed > 100, "the running frame changed only {changed} pixels");
 }
+
+/// A scene without a camera frames an animated pack over its whole clip, not its bind pose: every
+/// skinned vertex of the Fox walking (sampled at other times than the framing's own poses)
+/// projects inside the frame, and the frame differs from the one around the bind pose.
+#[test]
+fn the_automatic_framing_covers_the_clip_played() {
+    let (dir, _) = fox_pack();
+    let text = "[[packs]]\nname = \"fox\"\npath = \"fox.fbk\"\n[packs.animation]\nclip = \"Walk\"\n";
+    let scene = furbake_runtime::Scene::from_toml_str(text, "walk.toml".as_ref(), dir.path()).unwrap();
+    let mut world = match furbake_runtime::World::new(scene) {
+        Ok(world) => world,
+        Err(e) => panic!("{e}"),
+    };
+    let g = gpu();
+    let renderer = furbake_render::SceneRenderer::new(&g.device, &g.queue, &world).unwrap();
+    assert!(renderer.packs[0].clip_bounds.is_some(), "an animated pack has clip bounds");
+    let view = renderer.world_view(&world);
+    let view_proj = view.view_proj(1.0);
+    let bind = renderer.packs[0].fur.as_ref().unwrap().bounding_sphere();
+    assert_ne!(view.bounds_radius, bind.1, "framed on the clip, not the bind pose");
+    let mut checked = 0;
+    for _ in 0..37 {
+        world.step().unwrap();
+        let animator = world.animation(0).unwrap();
+        for p in animator.positions() {
+            let clip = view_proj * world.model_matrix(0).transform_point3(glam::Vec3::from(*p)).extend(1.0);
+            let ndc = clip.truncate() / clip.w;
+            assert!(
+                ndc.x.abs() <= 1.0 && ndc.y.abs() <= 1.0,
+                "a vertex leaves the frame at {:.3} s: {ndc}",
+                world.time_s()
+            );
+            checked += 1;
+        }
+    }
+    assert!(checked > 1000);
+}

@@ -495,7 +495,7 @@ pub fn morph_and_skin(
 /// player, and every buffer of a frame — pose, joint and skinning matrices, a [`SkinTransform`]
 /// per skin vertex (what the fur simulation poses its masses with) and the skinned positions and
 /// normals. Built once; [`Animator::update`] allocates nothing.
-#[derive(Debug)]
+#[derive(Clone, Debug)]
 pub struct Animator {
     clips: Arc<AnimationClips>,
     skeleton: Option<Arc<Skeleton>>,
@@ -618,6 +618,26 @@ impl Animator {
             self.transforms[i] = t;
         }
         Ok(())
+    }
+
+    /// An axis-aligned box (mesh frame, metres: `(min, max)`) holding the skin in the current
+    /// pose and in `samples` poses spread evenly over the whole clip playing now: what a viewer
+    /// frames so that a walking character stays in the picture over its clip (docs/design.md
+    /// "Rendering"). Poses a copy of this animator; this one is left as it is. Allocates the
+    /// copy.
+    pub fn clip_bounds(&self, samples: u32) -> Result<([f32; 3], [f32; 3]), AnimationError> {
+        let grow = |(lo, hi): (Vec3, Vec3), positions: &[[f32; 3]]| {
+            positions.iter().fold((lo, hi), |(lo, hi), &p| (lo.min(Vec3::from(p)), hi.max(Vec3::from(p))))
+        };
+        let mut bounds = grow((Vec3::INFINITY, Vec3::NEG_INFINITY), &self.positions);
+        let mut sweep = self.clone();
+        let duration = self.clips.clips.get(self.player.current().clip).map_or(0.0, |c| c.duration_s);
+        for k in 0..samples {
+            sweep.player.seek(&sweep.clips, duration * k as f32 / samples as f32);
+            sweep.update()?;
+            bounds = grow(bounds, &sweep.positions);
+        }
+        Ok((bounds.0.to_array(), bounds.1.to_array()))
     }
 
     /// The clip playing now.
