@@ -76,9 +76,11 @@ clippy:
 clean-out:
 	rm -rf out
 
-# Regenerate the golden pack checksums and the committed v1 pack (after an intended change).
+# Regenerate the golden pack checksums and the committed v1 pack, and the renderer's golden
+# images (crates/render/tests/reference/golden_*.png, compared by FLIP), after an intended change.
 golden:
 	FURBAKE_BLESS=1 $(CARGO) test -p furbake-cli --test cli golden
+	FURBAKE_BLESS=1 $(CARGO) test -p furbake-render --test golden_images
 
 # Regenerate docs/accuracy.md and its SVG charts from measurements (release build; a few minutes
 # on 2 cores). It runs the report crate's example — the same library call as `furbake report

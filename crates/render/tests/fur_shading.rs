@@ -249,9 +249,10 @@ fn far_pixels(image: &RgbaImage, reference: &RgbaImage) -> usize {
 
 #[test]
 fn strand_shading_off_is_the_lambert_path() {
-    // `render.rs`'s reference frame: the sphere in `View::framing`, default light.
+    // `render.rs`'s reference frame: the sphere in `View::framing`, lit by the one `[light]`
+    // default the reference was made with.
     let (center, radius) = sphere().bounding_sphere();
-    let v = View::framing(center, radius);
+    let v = View { lighting: Light::default().into(), ..View::framing(center, radius) };
     let reference_path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/reference/sphere_fur16_128.png");
     let reference = image::open(&reference_path).unwrap().to_rgba8();
     let off = render(FurShading::off(), &v);

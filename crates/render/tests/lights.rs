@@ -17,7 +17,7 @@ use std::sync::{Arc, OnceLock};
 use furbake_bake::{BakeSettings, NoProgress, bake};
 use furbake_import::{ImportSettings, import_gltf_slice, testmesh};
 use furbake_render::{FurAsset, HeadlessGpu, RenderSettings, View, render_image};
-use furbake_runtime::{Ambient, Camera, Light, LightSource, Lighting, Scene};
+use furbake_runtime::{Ambient, Camera, LightSource, Lighting, Scene};
 use image::RgbaImage;
 
 const SIZE: u32 = 96;
@@ -185,5 +185,5 @@ fn the_light_shorthand_is_its_long_form() {
     assert_eq!(short, long);
     assert_eq!(render(short).as_raw(), render(long).as_raw());
     let default = scene("");
-    assert_eq!(default, Lighting::from(Light::default()), "no light keys: the default light");
+    assert_eq!(default, Lighting::default(), "no light keys: the studio default, not the [light] default");
 }

@@ -47,9 +47,11 @@ fn sphere() -> &'static FurAsset {
     SPHERE.get_or_init(|| bake_asset(&testmesh::uv_sphere(16, 24, 1.0).gltf, "sphere.gltf", 0.15))
 }
 
+/// The sphere in `View::framing`, lit by the one `[light]` default (`Light::default`) the
+/// committed reference was made with.
 fn sphere_view() -> View {
     let (center, radius) = sphere().bounding_sphere();
-    View::framing(center, radius)
+    View { lighting: furbake_runtime::Light::default().into(), ..View::framing(center, radius) }
 }
 
 fn covered(image: &RgbaImage) -> usize {

@@ -544,9 +544,18 @@ impl Lighting {
 }
 
 impl Default for Lighting {
-    /// [`Light::default`] as a [`Lighting`].
+    /// What a scene without light keys and a pack previewed alone are lit by: a studio's key and
+    /// rim light and a dim hemisphere ambient (docs/design.md "Lights"). The key comes from the
+    /// upper left in front of `furbake_render::View::framing`'s three-quarter camera, about 70°
+    /// from the view (so the terminator and the body's shape are in the picture; a light beside
+    /// the eye draws a flat disc), the rim from behind on the right (the back-lit fur edge), and
+    /// the ambient is dim in linear terms (0.25, the `[light]` default, reads as half brightness
+    /// once encoded as sRGB and flattens the shading).
     fn default() -> Self {
-        Lighting::from(Light::default())
+        let key = LightSource::Directional { direction: [0.45, -0.75, -0.48], color: [1.0, 0.96, 0.9], intensity: 1.1 };
+        let rim = LightSource::Directional { direction: [-0.6, -0.3, 0.75], color: [0.75, 0.85, 1.0], intensity: 0.45 };
+        let ambient = Ambient { sky: [0.08, 0.09, 0.11], ground: [0.05, 0.045, 0.04] };
+        Lighting::new(&[key, rim], ambient).expect("two lights")
     }
 }
 
@@ -1208,7 +1217,7 @@ impl Scene {
     }
 
     /// What the scene is lit by: its `[[lights]]` and `[ambient]`, or its `[light]` shorthand,
-    /// or [`Lighting::default`].
+    /// or, with neither, [`Lighting::default`] (the studio lights, not [`Light::default`]).
     pub fn lighting(&self) -> Lighting {
         match self.light {
             Some(light) => Lighting::from(light),

@@ -183,7 +183,8 @@ fn lights_and_ambient_parse_into_the_lighting() {
         ]
     );
     assert_eq!(lighting.ambient, Ambient { sky: [0.2, 0.3, 0.4], ground: Ambient::default().ground });
-    assert_eq!(parse(MINIMAL).unwrap().lighting(), Lighting::from(Light::default()));
+    assert_eq!(parse(MINIMAL).unwrap().lighting(), Lighting::default());
+    assert_ne!(Lighting::default(), Lighting::from(Light::default()), "no light keys: the studio lights");
     let unknown = parse(&format!("[[lights]]\ntype = \"spot\"\ndirection = [0.0, -1.0, 0.0]\n{MINIMAL}"));
     assert!(matches!(unknown, Err(SceneError::Parse { .. })), "{unknown:?}");
     assert!(
