@@ -59,7 +59,8 @@ fn cs_cull_clusters(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_
         decisions[c] = 0u;
         return;
     }
-    let r = lo.w * (cull.shape.x + max_widening() * cull.shape.y);
+    // Padded for any pose, the thinning's widening and the edge-on thickening (`vs_blade`).
+    let r = lo.w * (cull.shape.x + (max_widening() + cull.shape.z * (1.0 + max_widening())) * cull.shape.y);
     let blo = lo.xyz - vec3<f32>(r);
     let bhi = hi.xyz + vec3<f32>(r);
     var visible = 1u;
@@ -104,7 +105,7 @@ fn classify(b: u32) -> u32 {
     if cull.distance.w < 1.0 && across * across > cull.distance.w * d2 {
         return CULLED;
     }
-    let r = blade.root.w * (cull.shape.x + (1.0 / keep - 1.0) * cull.shape.y);
+    let r = blade.root.w * (cull.shape.x + (1.0 / keep - 1.0 + cull.shape.z / keep) * cull.shape.y);
     for (var k = 0u; k < 6u; k++) {
         let p = cull.planes[k];
         if dot(p.xyz, root) + p.w < -r {

@@ -206,7 +206,13 @@ struct BladeOut {
     @location(2) width_axis: vec3<f32>,
     // x: the blade, y: its clump (cluster).
     @location(3) @interpolate(flat) ids: vec2<u32>,
+    // 0 near, rising to 1 at the culling distance: how far the blade's normal and colour have
+    // faded towards the ground's (a far field neither shimmers nor shows a seam where it ends).
+    @location(4) @interpolate(flat) fade: f32,
 };
+
+// Where the distance fade starts, as a share of the culling distance.
+const FADE_START: f32 = 0.6;
 
 // (u, v) of reference vertex `v` (furbake-grass `ReferenceBlade`: segment k owns vertices 4k..4k+4
 // = left-bottom, right-bottom, left-top, right-top; level k + (v mod 4)/2 of `segments`).
@@ -230,19 +236,36 @@ fn vs_blade(@builtin(vertex_index) vi: u32, @builtin(instance_index) instance: u
     let entry = 4u + 3u * (instances[lod] + instance);
     let b = instances[entry];
     let grid = vec2<f32>(bitcast<f32>(instances[entry + 1u]), bitcast<f32>(instances[entry + 2u]));
-    var widen = 1.0;
-    if cull.eye.w != 0.0 {
-        let d = distance(cull.eye.xyz, blades[b].root.xyz);
-        widen = 1.0 / thinning_keep(cull.distance.y, cull.distance.z, d);
-    }
     let pose = pose_from(b, grid);
-    let world = (frame.model * vec4<f32>(vertex_position(pose, v, widen), 1.0)).xyz;
+    var widen = 1.0;
+    var fade = 0.0;
+    var thicken = vec3<f32>(0.0);
+    if cull.eye.w != 0.0 {
+        let to_eye = cull.eye.xyz - blades[b].root.xyz;
+        let d = length(to_eye);
+        widen = 1.0 / thinning_keep(cull.distance.y, cull.distance.z, d);
+        let far = sqrt(cull.distance.x);
+        fade = smoothstep(FADE_START * far, far, d);
+        // The share of the width seen from the eye, and the view-space side to thicken along.
+        let view = to_eye / max(d, 1e-6);
+        let width_axis = normalize(pose.width);
+        let along = dot(width_axis, view);
+        let seen = sqrt(max(1.0 - along * along, 0.0));
+        let side = cross(vec3<f32>(0.0, 1.0, 0.0), view);
+        // Thickened to the share `cull.shape.z` of the width (`culling::EDGE_ON_WIDTH`).
+        if seen < cull.shape.z && dot(side, side) > 1e-8 {
+            let s = normalize(side) * sign(dot(side, width_axis) + 1e-9);
+            thicken = s * (reference[v].x * widen * pose.height * (cull.shape.z - seen));
+        }
+    }
+    let world = (frame.model * vec4<f32>(vertex_position(pose, v, widen) + thicken, 1.0)).xyz;
     var out: BladeOut;
     out.clip = frame.view_proj * vec4<f32>(world, 1.0);
     out.world = world;
     out.uv = blade_uv(v);
     out.width_axis = normalize((frame.model * vec4<f32>(pose.width, 0.0)).xyz);
     out.ids = vec2<u32>(b, blades[b].cluster);
+    out.fade = fade;
     return out;
 }
 
@@ -294,10 +317,14 @@ fn shade_blade(in: BladeOut) -> vec3<f32> {
     var n = normalize(cross(dpdx(in.world), dpdy(in.world)));
     n = select(n, -n, dot(n, to_eye) < 0.0);
     n = normalize(n + in.width_axis * (across * params.gloss.z));
+    // Far blades fade towards the ground under them: its normal (up) and its colour (the root
+    // colour at half the root occlusion, `BladeSettings::ground_tint`).
+    n = normalize(mix(n, vec3<f32>(0.0, 1.0, 0.0), in.fade));
+    let albedo_faded = mix(albedo, params.color.rgb, in.fade);
     // Light through the blade (from behind: the side away from the viewer is lit) is stronger
     // towards the thinner tip and looking into the light.
-    let occlusion = 1.0 - params.shade.x * (1.0 - smoothstep(0.0, 1.0, v));
-    let edge = 1.0 - params.gloss.w * pow(abs(across), 3.0);
+    let occlusion = mix(1.0 - params.shade.x * (1.0 - smoothstep(0.0, 1.0, v)), 1.0 - 0.5 * params.shade.x, in.fade);
+    let edge = mix(1.0 - params.gloss.w * pow(abs(across), 3.0), 1.0, in.fade);
     let e = params.gloss.y;
     let gloss_scale = params.gloss.x * v * v * (e + 8.0) / 25.1327412;
     var lit = vec3<f32>(0.0);
@@ -309,7 +336,7 @@ fn shade_blade(in: BladeOut) -> vec3<f32> {
         let back = max(dot(-n, l), 0.0) * params.shade.w * (0.4 + 0.6 * v) * (0.6 + 0.4 * forward * forward);
         let h = normalize(l + to_eye);
         let gloss = gloss_scale * pow(max(dot(n, h), 0.0), e) * front;
-        lit += light.radiance * (albedo * (front + 1.2 * back) * edge + vec3<f32>(gloss));
+        lit += light.radiance * (albedo_faded * (front + 1.2 * back) * edge + vec3<f32>(gloss * (1.0 - in.fade)));
     }
-    return (albedo * ambient_at(n) * edge + lit) * occlusion;
+    return (albedo_faded * ambient_at(n) * edge + lit) * occlusion;
 }

@@ -36,7 +36,8 @@ struct CullParams {
     lod: vec4<f32>,
     // x: max distance²; y: thinning start; z: min density; w: 1 − min visible width² (1: off).
     distance: vec4<f32>,
-    // x: reach of any pose in blade lengths; y: largest reference half-width in blade lengths.
+    // x: reach of any pose in blade lengths; y: largest reference half-width in blade lengths; z:
+    // the share of its width an edge-on blade is thickened to (`culling::EDGE_ON_WIDTH`).
     shape: vec4<f32>,
     // Per LOD: index count and first index in the index buffer.
     index_count: vec4<u32>,

@@ -37,6 +37,13 @@ const SALT_THINNING: u32 = 0x68e3_1da4;
 const SALT_LOD: u32 = 0xb529_7a4d;
 
 /// The frame's culling parameters as `grass_common.wgsl` reads them (`CullParams`).
+/// The share of its width a blade seen edge-on still shows once the draw thickens it across the
+/// view (`vs_blade` in `shaders/blades.wgsl`; Ghost of Tsushima's view-space thickening of
+/// edge-on blades): blades between the orientation cull's `min_visible_width` and this are
+/// widened to it, so a field seen along its blades' faces does not thin out into lines. The
+/// frustum tests pad each blade by this share of its half-width more.
+pub const EDGE_ON_WIDTH: f32 = 0.35;
+
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct CullParams {
@@ -48,7 +55,8 @@ pub struct CullParams {
     pub lod: [f32; 4],
     /// Max distance², thinning start, min density, 1 − min visible width² (1: off).
     pub distance: [f32; 4],
-    /// Reach of any pose and largest reference half-width (blade lengths), unused, unused.
+    /// Reach of any pose and largest reference half-width (blade lengths), [`EDGE_ON_WIDTH`],
+    /// unused.
     pub shape: [f32; 4],
     /// Index count per LOD.
     pub index_count: [u32; 4],
@@ -226,7 +234,7 @@ impl CullParams {
             eye: [eye.x, eye.y, eye.z, c.enabled as u32 as f32],
             lod: [d1, d2, d1 * c.lod_transition, d2 * c.lod_transition],
             distance: [max * max, c.thinning_start_m / scale, c.min_density, 1.0 - w * w],
-            shape: [lods.reach, lods.half_width, 0.0, 0.0],
+            shape: [lods.reach, lods.half_width, EDGE_ON_WIDTH, 0.0],
             index_count: lods.index_count,
             first_index: lods.first_index,
             counts: [blades, clusters, blades.div_ceil(BLOCK), lods.count],
@@ -346,7 +354,7 @@ impl CullReference {
                 if lo[0] > hi[0] {
                     return (false, false);
                 }
-                let r = lo[3] * (p.shape[0] + widening * p.shape[1]);
+                let r = lo[3] * (p.shape[0] + (widening + p.shape[2] * (1.0 + widening)) * p.shape[1]);
                 let blo = Vec3::new(lo[0], lo[1], lo[2]) - Vec3::splat(r);
                 let bhi = Vec3::new(hi[0], hi[1], hi[2]) + Vec3::splat(r);
                 let (mut visible, mut near) = (true, false);
@@ -410,7 +418,7 @@ impl CullReference {
                 return (None, near);
             }
         }
-        let r = h * (p.shape[0] + (1.0 / keep - 1.0) * p.shape[1]);
+        let r = h * (p.shape[0] + (1.0 / keep - 1.0 + p.shape[2] / keep) * p.shape[1]);
         for pl in &p.planes {
             let s = dot3(*pl, root) + pl[3];
             near |= close(s, -r) || close(dot3(*pl, root), -pl[3] - r);
