@@ -237,26 +237,30 @@ fn vs_blade(@builtin(vertex_index) vi: u32, @builtin(instance_index) instance: u
     let b = instances[entry];
     let grid = vec2<f32>(bitcast<f32>(instances[entry + 1u]), bitcast<f32>(instances[entry + 2u]));
     let pose = pose_from(b, grid);
+    // The eye in the pack frame (the model matrix is a rotation, a translation and a uniform
+    // scale s: its inverse on points is M₃ᵀ(p − t)/s²), with culling on or off alike.
+    let m3 = mat3x3<f32>(frame.model[0].xyz, frame.model[1].xyz, frame.model[2].xyz);
+    let eye = transpose(m3) * (frame.camera_pos.xyz - frame.model[3].xyz) / max(dot(m3[0], m3[0]), 1e-12);
+    let to_eye = eye - blades[b].root.xyz;
+    let d = length(to_eye);
     var widen = 1.0;
     var fade = 0.0;
-    var thicken = vec3<f32>(0.0);
     if cull.eye.w != 0.0 {
-        let to_eye = cull.eye.xyz - blades[b].root.xyz;
-        let d = length(to_eye);
         widen = 1.0 / thinning_keep(cull.distance.y, cull.distance.z, d);
         let far = sqrt(cull.distance.x);
         fade = smoothstep(FADE_START * far, far, d);
-        // The share of the width seen from the eye, and the view-space side to thicken along.
-        let view = to_eye / max(d, 1e-6);
-        let width_axis = normalize(pose.width);
-        let along = dot(width_axis, view);
-        let seen = sqrt(max(1.0 - along * along, 0.0));
-        let side = cross(vec3<f32>(0.0, 1.0, 0.0), view);
-        // Thickened to the share `cull.shape.z` of the width (`culling::EDGE_ON_WIDTH`).
-        if seen < cull.shape.z && dot(side, side) > 1e-8 {
-            let s = normalize(side) * sign(dot(side, width_axis) + 1e-9);
-            thicken = s * (reference[v].x * widen * pose.height * (cull.shape.z - seen));
-        }
+    }
+    // The share of the width seen from the eye, and the view-space side to thicken along.
+    var thicken = vec3<f32>(0.0);
+    let view = to_eye / max(d, 1e-6);
+    let width_axis = normalize(pose.width);
+    let along = dot(width_axis, view);
+    let seen = sqrt(max(1.0 - along * along, 0.0));
+    let side = cross(vec3<f32>(0.0, 1.0, 0.0), view);
+    // Thickened to the share `cull.shape.z` of the width (`culling::EDGE_ON_WIDTH`).
+    if seen < cull.shape.z && dot(side, side) > 1e-8 {
+        let s = normalize(side) * sign(dot(side, width_axis) + 1e-9);
+        thicken = s * (reference[v].x * widen * pose.height * (cull.shape.z - seen));
     }
     let world = (frame.model * vec4<f32>(vertex_position(pose, v, widen) + thicken, 1.0)).xyz;
     var out: BladeOut;

@@ -95,7 +95,7 @@ velocity_m_per_s = [1.0, 0.0, 0.0]
 }
 
 fn is_green(p: &image::Rgba<u8>) -> bool {
-    p[1] > p[0] + 10 && p[1] > p[2] + 10
+    p[1] as i32 > p[0] as i32 + 10 && p[1] as i32 > p[2] as i32 + 10
 }
 
 /// Count and mean x of pixels that differ from `background` and satisfy `keep`.
