@@ -217,3 +217,80 @@ fn the_ground_under_the_blades_takes_the_grass_colour() {
     assert!(drawn.len() > 2000, "the patch is drawn: {} pixels", drawn.len());
     assert!(green * 100 >= drawn.len() * 98, "grey ground shows: {green} of {} drawn pixels green", drawn.len());
 }
+
+/// The drawn outline is the blade's: a row of upright blades at rest, seen face-on from far away
+/// (so no blade is thickened edge-on and none overlaps another), covers as many pixels as the
+/// exact projected area of their posed quad strips (read back from the same pose pass, each
+/// quad's projection measured with the shoelace formula) within 2 %.
+#[test]
+fn blade_coverage_is_the_outline_area() {
+    let (device, queue) = (&gpu().device, &gpu().queue);
+    let mut field = patch().clone();
+    let n = 6;
+    field.positions.truncate(n);
+    field.yaw_rad.truncate(n);
+    field.height_scale.truncate(n);
+    field.cluster.truncate(n);
+    field.weights.truncate(n);
+    for i in 0..n {
+        field.positions[i] = [-0.5 + 0.2 * i as f32, 0.0, 0.0];
+        field.yaw_rad[i] = 0.0;
+        field.height_scale[i] = 1.0;
+    }
+    let size = 256u32;
+    let settings = BladeSettings { culling: furbake_render::GrassCulling::frustum_only(), ..BladeSettings::default() };
+    let blades =
+        BladeRenderer::new(gpu().pipelines(), queue, &field, table(), &settings, &RenderTarget::desc()).unwrap();
+    let mut forces = ForceField::new(field.grid);
+    forces.update(&ForceScene::default());
+    blades.set_force_field(queue, &forces).unwrap();
+    blades.compute(device, queue).unwrap();
+    let positions = blades.read_positions(device, queue).unwrap();
+    let vertices = positions.len() / n;
+    // Face-on: the blade normal of yaw 0, from 12 m with a narrow field of view.
+    let top = positions.iter().map(|p| p[1]).fold(0.0f32, f32::max);
+    let normal = glam::Vec3::from(blade_normal_at_yaw_zero(&positions[..vertices]));
+    let centre = glam::Vec3::new(0.0, 0.5 * top, 0.0);
+    let view = View {
+        camera: Camera {
+            eye: (centre + normal * 12.0).to_array(),
+            target: centre.to_array(),
+            up: [0.0, 1.0, 0.0],
+            fov_y_deg: 6.0,
+        },
+        lighting: Light::default().into(),
+        bounds_center: centre.to_array(),
+        bounds_radius: 1.0,
+    };
+    let target = RenderTarget::new(device, size, size).unwrap();
+    blades.render_to(device, queue, &target, &view, Some([0.0, 0.0, 0.0, 0.0])).unwrap();
+    let image = read_back(device, queue, &target).unwrap();
+    let drawn = image.pixels().filter(|p| p[3] > 0).count() as f64;
+    // The projected area of every quad (left-bottom, right-bottom, left-top, right-top), pixels.
+    let view_proj = view.view_proj(1.0);
+    let pixel = |p: [f32; 3]| {
+        let c = view_proj * glam::Vec3::from(p).extend(1.0);
+        let ndc = c.truncate() / c.w;
+        glam::DVec2::new((ndc.x as f64 + 1.0) * 0.5 * size as f64, (1.0 - ndc.y as f64) * 0.5 * size as f64)
+    };
+    let mut area = 0.0;
+    for blade in positions.chunks_exact(vertices) {
+        for quad in blade.chunks_exact(4) {
+            let [a, b, c, d] = [quad[0], quad[1], quad[3], quad[2]].map(pixel);
+            let ring = [a, b, c, d];
+            let twice: f64 = (0..4).map(|k| ring[k].perp_dot(ring[(k + 1) % 4])).sum();
+            area += twice.abs() * 0.5;
+        }
+    }
+    let error = (drawn - area).abs() / area;
+    println!("{drawn} pixels drawn, outline area {area:.1} pixels: {:.2} %", error * 100.0);
+    assert!(area > 2000.0, "the blades are big enough to measure: {area:.0} pixels");
+    assert!(error < 0.02, "coverage {drawn} pixels against the outline's {area:.1} ({:.2} %)", error * 100.0);
+}
+
+/// The unit normal of a blade's first quad (its face), turned towards +z.
+fn blade_normal_at_yaw_zero(vertices: &[[f32; 3]]) -> [f32; 3] {
+    let [a, b, c] = [vertices[0], vertices[1], vertices[2]].map(glam::Vec3::from);
+    let n = (b - a).cross(c - a).normalize();
+    (if n.z < 0.0 { -n } else { n }).to_array()
+}
