@@ -187,3 +187,63 @@ fn the_light_shorthand_is_its_long_form() {
     let default = scene("");
     assert_eq!(default, Lighting::default(), "no light keys: the studio default, not the [light] default");
 }
+
+/// The GPU cost of the lights (docs/performance.md "Lights"): the bundled Fox (`fur` preset, 16
+/// layers of 128²) at 640×480 in `View::framing`, lit by the one `[light]` default, by the studio
+/// default (two lights) and by four lights, frame by frame in turn (so all see the same machine
+/// load), each frame waited for; median of 9 after 2 warm-up frames. A measurement:
+/// `cargo test -p furbake-render --test lights -- --ignored --nocapture light_count_frame_cost`.
+// Ignored in `make test`: it asserts nothing (speed belongs in docs/performance.md, not in timed
+// tests) and its waited-for frames take tens of seconds on lavapipe.
+#[test]
+#[ignore = "a measurement, not a check"]
+fn light_count_frame_cost() {
+    use std::time::Instant;
+    let g = gpu();
+    let fox = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/real/Fox.glb");
+    let imported = furbake_import::import_gltf(&fox, &ImportSettings::default()).unwrap();
+    let baked = bake(&imported, "fox", &BakeSettings::preset("fur").unwrap(), &mut NoProgress).unwrap();
+    let fins = Some((Arc::new(baked.fins), Arc::new(baked.fin_edges)));
+    let asset = FurAsset::new(Arc::new(baked.mesh), Arc::new(baked.shells), Arc::new(baked.uv_map), fins).unwrap();
+    let (center, radius) = asset.bounding_sphere();
+    let renderer = furbake_render::FurRenderer::new(
+        g.pipelines(),
+        &g.queue,
+        &asset,
+        &RenderSettings::default(),
+        &furbake_render::RenderTarget::desc(),
+    )
+    .unwrap();
+    let studio = Lighting::default();
+    let mut four = studio.sources().to_vec();
+    four.push(directional([0.0, -1.0, 0.3], [0.3, 0.3, 0.3], 1.0));
+    four.push(LightSource::Point { position: [1.0, 1.0, 1.0], color: [1.0; 3], intensity: 0.5, range_m: 0.0 });
+    let lightings = [
+        ("one ([light] default)", Lighting::from(furbake_runtime::Light::default())),
+        ("studio (two)", studio),
+        ("four", Lighting::new(&four, studio.ambient).unwrap()),
+    ];
+    let target = furbake_render::RenderTarget::new(&g.device, 640, 480).unwrap();
+    let mut times = vec![Vec::new(); lightings.len()];
+    for frame in 0..11 {
+        for (k, (_, lighting)) in lightings.iter().enumerate() {
+            let view = View { lighting: *lighting, ..View::framing(center, radius) };
+            let start = Instant::now();
+            renderer.render_to(&g.device, &g.queue, &target, &view).unwrap();
+            g.device.poll(wgpu::PollType::wait_indefinitely()).unwrap();
+            if frame >= 2 {
+                times[k].push(start.elapsed().as_secs_f64() * 1e3);
+            }
+        }
+    }
+    let medians: Vec<f64> = times
+        .into_iter()
+        .map(|mut t| {
+            t.sort_by(f64::total_cmp);
+            t[t.len() / 2]
+        })
+        .collect();
+    for ((name, _), m) in lightings.iter().zip(&medians) {
+        println!("Fox 640×480, {name}: {m:.1} ms, {:.2} × one light", m / medians[0]);
+    }
+}
