@@ -430,7 +430,7 @@ instead of side views. furbake's frames come from its public headless API (`FurR
         "- Scenes, baked with the `fur` preset (16 atlas layers of 128², coat + undercoat, as `make demo`): \
 `patch` (a flat 1 m square, 16 triangles), `sphere` (`fixtures/generated/sphere.gltf`, r = 0.5 m) and \
 `fox` (`fixtures/real/Fox.glb`, bind pose, no skinning).\n\
-- Views: {}×{} px, 35° vertical field of view, the default lighting (`Lighting::default()`). The camera aims \
+- Views: {}×{} px, 35° vertical field of view, the default studio lighting (`Lighting::default()`: key, rim and hemisphere ambient). The camera aims \
 at an anchor on the surface and sits {} fur lengths away at the stated angle from the surface normal \
 there (patch: its normal, tilted towards +Z; sphere and Fox: the skin point seen from View::framing's \
 front-right direction, tilted towards +Y), so the image centre sees the fur at that angle; the fur \
@@ -590,9 +590,9 @@ fn find(rows: &[Row], scene: SceneKind, angle: f32, shells: u32, fins: FinMode) 
 }
 
 /// What the images of the run showed, written by hand after looking at them.
-const OBSERVATIONS: &str = "**What was measured, honestly.** Fins lower the error at 70° on the patch and \
-the sphere at every shell count, and on the Fox up to 16 shells (at 32 and 64 the Fox's silhouette \
-fins add a little error). The error falls with shells at every angle from 4 to 16 shells on every \
+const OBSERVATIONS: &str = "**What was measured, honestly.** Fins lower the error at 70° on the patch at \
+every shell count, on the sphere up to 32 shells and on the Fox up to 16 (at 64 on the sphere and at \
+32 and 64 on the Fox the silhouette fins add a little error, at most 0.003). The error falls with shells at every angle from 4 to 16 shells on every \
 scene, but it does not keep falling to 64 everywhere: at 0° (all three scenes) and on the Fox and \
 the sphere at 45° it is lowest at 8–32 shells and rises after; only the grazing views (patch 45° \
 and 70°, sphere 70°) improve all the way to 64. The level-of-detail sweep says the same from \

@@ -92,7 +92,7 @@ pub fn bake_scene(kind: SceneKind, fixtures: &Path, settings: &BakeSettings) -> 
 impl FurScene {
     /// The view whose centre sees the anchor at `angle_deg` from its normal, from `distance_m`
     /// away, tilted towards +Y (for the patch towards +Z), 35° vertical field of view, the
-    /// default lighting (`Lighting::default()`: `Light::default()`'s one directional light).
+    /// default lighting (`Lighting::default()`: the studio key and rim lights and a dim hemisphere ambient).
     pub fn view(&self, angle_deg: f32, distance_m: f32) -> View {
         let (p, n) = self.anchor;
         let across = if self.kind == SceneKind::Patch { Vec3::Z } else { Vec3::Y };
