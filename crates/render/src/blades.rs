@@ -132,6 +132,10 @@ pub struct BladeSettings {
     /// How a blade is shaded (docs/design.md "Grass blade shading"). Default
     /// [`BladeShading::default`]; [`BladeShading::FLAT`] is the flat colour × Lambert of before.
     pub shading: BladeShading,
+    /// Views one renderer draws in one frame, each with its own uniforms and culling
+    /// ([`BladeRenderer::prepare_view`], [`BladeRenderer::render_view`]), in
+    /// 1..=[`crate::MAX_VIEWS`]. Default 1.
+    pub views: u32,
 }
 
 impl BladeSettings {
@@ -162,6 +166,7 @@ impl Default for BladeSettings {
             lambert: true,
             culling: GrassCulling::default(),
             shading: BladeShading::default(),
+            views: 1,
         }
     }
 }
@@ -286,9 +291,8 @@ pub struct BladeRenderer {
     /// blade, cluster bounds), shared with every other instance of the same field
     /// ([`BladeRenderer::instance`]).
     data: BladeData,
-    shared: wgpu::BindGroup,
-    /// The culling passes' bind group.
-    cull_group: wgpu::BindGroup,
+    /// Per view: the draw's bind group and the culling passes' bind group.
+    groups: Vec<(wgpu::BindGroup, wgpu::BindGroup)>,
     compute_pipeline: wgpu::ComputePipeline,
     /// `cs_cull_clusters`, `cs_cull_blades`, `cs_scan_blocks`, `cs_compact`, `cs_pose_all`.
     cull_pipelines: [wgpu::ComputePipeline; 5],
@@ -317,8 +321,8 @@ const _: () = assert!(std::mem::offset_of!(FrameAndCull, cull) == CULL_OFFSET as
 /// wind sources with their per-corner directions, and the culling passes' parameters, decisions,
 /// work (indirect draw arguments and block counts) and instance lists.
 struct InstanceBuffers {
-    /// [`FrameAndCull`]: bound as the frame uniforms (binding 0) and the culling parameters.
-    frame: wgpu::Buffer,
+    /// One per view ([`BladeSettings::views`]): what the camera decides.
+    views: Vec<ViewBuffers>,
     params: wgpu::Buffer,
     forces: wgpu::Buffer,
     delayed: wgpu::Buffer,
@@ -326,6 +330,14 @@ struct InstanceBuffers {
     delayed_capacity: u32,
     /// The device's `max_compute_workgroups_per_dimension`.
     max_groups: u32,
+}
+
+/// A blade renderer's buffers for one view: the frame uniforms with the culling parameters
+/// ([`FrameAndCull`]: bound as the frame uniforms, binding 0, and the culling parameters), and
+/// the culling passes' decisions, work (indirect draw arguments and block counts) and instance
+/// lists.
+struct ViewBuffers {
+    frame: wgpu::Buffer,
     decisions: wgpu::Buffer,
     work: wgpu::Buffer,
     instances: wgpu::Buffer,
@@ -338,17 +350,18 @@ fn cull_buffer_bytes(blades: u64, clusters: u64) -> [u64; 3] {
 }
 
 impl InstanceBuffers {
-    fn new(device: &wgpu::Device, params: &BladeParams, corners: usize, cull: &CullParams) -> InstanceBuffers {
+    fn new(
+        device: &wgpu::Device,
+        params: &BladeParams,
+        corners: usize,
+        cull: &CullParams,
+        views: u32,
+    ) -> InstanceBuffers {
         let init = |label, contents: &[u8], usage| {
             device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage })
         };
         let storage = wgpu::BufferUsages::STORAGE;
         let limits = device.limits();
-        let frame = init(
-            "furbake blade frame uniforms",
-            bytemuck::bytes_of(&FrameAndCull { frame: FrameUniforms::default(), pad: [0.0; CULL_PAD], cull: *cull }),
-            wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-        );
         let params = init(
             "furbake blade params",
             bytemuck::bytes_of(params),
@@ -380,39 +393,55 @@ impl InstanceBuffers {
             device.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size, usage, mapped_at_creation: false })
         };
         let copy = wgpu::BufferUsages::COPY_SRC;
+        let view = || ViewBuffers {
+            frame: init(
+                "furbake blade frame uniforms",
+                bytemuck::bytes_of(&FrameAndCull {
+                    frame: FrameUniforms::default(),
+                    pad: [0.0; CULL_PAD],
+                    cull: *cull,
+                }),
+                wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            ),
+            decisions: buffer("furbake blade culling decisions", decisions, storage),
+            work: buffer("furbake blade culling work", work, storage | wgpu::BufferUsages::INDIRECT | copy),
+            instances: buffer("furbake blade instance lists", instances, storage | copy),
+        };
         InstanceBuffers {
-            frame,
+            views: (0..views.max(1)).map(|_| view()).collect(),
             params,
             forces,
             delayed,
             directions,
             delayed_capacity,
             max_groups: limits.max_compute_workgroups_per_dimension,
-            decisions: buffer("furbake blade culling decisions", decisions, storage),
-            work: buffer("furbake blade culling work", work, storage | wgpu::BufferUsages::INDIRECT | copy),
-            instances: buffer("furbake blade instance lists", instances, storage | copy),
         }
     }
 
-    /// The frame uniforms' part of [`InstanceBuffers::frame`].
-    fn frame_binding(&self) -> wgpu::BindingResource<'_> {
+    /// The frame uniforms' part of [`ViewBuffers::frame`].
+    fn frame_binding(view: &ViewBuffers) -> wgpu::BindingResource<'_> {
         let size = wgpu::BufferSize::new(std::mem::size_of::<FrameUniforms>() as u64);
-        wgpu::BindingResource::Buffer(wgpu::BufferBinding { buffer: &self.frame, offset: 0, size })
+        wgpu::BindingResource::Buffer(wgpu::BufferBinding { buffer: &view.frame, offset: 0, size })
     }
 
     /// The culling parameters' part of [`InstanceBuffers::frame`].
-    fn cull_binding(&self) -> wgpu::BindingResource<'_> {
+    fn cull_binding(view: &ViewBuffers) -> wgpu::BindingResource<'_> {
         let size = wgpu::BufferSize::new(std::mem::size_of::<CullParams>() as u64);
-        wgpu::BindingResource::Buffer(wgpu::BufferBinding { buffer: &self.frame, offset: CULL_OFFSET, size })
+        wgpu::BindingResource::Buffer(wgpu::BufferBinding { buffer: &view.frame, offset: CULL_OFFSET, size })
+    }
+
+    /// Each view's draw and culling bind groups.
+    fn view_groups(&self, pipelines: &PipelineCache, data: &BladeData) -> Vec<(wgpu::BindGroup, wgpu::BindGroup)> {
+        self.views.iter().map(|v| (self.bind_group(pipelines, data, v), self.cull_group(pipelines, data, v))).collect()
     }
 
     /// The draw's bind group: these buffers and the field's shared ones.
-    fn bind_group(&self, pipelines: &PipelineCache, data: &BladeData) -> wgpu::BindGroup {
+    fn bind_group(&self, pipelines: &PipelineCache, data: &BladeData, view: &ViewBuffers) -> wgpu::BindGroup {
         pipelines.device().create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("furbake blade shared"),
             layout: &pipelines.blade_layouts().shared,
             entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: self.frame_binding() },
+                wgpu::BindGroupEntry { binding: 0, resource: Self::frame_binding(view) },
                 wgpu::BindGroupEntry { binding: 1, resource: self.params.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 2, resource: data.blades.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 3, resource: self.forces.as_entire_binding() },
@@ -421,24 +450,24 @@ impl InstanceBuffers {
                 wgpu::BindGroupEntry { binding: 6, resource: data.reference.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 7, resource: self.delayed.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 8, resource: self.directions.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 9, resource: self.cull_binding() },
-                wgpu::BindGroupEntry { binding: 10, resource: self.instances.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 9, resource: Self::cull_binding(view) },
+                wgpu::BindGroupEntry { binding: 10, resource: view.instances.as_entire_binding() },
             ],
         })
     }
 
     /// The culling passes' bind group.
-    fn cull_group(&self, pipelines: &PipelineCache, data: &BladeData) -> wgpu::BindGroup {
+    fn cull_group(&self, pipelines: &PipelineCache, data: &BladeData, view: &ViewBuffers) -> wgpu::BindGroup {
         pipelines.device().create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("furbake blade culling"),
             layout: &pipelines.blade_layouts().cull,
             entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: self.cull_binding() },
+                wgpu::BindGroupEntry { binding: 0, resource: Self::cull_binding(view) },
                 wgpu::BindGroupEntry { binding: 1, resource: data.blades.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 2, resource: data.cluster_bounds.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 3, resource: self.decisions.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 4, resource: self.work.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 5, resource: self.instances.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 3, resource: view.decisions.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 4, resource: view.work.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 5, resource: view.instances.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 6, resource: self.params.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 7, resource: self.forces.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 8, resource: self.delayed.as_entire_binding() },
@@ -545,6 +574,9 @@ impl BladeRenderer {
         }
         check_culling(&settings.culling)?;
         settings.shading.validate()?;
+        if !(1..=crate::MAX_VIEWS).contains(&settings.views) {
+            return Err(RenderError::Parameter { what: format!("blade views {} not in 1..=8", settings.views) });
+        }
         // The checks of `KeyframeDecoder::new`, so a hand-built table cannot index out of range.
         let g = table.grid;
         let factor = table.symmetry.factor();
@@ -684,9 +716,8 @@ impl BladeRenderer {
         );
         let clusters = field.grid.clusters() as u32;
         let cull = CullParams::new(&FrameUniforms::default(), &settings.culling, &lods, params.blade_count, clusters);
-        let own = InstanceBuffers::new(device, &params, corners, &cull);
-        let shared = own.bind_group(pipelines, &data);
-        let cull_group = own.cull_group(pipelines, &data);
+        let own = InstanceBuffers::new(device, &params, corners, &cull, settings.views);
+        let groups = own.view_groups(pipelines, &data);
         Ok(BladeRenderer {
             params,
             bounds: root_bounds(field),
@@ -702,8 +733,7 @@ impl BladeRenderer {
             out_layout: pipelines.blade_layouts().out.clone(),
             indices,
             data,
-            shared,
-            cull_group,
+            groups,
             // One per cache, independent of the target.
             compute_pipeline: pipelines.blade_compute()?,
             cull_pipelines: pipelines.blade_cull()?,
@@ -720,9 +750,14 @@ impl BladeRenderer {
         let device = pipelines.device();
         crate::gpu_scope(device, "creating a blade renderer instance", || {
             let cull = self.cull_params(&FrameUniforms::default());
-            let own = InstanceBuffers::new(device, &self.params, self.corner_count as usize, &cull);
-            let shared = own.bind_group(pipelines, &self.data);
-            let cull_group = own.cull_group(pipelines, &self.data);
+            let own = InstanceBuffers::new(
+                device,
+                &self.params,
+                self.corner_count as usize,
+                &cull,
+                self.own.views.len() as u32,
+            );
+            let groups = own.view_groups(pipelines, &self.data);
             Ok(BladeRenderer {
                 params: self.params,
                 bounds: self.bounds,
@@ -738,8 +773,7 @@ impl BladeRenderer {
                 out_layout: self.out_layout.clone(),
                 indices: self.indices.clone(),
                 data: self.data.clone(),
-                shared,
-                cull_group,
+                groups,
                 compute_pipeline: self.compute_pipeline.clone(),
                 cull_pipelines: self.cull_pipelines.clone(),
                 target: self.target.clone(),
@@ -986,7 +1020,7 @@ impl BladeRenderer {
             timestamp_writes: None,
         });
         pass.set_pipeline(&self.compute_pipeline);
-        pass.set_bind_group(0, &self.shared, &[]);
+        pass.set_bind_group(0, &self.groups[0].0, &[]);
         pass.set_bind_group(1, out, &[]);
         pass.dispatch_workgroups(x, y, 1);
         Ok(())
@@ -1026,7 +1060,9 @@ impl BladeRenderer {
         self.culling = culling;
         if !culling.enabled {
             let params = self.cull_params(&FrameUniforms::default());
-            queue.write_buffer(&self.own.frame, CULL_OFFSET, bytemuck::bytes_of(&params));
+            for view in &self.own.views {
+                queue.write_buffer(&view.frame, CULL_OFFSET, bytemuck::bytes_of(&params));
+            }
         }
         Ok(())
     }
@@ -1052,16 +1088,53 @@ impl BladeRenderer {
     /// [`BladeRenderer::read_positions`] stays in the pack frame. Does not submit, wait or
     /// allocate.
     pub fn prepare(&self, queue: &wgpu::Queue, encoder: &mut wgpu::CommandEncoder, frame: &FrameUniforms) {
+        self.prepare_slot(queue, encoder, 0, frame);
+    }
+
+    /// Writes the uniforms of view `view` (1 ≤ `view` < [`BladeSettings::views`]; view 0 is
+    /// [`BladeRenderer::prepare`]'s) and records its culling passes into `encoder`, so that
+    /// [`BladeRenderer::render_view`] draws this frame's blades from another camera before the
+    /// host submits (each view keeps its own uniforms and instance lists). A view out of range is
+    /// a [`RenderError::Parameter`]. Does not submit, wait or allocate.
+    pub fn prepare_view(
+        &self,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+        view: usize,
+        frame: &FrameUniforms,
+    ) -> Result<(), RenderError> {
+        self.check_view(view)?;
+        self.prepare_slot(queue, encoder, view, frame);
+        Ok(())
+    }
+
+    fn check_view(&self, view: usize) -> Result<(), RenderError> {
+        if view < self.groups.len() {
+            return Ok(());
+        }
+        Err(RenderError::Parameter {
+            what: format!("view {view} of a blade renderer built for {} (BladeSettings::views)", self.groups.len()),
+        })
+    }
+
+    fn prepare_slot(
+        &self,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+        view: usize,
+        frame: &FrameUniforms,
+    ) {
+        let buffers = &self.own.views[view];
         if self.blade_count == 0 || self.lods.index_count[0] == 0 {
-            queue.write_buffer(&self.own.frame, 0, bytemuck::bytes_of(frame));
+            queue.write_buffer(&buffers.frame, 0, bytemuck::bytes_of(frame));
             return;
         }
         if self.culling.enabled {
             let both = FrameAndCull { frame: *frame, pad: [0.0; CULL_PAD], cull: self.cull_params(frame) };
-            queue.write_buffer(&self.own.frame, 0, bytemuck::bytes_of(&both));
+            queue.write_buffer(&buffers.frame, 0, bytemuck::bytes_of(&both));
         } else {
             // The culling parameters (culling off) were written by `new` or `set_culling`.
-            queue.write_buffer(&self.own.frame, 0, bytemuck::bytes_of(frame));
+            queue.write_buffer(&buffers.frame, 0, bytemuck::bytes_of(frame));
         }
         let max = self.own.max_groups;
         let grid = |groups: u32| if groups <= max { (groups, 1) } else { (max, groups.div_ceil(max)) };
@@ -1069,7 +1142,7 @@ impl BladeRenderer {
             label: Some("furbake blade culling"),
             timestamp_writes: None,
         });
-        pass.set_bind_group(0, &self.cull_group, &[]);
+        pass.set_bind_group(0, &self.groups[view].1, &[]);
         let blocks = grid(self.blade_count.div_ceil(BLOCK));
         let [clusters, blades, scan, compact, pose_all] = &self.cull_pipelines;
         if self.culling.enabled {
@@ -1095,15 +1168,27 @@ impl BladeRenderer {
     /// full detail. Sets its own pipeline, bind group 0 and index buffer. Does not submit, wait or
     /// allocate.
     pub fn render(&self, pass: &mut wgpu::RenderPass<'_>) {
+        self.draw(pass, 0);
+    }
+
+    /// [`BladeRenderer::render`] from the instance lists [`BladeRenderer::prepare_view`] recorded
+    /// for view `view`. A view out of range is a [`RenderError::Parameter`] and draws nothing.
+    pub fn render_view(&self, pass: &mut wgpu::RenderPass<'_>, view: usize) -> Result<(), RenderError> {
+        self.check_view(view)?;
+        self.draw(pass, view);
+        Ok(())
+    }
+
+    fn draw(&self, pass: &mut wgpu::RenderPass<'_>, view: usize) {
         if self.blade_count == 0 || self.lods.index_count[0] == 0 {
             return;
         }
         pass.set_pipeline(&self.draw_pipeline);
-        pass.set_bind_group(0, &self.shared, &[]);
+        pass.set_bind_group(0, &self.groups[view].0, &[]);
         pass.set_index_buffer(self.indices.slice(..), wgpu::IndexFormat::Uint32);
         if self.culling.enabled {
             for l in 0..self.lods.count as u64 {
-                pass.draw_indexed_indirect(&self.own.work, l * 20);
+                pass.draw_indexed_indirect(&self.own.views[view].work, l * 20);
             }
         } else {
             pass.draw_indexed(0..self.lods.index_count[0], 0, 0..self.blade_count);
@@ -1115,14 +1200,15 @@ impl BladeRenderer {
     /// GPU. For tests and tools.
     pub fn read_culling(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<CullLists, RenderError> {
         let read = |buffer, count, what| crate::headless::read_buffer::<u32>(device, queue, buffer, count, what);
-        let lists = read(&self.own.instances, LISTS_AT + 3 * self.blade_count as u64, "culling instance lists")?;
+        let lists =
+            read(&self.own.views[0].instances, LISTS_AT + 3 * self.blade_count as u64, "culling instance lists")?;
         let mut out = CullLists::default();
         if !self.culling.enabled {
             // Every blade, in LOD 0's list (`cs_pose_all`; the draw is not indirect).
             out.lods[0] = lists[LISTS_AT as usize..].chunks_exact(3).map(|e| e[0]).collect();
             return Ok(out);
         }
-        let args = read(&self.own.work, 20, "culling draw arguments")?;
+        let args = read(&self.own.views[0].work, 20, "culling draw arguments")?;
         for l in 0..MAX_LODS.min(self.lods.count as usize) {
             let start = lists[l] as usize;
             let count = args[5 * l + 1] as usize;

@@ -43,6 +43,9 @@ pub enum ShellBlend {
 /// every texel of the mip-averaged atlas).
 pub const ALPHA_TEST_THRESHOLD: f32 = 0.4;
 
+/// The most views one renderer draws in a frame ([`RenderSettings::views`]).
+pub const MAX_VIEWS: u32 = 8;
+
 /// Rendering parameters of one asset.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RenderSettings {
@@ -83,6 +86,10 @@ pub struct RenderSettings {
     pub tint: [f32; 3],
     /// Linear RGBA clear colour. Default opaque dark grey.
     pub background: [f32; 4],
+    /// Views one renderer draws in one frame (split screen, reflections, shadow views), each with
+    /// its own uniforms and silhouette selection ([`FurRenderer::prepare_view`],
+    /// [`FurRenderer::render_view`]), in 1..=[`MAX_VIEWS`]. Default 1.
+    pub views: u32,
     /// The fur's strand shading (docs/design.md "Fur shading"): its parameters, and with
     /// [`FurShading::enabled`] off the earlier Lambert × self-shadow look (a pipeline switch, the
     /// `STRAND` override). Default [`FurShading::default`]; a scene pack's `[packs.shading]`
@@ -106,6 +113,7 @@ impl Default for RenderSettings {
             alpha_to_coverage: true,
             tint: [1.0, 1.0, 1.0],
             background: [0.06, 0.06, 0.07, 1.0],
+            views: 1,
             shading: FurShading::default(),
         }
     }
@@ -151,6 +159,9 @@ impl RenderSettings {
         }
         if !(0.0..=1.0).contains(&self.silhouette_band) {
             return bad("silhouette_band must be in [0, 1]");
+        }
+        if !(1..=MAX_VIEWS).contains(&self.views) {
+            return bad("views must be in 1..=8");
         }
         if !(0.0..1.0).contains(&self.alpha_threshold) {
             return bad("alpha_threshold must be in [0, 1)");
@@ -323,14 +334,15 @@ pub struct FurRenderer {
     settings: RenderSettings,
     /// The asset's static data on the GPU, shared with every other renderer of the same asset.
     gpu: Arc<FurGpuAsset>,
-    frame_buffer: wgpu::Buffer,
+    /// One per view ([`RenderSettings::views`]): its frame uniforms, the bind group that reads
+    /// them, and its silhouette fin selection.
+    views: Vec<ViewSlot>,
     fur_buffer: wgpu::Buffer,
     scale_buffer: wgpu::Buffer,
     /// The fur uniforms as uploaded (rewritten when the scale layout changes).
     fur_uniforms: FurUniforms,
     /// `FurUniforms::scale_layout` of the buffer's current contents (0 per vertex, 1 per corner).
     scale_layout: AtomicU32,
-    bind_group: wgpu::BindGroup,
     drawn_layers: u32,
     /// The pass this renderer draws into.
     target: TargetDesc,
@@ -339,8 +351,14 @@ pub struct FurRenderer {
     skinning: Option<SkinningPass>,
     /// What binding 8 (`skinned`) holds: the skinning pass's output, or a placeholder.
     posed_vertices: wgpu::Buffer,
-    /// The silhouette fin selection (`RenderSettings::silhouette_fins` on an asset with interior
-    /// furry edges and a fin atlas).
+}
+
+/// What a renderer holds per view: the frame uniforms, the bind group that reads them, and the
+/// silhouette fin selection (`RenderSettings::silhouette_fins` on an asset with interior furry
+/// edges and a fin atlas), which depends on the camera.
+struct ViewSlot {
+    frame: wgpu::Buffer,
+    bind_group: wgpu::BindGroup,
     silhouette: Option<crate::silhouette::SilhouettePass>,
 }
 
@@ -420,12 +438,6 @@ impl FurRenderer {
             None
         };
 
-        let frame_buffer = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("furbake frame uniforms"),
-            size: std::mem::size_of::<FrameUniforms>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
         let drawn_layers = settings.shell_layers.unwrap_or(shells.params.layers);
         let fur = FurUniforms {
             tint: [settings.tint[0], settings.tint[1], settings.tint[2], 1.0],
@@ -467,50 +479,58 @@ impl FurRenderer {
             ),
         };
 
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("furbake fur bind group"),
-            layout: cache.fur_layout(),
-            entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: frame_buffer.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 1, resource: fur_buffer.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 2, resource: scale_buffer.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 3, resource: gpu.shadow.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::TextureView(&gpu.shell_view) },
-                wgpu::BindGroupEntry { binding: 5, resource: wgpu::BindingResource::Sampler(&gpu.repeat_sampler) },
-                wgpu::BindGroupEntry { binding: 6, resource: wgpu::BindingResource::TextureView(&gpu.fin_view) },
-                wgpu::BindGroupEntry { binding: 7, resource: wgpu::BindingResource::Sampler(&gpu.fin_sampler) },
-                wgpu::BindGroupEntry { binding: 8, resource: posed_vertices.as_entire_binding() },
-            ],
-        });
-        let silhouette = match (&gpu.silhouette, settings.silhouette_fins) {
-            (Some(data), true) => {
-                let vertices = skinning.as_ref().map_or(&data.rest, |pass| pass.skinned_buffer());
-                Some(crate::silhouette::SilhouettePass::new(
-                    cache,
-                    &data.edges,
-                    &data.colors,
-                    vertices,
-                    data.edge_count,
-                    settings.silhouette_band,
-                )?)
-            }
-            _ => None,
+        let view_slot = || -> Result<ViewSlot, RenderError> {
+            let frame = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("furbake frame uniforms"),
+                size: std::mem::size_of::<FrameUniforms>() as u64,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+            let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("furbake fur bind group"),
+                layout: cache.fur_layout(),
+                entries: &[
+                    wgpu::BindGroupEntry { binding: 0, resource: frame.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 1, resource: fur_buffer.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 2, resource: scale_buffer.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 3, resource: gpu.shadow.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::TextureView(&gpu.shell_view) },
+                    wgpu::BindGroupEntry { binding: 5, resource: wgpu::BindingResource::Sampler(&gpu.repeat_sampler) },
+                    wgpu::BindGroupEntry { binding: 6, resource: wgpu::BindingResource::TextureView(&gpu.fin_view) },
+                    wgpu::BindGroupEntry { binding: 7, resource: wgpu::BindingResource::Sampler(&gpu.fin_sampler) },
+                    wgpu::BindGroupEntry { binding: 8, resource: posed_vertices.as_entire_binding() },
+                ],
+            });
+            let silhouette = match (&gpu.silhouette, settings.silhouette_fins) {
+                (Some(data), true) => {
+                    let vertices = skinning.as_ref().map_or(&data.rest, |pass| pass.skinned_buffer());
+                    Some(crate::silhouette::SilhouettePass::new(
+                        cache,
+                        &data.edges,
+                        &data.colors,
+                        vertices,
+                        data.edge_count,
+                        settings.silhouette_band,
+                    )?)
+                }
+                _ => None,
+            };
+            Ok(ViewSlot { frame, bind_group, silhouette })
         };
+        let views = (0..settings.views).map(|_| view_slot()).collect::<Result<Vec<_>, _>>()?;
         Ok(FurRenderer {
             settings: *settings,
             gpu,
-            frame_buffer,
+            views,
             fur_buffer,
             scale_buffer,
             fur_uniforms: fur,
             scale_layout: AtomicU32::new(0),
-            bind_group,
             drawn_layers,
             target: target.clone(),
             pipelines,
             skinning,
             posed_vertices,
-            silhouette,
         })
     }
 
@@ -655,19 +675,40 @@ impl FurRenderer {
     /// submission. Does not submit or wait, and allocates nothing of its own (wgpu
     /// allocates inside its calls; docs/performance.md).
     pub fn prepare(&self, queue: &wgpu::Queue, encoder: &mut wgpu::CommandEncoder, frame: &FrameUniforms) {
-        queue.write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(frame));
         if let Some(skinning) = &self.skinning {
             skinning.encode(encoder);
         }
-        if let Some(silhouette) = &self.silhouette {
-            silhouette.encode(queue, encoder, object_eye(frame));
-        }
+        self.views[0].prepare(queue, encoder, frame);
+    }
+
+    /// Writes the uniforms of view `view` (1 ≤ `view` < [`RenderSettings::views`]; view 0 is
+    /// [`FurRenderer::prepare`]'s) and records its silhouette fin selection into `encoder`, so that
+    /// [`FurRenderer::render_view`] draws this frame from another camera (split screen, a
+    /// reflection, a shadow view) before the host submits: each view keeps its own uniforms, so
+    /// a later view no longer overwrites an earlier one. Call after [`FurRenderer::prepare`] (the
+    /// frame's skinning, recorded once, comes first in the encoder). A view out of range is a
+    /// [`RenderError::Parameter`]. Does not submit, wait or allocate.
+    pub fn prepare_view(
+        &self,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+        view: usize,
+        frame: &FrameUniforms,
+    ) -> Result<(), RenderError> {
+        self.view_slot(view)?.prepare(queue, encoder, frame);
+        Ok(())
+    }
+
+    fn view_slot(&self, view: usize) -> Result<&ViewSlot, RenderError> {
+        self.views.get(view).ok_or_else(|| RenderError::Parameter {
+            what: format!("view {view} of a renderer built for {} (RenderSettings::views)", self.views.len()),
+        })
     }
 
     /// Whether this renderer selects and draws silhouette fins
     /// ([`RenderSettings::silhouette_fins`] on an asset with interior furry edges and fins).
     pub fn has_silhouette_fins(&self) -> bool {
-        self.silhouette.is_some()
+        self.views[0].silhouette.is_some()
     }
 
     /// Reads back the silhouette fin selection the GPU makes for `frame` (the same dispatch
@@ -682,7 +723,7 @@ impl FurRenderer {
         queue: &wgpu::Queue,
         frame: &FrameUniforms,
     ) -> Result<Vec<(u32, f32)>, RenderError> {
-        let Some(silhouette) = &self.silhouette else { return Ok(Vec::new()) };
+        let Some(silhouette) = &self.views[0].silhouette else { return Ok(Vec::new()) };
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let readback = |label, size| {
             device.create_buffer(&wgpu::BufferDescriptor {
@@ -729,7 +770,18 @@ impl FurRenderer {
     /// nothing else. Does not submit or wait, and allocates nothing of its own (wgpu
     /// allocates inside its calls; docs/performance.md).
     pub fn render(&self, pass: &mut wgpu::RenderPass<'_>) {
-        pass.set_bind_group(0, &self.bind_group, &[]);
+        self.draw(pass, &self.views[0]);
+    }
+
+    /// [`FurRenderer::render`] with what [`FurRenderer::prepare_view`] wrote for view `view`. A
+    /// view out of range is a [`RenderError::Parameter`] and draws nothing.
+    pub fn render_view(&self, pass: &mut wgpu::RenderPass<'_>, view: usize) -> Result<(), RenderError> {
+        self.draw(pass, self.view_slot(view)?);
+        Ok(())
+    }
+
+    fn draw(&self, pass: &mut wgpu::RenderPass<'_>, view: &ViewSlot) {
+        pass.set_bind_group(0, &view.bind_group, &[]);
         let gpu = &*self.gpu;
         if gpu.surface_corners > 0 {
             pass.set_pipeline(&self.pipelines.skin);
@@ -746,7 +798,7 @@ impl FurRenderer {
             pass.set_vertex_buffer(0, buffer.slice(..));
             pass.draw(0..*count, 0..1);
         }
-        if let (Some(pipeline), Some(silhouette)) = (&self.pipelines.silhouette_fin, &self.silhouette)
+        if let (Some(pipeline), Some(silhouette)) = (&self.pipelines.silhouette_fin, &view.silhouette)
             && self.drawn_layers > 0
         {
             pass.set_pipeline(pipeline);
@@ -940,6 +992,15 @@ type ShellProbe = (Vec<[f32; 3]>, Vec<[f32; 3]>);
 
 /// The eye of `frame` in the object frame (the inverse model matrix applied to it), where the
 /// silhouette selection compares it with the posed vertices.
+impl ViewSlot {
+    fn prepare(&self, queue: &wgpu::Queue, encoder: &mut wgpu::CommandEncoder, frame: &FrameUniforms) {
+        queue.write_buffer(&self.frame, 0, bytemuck::bytes_of(frame));
+        if let Some(silhouette) = &self.silhouette {
+            silhouette.encode(queue, encoder, object_eye(frame));
+        }
+    }
+}
+
 fn object_eye(frame: &FrameUniforms) -> Vec3 {
     let eye = Vec3::new(frame.camera_pos[0], frame.camera_pos[1], frame.camera_pos[2]);
     frame.model().inverse().transform_point3(eye)
