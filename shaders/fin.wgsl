@@ -159,7 +159,12 @@ fn fs_fin(in: FinOut) -> @location(0) vec4<f32> {
     let to_eye = normalize(frame.camera_pos.xyz - in.world);
     let facing = abs(dot(normalize(in.face_normal), to_eye));
     let alpha = texel * (1.0 - facing) * in.fade;
-    let edge = fwidth(alpha);
+    // One pixel's change of alpha, for alpha to coverage only (taken where control flow is
+    // still uniform).
+    var edge = 0.0;
+    if ALPHA_TO_COVERAGE {
+        edge = fwidth(alpha);
+    }
     if alpha_discarded(alpha, edge) {
         discard;
     }

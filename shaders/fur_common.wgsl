@@ -56,6 +56,10 @@ override ALPHA_TO_COVERAGE: bool = false;
 // every stage reads its roots there by welded vertex index (no re-skinning per shell layer).
 // false: the bind pose from the vertex attributes, exactly as for an unanimated pack.
 override SKINNED: bool = false;
+// How many of the frame's lights the fur's shading evaluates (`RenderSettings::light_slots`, a
+// pipeline constant so the loop over them is unrolled: a loop over the frame's own count costs
+// half again per fragment on lavapipe even when it runs once). Lights beyond it are not drawn.
+override LIGHT_SLOTS: u32 = 2u;
 
 @group(0) @binding(0) var<uniform> frame: Frame;
 @group(0) @binding(1) var<uniform> fur: Fur;
@@ -173,9 +177,12 @@ fn lambert(n_in: vec3<f32>, world: vec3<f32>) -> vec3<f32> {
     }
     let n = normalize(n_in);
     var rgb = ambient_at(n);
-    for (var i = 0u; i < light_count(); i++) {
-        let light = light_at(i, world);
-        rgb += light.radiance * max(dot(n, light.l), 0.0);
+    let count = light_count();
+    for (var i = 0u; i < LIGHT_SLOTS; i++) {
+        if i < count {
+            let light = light_at(i, world);
+            rgb += light.radiance * max(dot(n, light.l), 0.0);
+        }
     }
     return rgb;
 }
@@ -232,32 +239,40 @@ fn strand_shade(albedo: vec3<f32>, n_in: vec3<f32>, tangent: vec3<f32>, world: v
     var rgb = colour * ambient_at(n) * occlusion;
     let tv = dot(t, v);
     let sin2_tv = max(1.0 - tv * tv, 0.0);
-    for (var i = 0u; i < light_count(); i++) {
-        let light = light_at(i, world);
-        let l = light.l;
-        let nl = dot(n, l);
-        let body = saturate((nl + 0.15) / 1.15);
-        let wrap = 0.5 + 0.5 * nl;
-        let tl = dot(t, l);
-        let kajiya_kay = sqrt(max(1.0 - tl * tl, 0.0));
-        let diffuse = mix(max(nl, 0.0), kajiya_kay * body, fur.strand.w);
-        // L = −V (the light straight behind the eye's line) has no half vector: take N's.
-        var half_vector = n;
-        let lv = l + v;
-        if dot(lv, lv) > 1e-8 {
-            half_vector = normalize(lv);
+    let count = light_count();
+    for (var i = 0u; i < LIGHT_SLOTS; i++) {
+        if i < count {
+            rgb += direct * strand_light(light_at(i, world), n, t, v, colour, sin2_tv, mask);
         }
-        let th = dot(t, half_vector);
-        let sin_th = sqrt(max(1.0 - th * th, 0.0));
-        let primary = fur.specular.x * strand_lobe(th, sin_th, fur.strand.x, fur.specular.y);
-        let secondary = fur.specular.z * strand_lobe(th, sin_th, fur.strand.y, fur.specular.w) * mask;
-        let specular = body * (vec3<f32>(primary) + secondary * fur.secondary_tint.rgb * colour);
-        let behind = 0.5 - 0.5 * dot(v, l);
-        let behind2 = behind * behind;
-        let back = fur.strand.z * colour * (behind2 * behind2) * sin2_tv * wrap;
-        rgb += light.radiance * direct * (colour * diffuse + specular + back);
     }
     return rgb;
+}
+
+// One light's direct terms of `strand_shade` (diffuse, highlights, back-light), before the
+// self-shadow factor.
+fn strand_light(light: LightSample, n: vec3<f32>, t: vec3<f32>, v: vec3<f32>, colour: vec3<f32>, sin2_tv: f32, mask: f32) -> vec3<f32> {
+    let l = light.l;
+    let nl = dot(n, l);
+    let body = saturate((nl + 0.15) / 1.15);
+    let wrap = 0.5 + 0.5 * nl;
+    let tl = dot(t, l);
+    let kajiya_kay = sqrt(max(1.0 - tl * tl, 0.0));
+    let diffuse = mix(max(nl, 0.0), kajiya_kay * body, fur.strand.w);
+    // L = −V (the light straight behind the eye's line) has no half vector: take N's.
+    var half_vector = n;
+    let lv = l + v;
+    if dot(lv, lv) > 1e-8 {
+        half_vector = normalize(lv);
+    }
+    let th = dot(t, half_vector);
+    let sin_th = sqrt(max(1.0 - th * th, 0.0));
+    let primary = fur.specular.x * strand_lobe(th, sin_th, fur.strand.x, fur.specular.y);
+    let secondary = fur.specular.z * strand_lobe(th, sin_th, fur.strand.y, fur.specular.w) * mask;
+    let specular = body * (vec3<f32>(primary) + secondary * fur.secondary_tint.rgb * colour);
+    let behind = 0.5 - 0.5 * dot(v, l);
+    let behind2 = behind * behind;
+    let back = fur.strand.z * colour * (behind2 * behind2) * sin2_tv * wrap;
+    return light.radiance * (colour * diffuse + specular + back);
 }
 
 // The mask of the secondary highlight for the hair on integer texel (x, y): 1 − depth·noise.

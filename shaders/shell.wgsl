@@ -85,7 +85,12 @@ fn fs_shell(in: ShellOut) -> @location(0) vec4<f32> {
     } else {
         alpha = textureSampleLevel(shell_alpha, repeat_sampler, in.uv, in.slice, 0.0).r;
     }
-    let edge = fwidth(alpha);
+    // One pixel's change of alpha, for alpha to coverage only (taken where control flow is
+    // still uniform).
+    var edge = 0.0;
+    if ALPHA_TO_COVERAGE {
+        edge = fwidth(alpha);
+    }
     if alpha_discarded(alpha, edge) {
         discard;
     }

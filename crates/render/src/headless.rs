@@ -435,6 +435,8 @@ fn render_pack_with(
     let desc = RenderTarget::desc();
     // The blades of a grass pack, and the ground under them in their colour (as scenes draw it).
     let mut settings = *settings;
+    // As many light slots as the view has lights (the shading's cost on lavapipe grows with them).
+    settings.light_slots = crate::renderer::light_slots_for(&view.lighting);
     if pack.has(furbake_formats::SectionKind::BLADE_FIELD) && settings.tint == RenderSettings::default().tint {
         settings.tint = blade_settings.ground_tint();
     }

@@ -141,7 +141,9 @@ pub use headless::{
     render_opened_pack, render_pack, render_preview, render_preview_of, render_preview_with,
 };
 pub use pipelines::PipelineCache;
-pub use renderer::{ALPHA_TEST_THRESHOLD, FurGpuAsset, FurRenderer, MAX_VIEWS, RenderSettings, ShellBlend};
+pub use renderer::{
+    ALPHA_TEST_THRESHOLD, FurGpuAsset, FurRenderer, MAX_VIEWS, RenderSettings, ShellBlend, light_slots_for,
+};
 pub use scene::{BladeForces, PackInput, PackRenderers, SceneFrame, SceneObject, SceneRenderer};
 pub use shaders::FrameUniforms;
 pub use shading::FurShading;

@@ -34,6 +34,8 @@ pub(crate) struct FurSwitches {
     /// Alpha to coverage for the alpha-tested shells and fins
     /// ([`RenderSettings::alpha_to_coverage`]; only on multisampled targets).
     pub alpha_to_coverage: bool,
+    /// Lights the shading evaluates ([`RenderSettings::light_slots`]).
+    pub light_slots: u32,
 }
 
 impl FurSwitches {
@@ -46,6 +48,7 @@ impl FurSwitches {
             shear: settings.shearing,
             alpha_blend: settings.blend == ShellBlend::AlphaBlend,
             alpha_to_coverage: settings.blend == ShellBlend::AlphaTest && settings.alpha_to_coverage,
+            light_slots: settings.light_slots,
         }
     }
 }
@@ -386,11 +389,12 @@ impl PipelineCache {
             ("SHADOW", flag(s.shadow)),
             ("SKINNED", flag(s.skinned)),
             ("STRAND", flag(s.strand)),
+            ("LIGHT_SLOTS", s.light_slots as f64),
             ("SHEAR", flag(s.shear)),
             ("ALPHA_BLEND", flag(s.alpha_blend)),
             ("ALPHA_TO_COVERAGE", flag(coverage)),
         ];
-        let constants: &[(&str, f64)] = if stage == FurStage::Skin { &all[..4] } else { &all };
+        let constants: &[(&str, f64)] = if stage == FurStage::Skin { &all[..5] } else { &all };
         let options = wgpu::PipelineCompilationOptions { constants, zero_initialize_workgroup_memory: false };
         let surface_layout = wgpu::VertexBufferLayout {
             array_stride: std::mem::size_of::<SurfaceVertex>() as u64,

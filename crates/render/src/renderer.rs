@@ -43,6 +43,11 @@ pub enum ShellBlend {
 /// every texel of the mip-averaged atlas).
 pub const ALPHA_TEST_THRESHOLD: f32 = 0.4;
 
+/// The light slots a renderer needs for `lighting` ([`RenderSettings::light_slots`]).
+pub fn light_slots_for(lighting: &furbake_runtime::Lighting) -> u32 {
+    lighting.sources().len().clamp(1, furbake_runtime::MAX_LIGHTS) as u32
+}
+
 /// The most views one renderer draws in a frame ([`RenderSettings::views`]).
 pub const MAX_VIEWS: u32 = 8;
 
@@ -86,6 +91,12 @@ pub struct RenderSettings {
     pub tint: [f32; 3],
     /// Linear RGBA clear colour. Default opaque dark grey.
     pub background: [f32; 4],
+    /// How many of a frame's lights the fur's shading evaluates, in 1..=`MAX_LIGHTS` (4); the
+    /// frame's lights beyond it are not drawn. A pipeline constant, so the loop over the lights
+    /// is unrolled: on lavapipe each slot costs fragment time even when the frame has fewer
+    /// lights (docs/performance.md "Lights"). Default 4 (every frame drawn right);
+    /// [`RenderSettings::for_scene`] and the headless previews take their lighting's count.
+    pub light_slots: u32,
     /// Views one renderer draws in one frame (split screen, reflections, shadow views), each with
     /// its own uniforms and silhouette selection ([`FurRenderer::prepare_view`],
     /// [`FurRenderer::render_view`]), in 1..=[`MAX_VIEWS`]. Default 1.
@@ -114,6 +125,7 @@ impl Default for RenderSettings {
             tint: [1.0, 1.0, 1.0],
             background: [0.06, 0.06, 0.07, 1.0],
             views: 1,
+            light_slots: furbake_runtime::MAX_LIGHTS as u32,
             shading: FurShading::default(),
         }
     }
@@ -122,9 +134,14 @@ impl Default for RenderSettings {
 impl RenderSettings {
     /// The default settings with the shader features a scene needs: the eq. 3.36 shearing is
     /// compiled in only when the scene declares an effect that moves the fur (any physics effect);
-    /// a static scene keeps s = n and skips the scale-vector math.
+    /// a static scene keeps s = n and skips the scale-vector math; the light slots are the
+    /// scene's lights.
     pub fn for_scene(scene: &furbake_runtime::Scene) -> RenderSettings {
-        RenderSettings { shearing: !scene.effects().is_empty(), ..Default::default() }
+        RenderSettings {
+            shearing: !scene.effects().is_empty(),
+            light_slots: light_slots_for(&scene.lighting()),
+            ..Default::default()
+        }
     }
 
     /// These settings with every key `options` gives applied (a scene's `[render]` and
@@ -159,6 +176,9 @@ impl RenderSettings {
         }
         if !(0.0..=1.0).contains(&self.silhouette_band) {
             return bad("silhouette_band must be in [0, 1]");
+        }
+        if !(1..=furbake_runtime::MAX_LIGHTS as u32).contains(&self.light_slots) {
+            return bad("light_slots must be in 1..=4");
         }
         if !(1..=MAX_VIEWS).contains(&self.views) {
             return bad("views must be in 1..=8");
