@@ -6,12 +6,13 @@
 //!     raises) is lower than with the per-pixel alpha test, and the frames differ.
 //! (b) On a single-sampled target the switch changes nothing (bit-identical frames).
 
-use std::sync::{Arc, OnceLock};
+mod common;
 
-use furbake_bake::{BakeSettings, NoProgress, bake};
-use furbake_import::{ImportSettings, import_gltf_slice, testmesh};
+use std::sync::OnceLock;
+
+use common::gpu;
 use furbake_render::{
-    FurAsset, FurRenderer, HeadlessGpu, RenderSettings, ShellBlend, TargetDesc, View, read_back_texture, render_image,
+    FurAsset, FurRenderer, RenderSettings, ShellBlend, TargetDesc, View, read_back_texture, render_image,
 };
 use furbake_runtime::{Camera, Light};
 use image::RgbaImage;
@@ -20,23 +21,9 @@ const SIZE: u32 = 96;
 const FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
 const DEPTH: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
-fn gpu() -> &'static HeadlessGpu {
-    static GPU: OnceLock<HeadlessGpu> = OnceLock::new();
-    GPU.get_or_init(|| HeadlessGpu::new().unwrap_or_else(|e| panic!("coverage tests need a wgpu adapter: {e}")))
-}
-
 fn sphere() -> &'static FurAsset {
     static SPHERE: OnceLock<FurAsset> = OnceLock::new();
-    SPHERE.get_or_init(|| {
-        let gltf = testmesh::uv_sphere(16, 24, 1.0).gltf;
-        let imported = import_gltf_slice(&gltf, "sphere.gltf", None, &ImportSettings::default()).unwrap();
-        let mut settings = BakeSettings::preset("fur").unwrap();
-        (settings.volume.layers, settings.volume.resolution) = (16, 64);
-        settings.shells.fur_length_m = Some(0.15);
-        let baked = bake(&imported, "sphere", &settings, &mut NoProgress).unwrap();
-        let fins = Some((Arc::new(baked.fins), Arc::new(baked.fin_edges)));
-        FurAsset::new(Arc::new(baked.mesh), Arc::new(baked.shells), Arc::new(baked.uv_map), fins).unwrap()
-    })
+    SPHERE.get_or_init(|| common::furry_sphere(16, 24, 16, 64, 0.15))
 }
 
 fn view() -> View {

@@ -5,46 +5,29 @@
 //! from one lit from the front (translucency; two-sided Lambert cannot tell them apart), and an
 //! out-of-range setting is refused by name. Images go to the temp folder for looking at.
 
+mod common;
+
 use std::sync::OnceLock;
 
+use common::gpu;
 use furbake_formats::sections::blade_field::BladeField;
-use furbake_formats::sections::keyframe_table::{CompressionStages, DisplacementEncoding, KeyframeTable, Symmetry};
-use furbake_grass::keyframes::PoseGridSettings;
-use furbake_grass::{
-    BladeFieldSettings, BladeMaterial, BladeShape, ForceField, ForceScene, build_reference_blade, compress_poses,
-    ground_grid_mesh, scatter_blades, simulate_poses,
-};
-use furbake_render::{BladeRenderer, BladeSettings, BladeShading, HeadlessGpu, RenderTarget, View, read_back};
+use furbake_formats::sections::keyframe_table::KeyframeTable;
+use furbake_grass::{ForceField, ForceScene};
+use furbake_render::{BladeRenderer, BladeSettings, BladeShading, RenderTarget, View, read_back};
 use furbake_runtime::{Camera, Light};
 use image::RgbaImage;
 
 const SIZE: u32 = 256;
 
-fn gpu() -> &'static HeadlessGpu {
-    static GPU: OnceLock<HeadlessGpu> = OnceLock::new();
-    GPU.get_or_init(|| {
-        HeadlessGpu::new().unwrap_or_else(|e| panic!("blade tests need a wgpu adapter and found none: {e}"))
-    })
-}
-
 fn table() -> &'static KeyframeTable {
     static TABLE: OnceLock<KeyframeTable> = OnceLock::new();
-    TABLE.get_or_init(|| {
-        let grid = PoseGridSettings { poses: 100, ..Default::default() }.resolve(Symmetry::XZ).unwrap();
-        let blade = build_reference_blade(&BladeShape::default()).unwrap();
-        let poses = simulate_poses(&blade, &BladeMaterial::default(), grid).unwrap();
-        let stages = CompressionStages { drop_static_vertices: true, rigid_segment_pairs: true };
-        compress_poses(&poses, Symmetry::XZ, stages, DisplacementEncoding::Snorm16).unwrap()
-    })
+    TABLE.get_or_init(|| common::blade_table(100))
 }
 
 /// A 1.5 m × 1.5 m patch, 200 blades/m², clusters of 0.25 m (so several clumps are in view).
 fn patch() -> &'static BladeField {
     static FIELD: OnceLock<BladeField> = OnceLock::new();
-    FIELD.get_or_init(|| {
-        let settings = BladeFieldSettings { density_per_m2: 200.0, cluster_size_m: 0.25, ..Default::default() };
-        scatter_blades(&ground_grid_mesh([1.5, 1.5], [3, 3]), &settings).unwrap()
-    })
+    FIELD.get_or_init(|| common::blade_patch(200.0))
 }
 
 /// Eye height on +z looking at the patch; the light travels along `light` (from the light).

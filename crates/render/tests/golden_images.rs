@@ -14,21 +14,19 @@
 //! References are regenerated only on request: `FURBAKE_BLESS=1 cargo test -p furbake-render
 //! --test golden_images` (also run by `make golden`), never because one is missing.
 
-use std::path::{Path, PathBuf};
-use std::sync::{Arc, OnceLock};
+mod common;
 
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+use common::gpu;
 use furbake_bake::{BakeSettings, NoProgress, bake};
 use furbake_formats::sections::blade_field::BladeField;
-use furbake_formats::sections::keyframe_table::{CompressionStages, DisplacementEncoding, KeyframeTable, Symmetry};
-use furbake_grass::keyframes::PoseGridSettings;
-use furbake_grass::{
-    BladeFieldSettings, BladeMaterial, BladeShape, ForceField, ForceScene, build_reference_blade, compress_poses,
-    ground_grid_mesh, scatter_blades, simulate_poses,
-};
-use furbake_import::{ImportSettings, import_gltf, import_gltf_slice, testmesh};
+use furbake_formats::sections::keyframe_table::KeyframeTable;
+use furbake_grass::{ForceField, ForceScene};
+use furbake_import::{ImportSettings, import_gltf};
 use furbake_render::{
-    BladeRenderer, BladeSettings, FurAsset, FurShading, HeadlessGpu, RenderSettings, RenderTarget, View, read_back,
-    render_image,
+    BladeRenderer, BladeSettings, FurAsset, FurShading, RenderSettings, RenderTarget, View, read_back, render_image,
 };
 use furbake_runtime::{Camera, Light};
 use image::RgbaImage;
@@ -45,11 +43,6 @@ struct Thresholds {
 const FUR: Thresholds = Thresholds { mean: 0.03, p99: 0.35 };
 /// Grass: opaque blades with hard edges.
 const GRASS: Thresholds = Thresholds { mean: 0.03, p99: 0.4 };
-
-fn gpu() -> &'static HeadlessGpu {
-    static GPU: OnceLock<HeadlessGpu> = OnceLock::new();
-    GPU.get_or_init(|| HeadlessGpu::new().unwrap_or_else(|e| panic!("golden images need a wgpu adapter: {e}")))
-}
 
 fn reference_path(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("tests/reference/golden_{name}.png"))
@@ -104,16 +97,7 @@ fn check(name: &str, image: &RgbaImage, limit: Thresholds) {
 
 fn sphere() -> &'static FurAsset {
     static SPHERE: OnceLock<FurAsset> = OnceLock::new();
-    SPHERE.get_or_init(|| {
-        let gltf = testmesh::uv_sphere(16, 24, 1.0).gltf;
-        let imported = import_gltf_slice(&gltf, "sphere.gltf", None, &ImportSettings::default()).unwrap();
-        let mut settings = BakeSettings::preset("fur").unwrap();
-        (settings.volume.layers, settings.volume.resolution) = (16, 64);
-        settings.shells.fur_length_m = Some(0.15);
-        let baked = bake(&imported, "sphere", &settings, &mut NoProgress).unwrap();
-        let fins = Some((Arc::new(baked.fins), Arc::new(baked.fin_edges)));
-        FurAsset::new(Arc::new(baked.mesh), Arc::new(baked.shells), Arc::new(baked.uv_map), fins).unwrap()
-    })
+    SPHERE.get_or_init(|| common::furry_sphere(16, 24, 16, 64, 0.15))
 }
 
 /// The sphere from the front-right and above, lit from the upper left (the highlight's rim and
@@ -169,22 +153,13 @@ fn fox_preview() {
 
 fn table() -> &'static KeyframeTable {
     static TABLE: OnceLock<KeyframeTable> = OnceLock::new();
-    TABLE.get_or_init(|| {
-        let grid = PoseGridSettings { poses: 100, ..Default::default() }.resolve(Symmetry::XZ).unwrap();
-        let blade = build_reference_blade(&BladeShape::default()).unwrap();
-        let poses = simulate_poses(&blade, &BladeMaterial::default(), grid).unwrap();
-        let stages = CompressionStages { drop_static_vertices: true, rigid_segment_pairs: true };
-        compress_poses(&poses, Symmetry::XZ, stages, DisplacementEncoding::Snorm16).unwrap()
-    })
+    TABLE.get_or_init(|| common::blade_table(100))
 }
 
 /// A 1.5 m square patch, 200 blades/m², clumps of 0.25 m.
 fn patch() -> &'static BladeField {
     static FIELD: OnceLock<BladeField> = OnceLock::new();
-    FIELD.get_or_init(|| {
-        let settings = BladeFieldSettings { density_per_m2: 200.0, cluster_size_m: 0.25, ..Default::default() };
-        scatter_blades(&ground_grid_mesh([1.5, 1.5], [3, 3]), &settings).unwrap()
-    })
+    FIELD.get_or_init(|| common::blade_patch(200.0))
 }
 
 fn render_grass(eye: [f32; 3], light: [f32; 3]) -> RgbaImage {

@@ -12,36 +12,23 @@
 //! (e) the `[light]` shorthand draws bit for bit what its `[[lights]]`/`[ambient]` form draws.
 //! Renders stay small (96², 8 layers).
 
+mod common;
+
 use std::sync::{Arc, OnceLock};
 
+use common::gpu;
 use furbake_bake::{BakeSettings, NoProgress, bake};
-use furbake_import::{ImportSettings, import_gltf_slice, testmesh};
-use furbake_render::{FurAsset, HeadlessGpu, RenderSettings, View, render_image};
+use furbake_import::ImportSettings;
+use furbake_render::{FurAsset, RenderSettings, View, render_image};
 use furbake_runtime::{Ambient, Camera, LightSource, Lighting, Scene};
 use image::RgbaImage;
 
 const SIZE: u32 = 96;
 const FUR_M: f32 = 0.15;
 
-fn gpu() -> &'static HeadlessGpu {
-    static GPU: OnceLock<HeadlessGpu> = OnceLock::new();
-    GPU.get_or_init(|| {
-        HeadlessGpu::new().unwrap_or_else(|e| panic!("light tests need a wgpu adapter and found none: {e}"))
-    })
-}
-
 fn sphere() -> &'static FurAsset {
     static SPHERE: OnceLock<FurAsset> = OnceLock::new();
-    SPHERE.get_or_init(|| {
-        let gltf = testmesh::uv_sphere(16, 24, 1.0).gltf;
-        let imported = import_gltf_slice(&gltf, "sphere.gltf", None, &ImportSettings::default()).unwrap();
-        let mut settings = BakeSettings::preset("fur").unwrap();
-        (settings.volume.layers, settings.volume.resolution) = (8, 32);
-        settings.shells.fur_length_m = Some(FUR_M);
-        let baked = bake(&imported, "sphere", &settings, &mut NoProgress).unwrap();
-        let fins = Some((Arc::new(baked.fins), Arc::new(baked.fin_edges)));
-        FurAsset::new(Arc::new(baked.mesh), Arc::new(baked.shells), Arc::new(baked.uv_map), fins).unwrap()
-    })
+    SPHERE.get_or_init(|| common::furry_sphere(16, 24, 8, 32, FUR_M))
 }
 
 fn render(lighting: Lighting) -> RgbaImage {

@@ -4,39 +4,17 @@
 //! screen, a reflection) draw exactly what each camera draws alone; with one view slot, the second
 //! camera is a typed error instead of silently overwriting the first.
 
-use std::sync::{Arc, OnceLock};
+mod common;
 
-use furbake_bake::{BakeSettings, NoProgress, bake};
-use furbake_formats::sections::keyframe_table::{CompressionStages, DisplacementEncoding, Symmetry};
-use furbake_grass::keyframes::PoseGridSettings;
-use furbake_grass::{
-    BladeFieldSettings, BladeMaterial, BladeShape, ForceField, ForceScene, build_reference_blade, compress_poses,
-    ground_grid_mesh, scatter_blades, simulate_poses,
-};
-use furbake_import::{ImportSettings, import_gltf_slice, testmesh};
+use common::gpu;
+use furbake_grass::{ForceField, ForceScene};
 use furbake_render::{
-    BladeRenderer, BladeSettings, FurAsset, FurRenderer, HeadlessGpu, RenderError, RenderSettings, RenderTarget, View,
-    read_back,
+    BladeRenderer, BladeSettings, FurRenderer, RenderError, RenderSettings, RenderTarget, View, read_back,
 };
 use furbake_runtime::{Camera, Lighting};
 use image::RgbaImage;
 
 const SIZE: u32 = 96;
-
-fn gpu() -> &'static HeadlessGpu {
-    static GPU: OnceLock<HeadlessGpu> = OnceLock::new();
-    GPU.get_or_init(|| HeadlessGpu::new().unwrap_or_else(|e| panic!("view tests need a wgpu adapter: {e}")))
-}
-
-fn sphere() -> FurAsset {
-    let gltf = testmesh::uv_sphere(12, 16, 1.0).gltf;
-    let imported = import_gltf_slice(&gltf, "sphere.gltf", None, &ImportSettings::default()).unwrap();
-    let mut settings = BakeSettings::preset("fur").unwrap();
-    (settings.volume.layers, settings.volume.resolution) = (8, 32);
-    let baked = bake(&imported, "sphere", &settings, &mut NoProgress).unwrap();
-    let fins = Some((Arc::new(baked.fins), Arc::new(baked.fin_edges)));
-    FurAsset::new(Arc::new(baked.mesh), Arc::new(baked.shells), Arc::new(baked.uv_map), fins).unwrap()
-}
 
 fn camera(eye: [f32; 3]) -> View {
     View {
@@ -100,7 +78,7 @@ fn split_screen(renderer: &dyn TwoViews, views: [&View; 2]) -> Result<[RgbaImage
 #[test]
 fn one_fur_renderer_draws_two_views_in_one_frame() {
     let g = gpu();
-    let asset = sphere();
+    let asset = common::furry_sphere(12, 16, 8, 32, 0.15);
     let (a, b) = (camera([0.0, 0.8, 3.2]), camera([2.8, 1.6, -1.2]));
     let two = RenderSettings { views: 2, ..Default::default() };
     let renderer = FurRenderer::new(g.pipelines(), &g.queue, &asset, &two, &RenderTarget::desc()).unwrap();
@@ -121,13 +99,7 @@ fn one_fur_renderer_draws_two_views_in_one_frame() {
 #[test]
 fn one_blade_renderer_draws_two_views_in_one_frame() {
     let g = gpu();
-    let grid = PoseGridSettings { poses: 100, ..Default::default() }.resolve(Symmetry::XZ).unwrap();
-    let blade = build_reference_blade(&BladeShape::default()).unwrap();
-    let poses = simulate_poses(&blade, &BladeMaterial::default(), grid).unwrap();
-    let stages = CompressionStages { drop_static_vertices: true, rigid_segment_pairs: true };
-    let table = compress_poses(&poses, Symmetry::XZ, stages, DisplacementEncoding::Snorm16).unwrap();
-    let settings = BladeFieldSettings { density_per_m2: 150.0, cluster_size_m: 0.25, ..Default::default() };
-    let field = scatter_blades(&ground_grid_mesh([1.5, 1.5], [3, 3]), &settings).unwrap();
+    let (table, field) = (common::blade_table(100), common::blade_patch(150.0));
     let blades = |views| {
         let settings = BladeSettings { views, ..BladeSettings::default() };
         let r = BladeRenderer::new(g.pipelines(), &g.queue, &field, &table, &settings, &RenderTarget::desc()).unwrap();
