@@ -41,17 +41,24 @@ impl HeadlessGpu {
     /// features and the WebGPU default limits (the renderer uses only core features: R8 and
     /// RGBA8 textures, Depth32Float, storage buffers in vertex shaders). Blocks (pollster).
     pub fn new() -> Result<HeadlessGpu, RenderError> {
-        Self::build(false)
+        Self::build(false, wgpu::Features::empty())
+    }
+
+    /// As [`HeadlessGpu::new`], with those of `features` the adapter has (e.g.
+    /// `PIPELINE_STATISTICS_QUERY` for a host that counts fragment invocations; check
+    /// `device.features()` for what was granted).
+    pub fn with_optional_features(features: wgpu::Features) -> Result<HeadlessGpu, RenderError> {
+        Self::build(false, features)
     }
 
     /// As [`HeadlessGpu::new`], with the adapter's largest buffer and storage binding sizes in
     /// place of the default 256 MiB and 128 MiB: for blade fields of more than about 2.8 M blades
     /// (48 bytes per blade instance), as a host with large fields requests them.
     pub fn with_large_buffers() -> Result<HeadlessGpu, RenderError> {
-        Self::build(true)
+        Self::build(true, wgpu::Features::empty())
     }
 
-    fn build(large_buffers: bool) -> Result<HeadlessGpu, RenderError> {
+    fn build(large_buffers: bool, optional_features: wgpu::Features) -> Result<HeadlessGpu, RenderError> {
         let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle());
         let mut errors = Vec::new();
         let mut adapter = None;
@@ -79,7 +86,7 @@ impl HeadlessGpu {
         }
         let (device, queue) = crate::blocking::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("furbake headless device"),
-            required_features: wgpu::Features::empty(),
+            required_features: adapter.features() & optional_features,
             required_limits,
             ..Default::default()
         }))?;

@@ -5,23 +5,18 @@
 //! cost of a setting that does not depend on the machine's load — beside the wall time of a frame
 //! (submit to finished, median of several).
 
-use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
-use furbake_render::{FurAsset, FurRenderer, PipelineCache, RenderError, RenderSettings, RenderTarget, View};
+use furbake_render::{FurAsset, FurRenderer, HeadlessGpu, RenderError, RenderSettings, RenderTarget, View};
 
-/// A device made for measuring.
+/// A device made for measuring: furbake's headless device with pipeline statistics where the
+/// adapter has them.
 pub struct MeasuringGpu {
     /// The adapter's name, backend and driver.
     pub info: wgpu::AdapterInfo,
-    /// The device.
-    pub device: wgpu::Device,
-    /// Its queue.
-    pub queue: wgpu::Queue,
-    pipelines: PipelineCache,
+    gpu: HeadlessGpu,
     /// Whether the device counts fragment invocations (the adapter had the feature).
     pub pipeline_statistics: bool,
-    failures: Arc<Mutex<Vec<String>>>,
 }
 
 /// One measured frame.
@@ -43,56 +38,18 @@ impl MeasuringGpu {
     /// A hardware adapter, else a fallback (software) one, as `HeadlessGpu::new` picks; the device
     /// has the default limits and, when available, pipeline statistics queries.
     pub fn new() -> Result<MeasuringGpu, RenderError> {
-        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle());
-        let mut errors = Vec::new();
-        let mut adapter = None;
-        for force_fallback_adapter in [false, true] {
-            let options = wgpu::RequestAdapterOptions {
-                power_preference: wgpu::PowerPreference::HighPerformance,
-                force_fallback_adapter,
-                compatible_surface: None,
-                ..Default::default()
-            };
-            match pollster::block_on(instance.request_adapter(&options)) {
-                Ok(a) => {
-                    adapter = Some(a);
-                    break;
-                }
-                Err(e) => errors.push(e.to_string()),
-            }
-        }
-        let adapter = adapter.ok_or_else(|| RenderError::NoAdapter { detail: errors.join("; ") })?;
         let wanted = wgpu::Features::PIPELINE_STATISTICS_QUERY;
-        let required_features = adapter.features() & wanted;
-        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
-            label: Some("furbake rendering-report device"),
-            required_features,
-            required_limits: wgpu::Limits::default(),
-            ..Default::default()
-        }))?;
-        let failures = Arc::new(Mutex::new(Vec::new()));
-        let sink = Arc::clone(&failures);
-        device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
-            sink.lock().unwrap_or_else(|p| p.into_inner()).push(e.to_string());
-        }));
-        let pipelines = PipelineCache::with_adapter(&device, &adapter);
-        Ok(MeasuringGpu {
-            info: adapter.get_info(),
-            device,
-            queue,
-            pipelines,
-            pipeline_statistics: required_features.contains(wanted),
-            failures,
-        })
+        let gpu = HeadlessGpu::with_optional_features(wanted)?;
+        let pipeline_statistics = gpu.device.features().contains(wanted);
+        Ok(MeasuringGpu { info: gpu.info.clone(), gpu, pipeline_statistics })
     }
 
     fn check(&self) -> Result<(), RenderError> {
-        let mut list = self.failures.lock().unwrap_or_else(|p| p.into_inner());
-        if list.is_empty() { Ok(()) } else { Err(gpu_error(list.remove(0))) }
+        self.gpu.check()
     }
 
     fn wait(&self) -> Result<(), RenderError> {
-        self.device.poll(wgpu::PollType::wait_indefinitely()).map(|_| ()).map_err(gpu_error)
+        self.gpu.device.poll(wgpu::PollType::wait_indefinitely()).map(|_| ()).map_err(gpu_error)
     }
 
     /// Renders `asset` with `settings` from `view` into a `width × height` target: one frame with
@@ -107,22 +64,22 @@ impl MeasuringGpu {
         height: u32,
         timed_frames: u32,
     ) -> Result<MeasuredFrame, RenderError> {
-        let renderer = FurRenderer::new(&self.pipelines, &self.queue, asset, settings, &RenderTarget::desc())?;
-        let target = RenderTarget::new(&self.device, width, height)?;
+        let renderer = FurRenderer::new(self.gpu.pipelines(), &self.gpu.queue, asset, settings, &RenderTarget::desc())?;
+        let target = RenderTarget::new(&self.gpu.device, width, height)?;
         let frame = view.uniforms(target.aspect());
         let query = self.pipeline_statistics.then(|| {
-            let set = self.device.create_query_set(&wgpu::QuerySetDescriptor {
+            let set = self.gpu.device.create_query_set(&wgpu::QuerySetDescriptor {
                 label: Some("fur pass statistics"),
                 ty: wgpu::QueryType::PipelineStatistics(wgpu::PipelineStatisticsTypes::FRAGMENT_SHADER_INVOCATIONS),
                 count: 1,
             });
-            let resolve = self.device.create_buffer(&wgpu::BufferDescriptor {
+            let resolve = self.gpu.device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("statistics resolve"),
                 size: 8,
                 usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
                 mapped_at_creation: false,
             });
-            let read = self.device.create_buffer(&wgpu::BufferDescriptor {
+            let read = self.gpu.device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("statistics readback"),
                 size: 8,
                 usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
@@ -132,8 +89,8 @@ impl MeasuringGpu {
         });
         let background = settings.background;
         let record = |with_query: bool| {
-            let mut encoder = self.device.create_command_encoder(&Default::default());
-            renderer.prepare(&self.queue, &mut encoder, &frame);
+            let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
+            renderer.prepare(&self.gpu.queue, &mut encoder, &frame);
             {
                 let mut pass = target.begin_pass(&mut encoder, "measured fur pass", Some(background));
                 match (&query, with_query) {
@@ -151,7 +108,7 @@ impl MeasuringGpu {
             }
             encoder.finish()
         };
-        self.queue.submit([record(true)]);
+        self.gpu.queue.submit([record(true)]);
         self.wait()?;
         let fragments = match &query {
             Some((_, _, read)) => {
@@ -170,11 +127,11 @@ impl MeasuringGpu {
             }
             None => None,
         };
-        let image = furbake_render::read_back(&self.device, &self.queue, &target)?;
+        let image = furbake_render::read_back(&self.gpu.device, &self.gpu.queue, &target)?;
         let mut times = Vec::new();
         for _ in 0..timed_frames.max(1) {
             let start = Instant::now();
-            self.queue.submit([record(false)]);
+            self.gpu.queue.submit([record(false)]);
             self.wait()?;
             times.push(start.elapsed().as_secs_f64() * 1e3);
         }
