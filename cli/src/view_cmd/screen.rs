@@ -219,7 +219,14 @@ impl Screen {
             }
             _ => return Ok(String::new()),
         };
+        // The new renderers keep each blade field's culling as the G key left it.
+        let culling: Vec<_> = self.renderer.packs.iter().map(|p| p.blades.as_ref().map(|b| *b.culling())).collect();
         self.renderer = SceneRenderer::for_target_with(&self.pipelines, &self.queue, world, &self.target, &o)?;
+        for (pack, culling) in self.renderer.packs.iter_mut().zip(culling) {
+            if let (Some(blades), Some(culling)) = (pack.blades.as_mut(), culling) {
+                blades.set_culling(&self.queue, culling)?;
+            }
+        }
         self.options = o;
         Ok(message)
     }
