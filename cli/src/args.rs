@@ -418,7 +418,8 @@ const VIEW_HELP: &str = "Controls (also printed on stderr at start):
   Esc, Q               quit
 
 The window title shows the frame time (ms, smoothed), the scene time, play state, the clip, the
-effects switched off and the slowest simulation stage's mean time per step. The world steps at the
+effects switched off, the first fur pack's drawn shells and render switches, and the slowest
+simulation stage's mean time per step. The world steps at the
 scene's time_step_s in real time (at most 4 steps per frame; a slower machine runs slow motion).
 
 Needs a display: DISPLAY (X11) or WAYLAND_DISPLAY. Without one, run it under a virtual X server:

@@ -441,6 +441,9 @@ impl App {
         if !off.is_empty() {
             parts.push(format!("off: {}", off.join(", ")));
         }
+        if let Some(drawn) = self.screen.as_ref().and_then(Screen::drawn) {
+            parts.push(drawn);
+        }
         if let Some(stage) = self.session.slowest_stage() {
             parts.push(format!("slowest {} ({}) {} µs", stage.name, stage.pack, stage.mean().as_micros()));
         }

@@ -181,6 +181,24 @@ impl Screen {
         self.frame = FrameTarget::new(&self.device, &self.present, width, height);
     }
 
+    /// What the first fur pack is drawn with, for the title: its shell count, and the switches
+    /// the keys turned from their defaults (`None` without fur).
+    pub fn drawn(&self) -> Option<String> {
+        let fur = self.renderer.packs.iter().find_map(|p| p.fur.as_ref())?;
+        let settings = fur.settings();
+        let mut text = format!("{} shells", fur.drawn_layers());
+        if !settings.shading.enabled {
+            text.push_str(", flat");
+        }
+        if !settings.fins {
+            text.push_str(", no fins");
+        }
+        if settings.blend == furbake_render::ShellBlend::AlphaTest {
+            text.push_str(", alpha test");
+        }
+        Some(text)
+    }
+
     /// Switches a render option from the keyboard and rebuilds the renderers with it (the packs
     /// stay opened; their GPU data is uploaded again): `s` shading (strand and blade shading) off
     /// or on, `f` every fin off or on, `t` alpha blending or the alpha test, `[` and `]` half or
