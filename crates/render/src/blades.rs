@@ -574,9 +574,7 @@ impl BladeRenderer {
         }
         check_culling(&settings.culling)?;
         settings.shading.validate()?;
-        if !(1..=crate::MAX_VIEWS).contains(&settings.views) {
-            return Err(RenderError::Parameter { what: format!("blade views {} not in 1..=8", settings.views) });
-        }
+        crate::renderer::check_view_count(settings.views, "BladeSettings::views")?;
         // The checks of `KeyframeDecoder::new`, so a hand-built table cannot index out of range.
         let g = table.grid;
         let factor = table.symmetry.factor();
@@ -1112,9 +1110,7 @@ impl BladeRenderer {
         if view < self.groups.len() {
             return Ok(());
         }
-        Err(RenderError::Parameter {
-            what: format!("view {view} of a blade renderer built for {} (BladeSettings::views)", self.groups.len()),
-        })
+        Err(crate::renderer::view_out_of_range(view, self.groups.len(), "BladeSettings::views"))
     }
 
     fn prepare_slot(

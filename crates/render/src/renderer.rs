@@ -51,6 +51,20 @@ pub fn light_slots_for(lighting: &furbake_runtime::Lighting) -> u32 {
 /// The most views one renderer draws in a frame ([`RenderSettings::views`]).
 pub const MAX_VIEWS: u32 = 8;
 
+/// Checks a renderer's view slot count (`setting` names it) against 1..=[`MAX_VIEWS`].
+pub(crate) fn check_view_count(views: u32, setting: &str) -> Result<(), RenderError> {
+    if (1..=MAX_VIEWS).contains(&views) {
+        return Ok(());
+    }
+    Err(RenderError::Parameter { what: format!("{setting} = {views} is not in 1..={MAX_VIEWS}") })
+}
+
+/// The error of a view index at or past a renderer's `count` slots (`setting` says where the
+/// count was chosen).
+pub(crate) fn view_out_of_range(view: usize, count: usize, setting: &str) -> RenderError {
+    RenderError::Parameter { what: format!("view {view} of a renderer built for {count} ({setting})") }
+}
+
 /// Rendering parameters of one asset.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RenderSettings {
@@ -180,9 +194,7 @@ impl RenderSettings {
         if !(1..=furbake_runtime::MAX_LIGHTS as u32).contains(&self.light_slots) {
             return bad("light_slots must be in 1..=4");
         }
-        if !(1..=MAX_VIEWS).contains(&self.views) {
-            return bad("views must be in 1..=8");
-        }
+        check_view_count(self.views, "views")?;
         if !(0.0..1.0).contains(&self.alpha_threshold) {
             return bad("alpha_threshold must be in [0, 1)");
         }
@@ -720,9 +732,7 @@ impl FurRenderer {
     }
 
     fn view_slot(&self, view: usize) -> Result<&ViewSlot, RenderError> {
-        self.views.get(view).ok_or_else(|| RenderError::Parameter {
-            what: format!("view {view} of a renderer built for {} (RenderSettings::views)", self.views.len()),
-        })
+        self.views.get(view).ok_or_else(|| view_out_of_range(view, self.views.len(), "RenderSettings::views"))
     }
 
     /// Whether this renderer selects and draws silhouette fins

@@ -7,28 +7,13 @@
 
 mod common;
 
-use std::sync::OnceLock;
-
 use common::gpu;
-use furbake_formats::sections::blade_field::BladeField;
-use furbake_formats::sections::keyframe_table::KeyframeTable;
 use furbake_grass::{ForceField, ForceScene};
 use furbake_render::{BladeRenderer, BladeSettings, BladeShading, RenderTarget, View, read_back};
 use furbake_runtime::{Camera, Light};
 use image::RgbaImage;
 
 const SIZE: u32 = 256;
-
-fn table() -> &'static KeyframeTable {
-    static TABLE: OnceLock<KeyframeTable> = OnceLock::new();
-    TABLE.get_or_init(|| common::blade_table(100))
-}
-
-/// A 1.5 m × 1.5 m patch, 200 blades/m², clusters of 0.25 m (so several clumps are in view).
-fn patch() -> &'static BladeField {
-    static FIELD: OnceLock<BladeField> = OnceLock::new();
-    FIELD.get_or_init(|| common::blade_patch(200.0))
-}
 
 /// Eye height on +z looking at the patch; the light travels along `light` (from the light).
 fn view(light: [f32; 3]) -> View {
@@ -49,9 +34,16 @@ const BACK: [f32; 3] = [-0.2, -0.5, 1.0];
 fn render(shading: BladeShading, light: [f32; 3], name: &str) -> RgbaImage {
     let (device, queue) = (&gpu().device, &gpu().queue);
     let settings = BladeSettings { shading, ..BladeSettings::default() };
-    let blades = BladeRenderer::new(gpu().pipelines(), queue, patch(), table(), &settings, &RenderTarget::desc())
-        .expect("the blade renderer takes the settings");
-    let mut forces = ForceField::new(patch().grid);
+    let blades = BladeRenderer::new(
+        gpu().pipelines(),
+        queue,
+        common::default_blade_patch(),
+        common::default_blade_table(),
+        &settings,
+        &RenderTarget::desc(),
+    )
+    .expect("the blade renderer takes the settings");
+    let mut forces = ForceField::new(common::default_blade_patch().grid);
     forces.update(&ForceScene::default());
     blades.set_force_field(queue, &forces).unwrap();
     let target = RenderTarget::new(device, SIZE, SIZE).unwrap();
@@ -165,9 +157,16 @@ fn out_of_range_shading_is_refused_by_name() {
         (BladeShading { translucency: -0.1, ..BladeShading::default() }, "translucency"),
     ] {
         let settings = BladeSettings { shading: bad, ..BladeSettings::default() };
-        let err = BladeRenderer::new(gpu().pipelines(), queue, patch(), table(), &settings, &RenderTarget::desc())
-            .err()
-            .expect("refused");
+        let err = BladeRenderer::new(
+            gpu().pipelines(),
+            queue,
+            common::default_blade_patch(),
+            common::default_blade_table(),
+            &settings,
+            &RenderTarget::desc(),
+        )
+        .err()
+        .expect("refused");
         assert!(err.to_string().contains(name), "{name}: {err}");
         checked += 1;
     }
@@ -208,7 +207,7 @@ fn the_ground_under_the_blades_takes_the_grass_colour() {
 #[test]
 fn blade_coverage_is_the_outline_area() {
     let (device, queue) = (&gpu().device, &gpu().queue);
-    let mut field = patch().clone();
+    let mut field = common::default_blade_patch().clone();
     let n = 6;
     field.positions.truncate(n);
     field.yaw_rad.truncate(n);
@@ -222,8 +221,15 @@ fn blade_coverage_is_the_outline_area() {
     }
     let size = 256u32;
     let settings = BladeSettings { culling: furbake_render::GrassCulling::frustum_only(), ..BladeSettings::default() };
-    let blades =
-        BladeRenderer::new(gpu().pipelines(), queue, &field, table(), &settings, &RenderTarget::desc()).unwrap();
+    let blades = BladeRenderer::new(
+        gpu().pipelines(),
+        queue,
+        &field,
+        common::default_blade_table(),
+        &settings,
+        &RenderTarget::desc(),
+    )
+    .unwrap();
     let mut forces = ForceField::new(field.grid);
     forces.update(&ForceScene::default());
     blades.set_force_field(queue, &forces).unwrap();

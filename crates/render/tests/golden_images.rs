@@ -21,8 +21,6 @@ use std::sync::OnceLock;
 
 use common::gpu;
 use furbake_bake::{BakeSettings, NoProgress, bake};
-use furbake_formats::sections::blade_field::BladeField;
-use furbake_formats::sections::keyframe_table::KeyframeTable;
 use furbake_grass::{ForceField, ForceScene};
 use furbake_import::{ImportSettings, import_gltf};
 use furbake_render::{
@@ -151,23 +149,18 @@ fn fox_preview() {
     check("fox", &image, FUR);
 }
 
-fn table() -> &'static KeyframeTable {
-    static TABLE: OnceLock<KeyframeTable> = OnceLock::new();
-    TABLE.get_or_init(|| common::blade_table(100))
-}
-
-/// A 1.5 m square patch, 200 blades/m², clumps of 0.25 m.
-fn patch() -> &'static BladeField {
-    static FIELD: OnceLock<BladeField> = OnceLock::new();
-    FIELD.get_or_init(|| common::blade_patch(200.0))
-}
-
 fn render_grass(eye: [f32; 3], light: [f32; 3]) -> RgbaImage {
     let g = gpu();
-    let blades =
-        BladeRenderer::new(g.pipelines(), &g.queue, patch(), table(), &BladeSettings::default(), &RenderTarget::desc())
-            .unwrap();
-    let mut forces = ForceField::new(patch().grid);
+    let blades = BladeRenderer::new(
+        g.pipelines(),
+        &g.queue,
+        common::default_blade_patch(),
+        common::default_blade_table(),
+        &BladeSettings::default(),
+        &RenderTarget::desc(),
+    )
+    .unwrap();
+    let mut forces = ForceField::new(common::default_blade_patch().grid);
     forces.update(&ForceScene::default());
     blades.set_force_field(&g.queue, &forces).unwrap();
     let view = View {

@@ -49,3 +49,15 @@ pub fn blade_patch(density: f32) -> BladeField {
     let settings = BladeFieldSettings { density_per_m2: density, cluster_size_m: 0.25, ..Default::default() };
     scatter_blades(&ground_grid_mesh([1.5, 1.5], [3, 3]), &settings).unwrap()
 }
+
+/// [`blade_table`] with 100 poses, made once per test binary.
+pub fn default_blade_table() -> &'static KeyframeTable {
+    static TABLE: OnceLock<KeyframeTable> = OnceLock::new();
+    TABLE.get_or_init(|| blade_table(100))
+}
+
+/// [`blade_patch`] at 200 blades/m², made once per test binary.
+pub fn default_blade_patch() -> &'static BladeField {
+    static FIELD: OnceLock<BladeField> = OnceLock::new();
+    FIELD.get_or_init(|| blade_patch(200.0))
+}

@@ -119,6 +119,20 @@ pub struct Row {
     pub frame_ms: f64,
 }
 
+impl Row {
+    /// The row of one measured `frame` of `scene` at `angle_deg` with `shells` and `fins`.
+    fn measured(
+        scene: SceneKind,
+        angle_deg: f32,
+        length_px: f32,
+        (shells, fins): (u32, FinMode),
+        score: Score,
+        frame: &super::gpu::MeasuredFrame,
+    ) -> Row {
+        Row { scene, angle_deg, length_px, shells, fins, score, fragments: frame.fragments, frame_ms: frame.frame_ms }
+    }
+}
+
 /// One line of the knee table: at this projected fur length, more shells than `knee_shells` lower
 /// the FLIP error (mean over the covered pixels) by less than 5 % of its value.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -239,16 +253,7 @@ pub fn rendering_report(
                         options.timed_frames,
                     )?;
                     let (s, map) = score(&reference, &frame.image, background());
-                    rows.push(Row {
-                        scene: kind,
-                        angle_deg: angle,
-                        length_px,
-                        shells,
-                        fins,
-                        score: s,
-                        fragments: frame.fragments,
-                        frame_ms: frame.frame_ms,
-                    });
+                    rows.push(Row::measured(kind, angle, length_px, (shells, fins), s, &frame));
                     if fins == FinMode::Silhouette && (shells == 8 || shells == 32) {
                         let rgb: Vec<u8> = frame.image.pixels().flat_map(|p| [p[0], p[1], p[2]]).collect();
                         panels.push((shells, rgb, map));
@@ -280,16 +285,7 @@ pub fn rendering_report(
                 let frame =
                     gpu.measure(&scene.asset, &render_settings(shells, fins), &view, size, size, options.timed_frames)?;
                 let (s, _) = score(&reference, &frame.image, background());
-                lod.push(Row {
-                    scene: SceneKind::Patch,
-                    angle_deg: angle,
-                    length_px,
-                    shells,
-                    fins,
-                    score: s,
-                    fragments: frame.fragments,
-                    frame_ms: frame.frame_ms,
-                });
+                lod.push(Row::measured(SceneKind::Patch, angle, length_px, (shells, fins), s, &frame));
             }
             progress(&format!("level of detail at {length_px} px: done ({:.0} s)", started.elapsed().as_secs_f64()));
         }
