@@ -18,7 +18,8 @@ struct Fur {
     alpha_threshold: f32,
     // Slices in the shell texture array.
     atlas_layers: u32,
-    // Shell layers drawn (instances); slice = layer·atlas_layers/drawn_layers.
+    // The most shell layers a view draws (a view draws Frame.shells.x of them); the readback
+    // probe evaluates this many.
     drawn_layers: u32,
     // Metres of edge per fin texture repeat (the shell texture's texel density).
     fin_repeat_m: f32,
@@ -37,6 +38,10 @@ struct Fur {
     // x, y: primary and secondary shift; z: back-light strength; w: Kajiya–Kay share of the
     // diffuse term.
     strand: vec4<f32>,
+    // How alpha-blended shells stack one hair's coverage (`stacked_alpha`; docs/design.md "Shell
+    // opacity"): x = hair width and y = hair bend over the coat, in atlas texels; z = fur length in
+    // atlas texels; w = 1 to correct the stacking, 0 to blend each layer's alpha as it is.
+    stacking: vec4<f32>,
 };
 
 override LAMBERT: bool = true;

@@ -25,6 +25,13 @@ struct Frame {
     // Model matrix of the drawn object (object/pack frame → world): rotation, translation and a
     // uniform positive scale. Identity for a single object.
     model: mat4x4<f32>,
+    // xy: the target's width and height in pixels (0: not given); zw unused.
+    viewport: vec4<f32>,
+    // The shell level of detail of this view, written by the fur renderer (docs/design.md "Shell
+    // level of detail"): x = shell layers drawn, y = opacity of the layers a transition is adding
+    // (1 outside a transition), z = the continuous layer count the stacking reads; w unused. All
+    // zero in the blade shaders.
+    shells: vec4<f32>,
 };
 
 // The light `i` arriving at world position `world`: the unit vector towards it and its radiance

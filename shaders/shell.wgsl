@@ -30,17 +30,19 @@ struct ShellOut {
     // World-space hair direction (unit before interpolation).
     @location(4) tangent: vec3<f32>,
     @location(5) world: vec3<f32>,
-    // Relative height t of the layer, (layer + 1)/drawn_layers.
+    // Relative height t of the layer, (layer + 1)/layers.
     @location(6) @interpolate(flat) height: f32,
+    // Opacity of the layer in a level-of-detail transition (1 outside one).
+    @location(7) @interpolate(flat) fade: f32,
 };
 
 // Object-space position of a skin vertex (welded index, bind position and normal, scale-vector
-// index) on shell `layer` (0 = innermost, t = (layer + 1)/drawn_layers): the extrusion and
+// index) on shell `layer` of `layers` (0 = innermost, t = (layer + 1)/layers): the extrusion and
 // eq. 3.36 shear from the vertex's posed root. Used by the draw (`vs_shell`) and by the readback
 // probe (`cs_shell_positions`), so tests compare exactly what is drawn with the CPU reference
 // `furbake_sim::shell_vertex_position`.
-fn shell_vertex(vertex_index: u32, position: vec3<f32>, normal: vec3<f32>, scale_at: u32, layer: u32) -> vec3<f32> {
-    let t = f32(layer + 1u) / f32(fur.drawn_layers);
+fn shell_vertex(vertex_index: u32, position: vec3<f32>, normal: vec3<f32>, scale_at: u32, layer: u32, layers: u32) -> vec3<f32> {
+    let t = f32(layer + 1u) / f32(layers);
     let root = posed_vertex(vertex_index, position, normal);
     let n = normalize(root.normal.xyz);
     let s = scale_vectors[scale_at].xyz;
@@ -49,26 +51,72 @@ fn shell_vertex(vertex_index: u32, position: vec3<f32>, normal: vec3<f32>, scale
 
 // Object-space hair direction at that shell vertex (`strand_tangent` at the layer's t); shared
 // by the draw and the probe like `shell_vertex`.
-fn shell_tangent(vertex_index: u32, position: vec3<f32>, normal: vec3<f32>, scale_at: u32, layer: u32) -> vec3<f32> {
-    let t = f32(layer + 1u) / f32(fur.drawn_layers);
+fn shell_tangent(vertex_index: u32, position: vec3<f32>, normal: vec3<f32>, scale_at: u32, layer: u32, layers: u32) -> vec3<f32> {
+    let t = f32(layer + 1u) / f32(layers);
     let n = normalize(posed_vertex(vertex_index, position, normal).normal.xyz);
     return strand_tangent(n, scale_vectors[scale_at].xyz, t);
 }
 
+// The alpha one shell layer blends for texel alpha `alpha`, seen along `to_eye` on a hair
+// running along `tangent`, when this view draws fewer layers than the atlas has slices
+// (docs/design.md "Shell opacity"). Over-compositing the layers multiplies their transmittances
+// as if each showed an independent hair, but a ray stays on one hair while it drifts less than
+// the hair's width w from it: over the coat it drifts D = sqrt((L·tan θ)² + bend²) texels (θ
+// between the ray and the hair, L the fur length, bend the hairs' own lateral travel), so of N
+// layers it sees each hair in k(N) = clamp(N·w/D, 1, N). The atlas's own count A is what the
+// slices are made for; N < A layers each blend 1 − (1 − α)^(k(A)/k(N)), so the coat is as opaque
+// as A layers make it (along the hairs, θ = 0, that is the slab exponent A/N; seen across them,
+// with the layers far apart, none). N ≥ A blends alpha as it is (repeated slices add opacity:
+// bake more layers instead of drawing more shells).
+fn stacked_alpha(alpha: f32, to_eye: vec3<f32>, tangent: vec3<f32>) -> f32 {
+    let n = frame.shells.z;
+    let a = f32(fur.atlas_layers);
+    if fur.stacking.w == 0.0 || alpha >= 1.0 || n >= a {
+        return alpha;
+    }
+    let c = clamp(abs(dot(to_eye, tangent)), 1e-3, 1.0);
+    let tan_view = sqrt(max(1.0 - c * c, 0.0)) / c;
+    let along = fur.stacking.z * tan_view;
+    let drift = max(sqrt(along * along + fur.stacking.y * fur.stacking.y), 1e-6);
+    let k = clamp(n * fur.stacking.x / drift, 1.0, n);
+    let k_atlas = clamp(a * fur.stacking.x / drift, 1.0, a);
+    return 1.0 - pow(1.0 - alpha, k_atlas / k);
+}
+
+// The 4×4 Bayer threshold of pixel `xy`, in (0, 1).
+fn dither_4x4(xy: vec2<f32>) -> f32 {
+    let p = vec2<u32>(xy) % vec2<u32>(4u);
+    let bayer = array<u32, 16>(0u, 8u, 2u, 10u, 12u, 4u, 14u, 6u, 3u, 11u, 1u, 9u, 15u, 7u, 13u, 5u);
+    return (f32(bayer[p.y * 4u + p.x]) + 0.5) / 16.0;
+}
+
+// The atlas slice shell `layer` of `layers` samples: the slab that holds its height
+// t = (layer + 1)/layers, so a layer keeps its slice when the level of detail halves the count
+// (layer 2i + 1 of 2N is layer i of N). The CPU twin is `ShellAtlas::slice_for`.
+fn shell_slice(layer: u32, layers: u32) -> u32 {
+    let a = fur.atlas_layers;
+    return min(a - 1u, ((layer + 1u) * a + layers - 1u) / layers - 1u);
+}
+
 @vertex
 fn vs_shell(v: SurfaceIn, @builtin(instance_index) layer: u32) -> ShellOut {
+    // This view's level of detail (docs/design.md "Shell level of detail").
+    let layers = max(u32(frame.shells.x), 1u);
     let scale_at = scale_index(v.vertex_index, v.corner_index);
-    let world = to_world(shell_vertex(v.vertex_index, v.position, v.normal, scale_at, layer));
+    let world = to_world(shell_vertex(v.vertex_index, v.position, v.normal, scale_at, layer, layers));
     var out: ShellOut;
     out.clip = frame.view_proj * vec4<f32>(world, 1.0);
     out.normal = normal_to_world(posed_vertex(v.vertex_index, v.position, v.normal).normal.xyz);
     out.color = v.color;
     out.uv = v.uv;
-    out.slice = min(fur.atlas_layers - 1u, (layer * fur.atlas_layers) / fur.drawn_layers);
+    out.slice = shell_slice(layer, layers);
     out.world = world;
-    out.height = f32(layer + 1u) / f32(fur.drawn_layers);
+    out.height = f32(layer + 1u) / f32(layers);
+    // A transition between two levels draws the upper level's layers and fades in those the
+    // lower one lacks (the even-indexed ones).
+    out.fade = select(1.0, frame.shells.y, layer % 2u == 0u);
     if STRAND {
-        out.tangent = normal_to_world(shell_tangent(v.vertex_index, v.position, v.normal, scale_at, layer));
+        out.tangent = normal_to_world(shell_tangent(v.vertex_index, v.position, v.normal, scale_at, layer, layers));
     } else {
         out.tangent = out.normal;
     }
@@ -94,6 +142,15 @@ fn fs_shell(in: ShellOut) -> @location(0) vec4<f32> {
     if alpha_discarded(alpha, edge) {
         discard;
     }
+    // A layer fading in or out with the level of detail: blended shells scale its alpha, opaque
+    // ones keep an ordered-dither share of its pixels.
+    if in.fade < 1.0 && !ALPHA_BLEND && in.fade <= dither_4x4(in.clip.xy) {
+        discard;
+    }
+    let to_eye = normalize(frame.camera_pos.xyz - in.world);
+    if ALPHA_BLEND {
+        alpha = stacked_alpha(alpha, to_eye, normalize(in.tangent)) * in.fade;
+    }
     var rgb: vec3<f32>;
     if STRAND && LAMBERT {
         var direct = 1.0;
@@ -103,7 +160,6 @@ fn fs_shell(in: ShellOut) -> @location(0) vec4<f32> {
         // The hair on this texel (the same texel on every layer: the same hair).
         let size = vec2<f32>(textureDimensions(shell_alpha));
         let cell = vec2<i32>(min(floor(fract(in.uv) * size), size - 1.0));
-        let to_eye = normalize(frame.camera_pos.xyz - in.world);
         let albedo = in.color.rgb * fur.tint.rgb;
         rgb = strand_shade(albedo, in.normal, in.tangent, in.world, to_eye, in.height, direct, strand_mask(cell.x, cell.y));
     } else {
@@ -152,6 +208,6 @@ fn cs_shell_positions(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(nu
     let v = i % count;
     let layer = i / count;
     let p = probe_vertices[v];
-    probe_out[i] = vec4<f32>(shell_vertex(p.vertex_index, p.position.xyz, p.normal.xyz, v, layer), 1.0);
-    probe_tangents[i] = vec4<f32>(shell_tangent(p.vertex_index, p.position.xyz, p.normal.xyz, v, layer), 0.0);
+    probe_out[i] = vec4<f32>(shell_vertex(p.vertex_index, p.position.xyz, p.normal.xyz, v, layer, fur.drawn_layers), 1.0);
+    probe_tangents[i] = vec4<f32>(shell_tangent(p.vertex_index, p.position.xyz, p.normal.xyz, v, layer, fur.drawn_layers), 0.0);
 }

@@ -329,6 +329,9 @@ pub struct RenderFlags {
     /// colour with two-sided Lambert (no blade shading).
     #[arg(long)]
     pub flat: bool,
+    /// Draw every shell layer at any distance (no level of detail).
+    #[arg(long)]
+    pub no_lod: bool,
 }
 
 /// `--blend`.
@@ -355,6 +358,7 @@ impl RenderFlags {
             alpha_threshold: self.alpha_threshold,
             strand_shading: self.flat.then_some(false),
             blade_shading: self.flat.then_some(false),
+            lod: self.no_lod.then_some(false),
         };
         options.validate().map_err(|(key, what)| {
             let flag =

@@ -61,7 +61,7 @@ pub const VIEW_CONTROLS: &str = "\
 controls: left drag orbit · right drag or shift+left drag pan · wheel zoom
           Space play/pause · Right step forward (Shift: 10 steps) · Left step back (Shift: 10; re-simulates from 0)
           C next animation clip · 1-9 switch the n-th declared effect off/on · R reset · Esc or Q quit
-          S shading on/off (flat) · F fins on/off · T alpha blend/test · [ ] halve/double the shells · G grass culling on/off";
+          S shading on/off (flat) · F fins on/off · T alpha blend/test · [ ] halve/double the shells · L shell level of detail on/off · G grass culling on/off";
 
 /// What `furbake view` will do, validated.
 #[derive(Debug)]
@@ -507,7 +507,7 @@ impl App {
                     Some(clips) => say(format!("clip: {clips}")),
                     None => say("clip: no pack of this scene is animated".into()),
                 },
-                "s" | "f" | "t" | "[" | "]" => {
+                "s" | "f" | "t" | "[" | "]" | "l" => {
                     let Some(screen) = self.screen.as_mut() else { return Ok(()) };
                     let path = &self.session.path;
                     let message = screen

@@ -181,14 +181,20 @@ impl Screen {
         self.frame = FrameTarget::new(&self.device, &self.present, width, height);
     }
 
-    /// What the first fur pack is drawn with, for the title: its shell count, and the switches
+    /// What the first fur pack is drawn with, for the title: its shell count (and the level of
+    /// detail's count in the last frame where that is fewer), and the switches
     /// the keys turned from their defaults (`None` without fur).
     pub fn drawn(&self) -> Option<String> {
         let fur = self.renderer.packs.iter().find_map(|p| p.fur.as_ref())?;
         let settings = fur.settings();
-        let mut text = format!("{} shells", fur.drawn_layers());
+        // The level of detail's count in the last frame, of the most it draws.
+        let (most, layers) = (fur.drawn_layers(), fur.layers_in_view(0).unwrap_or(fur.drawn_layers()));
+        let mut text = if layers < most { format!("{layers} of {most} shells") } else { format!("{most} shells") };
         if !settings.shading.enabled {
             text.push_str(", flat");
+        }
+        if settings.lod.is_none() {
+            text.push_str(", no level of detail");
         }
         if !settings.fins {
             text.push_str(", no fins");
@@ -202,7 +208,7 @@ impl Screen {
     /// Switches a render option from the keyboard and rebuilds the renderers with it (the packs
     /// stay opened; their GPU data is uploaded again): `s` shading (strand and blade shading) off
     /// or on, `f` every fin off or on, `t` alpha blending or the alpha test, `[` and `]` half or
-    /// twice the shells drawn. Returns what is drawn now, for the viewer's message.
+    /// twice the shells drawn, `l` the shells' level of detail off or on. Returns what is drawn now, for the viewer's message.
     pub fn toggle_render(&mut self, key: &str, world: &World) -> Result<String, RenderError> {
         let drawn = self.renderer.packs.iter().find_map(|p| p.fur.as_ref()).map(|f| (f.settings(), f.drawn_layers()));
         let Some((settings, layers)) = drawn else { return Ok("render: this scene has no fur".into()) };
@@ -233,7 +239,12 @@ impl Screen {
             "[" | "]" => {
                 let n = if key == "[" { layers / 2 } else { (layers.max(1) * 2).min(1024) };
                 o.shell_layers = Some(n);
-                format!("shells: {n} drawn")
+                format!("shells: at most {n} drawn")
+            }
+            "l" => {
+                let on = settings.lod.is_none();
+                o.lod = Some(on);
+                format!("shell level of detail: {}", if on { "on" } else { "off (every layer at any distance)" })
             }
             _ => return Ok(String::new()),
         };
@@ -314,7 +325,7 @@ impl Screen {
         path: &Path,
     ) -> Result<(), Failure> {
         let (width, height) = self.size();
-        let uniforms = view.uniforms(width as f32 / height as f32);
+        let uniforms = view.uniforms(width, height);
         let mut encoder =
             self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("furbake view") });
         // On an error the encoder is dropped unsubmitted and the texture unpresented.

@@ -11,7 +11,7 @@
 //!    `t·fur_length`, `t = (layer + 1)/layers` — eq. 3.36 at rest (`s = n`, no shear), exactly
 //!    the renderer's `shell_vertex` (shaders/shell.wgsl) — with the per-triangle UV map
 //!    (`triangle_uv_map`, texture repeats) as `TEXCOORD_0`, the layer's shell-atlas slice as a PNG
-//!    whose alpha is the slice (slice `layer·atlas_layers/layers`, as the renderer picks it), and the
+//!    whose alpha is the slice (`ShellAtlas::slice_for`, as the renderer picks it), and the
 //!    layer's self-shadow factor as the material's base colour factor. The layers share every
 //!    accessor but `POSITION`;
 //! 3. `fins` — one quad per fin edge standing on the edge, its top edge moved along the rest
@@ -379,7 +379,7 @@ fn build(input: &Input<'_>, options: &ExportOptions, notes: &mut Vec<String>) ->
         let mut slice_texture: HashMap<usize, usize> = HashMap::new();
         for layer in 0..layers {
             let t = (layer + 1) as f32 / layers as f32;
-            let slice = ((layer * atlas_layers) / layers).min(atlas_layers - 1) as usize;
+            let slice = input.shells.slice_for(layer, layers);
             let texture = match slice_texture.get(&slice) {
                 Some(&tex) => tex,
                 None => {

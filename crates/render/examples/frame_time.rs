@@ -228,7 +228,7 @@ fn blades(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
         let image = furbake_render::read_back(&gpu.device, &gpu.queue, &target)?;
         let sky = image.get_pixel(0, 0).0;
         coverage.push((name, image.pixels().filter(|p| p.0 != sky).count() as f64 / (w * h) as f64));
-        let frame_uniforms = view.uniforms(target.aspect());
+        let frame_uniforms = view.uniforms(target.width, target.height);
         // The culling pass alone: prepare (uniforms + the four dispatches), submit, wait.
         let mut pass_ms = Vec::with_capacity(frames);
         for _ in 0..frames {

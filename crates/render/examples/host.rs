@@ -141,8 +141,14 @@ impl Furbake {
 
     /// The middleware's upload: this frame's uniforms per object, and the Fox's skinning
     /// dispatch recorded into the host's `encoder`. Nothing is submitted.
-    pub fn prepare(&self, queue: &wgpu::Queue, encoder: &mut wgpu::CommandEncoder, placement: &Placement, aspect: f32) {
-        let frame = placement.view.uniforms(aspect);
+    pub fn prepare(
+        &self,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+        placement: &Placement,
+        (width, height): (u32, u32),
+    ) {
+        let frame = placement.view.uniforms(width, height);
         self.patch.prepare(queue, encoder, &frame.with_model(placement.grass_model));
         self.blades.prepare(queue, encoder, &frame.with_model(placement.grass_model));
         self.fox.prepare(queue, encoder, &frame.with_model(placement.fox_model));
@@ -464,7 +470,7 @@ impl Host {
         };
         queue.write_buffer(&self.camera, 0, bytemuck::bytes_of(&camera));
         if let Some(furbake) = furbake {
-            furbake.prepare(queue, encoder, placement, self.aspect());
+            furbake.prepare(queue, encoder, placement, (self.options.width, self.options.height));
         }
         let color = self.color.create_view(&Default::default());
         let resolve = self.resolve.as_ref().map(|t| t.create_view(&Default::default()));

@@ -248,7 +248,7 @@ impl FurRenderer {
         target.check_renderer(self.target())?;
         let mut encoder =
             device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("furbake frame") });
-        self.prepare(queue, &mut encoder, &view.uniforms(target.aspect()));
+        self.prepare(queue, &mut encoder, &view.uniforms(target.width, target.height));
         self.render(&mut target.begin_pass(&mut encoder, "furbake fur pass", Some(self.settings().background)));
         crate::blocking::submit(queue, [encoder.finish()]);
         Ok(())
@@ -271,7 +271,7 @@ impl BladeRenderer {
         target.check_renderer(self.target())?;
         let mut encoder =
             device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("furbake blade frame") });
-        self.prepare(queue, &mut encoder, &view.uniforms(target.aspect()));
+        self.prepare(queue, &mut encoder, &view.uniforms(target.width, target.height));
         self.render(&mut target.begin_pass(&mut encoder, "furbake blade pass", clear));
         crate::blocking::submit(queue, [encoder.finish()]);
         Ok(())
@@ -458,7 +458,7 @@ fn render_pack_with(
     // it, in their rest pose (a still preview has no wind).
     let blades = BladeRenderer::from_pack(gpu.pipelines(), &gpu.queue, pack, blade_settings, &desc)?;
     let target = RenderTarget::new(&gpu.device, width, height)?;
-    let frame = view.uniforms(target.aspect());
+    let frame = view.uniforms(target.width, target.height);
     let mut encoder =
         gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("furbake preview") });
     fur.prepare(&gpu.queue, &mut encoder, &frame);

@@ -58,7 +58,7 @@
 //! // Every frame: the engine's camera and light (`FrameUniforms::new` takes its own matrix),
 //! // furbake's upload, the engine's pass with its own draws and then furbake's, one submit.
 //! let (center, radius) = asset.bounding_sphere();
-//! let frame = View::framing(center, radius).uniforms(96.0 / 64.0);
+//! let frame = View::framing(center, radius).uniforms(96, 64);
 //! let mut encoder = device.create_command_encoder(&Default::default());
 //! fur.prepare(queue, &mut encoder, &frame);
 //! {
@@ -117,6 +117,7 @@ pub mod blades;
 mod blocking;
 pub mod culling;
 mod headless;
+pub mod lod;
 mod pipelines;
 mod renderer;
 pub mod scene;
@@ -140,6 +141,7 @@ pub use headless::{
     COLOR_FORMAT, DEPTH_FORMAT, HeadlessGpu, RenderTarget, read_back, read_back_texture, render_image,
     render_opened_pack, render_pack, render_preview, render_preview_of, render_preview_with,
 };
+pub use lod::{ShellLevel, ShellLod};
 pub use pipelines::PipelineCache;
 pub use renderer::{
     ALPHA_TEST_THRESHOLD, FurGpuAsset, FurRenderer, MAX_VIEWS, RenderSettings, ShellBlend, light_slots_for,
@@ -374,14 +376,16 @@ impl View {
         renderer::view_proj(eye, target, up, c.fov_y_deg, aspect, self.bounds_center.into(), self.bounds_radius)
     }
 
-    /// The `Frame` uniforms for a target of the given aspect ratio (identity model matrix).
-    pub fn uniforms(&self, aspect: f32) -> shaders::FrameUniforms {
-        self.uniforms_with_model(aspect, glam::Mat4::IDENTITY)
+    /// The `Frame` uniforms for a target of `width` × `height` pixels (identity model matrix).
+    pub fn uniforms(&self, width: u32, height: u32) -> shaders::FrameUniforms {
+        self.uniforms_with_model(width, height, glam::Mat4::IDENTITY)
     }
 
-    /// The `Frame` uniforms for a target of the given aspect ratio and an object placed by
+    /// The `Frame` uniforms for a target of `width` × `height` pixels and an object placed by
     /// `model` (object/pack frame → world; rotation, translation, uniform positive scale).
-    pub fn uniforms_with_model(&self, aspect: f32, model: glam::Mat4) -> shaders::FrameUniforms {
+    pub fn uniforms_with_model(&self, width: u32, height: u32, model: glam::Mat4) -> shaders::FrameUniforms {
+        let aspect = width.max(1) as f32 / height.max(1) as f32;
         shaders::FrameUniforms::new(self.view_proj(aspect), Vec3::from(self.camera.eye), self.lighting, model)
+            .with_viewport(width, height)
     }
 }

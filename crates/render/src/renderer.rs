@@ -20,6 +20,7 @@
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU32, Ordering};
 
+use furbake_formats::sections::shell_atlas::VolumeParams;
 use furbake_runtime::ShellVertexLayout;
 use glam::{Mat4, Vec3};
 use wgpu::util::DeviceExt;
@@ -69,7 +70,8 @@ pub(crate) fn view_out_of_range(view: usize, count: usize, setting: &str) -> Ren
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RenderSettings {
     /// Shell layers drawn; `None` = one per atlas slice. `Some(0)` draws the bare skin (and no
-    /// fins). When different from the atlas, layer i samples slice `i·atlas/drawn`.
+    /// fins). When different from the atlas, layer i samples the slab holding its height
+    /// (`ShellAtlas::slice_for`).
     pub shell_layers: Option<u32>,
     /// Exponent k of the shell shearing, eq. 3.36. Default 2.
     pub shear_exponent: f32,
@@ -120,6 +122,16 @@ pub struct RenderSettings {
     /// `STRAND` override). Default [`FurShading::default`]; a scene pack's `[packs.shading]`
     /// overrides it ([`crate::SceneRenderer::for_target`]).
     pub shading: FurShading,
+    /// With blending, blend each hair's coverage once over the shell layers a ray sees it in,
+    /// instead of once per layer (`shell.wgsl` `stacked_alpha`, docs/design.md "Shell opacity"),
+    /// so the coat's tone does not change with the shell count. Default true.
+    pub stacking_correction: bool,
+    /// The shells' level of detail: each view draws fewer layers where the fur projects short
+    /// ([`crate::ShellLod`], docs/design.md "Shell level of detail"), never more than
+    /// `shell_layers` (or the atlas's count). `None`: every view draws them all. Needs the
+    /// frame's viewport ([`FrameUniforms::with_viewport`]; [`crate::View::uniforms`] sets it).
+    /// Default `Some(ShellLod::default())`.
+    pub lod: Option<crate::ShellLod>,
 }
 
 impl Default for RenderSettings {
@@ -141,8 +153,27 @@ impl Default for RenderSettings {
             views: 1,
             light_slots: furbake_runtime::MAX_LIGHTS as u32,
             shading: FurShading::default(),
+            stacking_correction: true,
+            lod: Some(crate::ShellLod::default()),
         }
     }
+}
+
+/// `FurUniforms::stacking` for an atlas grown with `params` (`shell.wgsl` `stacked_alpha`): the
+/// coat's mean hair width (root radius tapered halfway, both sides, plus the one-texel edge ramp
+/// the slicer draws), its mean lateral travel over the coat (`dmax` × the mean bend weight 1/2 ×
+/// the mean of `l^n` over the uniform length range, eq. 3.1), and the fur length, all in atlas
+/// texels (`repeat_m` metres of surface per atlas repeat).
+fn stacking_uniform(params: &VolumeParams, fur_length_m: f32, repeat_m: f32, enabled: bool) -> [f32; 4] {
+    let coat = &params.coat;
+    let width = 2.0 * coat.radius_texels * (1.0 - 0.5 * coat.taper) + 1.0;
+    let n = coat.curvature_exponent;
+    let (lo, hi) = (coat.length_min, coat.length_max);
+    let mean_ln =
+        if hi - lo > 1e-6 { (hi.powf(n + 1.0) - lo.powf(n + 1.0)) / ((n + 1.0) * (hi - lo)) } else { hi.powf(n) };
+    let bend = coat.max_deviation_texels * 0.5 * mean_ln;
+    let length = fur_length_m * params.resolution as f32 / repeat_m.max(1e-9);
+    [width, bend, length, if enabled { 1.0 } else { 0.0 }]
 }
 
 impl RenderSettings {
@@ -166,6 +197,11 @@ impl RenderSettings {
             self.shell_layers = Some(n);
         }
         self.fins = o.fins.unwrap_or(self.fins);
+        match o.lod {
+            Some(false) => self.lod = None,
+            Some(true) => self.lod = Some(self.lod.unwrap_or_default()),
+            None => {}
+        }
         self.silhouette_fins = o.silhouette_fins.unwrap_or(self.silhouette_fins);
         self.silhouette_band = o.silhouette_band.unwrap_or(self.silhouette_band);
         self.alpha_threshold = o.alpha_threshold.unwrap_or(self.alpha_threshold);
@@ -203,6 +239,9 @@ impl RenderSettings {
         }
         if self.shell_layers.is_some_and(|n| n > furbake_formats::sections::shell_atlas::MAX_LAYERS) {
             return bad("shell_layers is above the atlas layer limit");
+        }
+        if let Some(lod) = &self.lod {
+            lod.validate().map_err(|what| RenderError::Parameter { what })?;
         }
         crate::shading::check(&self.shading)
     }
@@ -375,7 +414,13 @@ pub struct FurRenderer {
     fur_uniforms: FurUniforms,
     /// `FurUniforms::scale_layout` of the buffer's current contents (0 per vertex, 1 per corner).
     scale_layout: AtomicU32,
+    /// The most shell layers a view draws (`RenderSettings::shell_layers` or the atlas's).
     drawn_layers: u32,
+    lod: Option<crate::ShellLod>,
+    /// The asset's bounding sphere (pack frame) and fur length, which the level of detail
+    /// projects.
+    bounds: (Vec3, f32),
+    fur_length_m: f32,
     /// The pass this renderer draws into.
     target: TargetDesc,
     pipelines: FurPipelines,
@@ -390,6 +435,8 @@ pub struct FurRenderer {
 /// edges and a fin atlas), which depends on the camera.
 struct ViewSlot {
     frame: wgpu::Buffer,
+    /// Shell layers this view draws (the level of detail its last `prepare` chose).
+    layers: AtomicU32,
     bind_group: wgpu::BindGroup,
     silhouette: Option<crate::silhouette::SilhouettePass>,
 }
@@ -483,7 +530,15 @@ impl FurRenderer {
             pad1: 0,
             ..Default::default()
         };
-        let fur = crate::shading::with_shading(fur, &settings.shading);
+        let fur = FurUniforms {
+            stacking: stacking_uniform(
+                &shells.params,
+                shells.fur_length_m,
+                asset.uv_map().repeat_m,
+                settings.stacking_correction,
+            ),
+            ..crate::shading::with_shading(fur, &settings.shading)
+        };
         let init = |label, contents: &[u8], usage| {
             device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage })
         };
@@ -547,7 +602,7 @@ impl FurRenderer {
                 }
                 _ => None,
             };
-            Ok(ViewSlot { frame, bind_group, silhouette })
+            Ok(ViewSlot { frame, layers: AtomicU32::new(drawn_layers), bind_group, silhouette })
         };
         let views = (0..settings.views).map(|_| view_slot()).collect::<Result<Vec<_>, _>>()?;
         Ok(FurRenderer {
@@ -559,6 +614,9 @@ impl FurRenderer {
             fur_uniforms: fur,
             scale_layout: AtomicU32::new(0),
             drawn_layers,
+            lod: settings.lod,
+            bounds: (Vec3::from(asset.bounding_sphere().0), asset.bounding_sphere().1),
+            fur_length_m: shells.fur_length_m,
             target: target.clone(),
             pipelines,
             skinning,
@@ -660,9 +718,17 @@ impl FurRenderer {
         &self.gpu
     }
 
-    /// Shell layers drawn per frame.
+    /// The most shell layers a view draws (`RenderSettings::shell_layers`, or one per atlas
+    /// slice); with a level of detail, a view may draw fewer ([`FurRenderer::layers_in_view`]).
     pub fn drawn_layers(&self) -> u32 {
         self.drawn_layers
+    }
+
+    /// The shell layers view `view` draws with what its last prepare wrote (the level of detail's
+    /// choice; [`FurRenderer::drawn_layers`] without one). A view out of range is a
+    /// [`RenderError::Parameter`].
+    pub fn layers_in_view(&self, view: usize) -> Result<u32, RenderError> {
+        Ok(self.view_slot(view)?.layers.load(Ordering::Relaxed))
     }
 
     /// Welded skin vertices (= scale vectors expected by [`FurRenderer::set_scale_vectors`]).
@@ -710,7 +776,18 @@ impl FurRenderer {
         if let Some(skinning) = &self.skinning {
             skinning.encode(encoder);
         }
-        self.views[0].prepare(queue, encoder, frame);
+        self.views[0].prepare(queue, encoder, frame, self.shell_level(frame));
+    }
+
+    /// The shells a view of `frame` draws: its level of detail ([`RenderSettings::lod`]) from the
+    /// fur's projected length, or every layer.
+    pub fn shell_level(&self, frame: &FrameUniforms) -> crate::ShellLevel {
+        let px =
+            self.lod.and_then(|_| crate::lod::projected_fur_px(frame, self.bounds.0, self.bounds.1, self.fur_length_m));
+        match (self.lod, px) {
+            (Some(lod), Some(px)) => crate::ShellLevel::of(self.drawn_layers, &lod, px),
+            _ => crate::ShellLevel::full(self.drawn_layers),
+        }
     }
 
     /// Writes the uniforms of view `view` (1 ≤ `view` < [`RenderSettings::views`]; view 0 is
@@ -727,7 +804,7 @@ impl FurRenderer {
         view: usize,
         frame: &FrameUniforms,
     ) -> Result<(), RenderError> {
-        self.view_slot(view)?.prepare(queue, encoder, frame);
+        self.view_slot(view)?.prepare(queue, encoder, frame, self.shell_level(frame));
         Ok(())
     }
 
@@ -818,10 +895,11 @@ impl FurRenderer {
             pass.set_vertex_buffer(0, gpu.surface.slice(..));
             pass.draw(0..gpu.surface_corners, 0..1);
         }
-        if gpu.furry_corners > 0 && self.drawn_layers > 0 {
+        let layers = view.layers.load(Ordering::Relaxed);
+        if gpu.furry_corners > 0 && layers > 0 {
             pass.set_pipeline(&self.pipelines.shell);
             pass.set_vertex_buffer(0, gpu.surface.slice(..));
-            pass.draw(0..gpu.furry_corners, 0..self.drawn_layers);
+            pass.draw(0..gpu.furry_corners, 0..layers);
         }
         if let Some((buffer, count)) = gpu.fins.as_ref().filter(|_| self.drawn_layers > 0) {
             pass.set_pipeline(&self.pipelines.fin);
@@ -1023,10 +1101,18 @@ type ShellProbe = (Vec<[f32; 3]>, Vec<[f32; 3]>);
 /// The eye of `frame` in the object frame (the inverse model matrix applied to it), where the
 /// silhouette selection compares it with the posed vertices.
 impl ViewSlot {
-    fn prepare(&self, queue: &wgpu::Queue, encoder: &mut wgpu::CommandEncoder, frame: &FrameUniforms) {
-        queue.write_buffer(&self.frame, 0, bytemuck::bytes_of(frame));
+    fn prepare(
+        &self,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+        frame: &FrameUniforms,
+        level: crate::ShellLevel,
+    ) {
+        self.layers.store(level.layers, Ordering::Relaxed);
+        let frame = FrameUniforms { shells: level.uniform(), ..*frame };
+        queue.write_buffer(&self.frame, 0, bytemuck::bytes_of(&frame));
         if let Some(silhouette) = &self.silhouette {
-            silhouette.encode(queue, encoder, object_eye(frame));
+            silhouette.encode(queue, encoder, object_eye(&frame));
         }
     }
 }

@@ -224,7 +224,7 @@ impl SceneFrame {
             target.check_renderer(object.target())?;
         }
         let view = self.view(objects);
-        let frame = view.uniforms(target.aspect());
+        let frame = view.uniforms(target.width, target.height);
         let mut encoder =
             device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("furbake scene frame") });
         for object in objects {
@@ -624,7 +624,7 @@ impl SceneRenderer {
         let mut encoder =
             device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("furbake scene frame") });
         // On an error the encoder is dropped unsubmitted: nothing of this frame is drawn.
-        prepare(&mut encoder, &view.uniforms(target.aspect()))?;
+        prepare(&mut encoder, &view.uniforms(target.width, target.height))?;
         self.render(&mut target.begin_pass(&mut encoder, "furbake scene frame", Some(self.frame.background)));
         crate::blocking::submit(queue, [encoder.finish()]);
         Ok(())

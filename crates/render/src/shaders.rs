@@ -109,6 +109,14 @@ pub struct FrameUniforms {
     /// translation and a uniform positive scale (normals are transformed by it too). Identity
     /// for a single object.
     pub model: [[f32; 4]; 4],
+    /// The target's width and height in pixels (xy; zw unused), which the fur's level of detail
+    /// measures the projected fur length in ([`FrameUniforms::with_viewport`]). Zero: not given,
+    /// and the fur draws its full shell count.
+    pub viewport: [f32; 4],
+    /// The shell level of detail of this view (layers drawn, opacity of the layers a transition
+    /// adds, continuous layer count): written by [`crate::FurRenderer::prepare`] from the other
+    /// fields; whatever a host puts here is replaced.
+    pub shells: [f32; 4],
 }
 
 impl FrameUniforms {
@@ -137,7 +145,15 @@ impl FrameUniforms {
             light_count: [lighting.sources().len() as u32, 0, 0, 0],
             lights,
             model: model.to_cols_array_2d(),
+            viewport: [0.0; 4],
+            shells: [0.0; 4],
         }
+    }
+
+    /// These uniforms for a target of `width` × `height` pixels (the fur's level of detail
+    /// measures the projected fur length in them, docs/design.md "Shell level of detail").
+    pub fn with_viewport(&self, width: u32, height: u32) -> Self {
+        FrameUniforms { viewport: [width as f32, height as f32, 0.0, 0.0], ..*self }
     }
 
     /// These uniforms with the model matrix `model`.
@@ -184,6 +200,10 @@ pub struct FurUniforms {
     pub specular: [f32; 4],
     /// Primary shift, secondary shift, back-light strength, Kajiya–Kay share of the diffuse term.
     pub strand: [f32; 4],
+    /// How alpha-blended shells stack one hair's coverage (`fur_common.wgsl` `stacked_alpha`,
+    /// docs/design.md "Shell opacity"): hair width and hair bend over the coat, in atlas texels;
+    /// the fur length in atlas texels; 1 to correct the stacking (0: each layer's alpha as it is).
+    pub stacking: [f32; 4],
 }
 
 /// The skinning pass's counts (`SkinningParams` in `skinning.wgsl`; binding 0), written once.
@@ -410,6 +430,8 @@ mod tests {
             ("light_count", offset_of!(FrameUniforms, light_count)),
             ("lights", offset_of!(FrameUniforms, lights)),
             ("model", offset_of!(FrameUniforms, model)),
+            ("viewport", offset_of!(FrameUniforms, viewport)),
+            ("shells", offset_of!(FrameUniforms, shells)),
         ];
         assert_eq!(check_layout("Frame", size_of::<FrameUniforms>(), &frame), 4, "Frame: the fur shaders, blades.wgsl");
         let fur = [
@@ -426,6 +448,7 @@ mod tests {
             ("secondary_tint", offset_of!(FurUniforms, secondary_tint)),
             ("specular", offset_of!(FurUniforms, specular)),
             ("strand", offset_of!(FurUniforms, strand)),
+            ("stacking", offset_of!(FurUniforms, stacking)),
         ];
         assert_eq!(check_layout("Fur", size_of::<FurUniforms>(), &fur), 3, "Fur is in all three shaders");
         let params = [

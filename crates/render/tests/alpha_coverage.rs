@@ -66,7 +66,7 @@ fn render_msaa(alpha_to_coverage: bool) -> RgbaImage {
         resolved.create_view(&Default::default()),
     );
     let mut encoder = g.device.create_command_encoder(&Default::default());
-    fur.prepare(&g.queue, &mut encoder, &view().uniforms(1.0));
+    fur.prepare(&g.queue, &mut encoder, &view().uniforms(SIZE, SIZE));
     {
         let clear = wgpu::Color { r: 0.0, g: 0.0, b: 0.0, a: 1.0 };
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {

@@ -128,7 +128,9 @@ impl Demo {
         let mut encoder = gpu.device.create_command_encoder(&Default::default());
         measure(&mut || {
             let view = renderer.world_view(world);
-            renderer.prepare_world(&gpu.queue, &mut encoder, world, &view.uniforms(target.aspect())).unwrap();
+            renderer
+                .prepare_world(&gpu.queue, &mut encoder, world, &view.uniforms(target.width, target.height))
+                .unwrap();
         });
         {
             let mut pass = target.begin_pass(&mut encoder, "host pass", Some(renderer.frame.background));

@@ -122,7 +122,7 @@ fn cameras() -> Vec<(&'static str, View, Mat4)> {
 }
 
 fn frame(view: &View, model: Mat4) -> FrameUniforms {
-    view.uniforms_with_model(WIDTH as f32 / HEIGHT as f32, model)
+    view.uniforms_with_model(WIDTH, HEIGHT, model)
 }
 
 /// Renders one frame of `r` (clear to black) and reads back the image.

@@ -212,7 +212,7 @@ fn a_pass_with_a_second_colour_attachment_keeps_it_untouched() {
     let (_, radius) = asset.bounding_sphere();
     let view = furbake_render::View::framing(asset.bounding_sphere().0, radius);
     let mut encoder = g.device.create_command_encoder(&Default::default());
-    fox.prepare(&g.queue, &mut encoder, &view.uniforms(1.0));
+    fox.prepare(&g.queue, &mut encoder, &view.uniforms(64, 64));
     {
         let attachment = |view| {
             Some(wgpu::RenderPassColorAttachment {

@@ -212,7 +212,7 @@ fn the_gpu_selects_the_cpu_reference_edges_on_the_fox_at_rest_and_posed() {
         }
         for dir in [Vec3::new(0.75, 0.35, 1.0), Vec3::new(-1.0, 0.5, -0.3), Vec3::new(0.0, -0.4, 1.0)] {
             let view = framing(&asset, dir);
-            let frame = view.uniforms(1.0);
+            let frame = view.uniforms(1, 1);
             let sel = renderer.silhouette_selection(&g.device, &g.queue, &frame).unwrap();
             // The surface the selection saw: the skinning pass's output of the same submission.
             let posed = renderer.skinning().unwrap().read_back(&g.device, &g.queue).unwrap();
@@ -287,7 +287,7 @@ fn a_frame_with_silhouette_fins_neither_submits_nor_waits() {
     assert!(renderer.has_silhouette_fins());
     let target = RenderTarget::new(&g.device, 64, 64).unwrap();
     let (center, radius) = asset.bounding_sphere();
-    let frame = View::framing(center, radius).uniforms(1.0);
+    let frame = View::framing(center, radius).uniforms(64, 64);
     let calls = blocking_calls_on_this_thread();
     let mut encoder = g.device.create_command_encoder(&Default::default());
     renderer.prepare(&g.queue, &mut encoder, &frame);

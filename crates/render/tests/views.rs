@@ -33,7 +33,7 @@ trait TwoViews {
 
 impl TwoViews for FurRenderer {
     fn prepare_view(&self, encoder: &mut wgpu::CommandEncoder, view: usize, frame: &View) -> Result<(), RenderError> {
-        let uniforms = frame.uniforms(1.0);
+        let uniforms = frame.uniforms(SIZE, SIZE);
         if view == 0 {
             self.prepare(&gpu().queue, encoder, &uniforms);
             return Ok(());
@@ -47,7 +47,7 @@ impl TwoViews for FurRenderer {
 
 impl TwoViews for BladeRenderer {
     fn prepare_view(&self, encoder: &mut wgpu::CommandEncoder, view: usize, frame: &View) -> Result<(), RenderError> {
-        let uniforms = frame.uniforms(1.0);
+        let uniforms = frame.uniforms(SIZE, SIZE);
         if view == 0 {
             self.prepare(&gpu().queue, encoder, &uniforms);
             return Ok(());

@@ -1,7 +1,8 @@
 //! Regenerates `docs/rendering-accuracy.md`, its chart and images (`make report`): furbake's
 //! shells and fins against a ray-marched reference of the baked hair volume
 //! (`furbake_report::rendering`). Usage: `rendering_report [OUT_DIR] [--quick]` (default `docs`;
-//! `--quick`: 64 px, 9 samples per pixel, two shell counts, for a smoke run).
+//! `--quick`: 64 px, 9 samples per pixel, two shell counts, for a smoke run; `--atlas-layers=N`:
+//! bake the atlases with N layers instead of the preset's 16).
 
 use std::path::PathBuf;
 
@@ -13,6 +14,9 @@ fn main() {
     let out = args.iter().find(|a| !a.starts_with("--")).map_or_else(|| PathBuf::from("docs"), PathBuf::from);
     let fixtures = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../fixtures");
     let mut options = RenderingOptions::new(&fixtures);
+    if let Some(layers) = args.iter().find_map(|a| a.strip_prefix("--atlas-layers=")) {
+        options.bake.volume.layers = layers.parse().expect("--atlas-layers=N takes a count");
+    }
     if quick {
         (options.size, options.strata, options.shells, options.timed_frames) = (64, 3, vec![4, 16], 1);
         options.lod_lengths_px = vec![2.0, 8.0];

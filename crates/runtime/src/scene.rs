@@ -648,6 +648,9 @@ pub struct RenderOptions {
     pub strand_shading: Option<bool>,
     /// The grass blades' shading (off: a flat colour with two-sided Lambert).
     pub blade_shading: Option<bool>,
+    /// The shells' level of detail (fewer layers where the fur projects short; off: every view
+    /// draws `shell_layers`).
+    pub lod: Option<bool>,
 }
 
 impl RenderOptions {
@@ -662,6 +665,7 @@ impl RenderOptions {
             alpha_threshold: self.alpha_threshold.or(below.alpha_threshold),
             strand_shading: self.strand_shading.or(below.strand_shading),
             blade_shading: self.blade_shading.or(below.blade_shading),
+            lod: self.lod.or(below.lod),
         }
     }
 

@@ -126,6 +126,15 @@ impl ShellAtlas {
         let n = self.layer_texels();
         &self.alpha[i * n..(i + 1) * n]
     }
+
+    /// The slice that shell `layer` of `layers` drawn samples: the slab holding its height
+    /// `(layer + 1)/layers`, `⌈(layer + 1)·atlas/layers⌉ − 1`, so that layer `2i + 1` of `2N`
+    /// samples what layer `i` of `N` does (the renderer's level of detail halves the count).
+    /// `shell.wgsl` `shell_slice` is its GPU twin.
+    pub fn slice_for(&self, layer: u32, layers: u32) -> usize {
+        let (a, n) = (self.params.layers.max(1), layers.max(1));
+        (((layer + 1) * a).div_ceil(n) - 1).min(a - 1) as usize
+    }
 }
 
 /// Largest shell resolution a reader accepts (texels per side).

@@ -66,7 +66,7 @@ impl MeasuringGpu {
     ) -> Result<MeasuredFrame, RenderError> {
         let renderer = FurRenderer::new(self.gpu.pipelines(), &self.gpu.queue, asset, settings, &RenderTarget::desc())?;
         let target = RenderTarget::new(&self.gpu.device, width, height)?;
-        let frame = view.uniforms(target.aspect());
+        let frame = view.uniforms(target.width, target.height);
         let query = self.pipeline_statistics.then(|| {
             let set = self.gpu.device.create_query_set(&wgpu::QuerySetDescriptor {
                 label: Some("fur pass statistics"),
