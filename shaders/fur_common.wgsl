@@ -38,9 +38,8 @@ struct Fur {
     // x, y: primary and secondary shift; z: back-light strength; w: Kajiya–Kay share of the
     // diffuse term.
     strand: vec4<f32>,
-    // How alpha-blended shells stack one hair's coverage (`stacked_alpha`; docs/design.md "Shell
-    // opacity"): x = hair width and y = hair bend over the coat, in atlas texels; z = fur length in
-    // atlas texels; w = 1 to correct the stacking, 0 to blend each layer's alpha as it is.
+    // x: 1 to blend the shells with the stacking exponents (shell.wgsl `stacked_alpha`,
+    // docs/design.md "Shell opacity"), 0 to blend each layer's alpha as it is; yzw unused.
     stacking: vec4<f32>,
 };
 

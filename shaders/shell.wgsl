@@ -57,30 +57,44 @@ fn shell_tangent(vertex_index: u32, position: vec3<f32>, normal: vec3<f32>, scal
     return strand_tangent(n, scale_vectors[scale_at].xyz, t);
 }
 
-// The alpha one shell layer blends for texel alpha `alpha`, seen along `to_eye` on a hair
-// running along `tangent`, when this view draws fewer layers than the atlas has slices
-// (docs/design.md "Shell opacity"). Over-compositing the layers multiplies their transmittances
-// as if each showed an independent hair, but a ray stays on one hair while it drifts less than
-// the hair's width w from it: over the coat it drifts D = sqrt((L·tan θ)² + bend²) texels (θ
-// between the ray and the hair, L the fur length, bend the hairs' own lateral travel), so of N
-// layers it sees each hair in k(N) = clamp(N·w/D, 1, N). The atlas's own count A is what the
-// slices are made for; N < A layers each blend 1 − (1 − α)^(k(A)/k(N)), so the coat is as opaque
-// as A layers make it (along the hairs, θ = 0, that is the slab exponent A/N; seen across them,
-// with the layers far apart, none). N ≥ A blends alpha as it is (repeated slices add opacity:
-// bake more layers instead of drawing more shells).
-fn stacked_alpha(alpha: f32, to_eye: vec3<f32>, tangent: vec3<f32>) -> f32 {
-    let n = frame.shells.z;
-    let a = f32(fur.atlas_layers);
-    if fur.stacking.w == 0.0 || alpha >= 1.0 || n >= a {
+// The stacking exponents of this asset (crates/render/src/stacking.rs, docs/design.md "Shell
+// opacity"): [(angle · STACK_MIPS + mip) · STACK_COUNTS + count], angles 0°, 10°, …, 80° between
+// the view and the hair, mips 0…5, drawn layer counts 1, 2, 4, …, 64.
+@group(0) @binding(9) var<storage, read> stacking: array<f32>;
+const STACK_ANGLES: u32 = 9u;
+const STACK_MIPS: u32 = 6u;
+const STACK_COUNTS: u32 = 7u;
+
+fn stacking_at(angle: u32, mip: u32, count: u32) -> f32 {
+    return stacking[(angle * STACK_MIPS + mip) * STACK_COUNTS + count];
+}
+
+// The alpha one shell layer blends for texel alpha `alpha`, seen along `to_eye` on a hair running
+// along `tangent`, sampled at mip level `lod`: 1 − (1 − α)^e with e interpolated from the table
+// between angles, mip levels and log2 of this view's continuous layer count, so that the stack
+// lets through, on average, what the hair volume does.
+fn stacked_alpha(alpha: f32, to_eye: vec3<f32>, tangent: vec3<f32>, lod: f32) -> f32 {
+    if fur.stacking.x == 0.0 || alpha >= 1.0 {
         return alpha;
     }
-    let c = clamp(abs(dot(to_eye, tangent)), 1e-3, 1.0);
-    let tan_view = sqrt(max(1.0 - c * c, 0.0)) / c;
-    let along = fur.stacking.z * tan_view;
-    let drift = max(sqrt(along * along + fur.stacking.y * fur.stacking.y), 1e-6);
-    let k = clamp(n * fur.stacking.x / drift, 1.0, n);
-    let k_atlas = clamp(a * fur.stacking.x / drift, 1.0, a);
-    return 1.0 - pow(1.0 - alpha, k_atlas / k);
+    let angle = clamp(degrees(acos(clamp(abs(dot(to_eye, tangent)), 0.0, 1.0))) / 10.0, 0.0, f32(STACK_ANGLES - 1u));
+    let mip = clamp(lod, 0.0, f32(STACK_MIPS - 1u));
+    let count = clamp(log2(max(frame.shells.z, 1.0)), 0.0, f32(STACK_COUNTS - 1u));
+    let a0 = min(u32(angle), STACK_ANGLES - 2u);
+    let m0 = min(u32(mip), STACK_MIPS - 2u);
+    let c0 = min(u32(count), STACK_COUNTS - 2u);
+    let fa = angle - f32(a0);
+    let fm = mip - f32(m0);
+    let fc = count - f32(c0);
+    var e = 0.0;
+    for (var i = 0u; i < 8u; i++) {
+        let da = i & 1u;
+        let dm = (i >> 1u) & 1u;
+        let dc = (i >> 2u) & 1u;
+        let w = select(1.0 - fa, fa, da == 1u) * select(1.0 - fm, fm, dm == 1u) * select(1.0 - fc, fc, dc == 1u);
+        e += w * log2(stacking_at(a0 + da, m0 + dm, c0 + dc));
+    }
+    return 1.0 - pow(1.0 - alpha, exp2(e));
 }
 
 // The 4×4 Bayer threshold of pixel `xy`, in (0, 1).
@@ -139,6 +153,12 @@ fn fs_shell(in: ShellOut) -> @location(0) vec4<f32> {
     if ALPHA_TO_COVERAGE {
         edge = fwidth(alpha);
     }
+    // The mip level the blending samples at (taken where control flow is still uniform).
+    var lod = 0.0;
+    if ALPHA_BLEND {
+        let texel = in.uv * vec2<f32>(textureDimensions(shell_alpha));
+        lod = log2(max(max(length(dpdx(texel)), length(dpdy(texel))), 1e-6));
+    }
     if alpha_discarded(alpha, edge) {
         discard;
     }
@@ -149,7 +169,7 @@ fn fs_shell(in: ShellOut) -> @location(0) vec4<f32> {
     }
     let to_eye = normalize(frame.camera_pos.xyz - in.world);
     if ALPHA_BLEND {
-        alpha = stacked_alpha(alpha, to_eye, normalize(in.tangent)) * in.fade;
+        alpha = stacked_alpha(alpha, to_eye, normalize(in.tangent), lod) * in.fade;
     }
     var rgb: vec3<f32>;
     if STRAND && LAMBERT {

@@ -125,6 +125,7 @@ pub mod shaders;
 pub mod shading;
 pub mod silhouette;
 mod skinning;
+mod stacking;
 mod target;
 
 use furbake_runtime::{Camera, Lighting, RuntimeError};

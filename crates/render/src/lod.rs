@@ -14,16 +14,17 @@ pub struct ShellLod {
     /// Shell layers per pixel of projected fur length (the longest the fur appears in this view,
     /// at the nearest point of the pack's bounds). Default [`ShellLod::DEFAULT_LAYERS_PER_PX`].
     pub layers_per_px: f32,
-    /// The fewest layers drawn, however far the fur is. Default 4.
+    /// The fewest layers drawn, however far the fur is. Default [`ShellLod::DEFAULT_MIN_LAYERS`].
     pub min_layers: u32,
 }
 
 impl ShellLod {
     /// The default slope, from `make report`'s level-of-detail sweep (docs/rendering-accuracy.md
-    /// "Level of detail: the knee"): down to fur a quarter of a pixel long, the knee lies at or
-    /// above the `fur` preset's 16 atlas layers, so the default keeps 16 layers to 0.25 px and
-    /// halves them below (fur too short to resolve: distant animals in a crowd).
-    pub const DEFAULT_LAYERS_PER_PX: f32 = 64.0;
+    /// "Level of detail: the knee"): the knee lies at about one layer per pixel of fur length
+    /// (16 layers at 16 px, 32 at 32 px) ...
+    pub const DEFAULT_LAYERS_PER_PX: f32 = 1.0;
+    /// ... and never below 8 layers, however short the fur (at 0.25–8 px the knee is 8).
+    pub const DEFAULT_MIN_LAYERS: u32 = 8;
 
     /// Checks the ranges: `layers_per_px` finite and > 0, `min_layers` ≥ 1.
     pub fn validate(&self) -> Result<(), String> {
@@ -39,7 +40,7 @@ impl ShellLod {
 
 impl Default for ShellLod {
     fn default() -> Self {
-        ShellLod { layers_per_px: Self::DEFAULT_LAYERS_PER_PX, min_layers: 4 }
+        ShellLod { layers_per_px: Self::DEFAULT_LAYERS_PER_PX, min_layers: Self::DEFAULT_MIN_LAYERS }
     }
 }
 

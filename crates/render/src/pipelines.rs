@@ -532,6 +532,8 @@ fn fur_bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
             sampler(7),
             // The posed vertices of an animated asset, read by the vertex shaders.
             storage(8, wgpu::ShaderStages::VERTEX),
+            // The shells' stacking exponents (crate::stacking), read by the shell fragments.
+            storage(9, wgpu::ShaderStages::FRAGMENT),
         ],
     })
 }

@@ -20,7 +20,6 @@
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU32, Ordering};
 
-use furbake_formats::sections::shell_atlas::VolumeParams;
 use furbake_runtime::ShellVertexLayout;
 use glam::{Mat4, Vec3};
 use wgpu::util::DeviceExt;
@@ -122,9 +121,10 @@ pub struct RenderSettings {
     /// `STRAND` override). Default [`FurShading::default`]; a scene pack's `[packs.shading]`
     /// overrides it ([`crate::SceneRenderer::for_target`]).
     pub shading: FurShading,
-    /// With blending, blend each hair's coverage once over the shell layers a ray sees it in,
-    /// instead of once per layer (`shell.wgsl` `stacked_alpha`, docs/design.md "Shell opacity"),
-    /// so the coat's tone does not change with the shell count. Default true.
+    /// With blending, blend each layer's alpha with the asset's stacking exponent for this view
+    /// angle, layer count and mip level (`shell.wgsl` `stacked_alpha`, docs/design.md "Shell
+    /// opacity"), so that the stack lets through as much light as the hair volume it slices
+    /// and the coat's tone does not change with the shell count. Default true.
     pub stacking_correction: bool,
     /// The shells' level of detail: each view draws fewer layers where the fur projects short
     /// ([`crate::ShellLod`], docs/design.md "Shell level of detail"), never more than
@@ -157,23 +157,6 @@ impl Default for RenderSettings {
             lod: Some(crate::ShellLod::default()),
         }
     }
-}
-
-/// `FurUniforms::stacking` for an atlas grown with `params` (`shell.wgsl` `stacked_alpha`): the
-/// coat's mean hair width (root radius tapered halfway, both sides, plus the one-texel edge ramp
-/// the slicer draws), its mean lateral travel over the coat (`dmax` × the mean bend weight 1/2 ×
-/// the mean of `l^n` over the uniform length range, eq. 3.1), and the fur length, all in atlas
-/// texels (`repeat_m` metres of surface per atlas repeat).
-fn stacking_uniform(params: &VolumeParams, fur_length_m: f32, repeat_m: f32, enabled: bool) -> [f32; 4] {
-    let coat = &params.coat;
-    let width = 2.0 * coat.radius_texels * (1.0 - 0.5 * coat.taper) + 1.0;
-    let n = coat.curvature_exponent;
-    let (lo, hi) = (coat.length_min, coat.length_max);
-    let mean_ln =
-        if hi - lo > 1e-6 { (hi.powf(n + 1.0) - lo.powf(n + 1.0)) / ((n + 1.0) * (hi - lo)) } else { hi.powf(n) };
-    let bend = coat.max_deviation_texels * 0.5 * mean_ln;
-    let length = fur_length_m * params.resolution as f32 / repeat_m.max(1e-9);
-    [width, bend, length, if enabled { 1.0 } else { 0.0 }]
 }
 
 impl RenderSettings {
@@ -258,6 +241,8 @@ pub struct FurGpuAsset {
     /// Whether the fin quads were uploaded (the renderers' `RenderSettings::fins`).
     with_fins: bool,
     shadow: wgpu::Buffer,
+    /// The stacking exponents (`crate::stacking`, binding 9).
+    stacking: wgpu::Buffer,
     surface: wgpu::Buffer,
     surface_corners: u32,
     furry_corners: u32,
@@ -314,6 +299,8 @@ impl FurGpuAsset {
             device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage })
         };
         let shadow = init("furbake shadow table", bytemuck::cast_slice(&shells.shadow), wgpu::BufferUsages::STORAGE);
+        let stacking =
+            init("furbake stacking table", bytemuck::cast_slice(asset.stacking_table()), wgpu::BufferUsages::STORAGE);
         let placeholder = [SurfaceVertex::default()]; // vertex buffers cannot be empty
         let surface = init(
             "furbake skin corners",
@@ -387,6 +374,7 @@ impl FurGpuAsset {
             triangle_count: asset.mesh().triangles.len() as u32,
             with_fins,
             shadow,
+            stacking,
             surface,
             surface_corners: corners.len() as u32,
             furry_corners: furry_triangles * 3,
@@ -531,12 +519,7 @@ impl FurRenderer {
             ..Default::default()
         };
         let fur = FurUniforms {
-            stacking: stacking_uniform(
-                &shells.params,
-                shells.fur_length_m,
-                asset.uv_map().repeat_m,
-                settings.stacking_correction,
-            ),
+            stacking: [if settings.stacking_correction { 1.0 } else { 0.0 }, 0.0, 0.0, 0.0],
             ..crate::shading::with_shading(fur, &settings.shading)
         };
         let init = |label, contents: &[u8], usage| {
@@ -586,6 +569,7 @@ impl FurRenderer {
                     wgpu::BindGroupEntry { binding: 6, resource: wgpu::BindingResource::TextureView(&gpu.fin_view) },
                     wgpu::BindGroupEntry { binding: 7, resource: wgpu::BindingResource::Sampler(&gpu.fin_sampler) },
                     wgpu::BindGroupEntry { binding: 8, resource: posed_vertices.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 9, resource: gpu.stacking.as_entire_binding() },
                 ],
             });
             let silhouette = match (&gpu.silhouette, settings.silhouette_fins) {

@@ -200,9 +200,8 @@ pub struct FurUniforms {
     pub specular: [f32; 4],
     /// Primary shift, secondary shift, back-light strength, Kajiya–Kay share of the diffuse term.
     pub strand: [f32; 4],
-    /// How alpha-blended shells stack one hair's coverage (`fur_common.wgsl` `stacked_alpha`,
-    /// docs/design.md "Shell opacity"): hair width and hair bend over the coat, in atlas texels;
-    /// the fur length in atlas texels; 1 to correct the stacking (0: each layer's alpha as it is).
+    /// x: 1 to blend the shells with the stacking exponents (`shell.wgsl` `stacked_alpha`,
+    /// docs/design.md "Shell opacity"), 0 to blend each layer's alpha as it is; yzw unused.
     pub stacking: [f32; 4],
 }
 

@@ -400,8 +400,57 @@ fn scenes_set_the_shading_of_each_pack_and_refuse_bad_values() {
 #[test]
 #[ignore = "a measurement, not a check"]
 fn strand_shading_frame_cost() {
-    use std::time::Instant;
-    let g = gpu();
+    for (name, asset) in cost_assets() {
+        let (center, radius) = asset.bounding_sphere();
+        let view = View::framing(center, radius);
+        let renderers = [FurShading::default(), FurShading::off()].map(|shading| {
+            let settings = RenderSettings { shading, ..Default::default() };
+            FurRenderer::new(gpu().pipelines(), &gpu().queue, &asset, &settings, &RenderTarget::desc()).unwrap()
+        });
+        for (w, h) in [(256u32, 256u32), (640, 480), (1280, 720)] {
+            let [on, off] = alternate_frames(&renderers, w, h, &view);
+            println!("{name} {w}×{h}: strand on {on:.1} ms, off {off:.1} ms, ratio {:.2}", on / off);
+        }
+    }
+}
+
+/// The GPU cost of the stacking exponents and of the level of detail (docs/performance.md
+/// "Shell opacity and level of detail"), measured as `strand_shading_frame_cost` is: stacking on
+/// and off in `View::framing` at 640×480; the default level of detail against every layer with
+/// the camera 6× farther (the fur a few pixels long). A measurement:
+/// `cargo test -p furbake-render --test fur_shading -- --ignored --nocapture stacking_and_lod_frame_cost`.
+#[test]
+#[ignore = "a measurement, not a check"]
+fn stacking_and_lod_frame_cost() {
+    for (name, asset) in cost_assets() {
+        let (center, radius) = asset.bounding_sphere();
+        let near = View::framing(center, radius);
+        let renderer = |settings: RenderSettings| {
+            FurRenderer::new(gpu().pipelines(), &gpu().queue, &asset, &settings, &RenderTarget::desc()).unwrap()
+        };
+        let stacking = [true, false]
+            .map(|stacking_correction| renderer(RenderSettings { stacking_correction, ..Default::default() }));
+        let [on, off] = alternate_frames(&stacking, 640, 480, &near);
+        println!("{name} 640×480: stacking on {on:.1} ms, off {off:.1} ms, ratio {:.2}", on / off);
+        let mut far = near;
+        let (eye, target) = (Vec3::from(far.camera.eye), Vec3::from(far.camera.target));
+        far.camera.eye = (target + (eye - target) * 6.0).into();
+        let lod = [None, Some(furbake_render::ShellLod::default())]
+            .map(|lod| renderer(RenderSettings { lod, ..Default::default() }));
+        let [all, fewer] = alternate_frames(&lod, 640, 480, &far);
+        lod[1]
+            .render_to(&gpu().device, &gpu().queue, &RenderTarget::new(&gpu().device, 640, 480).unwrap(), &far)
+            .unwrap();
+        let layers = lod[1].layers_in_view(0).unwrap();
+        println!(
+            "{name} 640×480 at 6× the framing distance: every layer {all:.1} ms, default level of detail ({layers} layers) {fewer:.1} ms, ratio {:.2}",
+            fewer / all
+        );
+    }
+}
+
+/// The two meshes the frame-cost measurements draw, baked with the `fur` preset.
+fn cost_assets() -> Vec<(&'static str, FurAsset)> {
     let fox = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/real/Fox.glb");
     let meshes = [
         ("Fox", furbake_import::import_gltf(&fox, &ImportSettings::default()).unwrap()),
@@ -410,35 +459,37 @@ fn strand_shading_frame_cost() {
             import_gltf_slice(&gltf, "sphere.gltf", None, &ImportSettings::default()).unwrap()
         }),
     ];
+    meshes
+        .into_iter()
+        .map(|(name, imported)| {
+            let baked = bake(&imported, name, &BakeSettings::preset("fur").unwrap(), &mut NoProgress).unwrap();
+            let fins = Some((Arc::new(baked.fins), Arc::new(baked.fin_edges)));
+            let asset =
+                FurAsset::new(Arc::new(baked.mesh), Arc::new(baked.shells), Arc::new(baked.uv_map), fins).unwrap();
+            (name, asset)
+        })
+        .collect()
+}
+
+/// Median milliseconds per frame of each renderer into a `w`×`h` target, drawn alternately frame
+/// by frame (so both see the same machine load) and each waited for: 15 frames after 3 warm-up.
+fn alternate_frames(renderers: &[FurRenderer; 2], w: u32, h: u32, view: &View) -> [f64; 2] {
     const FRAMES: usize = 15;
-    for (name, imported) in meshes {
-        let baked = bake(&imported, name, &BakeSettings::preset("fur").unwrap(), &mut NoProgress).unwrap();
-        let fins = Some((Arc::new(baked.fins), Arc::new(baked.fin_edges)));
-        let asset = FurAsset::new(Arc::new(baked.mesh), Arc::new(baked.shells), Arc::new(baked.uv_map), fins).unwrap();
-        let (center, radius) = asset.bounding_sphere();
-        let view = View::framing(center, radius);
-        let renderers = [FurShading::default(), FurShading::off()].map(|shading| {
-            let settings = RenderSettings { shading, ..Default::default() };
-            FurRenderer::new(g.pipelines(), &g.queue, &asset, &settings, &RenderTarget::desc()).unwrap()
-        });
-        for (w, h) in [(256u32, 256u32), (640, 480), (1280, 720)] {
-            let target = RenderTarget::new(&g.device, w, h).unwrap();
-            let mut times = [Vec::new(), Vec::new()];
-            for frame in 0..FRAMES + 3 {
-                for (k, renderer) in renderers.iter().enumerate() {
-                    let start = Instant::now();
-                    renderer.render_to(&g.device, &g.queue, &target, &view).unwrap();
-                    g.device.poll(wgpu::PollType::wait_indefinitely()).unwrap();
-                    if frame >= 3 {
-                        times[k].push(start.elapsed().as_secs_f64() * 1e3);
-                    }
-                }
+    let g = gpu();
+    let target = RenderTarget::new(&g.device, w, h).unwrap();
+    let mut times = [Vec::new(), Vec::new()];
+    for frame in 0..FRAMES + 3 {
+        for (k, renderer) in renderers.iter().enumerate() {
+            let start = std::time::Instant::now();
+            renderer.render_to(&g.device, &g.queue, &target, view).unwrap();
+            g.device.poll(wgpu::PollType::wait_indefinitely()).unwrap();
+            if frame >= 3 {
+                times[k].push(start.elapsed().as_secs_f64() * 1e3);
             }
-            let [on, off] = times.map(|mut t| {
-                t.sort_by(f64::total_cmp);
-                t[t.len() / 2]
-            });
-            println!("{name} {w}×{h}: strand on {on:.1} ms, off {off:.1} ms, ratio {:.2}", on / off);
         }
     }
+    times.map(|mut t| {
+        t.sort_by(f64::total_cmp);
+        t[t.len() / 2]
+    })
 }

@@ -115,12 +115,12 @@ fn options_change_the_preview() {
 fn the_lod_key_switches_the_shell_level_of_detail() {
     let on = RenderSettings::default();
     assert!(on.lod.is_some(), "the level of detail is on by default");
-    let off = on.clone().with_options(&RenderOptions { lod: Some(false), ..Default::default() });
+    let off = on.with_options(&RenderOptions { lod: Some(false), ..Default::default() });
     assert_eq!(off.lod, None);
-    let back = off.clone().with_options(&RenderOptions { lod: Some(true), ..Default::default() });
+    let back = off.with_options(&RenderOptions { lod: Some(true), ..Default::default() });
     assert_eq!(back.lod, on.lod);
     // A key left out keeps what the settings had.
-    assert_eq!(off.clone().with_options(&RenderOptions::default()).lod, None);
+    assert_eq!(off.with_options(&RenderOptions::default()).lod, None);
     // From a scene's [render] table.
     let dir = sphere_dir();
     let scene = scene(dir.path(), "[render]\nlod = false\n[[packs]]\nname = \"a\"\npath = \"sphere.fbk\"\n").unwrap();

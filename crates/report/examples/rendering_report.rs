@@ -2,7 +2,8 @@
 //! shells and fins against a ray-marched reference of the baked hair volume
 //! (`furbake_report::rendering`). Usage: `rendering_report [OUT_DIR] [--quick]` (default `docs`;
 //! `--quick`: 64 px, 9 samples per pixel, two shell counts, for a smoke run; `--atlas-layers=N`:
-//! bake the atlases with N layers instead of the preset's 16).
+//! bake the atlases with N layers instead of the preset's 16; `--srgb8-target`: draw into the
+//! headless host's 8-bit sRGB target instead of a half-float one).
 
 use std::path::PathBuf;
 
@@ -14,6 +15,9 @@ fn main() {
     let out = args.iter().find(|a| !a.starts_with("--")).map_or_else(|| PathBuf::from("docs"), PathBuf::from);
     let fixtures = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../fixtures");
     let mut options = RenderingOptions::new(&fixtures);
+    if args.iter().any(|a| a == "--srgb8-target") {
+        options.float_target = false;
+    }
     if let Some(layers) = args.iter().find_map(|a| a.strip_prefix("--atlas-layers=")) {
         options.bake.volume.layers = layers.parse().expect("--atlas-layers=N takes a count");
     }

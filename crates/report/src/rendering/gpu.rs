@@ -17,6 +17,139 @@ pub struct MeasuringGpu {
     gpu: HeadlessGpu,
     /// Whether the device counts fragment invocations (the adapter had the feature).
     pub pipeline_statistics: bool,
+    /// Render into an `Rgba16Float` target (as HDR hosts do) instead of the headless host's
+    /// `Rgba8UnormSrgb` one; the frame is read back encoded to sRGB 8-bit.
+    pub float_target: bool,
+}
+
+/// A colour target of `Rgba16Float` and the headless host's depth, for [`MeasuringGpu::measure`].
+struct FloatTarget {
+    color: wgpu::Texture,
+    depth: wgpu::Texture,
+}
+
+impl FloatTarget {
+    fn new(device: &wgpu::Device, width: u32, height: u32) -> FloatTarget {
+        let make = |label, format, usage| {
+            device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(label),
+                size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage,
+                view_formats: &[],
+            })
+        };
+        let color = make(
+            "report float colour",
+            wgpu::TextureFormat::Rgba16Float,
+            wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+        );
+        let depth = make("report float depth", furbake_render::DEPTH_FORMAT, wgpu::TextureUsages::RENDER_ATTACHMENT);
+        FloatTarget { color, depth }
+    }
+
+    fn desc() -> furbake_render::TargetDesc {
+        furbake_render::TargetDesc::new(wgpu::TextureFormat::Rgba16Float)
+            .with_depth(furbake_render::DEPTH_FORMAT, wgpu::CompareFunction::LessEqual)
+    }
+
+    fn begin_pass<'e>(&self, encoder: &'e mut wgpu::CommandEncoder, clear: [f32; 4]) -> wgpu::RenderPass<'e> {
+        let color = self.color.create_view(&Default::default());
+        let depth = self.depth.create_view(&Default::default());
+        let [r, g, b, a] = clear.map(f64::from);
+        encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("report float pass"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: &color,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(wgpu::Color { r, g, b, a }),
+                    store: wgpu::StoreOp::Store,
+                },
+            })],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: &depth,
+                depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Store }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        })
+    }
+
+    /// The frame, linear half floats encoded to sRGB 8-bit.
+    fn read_back(&self, gpu: &MeasuringGpu) -> Result<image::RgbaImage, RenderError> {
+        let (w, h) = (self.color.width(), self.color.height());
+        let row = w * 8;
+        let padded = row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+        let device = &gpu.gpu.device;
+        let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("report float readback"),
+            size: padded as u64 * h as u64,
+            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+            mapped_at_creation: false,
+        });
+        let mut encoder = device.create_command_encoder(&Default::default());
+        encoder.copy_texture_to_buffer(
+            wgpu::TexelCopyTextureInfo {
+                texture: &self.color,
+                mip_level: 0,
+                origin: wgpu::Origin3d::ZERO,
+                aspect: wgpu::TextureAspect::All,
+            },
+            wgpu::TexelCopyBufferInfo {
+                buffer: &buffer,
+                layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(padded), rows_per_image: Some(h) },
+            },
+            wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+        );
+        gpu.gpu.queue.submit([encoder.finish()]);
+        let (tx, rx) = std::sync::mpsc::channel();
+        buffer.map_async(wgpu::MapMode::Read, .., move |r| {
+            let _ = tx.send(r);
+        });
+        gpu.wait()?;
+        rx.recv().map_err(gpu_error)?.map_err(gpu_error)?;
+        let mut image = image::RgbaImage::new(w, h);
+        {
+            let view = buffer.get_mapped_range(..).map_err(gpu_error)?;
+            for y in 0..h {
+                for x in 0..w {
+                    let at = (y * padded + x * 8) as usize;
+                    let px: [u8; 4] = std::array::from_fn(|c| {
+                        let v = half_to_f32(u16::from_le_bytes([view[at + 2 * c], view[at + 2 * c + 1]]));
+                        let v = if c == 3 { v } else { linear_to_srgb(v) };
+                        (v.clamp(0.0, 1.0) * 255.0).round() as u8
+                    });
+                    image.put_pixel(x, y, image::Rgba(px));
+                }
+            }
+        }
+        buffer.unmap();
+        Ok(image)
+    }
+}
+
+/// An IEEE half float's value.
+fn half_to_f32(h: u16) -> f32 {
+    let (sign, exp, frac) = ((h >> 15) as u32, ((h >> 10) & 0x1f) as i32, (h & 0x3ff) as f32);
+    let magnitude = match exp {
+        0 => frac * 2f32.powi(-24),
+        31 => f32::INFINITY,
+        e => (1.0 + frac / 1024.0) * 2f32.powi(e - 15),
+    };
+    if sign == 1 { -magnitude } else { magnitude }
+}
+
+/// The sRGB encoding of a linear value in [0, 1].
+fn linear_to_srgb(v: f32) -> f32 {
+    let v = v.clamp(0.0, 1.0);
+    if v <= 0.003_130_8 { 12.92 * v } else { 1.055 * v.powf(1.0 / 2.4) - 0.055 }
 }
 
 /// One measured frame.
@@ -41,7 +174,7 @@ impl MeasuringGpu {
         let wanted = wgpu::Features::PIPELINE_STATISTICS_QUERY;
         let gpu = HeadlessGpu::with_optional_features(wanted)?;
         let pipeline_statistics = gpu.device.features().contains(wanted);
-        Ok(MeasuringGpu { info: gpu.info.clone(), gpu, pipeline_statistics })
+        Ok(MeasuringGpu { info: gpu.info.clone(), gpu, pipeline_statistics, float_target: false })
     }
 
     fn check(&self) -> Result<(), RenderError> {
@@ -64,9 +197,11 @@ impl MeasuringGpu {
         height: u32,
         timed_frames: u32,
     ) -> Result<MeasuredFrame, RenderError> {
-        let renderer = FurRenderer::new(self.gpu.pipelines(), &self.gpu.queue, asset, settings, &RenderTarget::desc())?;
+        let desc = if self.float_target { FloatTarget::desc() } else { RenderTarget::desc() };
+        let renderer = FurRenderer::new(self.gpu.pipelines(), &self.gpu.queue, asset, settings, &desc)?;
         let target = RenderTarget::new(&self.gpu.device, width, height)?;
-        let frame = view.uniforms(target.width, target.height);
+        let float = self.float_target.then(|| FloatTarget::new(&self.gpu.device, width, height));
+        let frame = view.uniforms(width, height);
         let query = self.pipeline_statistics.then(|| {
             let set = self.gpu.device.create_query_set(&wgpu::QuerySetDescriptor {
                 label: Some("fur pass statistics"),
@@ -92,7 +227,10 @@ impl MeasuringGpu {
             let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
             renderer.prepare(&self.gpu.queue, &mut encoder, &frame);
             {
-                let mut pass = target.begin_pass(&mut encoder, "measured fur pass", Some(background));
+                let mut pass = match &float {
+                    Some(f) => f.begin_pass(&mut encoder, background),
+                    None => target.begin_pass(&mut encoder, "measured fur pass", Some(background)),
+                };
                 match (&query, with_query) {
                     (Some((set, _, _)), true) => {
                         pass.begin_pipeline_statistics_query(set, 0);
@@ -127,7 +265,10 @@ impl MeasuringGpu {
             }
             None => None,
         };
-        let image = furbake_render::read_back(&self.gpu.device, &self.gpu.queue, &target)?;
+        let image = match &float {
+            Some(f) => f.read_back(self)?,
+            None => furbake_render::read_back(&self.gpu.device, &self.gpu.queue, &target)?,
+        };
         let mut times = Vec::new();
         for _ in 0..timed_frames.max(1) {
             let start = Instant::now();

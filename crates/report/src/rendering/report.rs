@@ -81,6 +81,9 @@ pub struct RenderingOptions {
     pub fixtures: PathBuf,
     /// Bake settings (the `fur` preset).
     pub bake: BakeSettings,
+    /// Render into an `Rgba16Float` target (as HDR hosts do) instead of the headless host's
+    /// `Rgba8UnormSrgb`, whose 8-bit steps stall many faint layers. Default true.
+    pub float_target: bool,
 }
 
 impl RenderingOptions {
@@ -97,6 +100,7 @@ impl RenderingOptions {
             timed_frames: 3,
             fixtures: fixtures.to_path_buf(),
             bake: BakeSettings::preset("fur").expect("the fur preset exists"),
+            float_target: true,
         }
     }
 }
@@ -153,7 +157,8 @@ pub struct Knee {
 /// The knee table measured for `docs/rendering-accuracy.md` (patch at 45°, edges + silhouette
 /// fins, lavapipe; `make report` regenerates the document, not this constant): projected fur
 /// length in pixels → the shell count beyond which the error stops falling noticeably.
-pub const MEASURED_KNEES: [(f32, u32); 6] = [(1.0, 32), (2.0, 32), (4.0, 64), (8.0, 64), (16.0, 64), (32.0, 64)];
+pub const MEASURED_KNEES: [(f32, u32); 8] =
+    [(0.25, 8), (0.5, 8), (1.0, 8), (2.0, 8), (4.0, 8), (8.0, 8), (16.0, 16), (32.0, 32)];
 
 /// The knee of each projected length among `rows` (one fin mode, one scene): the smallest shell
 /// count whose error is within 5 % of every larger count's.
@@ -230,7 +235,8 @@ pub fn rendering_report(
     mut progress: impl FnMut(&str),
 ) -> Result<RenderingReport, RenderReportError> {
     let started = std::time::Instant::now();
-    let gpu = MeasuringGpu::new()?;
+    let mut gpu = MeasuringGpu::new()?;
+    gpu.float_target = options.float_target;
     let size = options.size;
     let mut rows = Vec::new();
     let mut images = Vec::new();
@@ -434,8 +440,8 @@ at an anchor on the surface and sits {} fur lengths away at the stated angle fro
 there (patch: its normal, tilted towards +Z; sphere and Fox: the skin point seen from View::framing's \
 front-right direction, tilted towards +Y), so the image centre sees the fur at that angle; the fur \
 projects to about {:.0} px at 45°.\n\
-- Settings: `RenderSettings::default()` with `shell_layers: Some(n)`, fins none / `edges` (`fins: true, \
-silhouette_fins: false`) / `edges+silhouette` (the default).\n\
+- Settings: `RenderSettings::default()` with `shell_layers: Some(n)` and `lod: None`, fins none / \
+`edges` (`fins: true, silhouette_fins: false`) / `edges+silhouette` (the default); drawn into {}.\n\
 - Scores: NVIDIA FLIP (`nv-flip`, 67 pixels per degree): mean and weighted 99th percentile over the \
 whole image, and the mean over the pixels either image covers (\"FLIP cov.\"); IoU of the covered \
 pixels (frame: not the background colour; reference: at least half the samples hit the mesh).\n\
@@ -446,6 +452,11 @@ pixels (frame: not the background colour; reference: at least half the samples h
         o.size,
         o.distance_fur_lengths,
         0.5 * o.size as f32 / (17.5f32.to_radians().tan()) * 45f32.to_radians().sin() / o.distance_fur_lengths,
+        if o.float_target {
+            "an `Rgba16Float` target, as HDR hosts draw, read back encoded to sRGB 8-bit"
+        } else {
+            "the headless host's `Rgba8UnormSrgb` target"
+        },
         if c.statistics {
             "fragment-shader invocations of the fur pass, from a pipeline-statistics query (the adapter has \
 `PIPELINE_STATISTICS_QUERY`)"
@@ -594,28 +605,31 @@ fn find(rows: &[Row], scene: SceneKind, angle: f32, shells: u32, fins: FinMode) 
 }
 
 /// What the images of the run showed, written by hand after looking at them.
-const OBSERVATIONS: &str = "**What was measured, honestly.** Fins lower the error at 70° on the patch at \
-every shell count, on the sphere up to 32 shells and on the Fox up to 16 (beyond, the silhouette \
-fins add a little error, at most 0.004). Up to the atlas's 16 layers the error falls with shells at \
-every angle on the sphere and the Fox, and at 45° and 70° on the patch; the patch at 0° is flat \
-(0.110, 0.113, 0.110 at 4, 8, 16: fewer layers, blended with the stacking correction of \
-docs/design.md \"Shell opacity\", look as the 16 do). Past the atlas's count it does not keep \
-falling everywhere: 32 and 64 shells repeat slices, and the repeated anti-aliased and mip-averaged \
-edge alpha of the same hair makes the coat more opaque and paler at its tips (at 0° on all three \
-scenes and on the Fox and the sphere at 45° the error rises after 16–32); only the grazing views \
-improve all the way to 64. The level-of-detail sweep shows the same bias from another side: at \
-45° even fur a quarter of a pixel long scores best at 32 shells (0.14 against 0.31 at 16), so what \
-the extra shells fix there is tone, not detail, and the knee does not move below the atlas's 16 \
-layers at any length measured; the renderer's default level of detail therefore keeps 16 layers \
-down to 0.25 px and halves them only below. Baking the atlas with 64 layers \
-(`rendering_report --atlas-layers=64`) makes the patch fall at every angle but raises its error at \
-0° to 0.32–0.37, so the preset keeps 16. \n\n\
+const OBSERVATIONS: &str = "**What was measured, honestly.** With the calibrated stacking of \
+docs/design.md \"Shell opacity\" every cell of the first table lies between 0.045 and 0.125 (the \
+report before it, which blended each layer's alpha as it was into an 8-bit target: 0.107 to 0.446; \
+patch at 45° and 16 shells 0.273 → 0.085, sphere at 0° 0.127 → 0.045, Fox at 70° 0.119 → 0.056). \
+Up to the atlas's 16 layers the error falls with shells at every angle on the Fox, at 0° and 45° on \
+the sphere and at 0° on the patch; at 45° and 70° on the patch and at 70° on the sphere 8 shells \
+score best (0.067 against 0.085 at 16 on the patch at 45°): the table matches the stack's mean \
+transmittance to the volume's, and what is left is the look of the layers themselves (more \
+layers show more of the darker, self-shadowed lower coat through the gaps). Past the atlas's \
+count the error rises by at most 0.013: 32 and 64 shells repeat slices. Drawn into an 8-bit target \
+(`rendering_report --srgb8-target`) it rises faster (patch at 0°: 0.061 at 16, 0.141 at 64): the \
+faint layers that 64 shells blend round to zero or one step of 8 bits, so hosts that draw fur should \
+use a float target. Fins do not lower the error at 70°: edges + silhouette fins raise it by 0.002 to \
+0.012 at every count on all three scenes. Two causes show in the images: at a silhouette the fin is \
+one plane of the fin atlas's hair, far thinner than the long grazing path through the coat that the \
+reference's fringe comes from, so it draws as a grey band between fur and background (sphere at \
+70°); and on a coarse mesh the edge fins stand where no silhouette is, as hair planes the volume \
+does not have (patch at 70°). The level-of-detail sweep puts the knee at 8 shells for fur from \
+0.25 to 8 px long, 16 at 16 px and 32 at 32 px, about one layer per pixel of fur with a floor of \
+8, which is the renderer's default (`ShellLod::default`). \n\n\
 **What the images show.** The reference has individual strands, a bright fuzzy fringe on the \
 silhouettes (sphere and Fox at 70°) and dark gaps between coat hairs; the shells render a smooth \
-haze with the same overall colour but no strands (the mip chain averages them at this distance), \
-a polygonal outline, and at 70° a grey band of skin at the sphere's limb where the shells thin \
-out and the silhouette fins stand; the FLIP maps are brightest along silhouettes and, at 0°, in a \
-ring where the perspective turns the view from along the hairs to across them.";
+haze with the same overall colour and tone but no strands (the mip chain averages them at this \
+distance), a polygonal outline, and at 70° the grey band of fins at the sphere's limb; the FLIP \
+maps are brightest along silhouettes and nearly dark over the coat.";
 
 impl RenderingReport {
     /// Writes the images, the chart and [`DOCUMENT_NAME`] into `dir` (created if missing).
