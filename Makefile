@@ -10,7 +10,7 @@ FURBAKE := target/debug/furbake
 OUT := out/demo
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-.PHONY: demo test build deps bench fmt clippy golden clean-out report fuzz
+.PHONY: demo test build deps bench fmt clippy golden clean-out report fuzz package
 
 # The renderer needs a Vulkan driver; on machines without a GPU that is Mesa's lavapipe. The
 # `furbake view` test needs a virtual X server (Xvfb).
@@ -67,6 +67,19 @@ test: deps
 bench:
 	$(CARGO) bench --workspace
 
+# Package every publishable crate as crates.io would (furbake-fuzz is publish = false) and build
+# each package from its .crate alone, the workspace's unpublished crates standing in for the
+# registry (cargo's verification build), in a target folder of its own (the packages carry no
+# profile settings, so nothing is shared with target/debug). Then the `furbake` built from the
+# packaged CLI crate bakes and verifies a bundled model. The .crate files land in
+# target/package-build/package/.
+PACKAGE_TARGET := target/package-build
+package:
+	CARGO_TARGET_DIR=$(PACKAGE_TARGET) $(CARGO) package --workspace --exclude furbake-fuzz
+	$(PACKAGE_TARGET)/debug/furbake --version
+	$(PACKAGE_TARGET)/debug/furbake bake fixtures/real/Box.glb -o $(PACKAGE_TARGET)/box.fbk --preset fur --quiet
+	$(PACKAGE_TARGET)/debug/furbake verify $(PACKAGE_TARGET)/box.fbk
+
 fmt:
 	$(CARGO) fmt --all
 
@@ -92,13 +105,13 @@ report: deps
 	$(CARGO) run --release -p furbake-report --no-default-features --example accuracy_report -- docs
 	$(CARGO) run -p furbake-report --example rendering_report -- docs
 
-# The long fuzzing campaign (issue 10, item 7; crates/fuzz): release build, 200,000 pack, 3,000
-# glTF (every 10th also through the debug `furbake` binary under a 2 GiB limit) and 3,000 scene
-# mutants, then 5,000 hostile pipeline cases through the debug `furbake` binary (outputs over
-# devices, FIFOs, directories, inputs and each other; depfile names through GNU make and ninja;
-# planted manifests under batch; special files as inputs — about 2.5 minutes; needs make and ninja,
-# see `make deps`); exits 1 on any panic, abort, hang, slow case or broken rule, with reproducers
-# in target/fuzz-reproducers. `make fuzz FUZZ_SEED=7` runs other mutants.
+# The long fuzzing campaign (crates/fuzz): release build, 200,000 pack, 3,000 glTF (every 10th also
+# through the debug `furbake` binary under a 2 GiB limit) and 3,000 scene mutants, then 5,000
+# hostile pipeline cases through the debug `furbake` binary (outputs over devices, FIFOs,
+# directories, inputs and each other; depfile names through GNU make and ninja; planted manifests
+# under batch; special files as inputs — about 2.5 minutes; needs make and ninja, see `make deps`);
+# exits 1 on any panic, abort, hang, slow case or broken rule, with reproducers in
+# target/fuzz-reproducers. `make fuzz FUZZ_SEED=7` runs other mutants.
 FUZZ_SEED ?= 1
 fuzz:
 	$(CARGO) build -p furbake-cli

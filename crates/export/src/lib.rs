@@ -9,13 +9,13 @@
 //! 2. `shell NN` — one mesh (one primitive) per drawn shell layer, innermost first, over the
 //!    furry triangles: the skin's vertices moved along their rest normal by
 //!    `t·fur_length`, `t = (layer + 1)/layers` — eq. 3.36 at rest (`s = n`, no shear), exactly
-//!    the renderer's `shell_vertex` (shaders/shell.wgsl) — with the per-triangle UV map
+//!    the renderer's `shell_vertex` (crates/render/shaders/shell.wgsl) — with the per-triangle UV map
 //!    (`triangle_uv_map`, texture repeats) as `TEXCOORD_0`, the layer's shell-atlas slice as a PNG
 //!    whose alpha is the slice (`ShellAtlas::slice_for`, as the renderer picks it), and the
 //!    layer's self-shadow factor as the material's base colour factor. The layers share every
 //!    accessor but `POSITION`;
 //! 3. `fins` — one quad per fin edge standing on the edge, its top edge moved along the rest
-//!    normals by the fur length (shaders/fin.wgsl at rest), `u` = metres along the edge / the UV
+//!    normals by the fur length (crates/render/shaders/fin.wgsl at rest), `u` = metres along the edge / the UV
 //!    map's repeat, `v` = 0 at the tip and 1 at the root, textured with the fin atlas (the
 //!    self-shadow ramp baked into its colour, the atlas in its alpha);
 //! 4. when the pack has a skeleton and skin weights: the joints as nodes (rest TRS), one glTF

@@ -1,4 +1,4 @@
-//! The WGSL sources (in the workspace's `shaders/` folder, embedded with `include_str!`) and the
+//! The WGSL sources (in the crate's `shaders/` folder, embedded with `include_str!`) and the
 //! Rust mirrors of their uniform and storage structs. The unit tests parse and validate every
 //! shader with naga and check each `#[repr(C)]` struct's size and member offsets against naga's
 //! layout of the WGSL struct of the same name, so the two can never drift apart silently.
@@ -9,37 +9,37 @@
 /// own file: WGSL has no includes, so the shared part
 /// is prepended here.
 pub const SKIN_WGSL: &str = concat!(
-    include_str!("../../../shaders/lighting.wgsl"),
-    include_str!("../../../shaders/fur_common.wgsl"),
-    include_str!("../../../shaders/skin.wgsl")
+    include_str!("../shaders/lighting.wgsl"),
+    include_str!("../shaders/fur_common.wgsl"),
+    include_str!("../shaders/skin.wgsl")
 );
 /// Shells: extrusion, eq. 3.36 shearing, shell alpha, self-shadow, strand shading or Lambert
 /// (§3.2, §3.4.2; docs/design.md "Fur shading"); also the `cs_shell_positions` compute entry
 /// point that reads back the sheared shell positions and hair directions
 /// ([`crate::FurRenderer::shell_positions`], [`crate::FurRenderer::shell_tangents`]).
 pub const SHELL_WGSL: &str = concat!(
-    include_str!("../../../shaders/lighting.wgsl"),
-    include_str!("../../../shaders/fur_common.wgsl"),
-    include_str!("../../../shaders/shell.wgsl")
+    include_str!("../shaders/lighting.wgsl"),
+    include_str!("../shaders/fur_common.wgsl"),
+    include_str!("../shaders/shell.wgsl")
 );
 /// Fins on fin edges (§3.2, fig. 3.16) and on the silhouette (`vs_silhouette_fin`, with the
 /// structs of `silhouette_common.wgsl`).
 pub const FIN_WGSL: &str = concat!(
-    include_str!("../../../shaders/lighting.wgsl"),
-    include_str!("../../../shaders/fur_common.wgsl"),
-    include_str!("../../../shaders/silhouette_common.wgsl"),
-    include_str!("../../../shaders/fin.wgsl")
+    include_str!("../shaders/lighting.wgsl"),
+    include_str!("../shaders/fur_common.wgsl"),
+    include_str!("../shaders/silhouette_common.wgsl"),
+    include_str!("../shaders/fin.wgsl")
 );
 /// The skinning pass (glTF 2.0 "Morph Targets", "Skins"): the `cs_skin` compute entry point that
 /// morphs and skins every welded vertex of an animated pack once per frame
 /// ([`crate::SkinningPass`]). Stands alone (no `fur_common.wgsl`).
-pub const SKINNING_WGSL: &str = include_str!("../../../shaders/skinning.wgsl");
-/// The silhouette selection (issue 14, fur thesis §4.1): the `cs_silhouette` compute entry point
+pub const SKINNING_WGSL: &str = include_str!("../shaders/skinning.wgsl");
+/// The silhouette selection (fur thesis §4.1): the `cs_silhouette` compute entry point
 /// that picks the interior edges on or near this frame's silhouette for the silhouette fins
 /// (`crate::silhouette`). No `fur_common.wgsl`; `silhouette_common.wgsl` (the edge and instance
 /// structs the fin shader also reads) is prepended.
 pub const SILHOUETTE_WGSL: &str =
-    concat!(include_str!("../../../shaders/silhouette_common.wgsl"), include_str!("../../../shaders/silhouette.wgsl"));
+    concat!(include_str!("../shaders/silhouette_common.wgsl"), include_str!("../shaders/silhouette.wgsl"));
 
 /// Grass blades (grass thesis §3.2.5–3.2.6, §4.2): the `cs_blades` compute entry point posing
 /// every blade for readback and the instanced draw (`vs_blade`, `fs_blade`) from the culling
@@ -47,18 +47,18 @@ pub const SILHOUETTE_WGSL: &str =
 /// culling parameters, the per-blade random numbers) and `grass_pose.wgsl` (the blade's force as
 /// pose-grid coordinates) are prepended.
 pub const BLADES_WGSL: &str = concat!(
-    include_str!("../../../shaders/lighting.wgsl"),
-    include_str!("../../../shaders/grass_common.wgsl"),
-    include_str!("../../../shaders/grass_pose.wgsl"),
-    include_str!("../../../shaders/blades.wgsl")
+    include_str!("../shaders/lighting.wgsl"),
+    include_str!("../shaders/grass_common.wgsl"),
+    include_str!("../shaders/grass_pose.wgsl"),
+    include_str!("../shaders/blades.wgsl")
 );
-/// The blade culling passes (issue 14, grass thesis §5.3): clusters, blades, block offsets and
+/// The blade culling passes (grass thesis §5.3): clusters, blades, block offsets and
 /// compaction into one instance list per level of detail with each drawn blade's pose-grid
 /// coordinates ([`crate::culling`]), with `grass_common.wgsl` and `grass_pose.wgsl` prepended.
 pub const BLADE_CULL_WGSL: &str = concat!(
-    include_str!("../../../shaders/grass_common.wgsl"),
-    include_str!("../../../shaders/grass_pose.wgsl"),
-    include_str!("../../../shaders/blade_cull.wgsl")
+    include_str!("../shaders/grass_common.wgsl"),
+    include_str!("../shaders/grass_pose.wgsl"),
+    include_str!("../shaders/blade_cull.wgsl")
 );
 
 /// One light of the frame uniforms (`Light` in `shaders/lighting.wgsl`).

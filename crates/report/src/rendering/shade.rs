@@ -1,17 +1,17 @@
 //! The CPU twin of furbake's fur shading, so that the reference ([`super::reference`]) lights its
 //! hairs with exactly the function the shells, fins and skin use: `lambert`, `cell_noise`,
-//! `strand_lobe`, `strand_shade` and `strand_mask` of `shaders/fur_common.wgsl` (docs/design.md
+//! `strand_lobe`, `strand_shade` and `strand_mask` of `crates/render/shaders/fur_common.wgsl` (docs/design.md
 //! "Fur shading"; fur thesis §3.2 for Lambert and the self-shadow table, §3.3 for Kajiya–Kay),
 //! in the shaders' order of operations, f32. The parameters are the renderer's
 //! ([`furbake_runtime::scene::FurShading`]) and the frame's lights and hemisphere ambient, read
 //! from the very `FrameUniforms` the renderer uploads (`light_at`, `ambient_at` of
-//! `shaders/lighting.wgsl`).
+//! `crates/render/shaders/lighting.wgsl`).
 
 use furbake_render::FrameUniforms;
 use furbake_runtime::scene::FurShading;
 use glam::{Vec3, Vec4};
 
-/// One light as `light_at` sees it (`Light` of `shaders/lighting.wgsl`).
+/// One light as `light_at` sees it (`Light` of `crates/render/shaders/lighting.wgsl`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct LightUniform {
     /// Directional: unit vector towards the light, w = 0; point: position, w = 1.

@@ -90,11 +90,11 @@ fn vs_fin(v: FinIn) -> FinOut {
     return out;
 }
 
-// Silhouette fins (issue 14; fur thesis §4.1): one instance per interior edge that
-// silhouette.wgsl selected this frame (drawn with draw_indirect, 6 vertices per instance), standing
-// on this frame's posed (or rest) vertices exactly as the always-on fins do, with the mean of the
-// two face normals as the fin's facing and the selection's fade on its alpha. The structs are
-// silhouette_common.wgsl's (checked against their Rust twins in shaders.rs).
+// Silhouette fins (fur thesis §4.1): one instance per interior edge that silhouette.wgsl selected
+// this frame (drawn with draw_indirect, 6 vertices per instance), standing on this frame's posed
+// (or rest) vertices exactly as the always-on fins do, with the mean of the two face normals as the
+// fin's facing and the selection's fade on its alpha. The structs are silhouette_common.wgsl's
+// (checked against their Rust twins in shaders.rs).
 @group(1) @binding(0) var<storage, read> sil_edges: array<SilhouetteEdge>;
 @group(1) @binding(1) var<storage, read> sil_instances: array<SilhouetteInstance>;
 // The posed vertices (the skinning pass's output) or the bind pose of a static pack.

@@ -1,4 +1,4 @@
-// silhouette.wgsl — selection of the silhouette fins (issue 14; fur thesis §4.1: fins belong on
+// silhouette.wgsl — selection of the silhouette fins (fur thesis §4.1: fins belong on
 // the silhouette, which the bake cannot know). One invocation per interior furry edge of the skin
 // (crates/render/src/silhouette.rs derives them at load time): both face normals from this frame's
 // posed (or rest) vertices, the view vector from the camera (in the object frame) to the edge
