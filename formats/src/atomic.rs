@@ -1,5 +1,5 @@
 //! Atomic file writes with ordinary permissions, leaving nothing behind when killed
-//! ("Hostile inputs", item 6).
+//! (docs/design.md "Safe outputs").
 //!
 //! [`write_file_atomic`] writes the bytes to a file that has no name yet and gives it one only
 //! when it is complete, then renames it over the target (rename replaces atomically):

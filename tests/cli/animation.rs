@@ -94,11 +94,11 @@ fn furbake_skin(dir: &std::path::Path, pack: &std::path::Path, clip: Option<(&st
         .collect()
 }
 
-/// Done-means of issue 11: skinned skin vertices from `simulate --state-out` at a chosen clip
-/// time agree with an independent implementation of the glTF rules within 1e-4 of the model's
-/// bounding-box diagonal. Welded vertices are matched to the input's by bind position (every
-/// input vertex within 1e-6 of the diagonal of a welded one must pose where it does). Returns
-/// the largest error relative to the diagonal.
+/// Skinned skin vertices from `simulate --state-out` at a chosen clip time must agree with an
+/// independent implementation of the glTF rules within 1e-4 of the model's bounding-box diagonal.
+/// Welded vertices are matched to the input's by bind position (every input vertex within 1e-6 of
+/// the diagonal of a welded one must pose where it does). Returns the largest error relative to the
+/// diagonal.
 fn check_against_independent(model: &std::path::Path, clip: &str, t: f32) -> f64 {
     let dir = tempfile::tempdir().unwrap();
     let pack = dir.path().join("m.fbk");

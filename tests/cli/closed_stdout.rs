@@ -1,9 +1,9 @@
 //! A closed stdout ends a command quietly: `furbake inspect PACK | head -1` and friends exit 0
 //! with nothing on stderr.
 //!
-//! Regression ("Hostile inputs", item 6): output went through `println!`, which panics when the
-//! write fails, so a reader that had exited (`head`) made furbake print "failed printing to
-//! stdout: Broken pipe" with a panic message and exit 101.
+//! Regression: output went through `println!`, which panics when the write fails, so a reader that
+//! had exited (`head`) made furbake print "failed printing to stdout: Broken pipe" with a panic
+//! message and exit 101.
 
 use std::path::Path;
 use std::process::{Command, Output, Stdio};

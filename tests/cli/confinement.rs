@@ -1,12 +1,12 @@
 //! `furbake bake` reads external buffers and images only from inside the asset roots (the
 //! glTF's directory, plus `--asset-root DIR`), only regular files, and never hangs on one.
 //!
-//! Regression ("Hostile inputs", item 1): the importer checked for an absolute path before
-//! percent-decoding and read the joined path without canonicalising it, so `../../etc/passwd`,
-//! `%2Fetc%2Fpasswd`, `..%2F`, `%2e%2e/` or a symlink beside the glTF put any file of the machine
-//! into the pack, a URI naming `/dev/zero` read until memory ran out and one naming a FIFO hung
-//! the bake forever. Every case here asserts exit 1, a one-line message naming the URI, and that
-//! no pack (nor temporary file) was written.
+//! Regression: the importer checked for an absolute path before percent-decoding and read the
+//! joined path without canonicalising it, so `../../etc/passwd`, `%2Fetc%2Fpasswd`, `..%2F`,
+//! `%2e%2e/` or a symlink beside the glTF put any file of the machine into the pack, a URI naming
+//! `/dev/zero` read until memory ran out and one naming a FIFO hung the bake forever. Every case
+//! here asserts exit 1, a one-line message naming the URI, and that no pack (nor temporary file)
+//! was written.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};

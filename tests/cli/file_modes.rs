@@ -1,6 +1,5 @@
-//! Files as users expect them (consolidation issue, item 7): packs, PNGs and JSON that furbake
-//! writes get the permissions of an ordinary file write (`0o666` minus the umask), still written
-//! atomically.
+//! Files as users expect them: packs, PNGs and JSON that furbake writes get the permissions of an
+//! ordinary file write (`0o666` minus the umask), still written atomically.
 //!
 //! Regression: every output went through a temporary file created `0o600` and renamed into place,
 //! so a pipeline handing baked assets to another user or a web server could not read them.

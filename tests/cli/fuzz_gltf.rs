@@ -1,7 +1,7 @@
-//! A sample of mutated glTF files through the `furbake bake` binary itself (issue 10, item 7):
-//! under a 2 GiB address-space limit and a time limit, every run exits 0, 1 or 2 without a panic
-//! message, a failed bake leaves no output and no temporary file, and a bake that exits 0 writes
-//! a pack that `furbake verify` accepts. `make fuzz` runs a larger sample
+//! A sample of mutated glTF files through the `furbake bake` binary itself: under a 2 GiB
+//! address-space limit and a time limit, every run exits 0, 1 or 2 without a panic message, a
+//! failed bake leaves no output and no temporary file, and a bake that exits 0 writes a pack that
+//! `furbake verify` accepts. `make fuzz` runs a larger sample
 //! (`furbake-fuzz --cli target/debug/furbake`).
 
 use std::path::Path;

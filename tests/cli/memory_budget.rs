@@ -1,9 +1,9 @@
-//! A memory budget decided before work (issue 10, item 2): `bake` estimates the peak memory of its
-//! plan on the imported mesh, and `simulate` that of its run from the scene and the packs'
-//! section tables, before anything large is allocated. A plan over `--max-memory` (default 2G)
-//! exits 2 with one line naming the file, the estimate, the budget and what drives the largest
-//! part, and writes nothing. The refused plans here would take gigabytes (or run for minutes):
-//! a budget check that came after the work would not finish quickly.
+//! A memory budget decided before work (docs/design.md "Memory budget"): `bake` estimates the peak
+//! memory of its plan on the imported mesh, and `simulate` that of its run from the scene and the
+//! packs' section tables, before anything large is allocated. A plan over `--max-memory` (default
+//! 2G) exits 2 with one line naming the file, the estimate, the budget and what drives the largest
+//! part, and writes nothing. The refused plans here would take gigabytes (or run for minutes): a
+//! budget check that came after the work would not finish quickly.
 
 use std::path::{Path, PathBuf};
 

@@ -1,9 +1,9 @@
-//! Plan first, then work (consolidation issue, item 6): every bake setting — import, volume,
-//! shells, fins, UV, topology parameters, blades and keyframes, and CLI flags — is validated
-//! before the input is read. A bad value exits 2 with one line that starts with the key (as
-//! `inspect` shows it under the manifest's `settings`), the value and the allowed range, and no
-//! output file appears. "Before the input is read" is observable: the input here does not exist,
-//! or is garbage, and the setting's message still wins.
+//! Plan first, then work: every bake setting — import, volume, shells, fins, UV, topology
+//! parameters, blades and keyframes, and CLI flags — is validated before the input is read. A bad
+//! value exits 2 with one line that starts with the key (as `inspect` shows it under the manifest's
+//! `settings`), the value and the allowed range, and no output file appears. "Before the input is
+//! read" is observable: the input here does not exist, or is garbage, and the setting's message
+//! still wins.
 
 use std::path::Path;
 

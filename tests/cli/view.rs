@@ -1,11 +1,11 @@
-//! `furbake view` (issue 12, item 5): the demo scene — the Fox walking on the grass patch in a
-//! gusty breeze, its packs baked here as `make demo` bakes them (smaller) — shown in a real
-//! window on a virtual X server (Xvfb) for 30 frames, its last frame written with
-//! `--screenshot`. The screenshot must show the Fox: it has the requested size, a good share of
-//! its pixels have the Fox's orange, and it matches `furbake preview`'s frame of the same scene
-//! at the same scene time (both draw the same world with the same renderer; only the host
-//! differs). Without a display the viewer exits 1 naming DISPLAY and `xvfb-run`. Needs `xvfb-run`
-//! on PATH (`.ci/run` installs xvfb): without it the test fails, it is never skipped.
+//! `furbake view`: the demo scene — the Fox walking on the grass patch in a gusty breeze, its packs
+//! baked here as `make demo` bakes them (smaller) — shown in a real window on a virtual X server
+//! (Xvfb) for 30 frames, its last frame written with `--screenshot`. The screenshot must show the
+//! Fox: it has the requested size, a good share of its pixels have the Fox's orange, and it matches
+//! `furbake preview`'s frame of the same scene at the same scene time (both draw the same world
+//! with the same renderer; only the host differs). Without a display the viewer exits 1 naming
+//! DISPLAY and `xvfb-run`. Needs `xvfb-run` on PATH (`.ci/run` installs xvfb): without it the test
+//! fails, it is never skipped.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};

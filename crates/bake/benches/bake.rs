@@ -1,6 +1,6 @@
-//! Benchmark of the whole bake (issue 2's target: a ~3,000-triangle mesh with the `fur` preset
-//! in under 0.5 s on the 2-core reference machine): import from glTF bytes, then every stage, then
-//! the container image. Run with `cargo bench -p furbake-bake --bench bake`.
+//! Benchmark of the whole bake (the target: a ~3,000-triangle mesh with the `fur` preset in under
+//! 0.5 s on the 2-core reference machine): import from glTF bytes, then every stage, then the
+//! container image. Run with `cargo bench -p furbake-bake --bench bake`.
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use furbake_bake::{BakeSettings, NoProgress, bake};

@@ -1,7 +1,7 @@
-//! The memory a bake plan will take, estimated before any stage runs (issue 10, item 2: a memory
-//! budget decided before work). [`estimate_bake_memory`] reads the validated settings and the
-//! imported mesh — nothing is baked — and models what [`crate::bake`] and the pack write hold at
-//! each moment:
+//! The memory a bake plan will take, estimated before any stage runs (a memory budget decided
+//! before work: docs/design.md "Memory budget"). [`estimate_bake_memory`] reads the validated
+//! settings and the imported mesh — nothing is baked — and models what [`crate::bake`] and the pack
+//! write hold at each moment:
 //!
 //! - every stage keeps the input and the outputs of the stages before it, plus its own output and
 //!   scratch: the hairs while the volume is sliced, the edge table of the fin-edge search, the

@@ -1,8 +1,8 @@
-//! The glTF target: mutations of glTF JSON (the generated test meshes, and the JSON chunk of
-//! `.glb` files, re-packed into a well-formed GLB) and of raw `.glb` bytes, and what is run on
-//! each mutant: the importer in-process, then — for a mesh it accepts — a small bake whose pack
-//! must verify (an accepted bake always writes a pack that verifies: issue 10, item 4); and for a
-//! sample, the `furbake bake` binary as a child process under a memory limit ([`run_cli_bake`]).
+//! The glTF target: mutations of glTF JSON (the generated test meshes, and the JSON chunk of `.glb`
+//! files, re-packed into a well-formed GLB) and of raw `.glb` bytes, and what is run on each
+//! mutant: the importer in-process, then — for a mesh it accepts — a small bake whose pack must
+//! verify (an accepted bake always writes a pack that verifies); and for a sample, the
+//! `furbake bake` binary as a child process under a memory limit ([`run_cli_bake`]).
 //!
 //! JSON mutations know glTF's structure: numbers become non-finite-looking, huge, negative or
 //! zero; arrays are shortened or emptied; indices (accessors, buffer views, nodes, meshes,

@@ -1,6 +1,6 @@
 //! furbake-fuzz: one job — throw hostile inputs at furbake and prove it answers every one with
-//! a result or an error: never a panic, an abort, a hang or unbounded memory (issue 10, item 7;
-//! docs/design.md "Determinism and errors"). Stable Rust, no libFuzzer: deterministic,
+//! a result or an error: never a panic, an abort, a hang or unbounded memory
+//! (docs/design.md "Determinism and errors"). Stable Rust, no libFuzzer: deterministic,
 //! structure-aware mutators seeded per case, and a supervisor that runs the cases in a worker
 //! process so that even an abort or a hang is caught, attributed to its case and saved.
 //!

@@ -1,9 +1,9 @@
-//! The short fuzzing run CI does (issue 10, item 7; `make fuzz` runs the long one): every target
-//! through the `furbake-fuzz` supervisor with a fixed seed, zero failures expected, and outcome
-//! counts that prove each target reached what it is meant to exercise (packs that pass the
-//! checksums and fail semantically, packs that verify and step; glTF files that import and bake;
-//! scenes that step). A canary run first proves the supervisor sees panics, aborts, exhausted
-//! memory and hangs, attributes them to their cases and saves reproducers.
+//! The short fuzzing run CI does (`make fuzz` runs the long one): every target through the
+//! `furbake-fuzz` supervisor with a fixed seed, zero failures expected, and outcome counts that
+//! prove each target reached what it is meant to exercise (packs that pass the checksums and fail
+//! semantically, packs that verify and step; glTF files that import and bake; scenes that step). A
+//! canary run first proves the supervisor sees panics, aborts, exhausted memory and hangs,
+//! attributes them to their cases and saves reproducers.
 
 use std::collections::BTreeMap;
 use std::process::Command;

@@ -1,5 +1,5 @@
 //! External files named by buffer and image URIs, read only from inside the asset roots
-//! ("Hostile inputs", item 1: a glTF must not read arbitrary files of the machine into a pack).
+//! (docs/design.md "Import": a glTF must not read arbitrary files of the machine into a pack).
 //!
 //! A URI goes through these steps, each refusing with a typed [`UriProblem`]:
 //! 1. percent-decode it first (an invalid escape, a decoded NUL or bytes that are not UTF-8 are

@@ -1,4 +1,4 @@
-//! Confined file access ("Hostile inputs", item 1): buffer and image URIs may name files only
+//! Confined file access (docs/design.md "Import"): buffer and image URIs may name files only
 //! inside the asset roots (the glTF's directory, or also `--asset-root`), only regular files, and
 //! only as many bytes as are needed.
 //!

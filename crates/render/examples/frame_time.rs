@@ -3,10 +3,10 @@
 //!
 //! Fur (skin + shells + fins, fur thesis §3.2): bakes a glTF mesh with 16, 32, 64 and 128 shell
 //! layers (or the listed ones) and times frames at 256² and 1920×1080, with the silhouette fins
-//! (issue 14) on and off, alternating frame by frame so both see the same machine load:
+//! on and off, alternating frame by frame so both see the same machine load:
 //! `cargo run --release -p furbake-render --example frame_time -- [MESH.glb | sphere] [FRAMES] [LAYERS...]`
 //! (default mesh: the bundled `fixtures/real/Fox.glb`; `sphere`: a generated 3,120-triangle UV
-//! sphere of radius 1 m, the issue's "~3,000-triangle mesh"; default 10 frames per cell).
+//! sphere of radius 1 m, the bake target's "~3,000-triangle mesh"; default 10 frames per cell).
 //!
 //! Grass (grass thesis §4.2, §5.3): a generated square field of about BLADES blades (default
 //! 1,000,000; 400 per m², 8-segment blades, 1 m clusters, snorm16 keyframes over 400 poses) under

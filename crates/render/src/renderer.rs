@@ -83,7 +83,7 @@ pub struct RenderSettings {
     /// Draw fins on the fin edges (when the asset has them). Default true.
     pub fins: bool,
     /// With `fins`, also draw fins on the interior edges on or near this frame's silhouette,
-    /// selected on the GPU each frame ([`crate::silhouette`]; issue 14, fur thesis §4.1).
+    /// selected on the GPU each frame ([`crate::silhouette`]; fur thesis §4.1).
     /// Default true.
     pub silhouette_fins: bool,
     /// Half-width of the band around the silhouette whose edges get a (faded) fin, in units of

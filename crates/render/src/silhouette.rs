@@ -1,9 +1,9 @@
-//! Silhouette fins (issue 14; fur thesis §4.1: "there is no algorithm to recognise the silhouette
-//! of an object … a method for adding fins to the silhouette has to be developed"). The pack's fin
-//! edges (borders and fur/bare edges, `furbake_bake::fin_edges`) carry fins always; the interior
-//! of a furry surface has none, so a sphere's silhouette shows the shells stacking. Here the
-//! renderer finds, every frame on the GPU, the interior edges on or near the silhouette for the
-//! current camera and draws fins on them:
+//! Silhouette fins (fur thesis §4.1: "there is no algorithm to recognise the silhouette of an
+//! object … a method for adding fins to the silhouette has to be developed"). The pack's fin edges
+//! (borders and fur/bare edges, `furbake_bake::fin_edges`) carry fins always; the interior of a
+//! furry surface has none, so a sphere's silhouette shows the shells stacking. Here the renderer
+//! finds, every frame on the GPU, the interior edges on or near the silhouette for the current
+//! camera and draws fins on them:
 //!
 //! - **Data** ([`interior_edges`]): every interior edge between two furry triangles, with both
 //!   faces' third corners, derived at load time from the skin mesh's triangles (O(triangles))

@@ -1,15 +1,15 @@
-//! Per-frame CPU cost of the middleware path on the demo scene (issue 12): the packs baked as the
-//! Makefile's `demo` target bakes them (the Fox with the `fur` preset and prism topology, the grass
-//! patch with the `grass` preset, 400 blades/m² and prism topology), the scene
+//! Per-frame CPU cost of the middleware path on the demo scene: the packs baked as the Makefile's
+//! `demo` target bakes them (the Fox with the `fur` preset and prism topology, the grass patch with
+//! the `grass` preset, 400 blades/m² and prism topology), the scene
 //! `fixtures/scenes/demo_fox_and_grass.toml` stepped by a `furbake_runtime::World`, and each frame
 //! `SceneRenderer::prepare_world` + `SceneRenderer::render` into a host's encoder and pass, timed
 //! and watched by a counting global allocator (per thread, as in
 //! `crates/runtime/tests/animation_alloc.rs`). The world's step, the host's pass, submission and
-//! wait are outside the measurement. Prints the figures (`--nocapture`) for docs/performance.md
-//! and checks that furbake neither submits nor waits during the frames and that the allocations
-//! per frame stay at the measured level; a second test (release builds only) takes a backtrace
-//! of every allocation of one frame and checks that each happens inside a wgpu call: furbake's
-//! own code allocates nothing.
+//! wait are outside the measurement. Prints the figures (`--nocapture`) for docs/performance.md and
+//! checks that furbake neither submits nor waits during the frames and that the allocations per
+//! frame stay at the measured level; a second test (release builds only) takes a backtrace of every
+//! allocation of one frame and checks that each happens inside a wgpu call: furbake's own code
+//! allocates nothing.
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::backtrace::Backtrace;

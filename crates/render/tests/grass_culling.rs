@@ -1,12 +1,12 @@
-//! Grass culling and level of detail (issue 14; grass thesis §5.3; `shaders/blade_cull.wgsl`)
-//! read back from the GPU against the CPU reference (`CullReference`) and against independent
-//! checks in f64: for fixed cameras the instance lists per level of detail are the reference's
-//! blade for blade (blades whose decision rests within a relative 1e-5 of a threshold excepted,
-//! and counted); no blade outside the view frustum is drawn (its box of any pose transformed to
-//! clip space lies outside one clip plane); culling only by the frustum loses no blade that has a
-//! posed vertex in view and draws the same image as no culling, byte for byte; levels change only
-//! inside their dither bands; with every mechanism on, the image stays close to the unculled one
-//! where blades are visible. Runs on whatever adapter the machine has (lavapipe without a GPU).
+//! Grass culling and level of detail (grass thesis §5.3; `shaders/blade_cull.wgsl`) read back from
+//! the GPU against the CPU reference (`CullReference`) and against independent checks in f64: for
+//! fixed cameras the instance lists per level of detail are the reference's blade for blade (blades
+//! whose decision rests within a relative 1e-5 of a threshold excepted, and counted); no blade
+//! outside the view frustum is drawn (its box of any pose transformed to clip space lies outside
+//! one clip plane); culling only by the frustum loses no blade that has a posed vertex in view and
+//! draws the same image as no culling, byte for byte; levels change only inside their dither bands;
+//! with every mechanism on, the image stays close to the unculled one where blades are visible.
+//! Runs on whatever adapter the machine has (lavapipe without a GPU).
 
 use std::sync::OnceLock;
 

@@ -1,7 +1,7 @@
-//! furbake inside a host renderer (issue 12): the example host (`examples/host.rs`, included here
-//! so the tests run exactly the code users read) owns an MSAA HDR colour target and a depth
-//! buffer, draws its own ground plane and box, and furbake's Fox and grass in the same pass.
-//! Checked on whatever adapter the machine has (lavapipe without a GPU; never skipped):
+//! furbake inside a host renderer: the example host (`examples/host.rs`, included here so the tests
+//! run exactly the code users read) owns an MSAA HDR colour target and a depth buffer, draws its
+//! own ground plane and box, and furbake's Fox and grass in the same pass. Checked on whatever
+//! adapter the machine has (lavapipe without a GPU; never skipped):
 //! - the box, placed between the camera and the Fox, occludes the fur — and the check has teeth:
 //!   the same frame with fur that ignores the host's depth (compare `Always`) fails it;
 //! - fur and grass validate and render into `Bgra8UnormSrgb` and `Rgba16Float`, 1× and 4×

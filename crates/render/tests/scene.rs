@@ -397,7 +397,7 @@ fn a_delayed_wind_source_reaches_the_rendered_blades() {
 
 /// A scene that places one pack many times uploads its atlases and vertex buffers once: every
 /// entry's fur renderer draws from one shared `FurGpuAsset`, and the estimate grows per entry by
-/// the per-placement data only ("Hostile inputs": 500 entries of the same packs needed 3.5 GB).
+/// the per-placement data only (before, 500 entries of the same packs needed 3.5 GB).
 #[test]
 fn entries_of_one_pack_share_its_gpu_asset() {
     let g = gpu();

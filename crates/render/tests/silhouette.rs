@@ -1,5 +1,5 @@
-//! Silhouette fins (issue 14, fur thesis §4.1; `furbake_render::silhouette`) on whatever adapter
-//! the machine has (Mesa lavapipe without a GPU; these never skip).
+//! Silhouette fins (fur thesis §4.1; `furbake_render::silhouette`) on whatever adapter the machine
+//! has (Mesa lavapipe without a GPU; these never skip).
 //!
 //! - The GPU's selection (edge, fade), read back, equals the CPU reference
 //!   [`silhouette_edges`] for several cameras on the baked sphere (`fixtures/generated/sphere.gltf`,

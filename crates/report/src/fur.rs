@@ -1,11 +1,11 @@
-//! The fur part of `docs/accuracy.md` (issue 13, items 4 and 6): error against cost, one chart per
-//! scene. For every scene × solver × iteration count × step size, in two settings — the *raw
-//! scheme* (step limits off: `max_link_rotation_rad = 0`) and the *default settings* a user gets
-//! (`SolverSettings::of(kind)`, substeps and limits on) — it records the max and RMS position error
-//! of the free masses after the scene's duration against a converged reference, and the wall time
-//! per simulated second (best of a few runs). Scenes: the fur thesis's grass patch (prisms and
-//! sticks topologies), the stiff net of `furbake_sim::synth`, and the Fox of the glTF samples
-//! (prisms and sticks). Plus the time per step at the fur thesis's table 4.5 sizes.
+//! The fur part of `docs/accuracy.md` (docs/design.md "Users and their asks"): error against cost,
+//! one chart per scene. For every scene × solver × iteration count × step size, in two settings —
+//! the *raw scheme* (step limits off: `max_link_rotation_rad = 0`) and the *default settings* a
+//! user gets (`SolverSettings::of(kind)`, substeps and limits on) — it records the max and RMS
+//! position error of the free masses after the scene's duration against a converged reference, and
+//! the wall time per simulated second (best of a few runs). Scenes: the fur thesis's grass patch
+//! (prisms and sticks topologies), the stiff net of `furbake_sim::synth`, and the Fox of the glTF
+//! samples (prisms and sticks). Plus the time per step at the fur thesis's table 4.5 sizes.
 //!
 //! The report is generic over [`SolverKind::ALL`]: a new solver kind appears in every table and
 //! chart by itself; a new solver with an iteration count appears once per count after one line in

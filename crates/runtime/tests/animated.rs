@@ -163,8 +163,8 @@ fn the_cut_speed_is_in_world_units() {
     assert!(at(1.0).0 > 0, "at a 1 m/s cut speed some steps of the run are cuts");
 }
 
-/// The hard cases of issue 11 on the real Fox, for every solver: the Run clip at full speed, a
-/// switch to another clip without a cross-fade, back with one, and a separable topology.
+/// The hard cases of an animated skin on the real Fox, for every solver: the Run clip at full
+/// speed, a switch to another clip without a cross-fade, back with one, and a separable topology.
 #[test]
 fn run_and_clip_switches_stay_stable_for_every_solver() {
     let events = "[[events]]\nkind = \"play_clip\"\nat_s = 0.2\npack = \"fox\"\nclip = \"Survey\"\n\

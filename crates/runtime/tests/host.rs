@@ -1,7 +1,7 @@
-//! Host-driven frames (issue 12, item 4): a game places packs frame by frame, changes wind,
-//! wind sources and colliders, drives the animation and the interaction point — the TOML scene is
-//! one way to fill those inputs, not the only one. A host that feeds a pack the placements of a
-//! scene's motion path gets bit-identical physics to the path itself.
+//! Host-driven frames (docs/design.md "Runtime: scenes and stages"): a game places packs frame by
+//! frame, changes wind, wind sources and colliders, drives the animation and the interaction point
+//! — the TOML scene is one way to fill those inputs, not the only one. A host that feeds a pack the
+//! placements of a scene's motion path gets bit-identical physics to the path itself.
 
 use std::path::{Path, PathBuf};
 
