@@ -10,7 +10,7 @@ FURBAKE := target/debug/furbake
 OUT := out/demo
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-.PHONY: demo test build deps bench fmt clippy golden clean-out report fuzz package
+.PHONY: demo test build deps bench fmt clippy golden clean-out report fuzz package doc
 
 # The renderer needs a Vulkan driver; on machines without a GPU that is Mesa's lavapipe. The
 # `furbake view` test needs a virtual X server (Xvfb).
@@ -66,6 +66,11 @@ test: deps
 
 bench:
 	$(CARGO) bench --workspace
+
+# The API docs of every crate, failing on any rustdoc warning (broken or ambiguous links, links
+# from public docs to private items).
+doc:
+	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --workspace --no-deps
 
 # Package every publishable crate as crates.io would (furbake-fuzz is publish = false) and build
 # each package from its .crate alone, the workspace's unpublished crates standing in for the

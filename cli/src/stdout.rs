@@ -1,5 +1,5 @@
 //! Writing to stdout. `println!` panics when stdout is a closed pipe (`furbake inspect PACK |
-//! head -1` once `head` has exited); every command prints through [`write`] instead, which turns
+//! head -1` once `head` has exited); every command prints through [`write`](fn@write) instead, which turns
 //! `BrokenPipe` into [`Failure::StdoutClosed`]: `main` ends the command quietly with exit 0, as
 //! other Unix tools do (ripgrep does the same). Any other write error is a failure (exit 1).
 

@@ -10,7 +10,7 @@
 //!   instead of being stored in the pack — no format change (golden checksums, fuzzing), and
 //!   any pack baked before works. Edges that already carry an always-on fin, non-manifold edges
 //!   (three or more triangles) and degenerate ones are skipped.
-//! - **Selection** ([`SilhouettePass`], `shaders/silhouette.wgsl`): one invocation per edge reads
+//! - **Selection** (`SilhouettePass`, `shaders/silhouette.wgsl`): one invocation per edge reads
 //!   this frame's posed vertices (the skinning pass's output; the bind pose of a static pack),
 //!   computes both unit face normals n₀, n₁ and the view vector v from the edge midpoint to the
 //!   camera (in the object frame: the eye is brought back through the inverse model matrix), and

@@ -15,7 +15,9 @@
 //! runs and wall time; [`World::pack_state`] reports a pack's state in world space.
 //! [`animation`] is the CPU reference of character animation — clip sampling, a clip player
 //! with cross-fades, joint and skinning matrices, morph-then-skin of positions and normals — on
-//! a pack's skeleton, skin weights, morph targets and clips (not yet driven by the [`World`]).
+//! a pack's skeleton, skin weights, morph targets and clips; the [`World`] drives it for packs
+//! whose scene entry names a clip (`animation = { clip = "Walk" }`) and drags the fur with the
+//! posed skin.
 //!
 //! ```
 //! use furbake_bake::{BakeSettings, NoProgress, bake};

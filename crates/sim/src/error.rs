@@ -44,8 +44,8 @@ pub enum SimError {
         /// Which quantity became non-finite.
         what: String,
     },
-    /// The converged reference's conjugate-gradient solve did not reach its tolerance.
-    #[error("conjugate gradient stopped after {iterations} iterations at relative residual {residual:e}")]
+    /// The converged reference's BiCGSTAB solve did not reach its tolerance.
+    #[error("the reference solver's BiCGSTAB stopped after {iterations} iterations at relative residual {residual:e}")]
     NotConverged {
         /// Iterations run.
         iterations: u32,

@@ -5,7 +5,7 @@
 //! Every mass hangs from one shell vertex: an anchored mass from the shell vertex whose root it
 //! is, a free mass from the shell vertex of its hair's root (following its parent links down to
 //! the skin). A pose gives each shell vertex a [`SkinTransform`] — the blended skinning matrix of
-//! linear blend skinning and the morph offset of its vertex — and [`BindPose::pose`] moves the
+//! linear blend skinning and the morph offset of its vertex — and `BindPose::pose` moves the
 //! model with it:
 //! - anchored masses jump to their posed position, with the velocity of that jump over the step,
 //!   so the skin drags the fur through its springs and their damping;

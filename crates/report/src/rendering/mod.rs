@@ -1,7 +1,7 @@
 //! The rendering accuracy report (`docs/rendering-accuracy.md`): how close furbake's shells and
 //! fins (fur thesis §3.2) come to the hair volume they slice (§3.1), and what each shell costs.
 //!
-//! - [`reference`]: the ground truth, a CPU ray-marcher of the bake's hairs on the mesh.
+//! - [`reference`](mod@reference): the ground truth, a CPU ray-marcher of the bake's hairs on the mesh.
 //! - [`shade`]: the CPU twin of the shaders' fur shading, which the reference lights with.
 //! - [`gpu`]: the headless host that renders furbake's frame and counts its fragments.
 //! - [`scenes`]: the flat patch, the sphere and the Fox, baked with the `fur` preset, and views.
