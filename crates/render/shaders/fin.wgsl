@@ -158,7 +158,12 @@ fn fs_fin(in: FinOut) -> @location(0) vec4<f32> {
     }
     let to_eye = normalize(frame.camera_pos.xyz - in.world);
     let facing = abs(dot(normalize(in.face_normal), to_eye));
-    let alpha = texel * (1.0 - facing) * in.fade;
+    // Faded towards the root by height² (docs/design.md "Fin opacity"): where a fin stands seen
+    // edge-on to the skin, the view crosses the shells' whole stack at the fin's lower part,
+    // which the stacking already makes as opaque as the hair volume; the fin adds the hair the
+    // shells miss towards the tips. Unfaded, fins doubled the coat at their roots and drew a dark,
+    // self-shadowed root line along every silhouette and crease.
+    let alpha = texel * (1.0 - facing) * in.fade * in.height * in.height;
     // One pixel's change of alpha, for alpha to coverage only (taken where control flow is
     // still uniform).
     var edge = 0.0;

@@ -9,8 +9,8 @@
 //!   differ by a few ulps, so an edge may differ only when one of its facings n·v is within
 //!   [`FACING_TOLERANCE`] of 0 (the sign test) or its min |n·v| within it of the band; fades of
 //!   edges both select agree within [`FADE_TOLERANCE`].
-//! - The gain: in a ring around the sphere's skin silhouette, the summed alpha with silhouette
-//!   fins exceeds that without by [`MIN_GAIN`].
+//! - The gain: in the outer half of a ring around the sphere's skin silhouette, the summed alpha
+//!   with silhouette fins exceeds that without by [`MIN_GAIN`].
 //! - A frame with silhouette fins neither submits nor waits inside prepare/render.
 
 use std::path::{Path, PathBuf};
@@ -31,8 +31,11 @@ use image::RgbaImage;
 const FACING_TOLERANCE: f32 = 1e-4;
 /// Largest difference between the GPU's and the CPU's fade of an edge both select.
 const FADE_TOLERANCE: f32 = 1e-3;
-/// Summed alpha in the silhouette ring with silhouette fins ÷ without, at least.
-const MIN_GAIN: f64 = 1.10;
+/// Summed alpha in the silhouette ring with silhouette fins ÷ without, at least. Fins fade
+/// towards the root (docs/design.md "Fin opacity") and add what the outer shells miss: 1.04× on
+/// lavapipe (1.10× and more before the fade, which doubled the coat at the roots); without
+/// silhouette fins the ratio is 1.
+const MIN_GAIN: f64 = 1.02;
 
 fn gpu() -> &'static HeadlessGpu {
     static GPU: OnceLock<HeadlessGpu> = OnceLock::new();
@@ -253,18 +256,19 @@ fn silhouette_fins_cover_more_of_the_silhouette_band() {
     for (name, image) in [("bare", &bare), ("without", &without), ("with", &with)] {
         image.save(out_dir().join(format!("sphere_silhouette_{name}.png"))).unwrap();
     }
-    // The ring: pixels outside the bare skin's disc within RING_PX of it (the fur's 0.15 m
-    // projects to about 6 px here).
+    // The ring: pixels outside the bare skin's disc farther than RING_PX / 2 from it and within
+    // RING_PX (the fur's 0.15 m projects to about 6 px here): the outer half of the fur's
+    // profile, where the fins' tips stand (fins fade towards the root, docs/design.md "Fin
+    // opacity").
     let skin: Vec<bool> = bare.pixels().map(|p| p[3] > 0).collect();
     let at =
         |x: i64, y: i64| x >= 0 && y >= 0 && x < SIZE as i64 && y < SIZE as i64 && skin[(y * SIZE as i64 + x) as usize];
+    let near =
+        |x: i64, y: i64, r: i64| (-r..=r).any(|dy| (-r..=r).any(|dx| dx * dx + dy * dy <= r * r && at(x + dx, y + dy)));
     let ring: Vec<bool> = (0..(SIZE * SIZE) as i64)
         .map(|i| {
             let (x, y) = (i % SIZE as i64, i / SIZE as i64);
-            !at(x, y)
-                && (-RING_PX..=RING_PX).any(|dy| {
-                    (-RING_PX..=RING_PX).any(|dx| dx * dx + dy * dy <= RING_PX * RING_PX && at(x + dx, y + dy))
-                })
+            !near(x, y, RING_PX / 2) && near(x, y, RING_PX)
         })
         .collect();
     let ring_pixels = ring.iter().filter(|r| **r).count();
@@ -273,7 +277,7 @@ fn silhouette_fins_cover_more_of_the_silhouette_band() {
         "silhouette ring of {ring_pixels} px: summed alpha {a_without:.1} without silhouette fins, {a_with:.1} with ({:.2}×)",
         a_with / a_without
     );
-    assert!(ring_pixels > 500, "ring of {ring_pixels} pixels");
+    assert!(ring_pixels > 250, "ring of {ring_pixels} pixels");
     assert!(a_with >= a_without * MIN_GAIN, "{a_with:.1} with vs {a_without:.1} without silhouette fins");
     // Nothing the skin covered is lost.
     let lost = with.pixels().zip(&skin).filter(|(p, s)| **s && p[3] == 0).count();

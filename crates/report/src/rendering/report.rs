@@ -606,30 +606,30 @@ fn find(rows: &[Row], scene: SceneKind, angle: f32, shells: u32, fins: FinMode) 
 
 /// What the images of the run showed, written by hand after looking at them.
 const OBSERVATIONS: &str = "**What was measured, honestly.** With the calibrated stacking of \
-docs/design.md \"Shell opacity\" every cell of the first table lies between 0.045 and 0.125 (the \
-report before it, which blended each layer's alpha as it was into an 8-bit target: 0.107 to 0.446; \
-patch at 45° and 16 shells 0.273 → 0.085, sphere at 0° 0.127 → 0.045, Fox at 70° 0.119 → 0.056). \
-Up to the atlas's 16 layers the error falls with shells at every angle on the Fox, at 0° and 45° on \
-the sphere and at 0° on the patch; at 45° and 70° on the patch and at 70° on the sphere 8 shells \
-score best (0.067 against 0.085 at 16 on the patch at 45°): the table matches the stack's mean \
-transmittance to the volume's, and what is left is the look of the layers themselves (more \
-layers show more of the darker, self-shadowed lower coat through the gaps). Past the atlas's \
-count the error rises by at most 0.013: 32 and 64 shells repeat slices. Drawn into an 8-bit target \
-(`rendering_report --srgb8-target`) it rises faster (patch at 0°: 0.061 at 16, 0.141 at 64): the \
-faint layers that 64 shells blend round to zero or one step of 8 bits, so hosts that draw fur should \
-use a float target. Fins do not lower the error at 70°: edges + silhouette fins raise it by 0.002 to \
-0.012 at every count on all three scenes. Two causes show in the images: at a silhouette the fin is \
-one plane of the fin atlas's hair, far thinner than the long grazing path through the coat that the \
-reference's fringe comes from, so it draws as a grey band between fur and background (sphere at \
-70°); and on a coarse mesh the edge fins stand where no silhouette is, as hair planes the volume \
-does not have (patch at 70°). The level-of-detail sweep puts the knee at 8 shells for fur from \
-0.25 to 8 px long, 16 at 16 px and 32 at 32 px, about one layer per pixel of fur with a floor of \
-8, which is the renderer's default (`ShellLod::default`). \n\n\
+docs/design.md \"Shell opacity\" and fins faded towards the root (\"Fin opacity\") every cell of \
+the first table lies between 0.045 and 0.125 (the report before both, which blended each layer's \
+alpha as it was into an 8-bit target: 0.107 to 0.446; patch at 45° and 16 shells 0.273 → 0.085, \
+sphere at 0° 0.127 → 0.045, Fox at 70° 0.119 → 0.049). Up to the atlas's 16 layers the error \
+falls with shells at every angle on the sphere and the Fox and at 0° on the patch; at 45° and 70° \
+on the patch 8 shells score best (0.067 against 0.085 at 16 at 45°): the table matches the \
+stack's mean transmittance to the volume's, and what is left is the look of the layers \
+themselves (more layers show more of the darker, self-shadowed lower coat through the gaps). Past \
+the atlas's count the error rises by at most 0.013: 32 and 64 shells repeat slices. Drawn into an \
+8-bit target (`rendering_report --srgb8-target`) it rises faster (patch at 0°: 0.061 at 16, 0.141 \
+at 64): the faint layers that 64 shells blend round to zero or one step of 8 bits, so hosts that \
+draw fur should use a float target. Fins lower the error at 70° at every shell count on the sphere \
+and the Fox and from 8 shells on the patch (at 4 shells on the patch 0.0630 without, 0.0638 with); \
+before they were faded towards the root they raised it everywhere, by 0.002 to 0.012. The \
+level-of-detail sweep puts the knee at 8 shells for fur from 0.25 to 8 px long, 16 at 16 px and \
+32 at 32 px, about one layer per pixel of fur with a floor of 8, which is the renderer's default \
+(`ShellLod::default`). \n\n\
 **What the images show.** The reference has individual strands, a bright fuzzy fringe on the \
 silhouettes (sphere and Fox at 70°) and dark gaps between coat hairs; the shells render a smooth \
 haze with the same overall colour and tone but no strands (the mip chain averages them at this \
-distance), a polygonal outline, and at 70° the grey band of fins at the sphere's limb; the FLIP \
-maps are brightest along silhouettes and nearly dark over the coat.";
+distance), a polygonal outline softened by the fins' tips, and at 70° a grey polygonal band at \
+the sphere's limb (the outer shells beyond the skin's outline, clearer than the reference's dense \
+fringe there); the FLIP maps are brightest along \
+silhouettes and nearly dark over the coat.";
 
 impl RenderingReport {
     /// Writes the images, the chart and [`DOCUMENT_NAME`] into `dir` (created if missing).
