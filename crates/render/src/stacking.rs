@@ -264,6 +264,10 @@ mod tests {
 
 #[cfg(test)]
 mod timing {
+    // Ignored in `make test` on purpose: it asserts nothing (the table's properties are checked by
+    // `tests` above; its cost is a measurement quoted in docs/performance.md "Shell opacity and
+    // level of detail", not a timed test). Run with
+    // `cargo test -p furbake-render --lib -- --ignored --nocapture print_fur_preset_table`.
     #[test]
     #[ignore = "prints the table and its cost for the fur preset's atlas"]
     fn print_fur_preset_table() {

@@ -419,6 +419,9 @@ fn strand_shading_frame_cost() {
 /// and off in `View::framing` at 640×480; the default level of detail against every layer with
 /// the camera 6× farther (the fur a few pixels long). A measurement:
 /// `cargo test -p furbake-render --test fur_shading -- --ignored --nocapture stacking_and_lod_frame_cost`.
+// Ignored in `make test` on purpose, as `strand_shading_frame_cost`: it asserts nothing (speed
+// belongs in docs/performance.md, not in timed tests) and its 146 waited-for frames took 28 s on
+// lavapipe.
 #[test]
 #[ignore = "a measurement, not a check"]
 fn stacking_and_lod_frame_cost() {
