@@ -98,7 +98,7 @@ clean-out:
 # images (crates/render/tests/reference/golden_*.png, compared by FLIP), after an intended change.
 golden:
 	FURBAKE_BLESS=1 $(CARGO) test -p furbake-cli --test cli golden
-	FURBAKE_BLESS=1 $(CARGO) test -p furbake-render --test golden_images
+	FURBAKE_BLESS=1 $(CARGO) test -p furbake-render --test render golden_images::
 
 # Regenerate docs/accuracy.md and its SVG charts from measurements (release build; a few minutes
 # on 2 cores). It runs the report crate's example — the same library call as `furbake report

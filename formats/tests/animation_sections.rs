@@ -13,8 +13,7 @@ use furbake_formats::sections::skin_mesh::SkinMesh;
 use furbake_formats::sections::skin_weights::{SkinWeightStats, SkinWeights};
 use furbake_formats::{FormatError, HEADER_SIZE, Pack, PackSections, PackWriter, Section, check_consistency};
 
-mod rig;
-use rig::{mesh, skeleton};
+use crate::rig::{mesh, skeleton};
 
 fn weights() -> SkinWeights {
     let mut w = SkinWeights {

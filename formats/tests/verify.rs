@@ -12,8 +12,7 @@ use furbake_formats::sections::skeleton::{AFFINE_TOLERANCE, Skeleton};
 use furbake_formats::sections::skin_weights::{SkinWeightStats, SkinWeights};
 use furbake_formats::{Pack, PackWriter, Section, SectionKind, VerifySummary};
 
-mod rig;
-use rig::{mesh, skeleton};
+use crate::rig::{mesh, skeleton};
 
 fn weights(vertices: usize) -> SkinWeights {
     let mut w = SkinWeights {

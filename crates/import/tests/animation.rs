@@ -3,9 +3,7 @@
 //! fixtures, how welding respects influences, and the typed errors and reported repairs of bad
 //! skinning data.
 
-mod common;
-
-use common::fixture;
+use crate::common::fixture;
 use furbake_formats::sections::animation_clips::{ChannelTarget, Interpolation};
 use furbake_formats::sections::skeleton::Skeleton;
 use furbake_import::testmesh::SkinnedStrip;

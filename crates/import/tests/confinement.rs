@@ -8,13 +8,11 @@
 //! symlink beside the glTF read any file of the machine into the pack (e.g. as vertex colours),
 //! `/dev/zero` read until memory ran out and a FIFO hung the import forever.
 
-mod common;
-
 use std::path::{Path, PathBuf};
 use std::sync::mpsc;
 use std::time::Duration;
 
-use common::{document, document_of, triangle};
+use crate::common::{document, document_of, triangle};
 use furbake_import::testmesh::TestPrimitive;
 use furbake_import::{
     ExternalRef, ImportError, ImportSettings, ImportedMesh, UriProblem, import_gltf, import_gltf_with_asset_root,

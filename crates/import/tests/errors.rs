@@ -1,9 +1,7 @@
 //! Hand-written glTF documents that must fail with a specific, well-located error — or import
 //! with a reported skip — instead of panicking or producing a silently wrong skin.
 
-mod common;
-
-use common::{document, document_of, import_value, triangle};
+use crate::common::{document, document_of, import_value, triangle};
 use furbake_import::testmesh::{TestPrimitive, data_uri};
 use furbake_import::{ImportError, ImportSettings, UriProblem, import_gltf_slice};
 use serde_json::json;

@@ -2,9 +2,7 @@
 //! colours and attributes, node transforms with mirroring, degenerate-triangle skipping, strips,
 //! fans and unindexed primitives, and the settings' TOML form.
 
-mod common;
-
-use common::{document, document_of, edge_count, import_value};
+use crate::common::{document, document_of, edge_count, import_value};
 use furbake_import::testmesh::{self, TestPrimitive, gltf_json};
 use furbake_import::{ColorChannel, FurMaskSource, ImportError, ImportSettings, WeldTolerance, import_gltf_slice};
 use glam::Vec3;

@@ -6,11 +6,9 @@
 //! validation (an out-of-range POSITION accessor index, mesh.rs:151), which the importer now
 //! checks before validating; `errors.rs` pins it.
 
-mod common;
-
 use std::panic::{AssertUnwindSafe, catch_unwind};
 
-use common::fixture;
+use crate::common::fixture;
 use furbake_import::{ImportSettings, import_gltf, import_gltf_slice};
 
 /// Imports `bytes`; returns whether it succeeded, or panics with a description of the input.

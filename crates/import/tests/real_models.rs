@@ -3,9 +3,7 @@
 //! transforms, vertex colours and input hashes against values read independently from the files
 //! (accessor min/max in their JSON, the SHA-256 column of LICENSES.md).
 
-mod common;
-
-use common::{edge_count, fixture};
+use crate::common::{edge_count, fixture};
 use furbake_import::{ImportError, ImportSettings, SkinMesh, import_gltf};
 use sha2::{Digest, Sha256};
 

@@ -6,11 +6,11 @@
 //!     raises) is lower than with the per-pixel alpha test, and the frames differ.
 //! (b) On a single-sampled target the switch changes nothing (bit-identical frames).
 
-mod common;
+use crate::common;
 
 use std::sync::OnceLock;
 
-use common::gpu;
+use crate::common::gpu;
 use furbake_render::{
     FurAsset, FurRenderer, RenderSettings, ShellBlend, TargetDesc, View, read_back_texture, render_image,
 };

@@ -6,11 +6,12 @@
 use std::path::Path;
 use std::sync::Arc;
 
+use crate::common::gpu;
 use furbake_bake::{BakeSettings, NoProgress, bake};
 use furbake_formats::SectionKind;
 use furbake_formats::sections::triangle_uv_map::TriangleUvMap;
 use furbake_import::{ImportSettings, import_gltf, import_gltf_slice, testmesh};
-use furbake_render::{FurAsset, FurRenderer, HeadlessGpu, RenderError, RenderSettings, RenderTarget, render_preview};
+use furbake_render::{FurAsset, FurRenderer, RenderError, RenderSettings, RenderTarget, render_preview};
 use furbake_runtime::Pack;
 
 fn write_pack(gltf_mesh: furbake_import::ImportedMesh, dir: &Path, name: &str, resolution: u32) -> std::path::PathBuf {
@@ -63,10 +64,6 @@ fn inconsistent_sections_are_rejected() {
     let fins = Some((pack.fin_atlas().unwrap(), Arc::new(bad_edges)));
     let err = FurAsset::new(mesh, shells, uv, fins).unwrap_err();
     assert!(err.to_string().contains("fin_edges: vertex"), "{err}");
-}
-
-fn gpu() -> HeadlessGpu {
-    HeadlessGpu::new().unwrap_or_else(|e| panic!("render tests need a wgpu adapter and found none: {e}"))
 }
 
 #[test]

@@ -5,9 +5,9 @@
 //! from one lit from the front (translucency; two-sided Lambert cannot tell them apart), and an
 //! out-of-range setting is refused by name. Images go to the temp folder for looking at.
 
-mod common;
+use crate::common;
 
-use common::gpu;
+use crate::common::gpu;
 use furbake_grass::{ForceField, ForceScene};
 use furbake_render::{BladeRenderer, BladeSettings, BladeShading, RenderTarget, View, read_back};
 use furbake_runtime::{Camera, Light};

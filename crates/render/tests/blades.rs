@@ -10,6 +10,7 @@
 
 use std::sync::OnceLock;
 
+use crate::common::gpu;
 use furbake_formats::sections::blade_field::BladeField;
 use furbake_formats::sections::keyframe_table::{CompressionStages, DisplacementEncoding, KeyframeTable, Symmetry};
 use furbake_grass::keyframes::{PoseGridSettings, SimulatedPoses};
@@ -17,17 +18,10 @@ use furbake_grass::{
     BladeFieldSettings, BladeMaterial, BladeShape, ForceField, ForceScene, Interpolation, KeyframeDecoder, WindSource,
     build_reference_blade, compress_poses, ground_grid_mesh, scatter_blades, simulate_poses,
 };
-use furbake_render::{BladeRenderer, BladeSettings, BladeShading, HeadlessGpu, RenderTarget, View, read_back};
+use furbake_render::{BladeRenderer, BladeSettings, BladeShading, RenderTarget, View, read_back};
 use furbake_runtime::{Camera, Light};
 use glam::{Vec2, Vec3, Vec3Swizzles};
 use image::RgbaImage;
-
-fn gpu() -> &'static HeadlessGpu {
-    static GPU: OnceLock<HeadlessGpu> = OnceLock::new();
-    GPU.get_or_init(|| {
-        HeadlessGpu::new().unwrap_or_else(|e| panic!("blade tests need a wgpu adapter and found none: {e}"))
-    })
-}
 
 /// 400 poses (10 magnitudes × 40 angles) of the default 8-segment blade, simulated once.
 fn poses() -> &'static SimulatedPoses {

@@ -22,25 +22,17 @@
 use std::path::Path;
 use std::sync::{Arc, OnceLock};
 
+use crate::common::gpu;
 use furbake_bake::{BakeSettings, NoProgress, bake};
 use furbake_import::{ImportSettings, import_gltf_slice, testmesh};
 use furbake_render::shading::strand_tangent;
-use furbake_render::{
-    FurAsset, FurRenderer, FurShading, HeadlessGpu, RenderSettings, RenderTarget, View, render_image,
-};
+use furbake_render::{FurAsset, FurRenderer, FurShading, RenderSettings, RenderTarget, View, render_image};
 use furbake_runtime::{Camera, Light, LightSource, Scene, SceneError, World};
 use glam::{Vec3, Vec4Swizzles};
 use image::RgbaImage;
 
 const SIZE: u32 = 128;
 const FUR_M: f32 = 0.15;
-
-fn gpu() -> &'static HeadlessGpu {
-    static GPU: OnceLock<HeadlessGpu> = OnceLock::new();
-    GPU.get_or_init(|| {
-        HeadlessGpu::new().unwrap_or_else(|e| panic!("fur shading tests need a wgpu adapter and found none: {e}"))
-    })
-}
 
 /// The settings of `render.rs`'s sphere: 16 layers of 64² shells, 0.15 m fur.
 fn bake_settings() -> BakeSettings {
@@ -393,7 +385,7 @@ fn scenes_set_the_shading_of_each_pack_and_refuse_bad_values() {
 /// 3,120-triangle sphere of `examples/frame_time.rs`, baked with the `fur` preset (16 layers of
 /// 128²), drawn with strand shading on and off alternately frame by frame (so both see the same
 /// machine load), each frame waited for; median frame times and their ratio. A measurement:
-/// `cargo test -p furbake-render --test fur_shading -- --ignored --nocapture strand_shading_frame_cost`.
+/// `cargo test -p furbake-render --test render -- --ignored --nocapture strand_shading_frame_cost`.
 // Ignored in `make test` on purpose: it asserts nothing (speed belongs in measurements quoted in
 // docs/performance.md, not in timed tests), and its waited-for frames at up to 1280×720 take
 // minutes on lavapipe. It shares this file's fixtures, so it lives here rather than in an example.
@@ -418,7 +410,7 @@ fn strand_shading_frame_cost() {
 /// "Shell opacity and level of detail"), measured as `strand_shading_frame_cost` is: stacking on
 /// and off in `View::framing` at 640×480; the default level of detail against every layer with
 /// the camera 6× farther (the fur a few pixels long). A measurement:
-/// `cargo test -p furbake-render --test fur_shading -- --ignored --nocapture stacking_and_lod_frame_cost`.
+/// `cargo test -p furbake-render --test render -- --ignored --nocapture stacking_and_lod_frame_cost`.
 // Ignored in `make test` on purpose, as `strand_shading_frame_cost`: it asserts nothing (speed
 // belongs in docs/performance.md, not in timed tests) and its 146 waited-for frames took 28 s on
 // lavapipe.

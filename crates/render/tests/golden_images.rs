@@ -12,14 +12,14 @@
 //! with the strand shading off and the light turned). On failure the new image and the FLIP
 //! error map (magma colours) are written to `target/golden-diff/` and the message names them.
 //! References are regenerated only on request: `FURBAKE_BLESS=1 cargo test -p furbake-render
-//! --test golden_images` (also run by `make golden`), never because one is missing.
+//! --test render golden_images::` (also run by `make golden`), never because one is missing.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
-use common::gpu;
+use crate::common::gpu;
 use furbake_bake::{BakeSettings, NoProgress, bake};
 use furbake_grass::{ForceField, ForceScene};
 use furbake_import::{ImportSettings, import_gltf};

@@ -10,6 +10,7 @@
 
 use std::sync::OnceLock;
 
+use crate::common::gpu;
 use furbake_formats::sections::blade_field::BladeField;
 use furbake_formats::sections::keyframe_table::{CompressionStages, DisplacementEncoding, KeyframeTable, Symmetry};
 use furbake_grass::keyframes::PoseGridSettings;
@@ -19,7 +20,7 @@ use furbake_grass::{
 };
 use furbake_render::shaders::FrameUniforms;
 use furbake_render::{
-    BladeRenderer, BladeSettings, CullLists, CullReference, GrassCulling, HeadlessGpu, RenderTarget, View, read_back,
+    BladeRenderer, BladeSettings, CullLists, CullReference, GrassCulling, RenderTarget, View, read_back,
 };
 use furbake_runtime::Camera;
 use glam::{DMat4, DVec4, Mat4, Vec2, Vec3};
@@ -27,13 +28,6 @@ use image::RgbaImage;
 
 const WIDTH: u32 = 320;
 const HEIGHT: u32 = 200;
-
-fn gpu() -> &'static HeadlessGpu {
-    static GPU: OnceLock<HeadlessGpu> = OnceLock::new();
-    GPU.get_or_init(|| {
-        HeadlessGpu::new().unwrap_or_else(|e| panic!("culling tests need a wgpu adapter and found none: {e}"))
-    })
-}
 
 /// The default 8-segment blade over 100 poses, snorm16.
 fn table() -> &'static KeyframeTable {

@@ -17,6 +17,7 @@ mod example;
 
 use std::sync::OnceLock;
 
+use crate::common::gpu;
 use example::{Furbake, HostOptions, Packs, Placement, render_image};
 use furbake_render::{
     FurAsset, FurRenderer, HeadlessGpu, PipelineCache, RenderError, RenderSettings, RenderTarget, SceneFrame,
@@ -26,11 +27,6 @@ use image::RgbaImage;
 
 const W: u32 = 200;
 const H: u32 = 150;
-
-fn gpu() -> &'static HeadlessGpu {
-    static GPU: OnceLock<HeadlessGpu> = OnceLock::new();
-    GPU.get_or_init(|| HeadlessGpu::new().unwrap_or_else(|e| panic!("host tests need a wgpu adapter: {e}")))
-}
 
 /// The Fox with 16 shell layers and the grass patch at 60 blades/m², baked once.
 fn packs() -> &'static Packs {

@@ -12,11 +12,11 @@
 //! (e) the `[light]` shorthand draws bit for bit what its `[[lights]]`/`[ambient]` form draws.
 //! Renders stay small (96², 8 layers).
 
-mod common;
+use crate::common;
 
 use std::sync::{Arc, OnceLock};
 
-use common::gpu;
+use crate::common::gpu;
 use furbake_bake::{BakeSettings, NoProgress, bake};
 use furbake_import::ImportSettings;
 use furbake_render::{FurAsset, RenderSettings, View, render_image};
@@ -180,7 +180,7 @@ fn the_light_shorthand_is_its_long_form() {
 /// default (two lights) and by four lights, each through a renderer with that many light slots,
 /// frame by frame in turn (so all see the same machine
 /// load), each frame waited for; median of 9 after 2 warm-up frames. A measurement:
-/// `cargo test -p furbake-render --test lights -- --ignored --nocapture light_count_frame_cost`.
+/// `cargo test -p furbake-render --test render -- --ignored --nocapture light_count_frame_cost`.
 // Ignored in `make test`: it asserts nothing (speed belongs in docs/performance.md, not in timed
 // tests) and its waited-for frames take tens of seconds on lavapipe.
 #[test]

@@ -3,11 +3,9 @@
 //! the full count's (the stacking keeps the coat's opacity), and moving the camera across a
 //! change of level changes the picture gradually, not in one jump.
 
-mod common;
-
 use std::sync::OnceLock;
 
-use common::{furry_sphere, gpu};
+use crate::common::{furry_sphere, gpu};
 use furbake_render::{FurAsset, FurRenderer, RenderSettings, RenderTarget, ShellLod, View, read_back};
 use furbake_runtime::{Camera, Lighting};
 use image::RgbaImage;

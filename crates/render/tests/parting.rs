@@ -12,22 +12,15 @@
 use std::path::Path;
 use std::sync::{Arc, OnceLock};
 
+use crate::common::gpu;
 use furbake_bake::{BakeSettings, NoProgress, bake};
 use furbake_import::{ImportSettings, import_gltf_slice, testmesh};
 use furbake_render::{
-    FurAsset, FurRenderer, HeadlessGpu, RenderSettings, RenderTarget, SceneObject, SceneRenderer, ShellVertexLayout,
-    read_back,
+    FurAsset, FurRenderer, RenderSettings, RenderTarget, SceneObject, SceneRenderer, ShellVertexLayout, read_back,
 };
 use furbake_runtime::{Scene, World};
 use furbake_sim::shell_vertex_position;
 use glam::{Mat4, Vec3};
-
-fn gpu() -> &'static HeadlessGpu {
-    static GPU: OnceLock<HeadlessGpu> = OnceLock::new();
-    GPU.get_or_init(|| {
-        HeadlessGpu::new().unwrap_or_else(|e| panic!("parting render tests need a wgpu adapter and found none: {e}"))
-    })
-}
 
 /// A unit sphere, 16 layers of 64² shells, 0.15 m fur and the separable-prisms topology, written
 /// to `dir/sphere.fbk`; returns the renderer's view of it.

@@ -10,22 +10,16 @@
 
 use std::sync::{Arc, OnceLock};
 
+use crate::common::gpu;
 use furbake_bake::{BakeSettings, NoProgress, bake};
 use furbake_import::{ImportSettings, import_gltf_slice, testmesh};
-use furbake_render::{FurAsset, FurRenderer, HeadlessGpu, RenderSettings, RenderTarget, View, read_back};
+use furbake_render::{FurAsset, FurRenderer, RenderSettings, RenderTarget, View, read_back};
 use furbake_runtime::{Camera, Light};
 use furbake_sim::{
     ForceSet, Simulator, SolverKind, SolverSettings, SpringTopology, Wind, shell_offset, shell_vertex_position,
 };
 use glam::Vec3;
 use image::RgbaImage;
-
-fn gpu() -> &'static HeadlessGpu {
-    static GPU: OnceLock<HeadlessGpu> = OnceLock::new();
-    GPU.get_or_init(|| {
-        HeadlessGpu::new().unwrap_or_else(|e| panic!("physics render tests need a wgpu adapter and found none: {e}"))
-    })
-}
 
 /// Bakes `gltf` with 16 layers of 64² shells, the given fur length and the prisms topology.
 fn bake_with_prisms(gltf: &[u8], name: &str, fur_length_m: f32) -> (FurAsset, SpringTopology) {

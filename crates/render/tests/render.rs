@@ -4,12 +4,13 @@
 //! the surface (also when the scale vectors point into it), the eq. 3.36 shear follows the
 //! scale-vector buffer, the image is not blank; plus a comparison with a committed reference
 //! image of the Lambert × self-shadow path, drawn with the strand shading off (regenerate with
-//! `FURBAKE_BLESS=1 cargo test -p furbake-render --test render`).
+//! `FURBAKE_BLESS=1 cargo test -p furbake-render --test render render::`).
 //! Renders stay small (≤ 256², ≤ 16 layers): lavapipe costs ~0.3 s per 256²×64-layer frame.
 
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, OnceLock};
 
+use crate::common::gpu;
 use furbake_bake::{BakeSettings, NoProgress, bake};
 use furbake_import::{ImportSettings, import_gltf_slice, testmesh};
 use furbake_render::{
@@ -21,13 +22,6 @@ use image::RgbaImage;
 
 const SIZE: u32 = 128;
 const TRANSPARENT: [f32; 4] = [0.0, 0.0, 0.0, 0.0];
-
-fn gpu() -> &'static HeadlessGpu {
-    static GPU: OnceLock<HeadlessGpu> = OnceLock::new();
-    GPU.get_or_init(|| {
-        HeadlessGpu::new().unwrap_or_else(|e| panic!("render tests need a wgpu adapter and found none: {e}"))
-    })
-}
 
 /// Bakes `gltf` with 16 layers of 64² shells and the given fur length.
 fn bake_asset(gltf: &[u8], name: &str, fur_length_m: f32) -> FurAsset {

@@ -10,6 +10,7 @@
 use std::path::Path;
 use std::sync::OnceLock;
 
+use crate::common::gpu;
 use furbake_bake::{BakeSettings, NoProgress, bake};
 use furbake_formats::sections::keyframe_table::{CompressionStages, DisplacementEncoding, Symmetry};
 use furbake_grass::keyframes::PoseGridSettings;
@@ -18,9 +19,7 @@ use furbake_grass::{
     scatter_blades, simulate_poses,
 };
 use furbake_import::{ImportSettings, import_gltf_slice, testmesh};
-use furbake_render::{
-    BladeForces, HeadlessGpu, PackInput, RenderTarget, SceneFrame, SceneObject, SceneRenderer, read_back,
-};
+use furbake_render::{BladeForces, PackInput, RenderTarget, SceneFrame, SceneObject, SceneRenderer, read_back};
 use furbake_runtime::{Scene, ShellVertexLayout, World};
 use glam::{Mat4, Vec3};
 use image::RgbaImage;
@@ -28,13 +27,6 @@ use image::RgbaImage;
 const SIZE: u32 = 160;
 const FOV_DEG: f32 = 40.0;
 const EYE_Z: f32 = 6.0;
-
-fn gpu() -> &'static HeadlessGpu {
-    static GPU: OnceLock<HeadlessGpu> = OnceLock::new();
-    GPU.get_or_init(|| {
-        HeadlessGpu::new().unwrap_or_else(|e| panic!("scene tests need a wgpu adapter and found none: {e}"))
-    })
-}
 
 /// A scene with two packs written to a temporary folder: `fur` (a unit sphere, 16 layers, 0.12 m
 /// fur) at x = −1.3 m and `grass` (a 1 m patch) at x = +1.3 m, y = −0.4 m, seen from +Z.

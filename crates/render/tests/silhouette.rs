@@ -16,11 +16,12 @@
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, OnceLock};
 
+use crate::common::gpu;
 use furbake_bake::{BakeSettings, NoProgress, bake};
 use furbake_import::{ImportSettings, ImportedMesh, import_gltf};
 use furbake_render::silhouette::{SilhouetteEdge, edge_facing, interior_edges, silhouette_edges};
 use furbake_render::{
-    FurAsset, FurRenderer, HeadlessGpu, RenderSettings, RenderTarget, View, blocking_calls_on_this_thread, render_image,
+    FurAsset, FurRenderer, RenderSettings, RenderTarget, View, blocking_calls_on_this_thread, render_image,
 };
 use furbake_runtime::Pack;
 use furbake_runtime::animation::{AnimationPlayer, Pose, joint_world_matrices, skinning_matrices};
@@ -36,13 +37,6 @@ const FADE_TOLERANCE: f32 = 1e-3;
 /// lavapipe (1.10× and more before the fade, which doubled the coat at the roots); without
 /// silhouette fins the ratio is 1.
 const MIN_GAIN: f64 = 1.02;
-
-fn gpu() -> &'static HeadlessGpu {
-    static GPU: OnceLock<HeadlessGpu> = OnceLock::new();
-    GPU.get_or_init(|| {
-        HeadlessGpu::new().unwrap_or_else(|e| panic!("silhouette tests need a wgpu adapter and found none: {e}"))
-    })
-}
 
 fn fixture(path: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..").join(path)

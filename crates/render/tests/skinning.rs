@@ -22,6 +22,7 @@
 use std::path::Path;
 use std::sync::OnceLock;
 
+use crate::common::gpu;
 use furbake_bake::{BakeSettings, NoProgress, bake};
 use furbake_formats::SectionKind;
 use furbake_formats::sections::morph_targets::{MorphGroup, MorphTargets};
@@ -29,8 +30,7 @@ use furbake_formats::sections::skin_mesh::SkinMesh;
 use furbake_formats::sections::skin_weights::SkinWeights;
 use furbake_import::{ImportSettings, ImportedMesh, import_gltf};
 use furbake_render::{
-    FurAsset, FurRenderer, HeadlessGpu, RenderError, RenderSettings, RenderTarget, ShellVertexLayout, SkinningPass,
-    View, read_back,
+    FurAsset, FurRenderer, RenderError, RenderSettings, RenderTarget, ShellVertexLayout, SkinningPass, View, read_back,
 };
 use furbake_runtime::Pack;
 use furbake_runtime::animation::{AnimationPlayer, Pose, joint_world_matrices, morph_and_skin, skinning_matrices};
@@ -40,13 +40,6 @@ use glam::{Mat4, Quat, Vec3};
 const POSITION_TOLERANCE: f64 = 1e-5;
 /// Largest angle allowed between the GPU's and the CPU's unit normal, radians.
 const NORMAL_TOLERANCE_RAD: f64 = 1e-3;
-
-fn gpu() -> &'static HeadlessGpu {
-    static GPU: OnceLock<HeadlessGpu> = OnceLock::new();
-    GPU.get_or_init(|| {
-        HeadlessGpu::new().unwrap_or_else(|e| panic!("skinning tests need a wgpu adapter and found none: {e}"))
-    })
-}
 
 fn fox_path() -> std::path::PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/real/Fox.glb")
@@ -536,7 +529,7 @@ fn frame_ms(pass: &SkinningPass, poses: &[(Vec<Mat4>, Vec<f32>)], frames: usize,
 /// 100,000-vertex skin with 8 influences and 4 morph targets for scale; `FRAMES` frames each
 /// (default 300), each dispatch submitted alone and waited for, against the same loop
 /// submitting an empty command buffer. Run with
-/// `cargo test -p furbake-render --test skinning -- --ignored --nocapture skinning_pass_time`.
+/// `cargo test -p furbake-render --test render -- --ignored --nocapture skinning_pass_time`.
 // Ignored in `make test` on purpose: it asserts nothing (speed belongs in measurements quoted in
 // docs/performance.md, not in timed tests), and its 600 waited-for dispatches of a 100,000-vertex
 // skin take tens of seconds on lavapipe. It shares this file's fixtures and CPU reference, so it

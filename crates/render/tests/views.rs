@@ -4,9 +4,9 @@
 //! screen, a reflection) draw exactly what each camera draws alone; with one view slot, the second
 //! camera is a typed error instead of silently overwriting the first.
 
-mod common;
+use crate::common;
 
-use common::gpu;
+use crate::common::gpu;
 use furbake_grass::{ForceField, ForceScene};
 use furbake_render::{
     BladeRenderer, BladeSettings, FurRenderer, RenderError, RenderSettings, RenderTarget, View, read_back,

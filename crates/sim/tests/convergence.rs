@@ -21,9 +21,7 @@
 //! as the accuracy report runs it, one second at 1/30 and 1/300 s), the distance to the reference
 //! solver falls with the iteration count and 32 iterations agree with it to 1e-3 of the motion.
 
-mod common;
-
-use common::{Net, flat};
+use crate::common::{Net, flat};
 use furbake_formats::sections::spring_topology::{TopologyKind, TopologyParams};
 use furbake_sim::{
     ForceSet, GuardParams, Simulator, SolverKind, SolverSettings, SpringTopology, build_topology, meshes, synth,

@@ -13,9 +13,7 @@
 //!   through `Simulator::positions_f64`. (A wrong Jacobian also converges at first order; this
 //!   is the check that the reference's is exact.)
 
-mod common;
-
-use common::{Net, flat};
+use crate::common::{Net, flat};
 use furbake_formats::sections::spring_topology::{TopologyKind, TopologyParams};
 use furbake_sim::{
     ForceSet, GuardParams, Simulator, SolverKind, SolverSettings, SpringTopology, Wind, build_topology, meshes, synth,

@@ -1,8 +1,6 @@
 //! Shared helpers for the import integration tests: fixture paths, edge counting and small
 //! hand-editable glTF documents built on `testmesh`.
 
-#![allow(dead_code)]
-
 use std::collections::HashSet;
 use std::path::PathBuf;
 

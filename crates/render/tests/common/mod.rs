@@ -1,7 +1,5 @@
-//! Fixtures the render tests share: the headless device, a furry UV sphere baked in-process, the
-//! keyframe table of the default blade and a patch of blades. Each test binary that declares
-//! `mod common;` compiles its own copy, so what one binary does not use is dead there.
-#![allow(dead_code)]
+//! Fixtures the render tests share: the headless device (one for the whole test binary), a furry
+//! UV sphere baked in-process, the keyframe table of the default blade and a patch of blades.
 
 use std::sync::{Arc, OnceLock};
 
@@ -50,13 +48,13 @@ pub fn blade_patch(density: f32) -> BladeField {
     scatter_blades(&ground_grid_mesh([1.5, 1.5], [3, 3]), &settings).unwrap()
 }
 
-/// [`blade_table`] with 100 poses, made once per test binary.
+/// [`blade_table`] with 100 poses, made once.
 pub fn default_blade_table() -> &'static KeyframeTable {
     static TABLE: OnceLock<KeyframeTable> = OnceLock::new();
     TABLE.get_or_init(|| blade_table(100))
 }
 
-/// [`blade_patch`] at 200 blades/m², made once per test binary.
+/// [`blade_patch`] at 200 blades/m², made once.
 pub fn default_blade_patch() -> &'static BladeField {
     static FIELD: OnceLock<BladeField> = OnceLock::new();
     FIELD.get_or_init(|| blade_patch(200.0))

@@ -594,7 +594,7 @@ error), edges + silhouette fins.\n"
         "`make report` (the physics report in release, then this one: `cargo run -p furbake-report \
 --example rendering_report -- docs`, dev profile, a few minutes on two cores with lavapipe). The tests \
 of the reference and of these claims at a small scale are `crates/report/tests/rendering.rs` \
-(`cargo test -p furbake-report --test rendering`). Reference images are deterministic; frame times \
+(`cargo test -p furbake-report --test report rendering::`). Reference images are deterministic; frame times \
 depend on the machine and its load.\n"
     );
     md

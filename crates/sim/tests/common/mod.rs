@@ -3,7 +3,6 @@
 //! classic RK4, linearised backward Euler (one Newton step per time step, Baraff & Witkin) and
 //! nonlinear backward Euler (Newton to convergence), the latter two with the exact Jacobian and a
 //! dense Gaussian elimination. They read the topology's arrays, never the solver's code.
-#![allow(dead_code)]
 
 use furbake_sim::{ForceSet, SpringTopology};
 
