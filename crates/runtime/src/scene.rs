@@ -924,15 +924,19 @@ impl ScenePack {
 #[serde(deny_unknown_fields)]
 pub struct Effects {
     /// Constant acceleration on every mass.
+    #[serde(default, deserialize_with = "table::optional")]
     pub gravity: Option<Gravity>,
     /// Global wind.
+    #[serde(default, deserialize_with = "table::optional")]
     pub wind: Option<Wind>,
     /// Point wind sources (grass thesis eq. 4.1).
     #[serde(default)]
     pub wind_sources: Vec<WindSource>,
     /// Inertial forces from the packs' motion paths.
+    #[serde(default, deserialize_with = "table::optional")]
     pub object_motion: Option<ObjectMotion>,
     /// A local force the user applies (e.g. a brush following the cursor).
+    #[serde(default, deserialize_with = "table::optional")]
     pub interaction: Option<Interaction>,
     /// Colliders acting as local wind sources (grass thesis §5).
     #[serde(default)]
@@ -941,9 +945,70 @@ pub struct Effects {
     #[serde(default)]
     pub windless_areas: Vec<WindlessArea>,
     /// Fur that can part: the runtime loads a separable topology.
+    #[serde(default, deserialize_with = "table::optional")]
     pub parting: Option<Parting>,
     /// The wrong-side-scale guard (fur thesis §3.4.3).
+    #[serde(default, deserialize_with = "table::optional")]
     pub wrong_side_guard: Option<WrongSideGuard>,
+}
+
+/// The effects are TOML tables (`[effects.gravity]` or `gravity = { … }`). serde's derived
+/// structs also accept a sequence of their fields in order, so `gravity = [0.0, -9.81, 0.0]`
+/// used to fail on its first number with "expected an array of length 3" — for an array of
+/// length 3. These fields accept only a table, and anything else is answered with the form
+/// to write (`tests/scene.rs` checks the messages).
+mod table {
+    use std::fmt;
+    use std::marker::PhantomData;
+
+    use serde::de::{Deserialize, Deserializer, MapAccess, Visitor, value::MapAccessDeserializer};
+
+    /// An effect's table written inline, quoted in the error for any other value.
+    pub(super) trait Example {
+        const EXAMPLE: &'static str;
+    }
+
+    pub(super) fn optional<'de, D, T>(deserializer: D) -> Result<Option<T>, D::Error>
+    where
+        D: Deserializer<'de>,
+        T: Deserialize<'de> + Example,
+    {
+        struct TableOnly<T>(PhantomData<T>);
+        impl<'de, T: Deserialize<'de> + Example> Visitor<'de> for TableOnly<T> {
+            type Value = T;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                write!(f, "a table, e.g. `{}`", T::EXAMPLE)
+            }
+            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<T, A::Error> {
+                T::deserialize(MapAccessDeserializer::new(map))
+            }
+        }
+        deserializer.deserialize_map(TableOnly(PhantomData)).map(Some)
+    }
+}
+
+impl table::Example for Gravity {
+    const EXAMPLE: &'static str = "gravity = { acceleration_m_per_s2 = [0.0, -9.81, 0.0] }";
+}
+
+impl table::Example for Wind {
+    const EXAMPLE: &'static str = "wind = { velocity_m_per_s = [2.0, 0.0, 0.0], gust_amplitude = 0.3 }";
+}
+
+impl table::Example for ObjectMotion {
+    const EXAMPLE: &'static str = "object_motion = { inertia_scale = 1.0 }";
+}
+
+impl table::Example for Interaction {
+    const EXAMPLE: &'static str = "interaction = { position = [0.0, 0.3, 0.0], radius_m = 0.3, strength_n = 2.0 }";
+}
+
+impl table::Example for Parting {
+    const EXAMPLE: &'static str = "parting = {}";
+}
+
+impl table::Example for WrongSideGuard {
+    const EXAMPLE: &'static str = "wrong_side_guard = { max_angle_deg = 75.0 }";
 }
 
 impl Clone for Effects {

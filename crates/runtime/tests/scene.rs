@@ -97,6 +97,41 @@ fn unknown_keys_and_wrong_types_are_parse_errors() {
 }
 
 #[test]
+fn an_effect_written_as_a_value_is_answered_with_the_table_to_write() {
+    // An array (serde's derived structs would read it as the fields in order and fail on the
+    // first number), a number and a boolean where an effect's table belongs.
+    let cases = [
+        ("gravity = [0.0, -9.81, 0.0]", "gravity = { acceleration_m_per_s2 = [0.0, -9.81, 0.0] }"),
+        ("wind = [2.0, 0.0, 0.0]", "wind = { velocity_m_per_s = [2.0, 0.0, 0.0]"),
+        ("object_motion = true", "object_motion = { inertia_scale = 1.0 }"),
+        ("interaction = 0.3", "interaction = { position = [0.0, 0.3, 0.0]"),
+        ("parting = true", "parting = {}"),
+        ("wrong_side_guard = 75.0", "wrong_side_guard = { max_angle_deg = 75.0 }"),
+    ];
+    for (line, example) in cases {
+        let text = format!("{MINIMAL}[effects]\n{line}\n");
+        match parse(&text) {
+            Err(SceneError::Parse { message, .. }) => {
+                assert!(message.contains("expected a table"), "{line}: {message}");
+                assert!(message.contains(example), "{line}: {message}");
+                assert!(!message.contains("array of length"), "{line}: {message}");
+                assert!(message.contains(line), "{line}: the message quotes the line: {message}");
+            }
+            other => panic!("expected a parse error for {line:?}, got {other:?}"),
+        }
+    }
+    // The table forms still parse, inline or as a section, and mean the same.
+    let inline =
+        parse(&format!("{MINIMAL}[effects]\ngravity = {{ acceleration_m_per_s2 = [0.0, -3.0, 0.0] }}\n")).unwrap();
+    let section = parse(&format!("{MINIMAL}[effects.gravity]\nacceleration_m_per_s2 = [0.0, -3.0, 0.0]\n")).unwrap();
+    assert_eq!(inline.effects.gravity.unwrap().acceleration_m_per_s2, [0.0, -3.0, 0.0]);
+    assert_eq!(inline.effects, section.effects);
+    // A key inside the table keeps its own error.
+    let err = parse(&format!("{MINIMAL}[effects.gravity]\nacceleration = [0.0, -3.0, 0.0]\n")).unwrap_err();
+    assert!(err.to_string().contains("acceleration"), "{err}");
+}
+
+#[test]
 fn out_of_range_values_name_their_key() {
     let cases = [
         (format!("time_step_s = 0.0\n{MINIMAL}"), "time_step_s"),
