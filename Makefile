@@ -10,7 +10,7 @@ FURBAKE := target/debug/furbake
 OUT := out/demo
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-.PHONY: demo test build deps bench fmt clippy golden clean-out report fuzz package doc
+.PHONY: demo test build deps bench fmt clippy golden clean-out report fuzz package doc api api-check
 
 # The renderer needs a Vulkan driver; on machines without a GPU that is Mesa's lavapipe. The
 # `furbake view` test needs a virtual X server (Xvfb).
@@ -71,6 +71,20 @@ bench:
 # from public docs to private items).
 doc:
 	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --workspace --no-deps
+
+# The public API of the crates a host builds on, one item a line (docs/api/CRATE.txt): rustdoc's
+# JSON of each crate with its default features, listed by tools/public_api.py. The stable
+# toolchain writes that JSON for the named crates only (RUSTC_BOOTSTRAP=CRATE), in a target
+# folder of its own. `make api` rewrites the snapshots after an intended change; `make
+# api-check` (run by .ci/run) fails, with the difference, when the API and its snapshot differ.
+API_CRATES := furbake_render furbake_runtime
+API_TARGET := target/api
+api:
+	@mkdir -p docs/api
+	@for c in $(API_CRATES); do 		RUSTC_BOOTSTRAP=$$c CARGO_TARGET_DIR=$(API_TARGET) $(CARGO) rustdoc -q -p $$(echo $$c | tr _ -) --lib -- 			-Z unstable-options --output-format json || exit 1; 		python3 tools/public_api.py $(API_TARGET)/doc/$$c.json > docs/api/$$(echo $$c | tr _ -).txt || exit 1; 		echo "docs/api/$$(echo $$c | tr _ -).txt: $$(wc -l < docs/api/$$(echo $$c | tr _ -).txt) items"; 	done
+
+api-check:
+	@for c in $(API_CRATES); do 		RUSTC_BOOTSTRAP=$$c CARGO_TARGET_DIR=$(API_TARGET) $(CARGO) rustdoc -q -p $$(echo $$c | tr _ -) --lib -- 			-Z unstable-options --output-format json || exit 1; 		python3 tools/public_api.py $(API_TARGET)/doc/$$c.json > $(API_TARGET)/$$c.txt || exit 1; 		if ! diff -u docs/api/$$(echo $$c | tr _ -).txt $(API_TARGET)/$$c.txt; then 			echo "the public API of $$(echo $$c | tr _ -) differs from docs/api/$$(echo $$c | tr _ -).txt (- snapshot, + code): run make api after an intended change" >&2; 			exit 1; 		fi; 	done; echo "public API matches docs/api/"
 
 # Package every publishable crate as crates.io would (furbake-fuzz is publish = false) and build
 # each package from its .crate alone, the workspace's unpublished crates standing in for the

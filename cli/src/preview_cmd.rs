@@ -17,7 +17,8 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{Context, anyhow};
-use furbake_render::{HeadlessGpu, RenderError, RenderTarget, SceneRenderer, read_back, render_preview_with};
+use furbake_render::headless::{HeadlessGpu, RenderTarget, read_back, render_preview};
+use furbake_render::{RenderError, SceneRenderer};
 use furbake_runtime::RenderOptions;
 use furbake_runtime::{Scene, World, WorldOptions};
 
@@ -172,7 +173,7 @@ fn run_pack(
     quiet: bool,
 ) -> Result<(), Failure> {
     let opened = crate::describe::open_verified(pack)?;
-    let image = match render_preview_with(&opened, w, h, render) {
+    let image = match render_preview(&opened, w, h, render) {
         Ok(img) => img,
         Err(e @ RenderError::Parameter { .. }) => return Err(Failure::Usage(e.into())),
         Err(e) => {

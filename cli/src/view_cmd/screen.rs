@@ -9,7 +9,8 @@ use std::path::Path;
 use std::sync::{Arc, Mutex};
 
 use anyhow::anyhow;
-use furbake_render::{COLOR_FORMAT, DEPTH_FORMAT, PipelineCache, RenderError, SceneRenderer, TargetDesc, View};
+use furbake_render::headless::{COLOR_FORMAT, DEPTH_FORMAT};
+use furbake_render::{PipelineCache, RenderError, SceneRenderer, TargetDesc, View};
 use furbake_runtime::{RenderOptions, ShellBlendMode, World};
 use winit::window::Window;
 
@@ -185,7 +186,7 @@ impl Screen {
     /// detail's count in the last frame where that is fewer), and the switches
     /// the keys turned from their defaults (`None` without fur).
     pub fn drawn(&self) -> Option<String> {
-        let fur = self.renderer.packs.iter().find_map(|p| p.fur.as_ref())?;
+        let fur = self.renderer.packs().iter().find_map(|p| p.fur.as_ref())?;
         let settings = fur.settings();
         // The level of detail's count in the last frame, of the most it draws.
         let (most, layers) = (fur.drawn_layers(), fur.layers_in_view(0).unwrap_or(fur.drawn_layers()));
@@ -210,7 +211,7 @@ impl Screen {
     /// or on, `f` every fin off or on, `t` alpha blending or the alpha test, `[` and `]` half or
     /// twice the shells drawn, `l` the shells' level of detail off or on. Returns what is drawn now, for the viewer's message.
     pub fn toggle_render(&mut self, key: &str, world: &World) -> Result<String, RenderError> {
-        let drawn = self.renderer.packs.iter().find_map(|p| p.fur.as_ref()).map(|f| (f.settings(), f.drawn_layers()));
+        let drawn = self.renderer.packs().iter().find_map(|p| p.fur.as_ref()).map(|f| (f.settings(), f.drawn_layers()));
         let Some((settings, layers)) = drawn else { return Ok("render: this scene has no fur".into()) };
         let mut o = self.options;
         let message = match key {
@@ -249,9 +250,9 @@ impl Screen {
             _ => return Ok(String::new()),
         };
         // The new renderers keep each blade field's culling as the G key left it.
-        let culling: Vec<_> = self.renderer.packs.iter().map(|p| p.blades.as_ref().map(|b| *b.culling())).collect();
+        let culling: Vec<_> = self.renderer.packs().iter().map(|p| p.blades.as_ref().map(|b| *b.culling())).collect();
         self.renderer = SceneRenderer::for_target_with(&self.pipelines, &self.queue, world, &self.target, &o)?;
-        for (pack, culling) in self.renderer.packs.iter_mut().zip(culling) {
+        for (pack, culling) in self.renderer.packs_mut().iter_mut().zip(culling) {
             if let (Some(blades), Some(culling)) = (pack.blades.as_mut(), culling) {
                 blades.set_culling(&self.queue, culling)?;
             }
@@ -266,7 +267,7 @@ impl Screen {
     pub fn toggle_grass_culling(&mut self, world: &furbake_runtime::World) -> Result<Option<bool>, RenderError> {
         let scene = world.scene().grass_culling;
         let mut now = None;
-        for pack in &mut self.renderer.packs {
+        for pack in self.renderer.packs_mut() {
             if let Some(blades) = pack.blades.as_mut() {
                 let on = !blades.culling().enabled;
                 let culling = if on { scene } else { furbake_render::GrassCulling::off() };
@@ -333,7 +334,7 @@ impl Screen {
             .prepare_world(&self.queue, &mut encoder, world, &uniforms)
             .map_err(|e| render_failure(e, path))?;
         {
-            let [r, g, b, a] = self.renderer.frame.background.map(f64::from);
+            let [r, g, b, a] = self.renderer.frame().background.map(f64::from);
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("furbake view world"),
                 color_attachments: &[Some(wgpu::RenderPassColorAttachment {
@@ -390,7 +391,7 @@ impl Screen {
     /// The last frame drawn, as an opaque image (what the window shows): read back from the
     /// frame's colour texture (waits for the GPU).
     pub fn screenshot(&self, path: &Path) -> Result<image::RgbaImage, Failure> {
-        let mut image = furbake_render::read_back_texture(&self.device, &self.queue, &self.frame.color)
+        let mut image = furbake_render::headless::read_back_texture(&self.device, &self.queue, &self.frame.color)
             .map_err(|e| render_failure(e, path))?;
         // The present pass writes alpha 1: so does the screenshot.
         image.pixels_mut().for_each(|p| p.0[3] = 255);

@@ -24,7 +24,8 @@ use std::time::Instant;
 
 use furbake_bake::{BakeSettings, NoProgress, bake};
 use furbake_import::{ImportSettings, import_gltf};
-use furbake_render::{FurAsset, FurRenderer, HeadlessGpu, RenderSettings, RenderTarget, View};
+use furbake_render::headless::{HeadlessGpu, RenderTarget};
+use furbake_render::{FurAsset, FurRenderer, RenderSettings, View};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -200,7 +201,7 @@ fn blades(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
     };
     let mut coverage = Vec::new();
     // The CPU reference, for the visible-cluster count.
-    let reference = furbake_render::CullReference::new(&field, &table);
+    let reference = furbake_render::testing::CullReference::new(&field, &table);
     for (name, eye, look_at) in cameras {
         let mut view = View::framing(center, radius);
         view.camera.eye = eye;
@@ -225,7 +226,7 @@ fn blades(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
         blades.set_culling(&gpu.queue, culling)?;
         blades.render_to(&gpu.device, &gpu.queue, &target, &view, Some([0.5, 0.6, 0.8, 1.0]))?;
         let lists = blades.read_culling(&gpu.device, &gpu.queue)?;
-        let image = furbake_render::read_back(&gpu.device, &gpu.queue, &target)?;
+        let image = furbake_render::headless::read_back(&gpu.device, &gpu.queue, &target)?;
         let sky = image.get_pixel(0, 0).0;
         coverage.push((name, image.pixels().filter(|p| p.0 != sky).count() as f64 / (w * h) as f64));
         let frame_uniforms = view.uniforms(target.width, target.height);

@@ -21,10 +21,12 @@ use std::path::Path;
 use furbake_bake::settings::dotted_override;
 use furbake_bake::{BakeSettings, NoProgress, bake};
 use furbake_import::{ImportSettings, import_gltf};
+use furbake_render::SceneFrame;
+use furbake_render::headless::{HeadlessGpu, SceneObject, read_back_texture};
 use furbake_render::{
-    BladeRenderer, BladeSettings, FurAsset, FurRenderer, HeadlessGpu, PipelineCache, RenderSettings, SceneFrame,
-    SceneObject, ShellVertexLayout, TargetDesc, View, read_back_texture,
+    BladeRenderer, BladeSettings, FurAsset, FurRenderer, PipelineCache, RenderSettings, TargetDesc, View,
 };
+use furbake_runtime::ShellVertexLayout;
 use furbake_runtime::{Camera, Light, LightSource, Pack};
 use glam::{Mat4, Vec3};
 use wgpu::util::DeviceExt;

@@ -3,7 +3,8 @@
 //! ZOOM > 1 moves the automatic camera closer (2 = half the distance); THRESHOLD is the shell
 //! alpha threshold (default: [`RenderSettings::default`]).
 
-use furbake_render::{FurAsset, RenderSettings, render_pack};
+use furbake_render::headless::render_pack;
+use furbake_render::{FurAsset, RenderSettings};
 use furbake_runtime::Pack;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -18,13 +19,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if let Some(t) = args.get(5) {
         settings.alpha_threshold = t.parse()?;
     }
-    let asset = FurAsset::from_pack(&Pack::open(pack)?, true)?;
+    let pack = Pack::open(pack)?;
+    let asset = FurAsset::from_pack(&pack, true)?;
     let (center, _) = asset.bounding_sphere();
     let mut view = asset.auto_view(width as f32 / height as f32);
     let (center, eye) = (glam::Vec3::from(center), glam::Vec3::from(view.camera.eye));
     view.camera.eye = (center + (eye - center) / zoom).to_array();
     let start = std::time::Instant::now();
-    let image = render_pack(pack.as_ref(), width, height, Some(view), &settings)?;
+    let image = render_pack(&pack, width, height, Some(view), &settings)?;
     image.save(out)?;
     println!("{out}: {width}×{height} in {:.2} s", start.elapsed().as_secs_f64());
     Ok(())

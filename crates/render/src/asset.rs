@@ -5,7 +5,7 @@
 //! layout (per welded vertex, or per triangle corner for parted fur, §3.4.1), and the
 //! box-filtered mip chain of the shell and fin atlases. An animated pack also brings its skin
 //! weights and morph targets (glTF 2.0 "Skins", "Morph Targets"), which the renderer's skinning
-//! pass ([`crate::SkinningPass`]) uploads.
+//! pass ([`crate::skinning::SkinningPass`]) uploads.
 
 use std::sync::Arc;
 
@@ -16,7 +16,9 @@ use furbake_formats::sections::shell_atlas::ShellAtlas;
 use furbake_formats::sections::skin_mesh::SkinMesh;
 use furbake_formats::sections::skin_weights::SkinWeights;
 use furbake_formats::sections::triangle_uv_map::TriangleUvMap;
-use furbake_runtime::{Pack, ShellVertexLayout};
+use furbake_runtime::Pack;
+#[cfg(feature = "testing")]
+use furbake_runtime::ShellVertexLayout;
 use glam::Vec3;
 
 use crate::RenderError;
@@ -142,8 +144,8 @@ impl FurAsset {
 
     /// Bytes of GPU memory a [`crate::FurRenderer`] of this asset allocates for its data (skin
     /// corners, scale vectors, the shell atlas with its mip chain, fins when `with_fins`, and for
-    /// an animated asset the skinning pass's buffers, [`crate::SkinningPass::gpu_bytes`]), not
-    /// counting the renderer's fixed cost ([`crate::RENDERER_OVERHEAD_BYTES`]). Computed from the
+    /// an animated asset the skinning pass's buffers, `SkinningPass::gpu_bytes`), not
+    /// counting the renderer's fixed cost (1 MiB, `RENDERER_OVERHEAD_BYTES`). Computed from the
     /// sections' sizes alone, before anything is uploaded.
     pub fn gpu_bytes(&self, with_fins: bool) -> u64 {
         self.shared_gpu_bytes(with_fins).saturating_add(self.instance_gpu_bytes())
@@ -175,7 +177,7 @@ impl FurAsset {
         let (v, f) = (self.mesh.positions.len() as u64, self.mesh.triangles.len() as u64);
         // Scale vectors; the silhouette fin instances (8 bytes per interior edge, at most 3F/2)
         // with their draw arguments and parameters.
-        (16 * v.max(3 * f) + 12 * f + 64).saturating_add(crate::SkinningPass::gpu_bytes(
+        (16 * v.max(3 * f) + 12 * f + 64).saturating_add(crate::skinning::SkinningPass::gpu_bytes(
             &self.mesh,
             self.skin_weights.as_deref(),
             self.morph_targets.as_deref(),
@@ -246,7 +248,7 @@ impl FurAsset {
     /// Every triangle corner, furry triangles first (so the shells draw the prefix
     /// `0..3·furry_triangles` of the same buffer the skin draws whole). Returns the corners and
     /// the furry triangle count.
-    pub fn surface_vertices(&self) -> (Vec<SurfaceVertex>, u32) {
+    pub(crate) fn surface_vertices(&self) -> (Vec<SurfaceVertex>, u32) {
         let m = &*self.mesh;
         let mut order: Vec<usize> = (0..m.triangles.len()).filter(|&t| m.fur_mask[t] != 0).collect();
         let furry = order.len() as u32;
@@ -270,7 +272,7 @@ impl FurAsset {
     }
 
     /// Six corners (two triangles) per fin edge: roots at the edge ends, tips at height 1.
-    pub fn fin_vertices(&self) -> Vec<FinVertex> {
+    pub(crate) fn fin_vertices(&self) -> Vec<FinVertex> {
         let Some((_, edges)) = self.fins() else { return Vec::new() };
         let m = &*self.mesh;
         let mut out = Vec::with_capacity(edges.vertices.len() * 6);
@@ -304,10 +306,11 @@ impl FurAsset {
     }
 
     /// The initial scale vectors (eq. 3.35 at rest: s = n), one `[x, y, z, 0]` per vertex.
-    pub fn rest_scale_vectors(&self) -> Vec<[f32; 4]> {
+    pub(crate) fn rest_scale_vectors(&self) -> Vec<[f32; 4]> {
         self.mesh.normals.iter().map(|n| [n[0], n[1], n[2], 0.0]).collect()
     }
 
+    #[cfg(feature = "testing")]
     /// Shell vertices, i.e. scale vectors the renderer takes, in `layout`: the welded vertex
     /// count, or 3 × the triangle count for [`ShellVertexLayout::PerCorner`].
     pub fn shell_vertex_count(&self, layout: ShellVertexLayout) -> usize {
@@ -317,9 +320,10 @@ impl FurAsset {
         }
     }
 
+    #[cfg(feature = "testing")]
     /// Root position and normal of every shell vertex in `layout` order: the welded vertices, or
     /// every triangle's three corners (`3 × triangle + corner`).
-    pub fn shell_vertices(&self, layout: ShellVertexLayout) -> Vec<([f32; 3], [f32; 3])> {
+    pub(crate) fn shell_vertices(&self, layout: ShellVertexLayout) -> Vec<([f32; 3], [f32; 3])> {
         let m = &*self.mesh;
         match layout {
             ShellVertexLayout::PerVertex => m.positions.iter().copied().zip(m.normals.iter().copied()).collect(),

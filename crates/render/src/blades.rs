@@ -21,7 +21,9 @@ use furbake_formats::sections::keyframe_table::{Displacements, KeyframeTable, ST
 use furbake_grass::{ForceField, Interpolation};
 use wgpu::util::DeviceExt;
 
-use crate::culling::{BLOCK, BLOCKS_AT, BladeLods, CullLists, CullParams, GrassCulling, LISTS_AT, MAX_LODS};
+use crate::culling::{BLOCK, BLOCKS_AT, BladeLods, CullParams, GrassCulling, LISTS_AT};
+#[cfg(feature = "testing")]
+use crate::culling::{CullLists, MAX_LODS};
 pub use crate::shaders::BLADES_WGSL;
 use crate::shaders::FrameUniforms;
 use crate::{PipelineCache, RenderError, TargetDesc};
@@ -126,7 +128,7 @@ pub struct BladeSettings {
     pub color: [f32; 3],
     /// Lambert diffuse (off: unlit colour). Default true.
     pub lambert: bool,
-    /// Culling and level of detail ([`crate::culling`]). Default [`GrassCulling::default`]; a
+    /// Culling and level of detail (docs/design.md, grass culling). Default [`GrassCulling::default`]; a
     /// runtime scene's `[grass_culling]`.
     pub culling: GrassCulling,
     /// How a blade is shaded (docs/design.md "Grass blade shading"). Default
@@ -134,7 +136,7 @@ pub struct BladeSettings {
     pub shading: BladeShading,
     /// Views one renderer draws in one frame, each with its own uniforms and culling
     /// ([`BladeRenderer::prepare_view`], [`BladeRenderer::render_view`]), in
-    /// 1..=[`crate::MAX_VIEWS`]. Default 1.
+    /// 1..=[`crate::RenderSettings::MAX_VIEWS`]. Default 1.
     pub views: u32,
 }
 
@@ -283,6 +285,7 @@ pub struct BladeRenderer {
     /// `BladeParams::delayed_sources` as last uploaded.
     delayed_count: std::sync::atomic::AtomicU32,
     grid: furbake_formats::sections::blade_field::ClusterGrid,
+    #[cfg(feature = "testing")]
     /// Positions buffer and its compute bind group, created by the first compute pass.
     positions: std::sync::OnceLock<(wgpu::Buffer, wgpu::BindGroup)>,
     out_layout: wgpu::BindGroupLayout,
@@ -727,6 +730,7 @@ impl BladeRenderer {
             own,
             delayed_count: std::sync::atomic::AtomicU32::new(0),
             grid: field.grid,
+            #[cfg(feature = "testing")]
             positions: std::sync::OnceLock::new(),
             out_layout: pipelines.blade_layouts().out.clone(),
             indices,
@@ -767,6 +771,7 @@ impl BladeRenderer {
                 own,
                 delayed_count: std::sync::atomic::AtomicU32::new(0),
                 grid: self.grid,
+                #[cfg(feature = "testing")]
                 positions: std::sync::OnceLock::new(),
                 out_layout: self.out_layout.clone(),
                 indices: self.indices.clone(),
@@ -780,6 +785,7 @@ impl BladeRenderer {
         })
     }
 
+    #[cfg(feature = "testing")]
     /// True when `other` draws from the same uploaded blade field as this renderer.
     pub fn shares_data_with(&self, other: &BladeRenderer) -> bool {
         self.data.blades == other.data.blades
@@ -806,7 +812,7 @@ impl BladeRenderer {
 
     /// Bytes of GPU memory a renderer of `field` and `table` allocates for its data (blade
     /// instances, the displacement payload, corner forces and delayed-source directions), not
-    /// counting its fixed cost ([`crate::RENDERER_OVERHEAD_BYTES`]) nor the positions buffer a
+    /// counting its fixed cost (1 MiB, `RENDERER_OVERHEAD_BYTES`) nor the positions buffer a
     /// compute readback adds.
     pub fn gpu_bytes(field: &BladeField, table: &KeyframeTable) -> u64 {
         Self::shared_gpu_bytes(field, table) + Self::instance_gpu_bytes(field)
@@ -852,6 +858,7 @@ impl BladeRenderer {
         self.vertex_count
     }
 
+    #[cfg(feature = "testing")]
     /// The uniforms the shaders receive.
     pub fn params(&self) -> &BladeParams {
         &self.params
@@ -976,6 +983,7 @@ impl BladeRenderer {
         Ok(())
     }
 
+    #[cfg(feature = "testing")]
     /// The positions buffer (`blades × vertices` `vec4<f32>`) and its bind group, created on first
     /// use; fails when it is above the device's storage binding limit.
     fn positions(&self, device: &wgpu::Device) -> Result<&(wgpu::Buffer, wgpu::BindGroup), RenderError> {
@@ -1001,6 +1009,7 @@ impl BladeRenderer {
         Ok(self.positions.get_or_init(|| (buffer, group)))
     }
 
+    #[cfg(feature = "testing")]
     /// Records the compute pass that poses every blade and writes its world-space vertices into
     /// the positions buffer (created on first use; `blades × vertices × 16` bytes, which must fit
     /// the device's storage binding limit — the draw does not need it).
@@ -1024,6 +1033,7 @@ impl BladeRenderer {
         Ok(())
     }
 
+    #[cfg(feature = "testing")]
     /// Poses every blade under the current corner forces and submits (see
     /// [`BladeRenderer::read_positions`]). For tests and tools; a host records
     /// [`BladeRenderer::encode_compute`] into its own encoder instead.
@@ -1041,7 +1051,7 @@ impl BladeRenderer {
     }
 
     /// Whether the blades are shaded ([`BladeShading::enabled`]) or drawn flat.
-    pub fn shading_enabled(&self) -> bool {
+    pub(crate) fn shading_enabled(&self) -> bool {
         self.params.shading != 0
     }
 
@@ -1065,13 +1075,14 @@ impl BladeRenderer {
         Ok(())
     }
 
+    #[cfg(feature = "testing")]
     /// Levels of detail of this field's blade (index lists, segments per level, reach of any pose).
     pub fn lods(&self) -> &BladeLods {
         &self.lods
     }
 
     /// The culling parameters of `frame` (what [`BladeRenderer::prepare`] uploads).
-    pub fn cull_params(&self, frame: &FrameUniforms) -> CullParams {
+    pub(crate) fn cull_params(&self, frame: &FrameUniforms) -> CullParams {
         CullParams::new(frame, &self.culling, &self.lods, self.blade_count, self.grid.clusters() as u32)
     }
 
@@ -1080,10 +1091,10 @@ impl BladeRenderer {
     /// renderer's uniform buffer with one `queue.write_buffer` (with culling on, together with the
     /// frame's culling parameters), and records one compute pass into `encoder`: with culling on,
     /// four dispatches (clusters, blades, block offsets, compaction into one instance list per
-    /// level of detail with each drawn blade's pose-grid coordinates; see [`crate::culling`]);
+    /// level of detail with each drawn blade's pose-grid coordinates; `culling.rs`);
     /// off, one dispatch writing every blade's entry. Call once per frame before the host's render pass; one
     /// model matrix per renderer per submission. The model matrix moves the drawn blades only;
-    /// [`BladeRenderer::read_positions`] stays in the pack frame. Does not submit, wait or
+    /// `BladeRenderer::read_positions` (feature `testing`) stays in the pack frame. Does not submit, wait or
     /// allocate.
     pub fn prepare(&self, queue: &wgpu::Queue, encoder: &mut wgpu::CommandEncoder, frame: &FrameUniforms) {
         self.prepare_slot(queue, encoder, 0, frame);
@@ -1191,6 +1202,7 @@ impl BladeRenderer {
         }
     }
 
+    #[cfg(feature = "testing")]
     /// Reads back the instance lists of the last frame's culling passes and checks them against
     /// the indirect draw arguments (with culling off: LOD 0's list, every blade); waits for the
     /// GPU. For tests and tools.
@@ -1222,6 +1234,7 @@ impl BladeRenderer {
         Ok(out)
     }
 
+    #[cfg(feature = "testing")]
     /// Reads back the positions of the last compute pass: `blades × vertices` world positions in
     /// metres, blade-major (waits for the GPU).
     pub fn read_positions(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<Vec<[f32; 3]>, RenderError> {

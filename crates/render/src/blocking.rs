@@ -2,8 +2,8 @@
 //! [`block_on`]. The middleware path — every renderer's `prepare` and `render` — calls none of
 //! them: it writes buffers with `Queue::write_buffer` (staged, lands before the host's next
 //! submission; WebGPU specification, "writeBuffer") and records into the host's encoder or pass.
-//! Only constructors (error scopes), the headless host ([`crate::RenderTarget`] frames,
-//! [`crate::read_back`]) and test readbacks come here.
+//! Only constructors (error scopes), the headless host ([`crate::headless::RenderTarget`] frames,
+//! [`crate::headless::read_back`]) and test readbacks come here.
 //!
 //! Each call is counted per thread ([`blocking_calls_on_this_thread`]), so a test can run host
 //! frames and check that the count did not move; the unit test below checks that no other file
@@ -44,7 +44,7 @@ pub(crate) fn block_on<F: std::future::Future>(future: F) -> F::Output {
 
 /// How many times this thread has submitted, waited or blocked inside this crate. For tests:
 /// a host frame of `prepare` + `render` calls must leave it unchanged.
-#[doc(hidden)]
+#[cfg(feature = "testing")]
 pub fn blocking_calls_on_this_thread() -> u64 {
     CALLS.with(Cell::get)
 }

@@ -32,8 +32,10 @@ pub(crate) const BLOCK: u32 = 256;
 pub(crate) const BLOCKS_AT: u64 = 32;
 /// First word of the instance lists in the instance buffer.
 pub(crate) const LISTS_AT: u64 = 4;
+#[cfg(feature = "testing")]
 /// The per-blade random numbers' salts (as `grass_common.wgsl`).
 const SALT_THINNING: u32 = 0x68e3_1da4;
+#[cfg(feature = "testing")]
 const SALT_LOD: u32 = 0xb529_7a4d;
 
 /// The frame's culling parameters as `grass_common.wgsl` reads them (`CullParams`).
@@ -242,6 +244,7 @@ impl CullParams {
     }
 }
 
+#[cfg(feature = "testing")]
 /// What the culling passes decided for one frame: per level of detail, the blades drawn, in
 /// increasing blade order (as the GPU's instance lists).
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -250,6 +253,7 @@ pub struct CullLists {
     pub lods: [Vec<u32>; MAX_LODS],
 }
 
+#[cfg(feature = "testing")]
 impl CullLists {
     /// Blades drawn per level.
     pub fn counts(&self) -> [usize; MAX_LODS] {
@@ -262,6 +266,7 @@ impl CullLists {
     }
 }
 
+#[cfg(feature = "testing")]
 /// The CPU reference of the culling passes (`cs_cull_clusters`, `cs_cull_blades`): the same
 /// tests in the same f32 arithmetic on the same parameters ([`CullParams::new`]).
 pub struct CullReference {
@@ -272,6 +277,7 @@ pub struct CullReference {
     lods: BladeLods,
 }
 
+#[cfg(feature = "testing")]
 /// The result of [`CullReference::classify`].
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct CullDecision {
@@ -285,11 +291,13 @@ pub struct CullDecision {
     pub visible_clusters: usize,
 }
 
+#[cfg(feature = "testing")]
 /// `a` within a relative `1e-5` of `b`.
 fn close(a: f32, b: f32) -> bool {
     (a - b).abs() <= 1e-5 * a.abs().max(b.abs()).max(1e-6)
 }
 
+#[cfg(feature = "testing")]
 /// `blade_random` of `grass_common.wgsl`.
 pub fn blade_random(b: u32, salt: u32) -> f32 {
     let mut x = b.wrapping_mul(0x9e37_79b9) ^ salt;
@@ -301,16 +309,19 @@ pub fn blade_random(b: u32, salt: u32) -> f32 {
     (x >> 8) as f32 * (1.0 / 16_777_216.0)
 }
 
+#[cfg(feature = "testing")]
 /// `thinning_keep` of `grass_common.wgsl`.
 pub fn thinning_keep(start: f32, min_density: f32, d: f32) -> f32 {
     let s = start / d.max(1e-30);
     (s * s).max(min_density).min(1.0)
 }
 
+#[cfg(feature = "testing")]
 fn dot3(a: [f32; 4], b: Vec3) -> f32 {
     a[0] * b.x + a[1] * b.y + a[2] * b.z
 }
 
+#[cfg(feature = "testing")]
 impl CullReference {
     /// The reference for `field` drawn with `table`'s blade.
     pub fn new(field: &BladeField, table: &KeyframeTable) -> CullReference {

@@ -5,15 +5,20 @@
 //! [`RenderTarget`] is an offscreen colour + depth target of fixed formats ([`COLOR_FORMAT`],
 //! [`DEPTH_FORMAT`], one sample; [`RenderTarget::desc`]) whose frames this host records, submits
 //! and reads back ([`read_back`]). Unlike the middleware path, everything here submits, and
-//! readbacks wait (through `crate::blocking`).
-
-use std::path::Path;
+//! readbacks wait (through `crate::blocking`). Several renderers in one headless frame:
+//! [`crate::SceneFrame::render`] of [`SceneObject`]s.
 
 use furbake_runtime::Pack;
 
 use crate::{
     BladeRenderer, BladeSettings, FurAsset, FurRenderer, PipelineCache, RenderError, RenderSettings, TargetDesc, View,
 };
+
+pub use crate::scene::SceneObject;
+
+/// The command that installs a software Vulkan driver on Debian/Ubuntu machines without a GPU.
+pub const LAVAPIPE_HINT: &str =
+    "apt-get update && apt-get install -y --no-install-recommends mesa-vulkan-drivers libvulkan1";
 
 /// Colour format of [`RenderTarget`]s (sRGB-encoded 8-bit RGBA; shaders write linear colour).
 pub const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
@@ -362,25 +367,15 @@ pub fn render_image(
     read_back(&gpu.device, &gpu.queue, &target)
 }
 
-/// What `furbake preview` calls: opens the pack at `pack_path`, creates a headless device, frames
-/// the furry mesh automatically (three-quarter view) and renders it with the default settings,
-/// plus its grass blades when it has a blade field (every blade in view at full detail:
-/// `GrassCulling::frustum_only`). Reads only the skin mesh, shell atlas, UV
-/// map, fin atlas and fin edges (and the blade field and keyframe table, skin weights and morph
-/// targets when present; an animated pack is drawn in its bind pose).
-pub fn render_preview(pack_path: &Path, width: u32, height: u32) -> Result<image::RgbaImage, RenderError> {
-    render_pack(pack_path, width, height, None, &RenderSettings::default())
-}
-
-/// [`render_preview`] of a pack the caller opened (and, as `furbake preview` does, validated with
-/// `Pack::verify`: the sections it decoded are drawn, none is decoded again).
-pub fn render_preview_of(pack: &Pack, width: u32, height: u32) -> Result<image::RgbaImage, RenderError> {
-    render_preview_with(pack, width, height, &furbake_runtime::RenderOptions::default())
-}
-
-/// [`render_preview_of`] with `options` over the default fur and blade settings (what
-/// `furbake preview PACK` flags choose: shell count, fins, blending, shading switches).
-pub fn render_preview_with(
+/// What `furbake preview PACK` draws: a pack the caller opened (and, as `furbake preview` does,
+/// validated with `Pack::verify`: the sections it decoded are drawn, none is decoded again),
+/// framed automatically (three-quarter view; an animated pack in its rest pose) and rendered on a
+/// new headless device with `options` over the default fur and blade settings (shell count,
+/// fins, blending, shading switches), plus its grass blades when it has a blade field (every
+/// blade in view at full detail: `GrassCulling::frustum_only`). Reads only the skin mesh, shell
+/// atlas, UV map, fin atlas and fin edges (and the blade field and keyframe table, skin weights
+/// and morph targets when present).
+pub fn render_preview(
     pack: &Pack,
     width: u32,
     height: u32,
@@ -398,19 +393,8 @@ fn preview_blade_settings() -> BladeSettings {
     BladeSettings { culling: crate::GrassCulling::frustum_only(), ..BladeSettings::default() }
 }
 
-/// [`render_preview`] with a chosen view (`None`: framed automatically) and settings.
+/// [`render_preview`] with a chosen view (`None`: framed automatically) and fur settings.
 pub fn render_pack(
-    pack_path: &Path,
-    width: u32,
-    height: u32,
-    view: Option<View>,
-    settings: &RenderSettings,
-) -> Result<image::RgbaImage, RenderError> {
-    render_opened_pack(&Pack::open(pack_path)?, width, height, view, settings)
-}
-
-/// [`render_pack`] of a pack the caller opened.
-pub fn render_opened_pack(
     pack: &Pack,
     width: u32,
     height: u32,
@@ -443,13 +427,13 @@ fn render_pack_with(
     // The blades of a grass pack, and the ground under them in their colour (as scenes draw it).
     let mut settings = *settings;
     // As many light slots as the view has lights (the shading's cost on lavapipe grows with them).
-    settings.light_slots = crate::renderer::light_slots_for(&view.lighting);
+    settings.light_slots = RenderSettings::light_slots_for(&view.lighting);
     if pack.has(furbake_formats::SectionKind::BLADE_FIELD) && settings.tint == RenderSettings::default().tint {
         settings.tint = blade_settings.ground_tint();
     }
     let settings = &settings;
     let fur = FurRenderer::new(gpu.pipelines(), &gpu.queue, &asset, settings, &desc)?;
-    if let (Some(rest), Some(_)) = (&rest, fur.skinning()) {
+    if let (Some(rest), true) = (&rest, fur.is_animated()) {
         fur.set_pose(&gpu.queue, &rest.skinning, &rest.morph_weights)?;
         // Unsheared fur in the posed frame: s = n of the posed skin (eq. 3.35 at rest).
         fur.set_scale_vectors(&gpu.queue, &rest.normals)?;
@@ -529,6 +513,7 @@ fn rest_pose(pack: &Pack) -> Result<Option<RestPose>, RenderError> {
     Ok(Some(RestPose { skinning, morph_weights: pose.morph_weights, positions, normals }))
 }
 
+#[cfg(feature = "testing")]
 /// Copies the first `count` elements of `source` (a `COPY_SRC` buffer) into a staging buffer,
 /// submits, waits and returns them; `what` names the readback in errors. For tests and tools.
 pub(crate) fn read_buffer<T: bytemuck::Pod>(

@@ -1,7 +1,7 @@
 //! furbake-render: draws baked fur and grass with wgpu — skin, shells innermost to outermost with
 //! the eq. 3.36 shearing in the vertex shader, and fins (fur thesis §3.2, §3.4.2), and instanced
 //! grass blades that select and decode their keyframe on the GPU (grass thesis §4.2–4.4,
-//! [`blades`]) — as middleware inside a host's renderer, or headless into an image. Nothing else:
+//! [`BladeRenderer`]) — as middleware inside a host's renderer, or headless into an image. Nothing else:
 //! packs are opened by `furbake-runtime`, physics lives in `furbake-sim`, the grass CPU reference
 //! in `furbake-grass`.
 //!
@@ -22,7 +22,7 @@
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
 //! use furbake_render::{FurAsset, FurRenderer, PipelineCache, RenderSettings, TargetDesc, View};
 //! use furbake_runtime::Pack;
-//! # let gpu = furbake_render::HeadlessGpu::new()?; // stands in for the engine's device
+//! # let gpu = furbake_render::headless::HeadlessGpu::new()?; // stands in for the engine's device
 //! # let (device, queue) = (&gpu.device, &gpu.queue);
 //! # let dir = tempfile::tempdir()?;
 //! # let fox_path = dir.path().join("fox.fbk");
@@ -88,83 +88,73 @@
 //!
 //! # Headless
 //!
-//! [`HeadlessGpu`] makes a device without a window (any adapter: a GPU, else a software one such
-//! as Mesa's lavapipe), [`RenderTarget`] is its offscreen colour + depth target
-//! ([`RenderTarget::desc`]), and [`read_back`] copies it into an [`image::RgbaImage`] — a small
-//! host of the same calls, which `furbake preview` and the tests use ([`render_preview`] is the
-//! one-call path):
+//! [`headless`] is a small host of the same calls, which `furbake preview` and the tests use:
+//! [`headless::HeadlessGpu`] makes a device without a window (any adapter: a GPU, else a
+//! software one such as Mesa's lavapipe), [`headless::RenderTarget`] is its offscreen colour +
+//! depth target, [`headless::read_back`] copies it into an [`image::RgbaImage`], and
+//! [`headless::render_preview`] is the one-call path:
 //!
 //! ```no_run
-//! let image = furbake_render::render_preview("fox.fbk".as_ref(), 512, 512)?;
+//! let pack = furbake_runtime::Pack::open("fox.fbk")?;
+//! let image = furbake_render::headless::render_preview(&pack, 512, 512, &Default::default())?;
 //! image.save("fox.png").expect("writable");
 //! # Ok::<(), furbake_render::RenderError>(())
 //! ```
 //!
+//! # What is drawn
+//!
 //! The frame of a fur pack: the skin (Lambert × vertex colour), the shells as one instanced draw
 //! (instance = layer, so layers rasterise innermost first; each hair lit along its sheared
-//! direction by the strand shading, [`shading`], [`FurShading`]), then the fins on the pack's fin
-//! edges (borders, fur/bare edges: always on), then the silhouette fins: the interior edges on or
-//! near this frame's silhouette, selected by a compute pass that `prepare` records and drawn
-//! indirectly, faded by their faces' n·v ([`silhouette`]; [`RenderSettings::silhouette_fins`]). Several packs in one frame, each with its model matrix and this frame's physics (scale
-//! vectors, blade corner forces), from a runtime scene's camera and light: [`scene`]
-//! ([`SceneRenderer`], [`SceneFrame`]). An animated pack (skin weights or morph targets, glTF 2.0
-//! "Skins", "Morph Targets") is morphed and skinned on the GPU once per frame by a
-//! [`SkinningPass`] that its renderer owns ([`FurRenderer::set_pose`]); skin, shells and fins read
-//! the posed vertices it writes.
+//! direction by the strand shading, [`FurShading`], docs/design.md "Fur shading"), then the fins
+//! on the pack's fin edges (borders, fur/bare edges: always on), then the silhouette fins: the
+//! interior edges on or near this frame's silhouette, selected by a compute pass that `prepare`
+//! records and drawn indirectly, faded by their faces' n·v
+//! ([`RenderSettings::silhouette_fins`]). Several packs in one frame, each with its model matrix
+//! and this frame's physics (scale vectors, blade corner forces), from a runtime scene's camera
+//! and lights: [`SceneRenderer`]. An animated pack (skin weights or morph targets, glTF 2.0
+//! "Skins", "Morph Targets") is morphed and skinned on the GPU once per frame by a compute pass
+//! that its renderer owns ([`FurRenderer::set_pose`]); skin, shells and fins read the posed
+//! vertices it writes.
+//!
+//! # The `testing` feature
+//!
+//! Off by default. It adds the `testing` module and the renderers' readbacks: the CPU references
+//! the GPU passes are checked against, and readbacks that submit and wait — what this crate's
+//! tests inspect, never what a frame calls.
 
 mod asset;
-pub mod blades;
+mod blades;
 mod blocking;
-pub mod culling;
-mod headless;
-pub mod lod;
+mod culling;
+pub mod headless;
+mod lod;
 mod pipelines;
 mod renderer;
-pub mod scene;
-pub mod shaders;
-pub mod shading;
-pub mod silhouette;
+mod scene;
+mod shaders;
+mod shading;
+mod silhouette;
 mod skinning;
 mod stacking;
 mod target;
+#[cfg(feature = "testing")]
+pub mod testing;
 
 use furbake_runtime::{Camera, Lighting, RuntimeError};
 use glam::Vec3;
+use headless::LAVAPIPE_HINT;
+use scene::RENDERER_OVERHEAD_BYTES;
 
 pub use asset::FurAsset;
 pub use blades::{BladeRenderer, BladeSettings, BladeShading};
-#[doc(hidden)]
-pub use blocking::blocking_calls_on_this_thread;
-pub use culling::{CullLists, CullReference, GrassCulling};
-/// How scale vectors are indexed (re-exported from `furbake_runtime`, which produces them).
-pub use furbake_runtime::ShellVertexLayout;
-pub use headless::{
-    COLOR_FORMAT, DEPTH_FORMAT, HeadlessGpu, RenderTarget, read_back, read_back_texture, render_image,
-    render_opened_pack, render_pack, render_preview, render_preview_of, render_preview_with,
-};
-pub use lod::{ShellLevel, ShellLod};
+pub use culling::GrassCulling;
+pub use lod::ShellLod;
 pub use pipelines::PipelineCache;
-pub use renderer::{
-    ALPHA_TEST_THRESHOLD, FurGpuAsset, FurRenderer, MAX_VIEWS, RenderSettings, ShellBlend, light_slots_for,
-};
-pub use scene::{BladeForces, PackInput, PackRenderers, SceneFrame, SceneObject, SceneRenderer};
+pub use renderer::{FurGpuAsset, FurRenderer, RenderSettings, ShellBlend};
+pub use scene::{BladeForces, PackInput, PackRenderers, SceneFrame, SceneRenderer};
 pub use shaders::FrameUniforms;
 pub use shading::FurShading;
-pub use skinning::{PosedVertices, SkinningPass};
 pub use target::{ColorTarget, DepthTarget, TargetDesc};
-
-/// The fixed GPU (or, on lavapipe, host) memory of one fur or blade renderer beyond its data —
-/// uniform buffers, bind groups, its share of the pipeline cache. Measured on lavapipe with
-/// renderers sharing their pipelines ([`PipelineCache`]) and each pack's uploaded data
-/// ([`FurGpuAsset`], [`BladeRenderer::instance`]): scenes of 1, 50 and 500 entries of the Fox took
-/// 101, 209 and 588 MB resident (`/usr/bin/time -v furbake preview SCENE -o x.png --size 64x64`),
-/// 0.84 MiB per entry from 50 to 500, all of its data included; 500 Fox plus 500 grass-patch
-/// entries (1,500 renderers) took 585 MB. One MiB per renderer bounds that.
-pub const RENDERER_OVERHEAD_BYTES: u64 = 1 << 20;
-
-/// The command that installs a software Vulkan driver on Debian/Ubuntu machines without a GPU.
-pub const LAVAPIPE_HINT: &str =
-    "apt-get update && apt-get install -y --no-install-recommends mesa-vulkan-drivers libvulkan1";
 
 /// Why rendering failed.
 #[derive(Debug, thiserror::Error)]

@@ -36,6 +36,14 @@ impl ShellLod {
         }
         Ok(())
     }
+
+    /// What a view draws of fur that projects to `fur_px` pixels with at most `max_layers`: the
+    /// shell layers, and the opacity in (0, 1] of the layers a transition between two levels is
+    /// adding (1 outside a transition).
+    pub fn layers(&self, max_layers: u32, fur_px: f32) -> (u32, f32) {
+        let level = ShellLevel::of(max_layers, self, fur_px);
+        (level.layers, level.fade)
+    }
 }
 
 impl Default for ShellLod {

@@ -26,8 +26,11 @@ use wgpu::util::DeviceExt;
 
 use crate::asset::{FurAsset, mip_chain};
 use crate::pipelines::{FurPipelines, FurSwitches};
-use crate::shaders::{FrameUniforms, FurUniforms, ProbeVertex, SHELL_WGSL, SkinnedVertex, SurfaceVertex};
-use crate::{FurShading, PipelineCache, RenderError, SkinningPass, TargetDesc};
+use crate::shaders::{FrameUniforms, FurUniforms, SkinnedVertex, SurfaceVertex};
+#[cfg(feature = "testing")]
+use crate::shaders::{ProbeVertex, SHELL_WGSL};
+use crate::skinning::SkinningPass;
+use crate::{FurShading, PipelineCache, RenderError, TargetDesc};
 
 /// How shell and fin fragments combine with what is behind them.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -38,20 +41,9 @@ pub enum ShellBlend {
     AlphaTest,
 }
 
-/// The alpha threshold [`RenderSettings::with_options`] gives the alpha test when the options
-/// choose it without a threshold of their own (the blending default, 0.02, would keep nearly
-/// every texel of the mip-averaged atlas).
-pub const ALPHA_TEST_THRESHOLD: f32 = 0.4;
+const MAX_VIEWS: u32 = RenderSettings::MAX_VIEWS;
 
-/// The light slots a renderer needs for `lighting` ([`RenderSettings::light_slots`]).
-pub fn light_slots_for(lighting: &furbake_runtime::Lighting) -> u32 {
-    lighting.sources().len().clamp(1, furbake_runtime::MAX_LIGHTS) as u32
-}
-
-/// The most views one renderer draws in a frame ([`RenderSettings::views`]).
-pub const MAX_VIEWS: u32 = 8;
-
-/// Checks a renderer's view slot count (`setting` names it) against 1..=[`MAX_VIEWS`].
+/// Checks a renderer's view slot count (`setting` names it) against 1..=`MAX_VIEWS`.
 pub(crate) fn check_view_count(views: u32, setting: &str) -> Result<(), RenderError> {
     if (1..=MAX_VIEWS).contains(&views) {
         return Ok(());
@@ -83,7 +75,7 @@ pub struct RenderSettings {
     /// Draw fins on the fin edges (when the asset has them). Default true.
     pub fins: bool,
     /// With `fins`, also draw fins on the interior edges on or near this frame's silhouette,
-    /// selected on the GPU each frame ([`crate::silhouette`]; fur thesis §4.1).
+    /// selected on the GPU each frame (`silhouette.rs`; fur thesis §4.1).
     /// Default true.
     pub silhouette_fins: bool,
     /// Half-width of the band around the silhouette whose edges get a (faded) fin, in units of
@@ -114,7 +106,7 @@ pub struct RenderSettings {
     pub light_slots: u32,
     /// Views one renderer draws in one frame (split screen, reflections, shadow views), each with
     /// its own uniforms and silhouette selection ([`FurRenderer::prepare_view`],
-    /// [`FurRenderer::render_view`]), in 1..=[`MAX_VIEWS`]. Default 1.
+    /// [`FurRenderer::render_view`]), in 1..=[`RenderSettings::MAX_VIEWS`]. Default 1.
     pub views: u32,
     /// The fur's strand shading (docs/design.md "Fur shading"): its parameters, and with
     /// [`FurShading::enabled`] off the earlier Lambert × self-shadow look (a pipeline switch, the
@@ -160,6 +152,19 @@ impl Default for RenderSettings {
 }
 
 impl RenderSettings {
+    /// The alpha threshold [`RenderSettings::with_options`] gives the alpha test when the options
+    /// choose it without a threshold of their own (the blending default, 0.02, would keep nearly
+    /// every texel of the mip-averaged atlas).
+    pub const ALPHA_TEST_THRESHOLD: f32 = 0.4;
+
+    /// The most views one renderer draws in a frame ([`RenderSettings::views`]).
+    pub const MAX_VIEWS: u32 = 8;
+
+    /// The light slots a renderer needs for `lighting` ([`RenderSettings::light_slots`]).
+    pub fn light_slots_for(lighting: &furbake_runtime::Lighting) -> u32 {
+        lighting.sources().len().clamp(1, furbake_runtime::MAX_LIGHTS) as u32
+    }
+
     /// The default settings with the shader features a scene needs: the eq. 3.36 shearing is
     /// compiled in only when the scene declares an effect that moves the fur (any physics effect);
     /// a static scene keeps s = n and skips the scale-vector math; the light slots are the
@@ -167,7 +172,7 @@ impl RenderSettings {
     pub fn for_scene(scene: &furbake_runtime::Scene) -> RenderSettings {
         RenderSettings {
             shearing: !scene.effects().is_empty(),
-            light_slots: light_slots_for(&scene.lighting()),
+            light_slots: Self::light_slots_for(&scene.lighting()),
             ..Default::default()
         }
     }
@@ -195,7 +200,7 @@ impl RenderSettings {
             };
             // The blending default threshold only skips empty texels; a test needs a real cut.
             if blend == furbake_runtime::ShellBlendMode::AlphaTest && o.alpha_threshold.is_none() {
-                self.alpha_threshold = self.alpha_threshold.max(ALPHA_TEST_THRESHOLD);
+                self.alpha_threshold = self.alpha_threshold.max(Self::ALPHA_TEST_THRESHOLD);
             }
         }
         self.shading.enabled = o.strand_shading.unwrap_or(self.shading.enabled);
@@ -414,6 +419,7 @@ pub struct FurRenderer {
     pipelines: FurPipelines,
     /// The GPU skinning of an animated asset; `None` for a static one.
     skinning: Option<SkinningPass>,
+    #[cfg(feature = "testing")]
     /// What binding 8 (`skinned`) holds: the skinning pass's output, or a placeholder.
     posed_vertices: wgpu::Buffer,
 }
@@ -604,6 +610,7 @@ impl FurRenderer {
             target: target.clone(),
             pipelines,
             skinning,
+            #[cfg(feature = "testing")]
             posed_vertices,
         })
     }
@@ -615,7 +622,7 @@ impl FurRenderer {
     /// [`FurRenderer::render`] draws. Scale vectors are given in the posed mesh frame (the runtime
     /// poses the physics on the skinned surface) and used as given. A static asset, a wrong count or a non-finite
     /// value is a [`RenderError::Parameter`] and changes nothing. No allocation (see
-    /// [`SkinningPass::set_pose`]).
+    /// `SkinningPass::set_pose`).
     pub fn set_pose(
         &self,
         queue: &wgpu::Queue,
@@ -630,6 +637,13 @@ impl FurRenderer {
         }
     }
 
+    /// Whether the asset is animated (skin weights or morph targets): its renderer skins it on
+    /// the GPU with the pose [`FurRenderer::set_pose`] writes.
+    pub fn is_animated(&self) -> bool {
+        self.skinning.is_some()
+    }
+
+    #[cfg(feature = "testing")]
     /// The skinning pass of an animated asset (`None` for a static one): its counts, its output
     /// buffer, and its readback for tests.
     pub fn skinning(&self) -> Option<&SkinningPass> {
@@ -696,6 +710,7 @@ impl FurRenderer {
         }
     }
 
+    #[cfg(feature = "testing")]
     /// The asset's static GPU data this renderer draws from (shared by every renderer built on
     /// the same [`FurGpuAsset`]).
     pub fn gpu_asset(&self) -> &Arc<FurGpuAsset> {
@@ -765,12 +780,12 @@ impl FurRenderer {
 
     /// The shells a view of `frame` draws: its level of detail ([`RenderSettings::lod`]) from the
     /// fur's projected length, or every layer.
-    pub fn shell_level(&self, frame: &FrameUniforms) -> crate::ShellLevel {
+    pub(crate) fn shell_level(&self, frame: &FrameUniforms) -> crate::lod::ShellLevel {
         let px =
             self.lod.and_then(|_| crate::lod::projected_fur_px(frame, self.bounds.0, self.bounds.1, self.fur_length_m));
         match (self.lod, px) {
-            (Some(lod), Some(px)) => crate::ShellLevel::of(self.drawn_layers, &lod, px),
-            _ => crate::ShellLevel::full(self.drawn_layers),
+            (Some(lod), Some(px)) => crate::lod::ShellLevel::of(self.drawn_layers, &lod, px),
+            _ => crate::lod::ShellLevel::full(self.drawn_layers),
         }
     }
 
@@ -796,12 +811,14 @@ impl FurRenderer {
         self.views.get(view).ok_or_else(|| view_out_of_range(view, self.views.len(), "RenderSettings::views"))
     }
 
+    #[cfg(feature = "testing")]
     /// Whether this renderer selects and draws silhouette fins
     /// ([`RenderSettings::silhouette_fins`] on an asset with interior furry edges and fins).
     pub fn has_silhouette_fins(&self) -> bool {
         self.views[0].silhouette.is_some()
     }
 
+    #[cfg(feature = "testing")]
     /// Reads back the silhouette fin selection the GPU makes for `frame` (the same dispatch
     /// [`FurRenderer::prepare`] records, after an animated asset's skinning with the pose last
     /// written): `(edge, fade)` per selected edge, edges indexing
@@ -898,6 +915,7 @@ impl FurRenderer {
         }
     }
 
+    #[cfg(feature = "testing")]
     /// Reads back the sheared shell positions the shell vertex shader draws, computed on the GPU
     /// by the same WGSL function (`shell_vertex` in `shell.wgsl`, via its compute entry point
     /// `cs_shell_positions`) with this renderer's uniforms, override constants and current scale
@@ -918,6 +936,7 @@ impl FurRenderer {
         Ok(self.shell_probe(device, queue, asset)?.0)
     }
 
+    #[cfg(feature = "testing")]
     /// Reads back the hair directions the shell shader shades along (docs/design.md "Fur
     /// shading"), computed on the GPU by the same WGSL function the draw uses (`shell_tangent` in
     /// `shell.wgsl`, the eq. 3.36 derivative `strand_tangent`), in the order and object frame of
@@ -932,6 +951,7 @@ impl FurRenderer {
         Ok(self.shell_probe(device, queue, asset)?.1)
     }
 
+    #[cfg(feature = "testing")]
     /// The shell probe (`cs_shell_positions`): positions and hair directions of every shell
     /// vertex, layer-major.
     fn shell_probe(
@@ -1079,6 +1099,7 @@ impl FurRenderer {
     }
 }
 
+#[cfg(feature = "testing")]
 /// What the shell probe reads back: shell positions and hair directions, layer-major.
 type ShellProbe = (Vec<[f32; 3]>, Vec<[f32; 3]>);
 
@@ -1090,7 +1111,7 @@ impl ViewSlot {
         queue: &wgpu::Queue,
         encoder: &mut wgpu::CommandEncoder,
         frame: &FrameUniforms,
-        level: crate::ShellLevel,
+        level: crate::lod::ShellLevel,
     ) {
         self.layers.store(level.layers, Ordering::Relaxed);
         let frame = FrameUniforms { shells: level.uniform(), ..*frame };
@@ -1114,6 +1135,7 @@ fn layout_code(layout: ShellVertexLayout) -> u32 {
     }
 }
 
+#[cfg(feature = "testing")]
 /// Group 0 (the fur uniforms, scale vectors and posed vertices `cs_shell_positions` reads) and
 /// group 1 (probe input, positions and hair directions out) of the shell readback probe.
 fn probe_bind_group_layouts(device: &wgpu::Device) -> [wgpu::BindGroupLayout; 2] {

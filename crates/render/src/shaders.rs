@@ -32,7 +32,7 @@ pub const FIN_WGSL: &str = concat!(
 );
 /// The skinning pass (glTF 2.0 "Morph Targets", "Skins"): the `cs_skin` compute entry point that
 /// morphs and skins every welded vertex of an animated pack once per frame
-/// ([`crate::SkinningPass`]). Stands alone (no `fur_common.wgsl`).
+/// ([`crate::skinning::SkinningPass`]). Stands alone (no `fur_common.wgsl`).
 pub const SKINNING_WGSL: &str = include_str!("../shaders/skinning.wgsl");
 /// The silhouette selection (fur thesis §4.1): the `cs_silhouette` compute entry point
 /// that picks the interior edges on or near this frame's silhouette for the silhouette fins
@@ -64,7 +64,7 @@ pub const BLADE_CULL_WGSL: &str = concat!(
 /// One light of the frame uniforms (`Light` in `shaders/lighting.wgsl`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct LightUniform {
+pub(crate) struct LightUniform {
     /// Directional: unit vector from the surface towards the light, w = 0. Point: its position
     /// in world metres, w = 1.
     pub vector: [f32; 4],
@@ -89,34 +89,36 @@ impl LightUniform {
 }
 
 /// Per-frame uniforms (`Frame` in `shaders/lighting.wgsl`, prepended to every drawing shader;
-/// binding 0): camera, lights and the drawn object's model matrix.
+/// binding 0): camera, lights and the drawn object's model matrix. Built by [`FrameUniforms::new`]
+/// (or [`crate::View::uniforms`]) and handed to the renderers' `prepare`, which upload it; its
+/// layout is the shaders' and is not part of the API.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct FrameUniforms {
     /// Column-major view-projection matrix (world → clip, depth in [0, 1]).
-    pub view_proj: [[f32; 4]; 4],
+    pub(crate) view_proj: [[f32; 4]; 4],
     /// Eye position in metres (w unused).
-    pub camera_pos: [f32; 4],
+    pub(crate) camera_pos: [f32; 4],
     /// Hemisphere ambient from above (+Y), linear RGB (a unused).
-    pub ambient_sky: [f32; 4],
+    pub(crate) ambient_sky: [f32; 4],
     /// Hemisphere ambient from below, linear RGB (a unused).
-    pub ambient_ground: [f32; 4],
+    pub(crate) ambient_ground: [f32; 4],
     /// How many of `lights` are lit (x; yzw unused).
-    pub light_count: [u32; 4],
+    pub(crate) light_count: [u32; 4],
     /// The light sources; the first `light_count[0]` are lit.
-    pub lights: [LightUniform; furbake_runtime::MAX_LIGHTS],
+    pub(crate) lights: [LightUniform; furbake_runtime::MAX_LIGHTS],
     /// Column-major model matrix of the drawn object (object/pack frame → world): rotation,
     /// translation and a uniform positive scale (normals are transformed by it too). Identity
     /// for a single object.
-    pub model: [[f32; 4]; 4],
+    pub(crate) model: [[f32; 4]; 4],
     /// The target's width and height in pixels (xy; zw unused), which the fur's level of detail
     /// measures the projected fur length in ([`FrameUniforms::with_viewport`]). Zero: not given,
     /// and the fur draws its full shell count.
-    pub viewport: [f32; 4],
+    pub(crate) viewport: [f32; 4],
     /// The shell level of detail of this view (layers drawn, opacity of the layers a transition
     /// adds, continuous layer count): written by [`crate::FurRenderer::prepare`] from the other
     /// fields; whatever a host puts here is replaced.
-    pub shells: [f32; 4],
+    pub(crate) shells: [f32; 4],
 }
 
 impl FrameUniforms {
@@ -164,6 +166,36 @@ impl FrameUniforms {
     /// The model matrix.
     pub fn model(&self) -> glam::Mat4 {
         glam::Mat4::from_cols_array_2d(&self.model)
+    }
+
+    /// The view-projection matrix (world → clip).
+    pub fn view_proj(&self) -> glam::Mat4 {
+        glam::Mat4::from_cols_array_2d(&self.view_proj)
+    }
+
+    /// The eye position in metres.
+    pub fn eye(&self) -> glam::Vec3 {
+        glam::Vec4::from(self.camera_pos).truncate()
+    }
+
+    /// The target's size in pixels (`[0, 0]` when not given: [`FrameUniforms::with_viewport`]).
+    pub fn viewport(&self) -> [f32; 2] {
+        [self.viewport[0], self.viewport[1]]
+    }
+
+    /// The lit lights as the shaders read them (`light_at` of `shaders/lighting.wgsl`): per light
+    /// a vector — directional: the unit vector from the surface towards the light, w = 0; point:
+    /// its position in metres, w = 1 — and its radiance: colour × intensity (rgb), a point light's
+    /// range in metres (a; 0 = unbounded).
+    pub fn lights(&self) -> impl ExactSizeIterator<Item = ([f32; 4], [f32; 4])> + '_ {
+        let count = (self.light_count[0] as usize).min(self.lights.len());
+        self.lights[..count].iter().map(|l| (l.vector, l.radiance))
+    }
+
+    /// The hemisphere ambient: linear RGB from above (+Y) and from below.
+    pub fn ambient(&self) -> ([f32; 3], [f32; 3]) {
+        let rgb = |c: [f32; 4]| [c[0], c[1], c[2]];
+        (rgb(self.ambient_sky), rgb(self.ambient_ground))
     }
 }
 

@@ -3,6 +3,7 @@
 //! their packing into the fur uniforms, and the CPU twin of the hair direction the shaders shade
 //! along ([`strand_tangent`], `strand_tangent` in `shaders/fur_common.wgsl`).
 
+#[cfg(feature = "testing")]
 use glam::Vec3;
 
 /// The strand shading's parameters, defaults and ranges (defined with the runtime's scene
@@ -32,6 +33,7 @@ pub(crate) fn with_shading(uniforms: FurUniforms, shading: &FurShading) -> FurUn
     }
 }
 
+#[cfg(feature = "testing")]
 /// The unit hair direction the shaders shade along at relative height `t` in [0, 1] above a
 /// vertex with unit normal `normal` and scale vector `scale_vector` (eq. 3.35): the derivative of
 /// the eq. 3.36 shell offset `n·t + t^k·(s − n)` along `t`, `n + k·t^(k−1)·(s − n)`, normalised

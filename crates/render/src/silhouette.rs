@@ -126,6 +126,7 @@ pub fn interior_edges(mesh: &SkinMesh, fin_edges: Option<&FinEdges>) -> Vec<Silh
     out
 }
 
+#[cfg(feature = "testing")]
 /// n₀·v and n₁·v of `edge` seen from `camera` (object frame), or `None` where a face has
 /// collapsed. As `silhouette.wgsl` computes them, in f32.
 pub fn edge_facing(positions: &[[f32; 3]], edge: &SilhouetteEdge, camera: [f32; 3]) -> Option<(f32, f32)> {
@@ -142,6 +143,7 @@ pub fn edge_facing(positions: &[[f32; 3]], edge: &SilhouetteEdge, camera: [f32; 
     Some((n0.dot(v), n1.dot(v)))
 }
 
+#[cfg(feature = "testing")]
 /// The fade of an edge with facings `d0`, `d1`: 1 where they differ in sign (the silhouette),
 /// 1 − min(|d0|, |d1|)/band within the band, 0 (not selected) elsewhere.
 pub fn silhouette_fade(d0: f32, d1: f32, band: f32) -> f32 {
@@ -155,6 +157,7 @@ pub fn silhouette_fade(d0: f32, d1: f32, band: f32) -> f32 {
     }
 }
 
+#[cfg(feature = "testing")]
 /// The CPU reference of the GPU selection: every edge (index into `edges`) on or near the
 /// silhouette of the surface `positions` (welded vertices, object frame; the posed ones for an
 /// animated pack) seen from `camera_pos` (object frame), with its fade, in edge order.
@@ -181,6 +184,7 @@ pub(crate) struct SilhouettePass {
     edge_count: u32,
     band: f32,
     params: wgpu::Buffer,
+    #[cfg(feature = "testing")]
     instances: wgpu::Buffer,
     args: wgpu::Buffer,
     compute_group: wgpu::BindGroup,
@@ -252,6 +256,7 @@ impl SilhouettePass {
             edge_count,
             band,
             params,
+            #[cfg(feature = "testing")]
             instances,
             args,
             compute_group,
@@ -289,12 +294,14 @@ impl SilhouettePass {
         pass.draw_indirect(&self.args, 0);
     }
 
+    #[cfg(feature = "testing")]
     /// Copies the counter and the instance list into `readback` buffers (test readback).
     pub(crate) fn copy_out(&self, encoder: &mut wgpu::CommandEncoder, args: &wgpu::Buffer, instances: &wgpu::Buffer) {
         encoder.copy_buffer_to_buffer(&self.args, 0, args, 0, 16);
         encoder.copy_buffer_to_buffer(&self.instances, 0, instances, 0, self.instances.size());
     }
 
+    #[cfg(feature = "testing")]
     pub(crate) fn instance_bytes(&self) -> u64 {
         self.instances.size()
     }

@@ -82,6 +82,7 @@ impl BufferSizes {
     }
 }
 
+#[cfg(feature = "testing")]
 /// Posed welded vertices read back from the GPU, struct of arrays (the output buffers of
 /// `furbake_runtime::animation::morph_and_skin`).
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -330,22 +331,26 @@ impl SkinningPass {
         &self.skinned
     }
 
+    #[cfg(feature = "testing")]
     /// Welded skin vertices skinned per dispatch.
     pub fn vertex_count(&self) -> u32 {
         self.vertex_count
     }
 
+    #[cfg(feature = "testing")]
     /// Skinning matrices [`SkinningPass::set_pose`] expects (the skeleton's binds; 0 without
     /// skin weights).
     pub fn bind_count(&self) -> u32 {
         self.bind_count
     }
 
+    #[cfg(feature = "testing")]
     /// Morph weights [`SkinningPass::set_pose`] expects (0 without morph targets).
     pub fn target_count(&self) -> u32 {
         self.target_count
     }
 
+    #[cfg(feature = "testing")]
     /// Copies [`SkinningPass::skinned_buffer`] back: the posed position and normal of every
     /// welded vertex, as the last submitted dispatch wrote them. Submits a copy and waits for the
     /// GPU: for tests against `furbake_runtime::animation::morph_and_skin` (whose output buffers

@@ -11,9 +11,8 @@ use crate::common;
 use std::sync::OnceLock;
 
 use crate::common::gpu;
-use furbake_render::{
-    FurAsset, FurRenderer, RenderSettings, ShellBlend, TargetDesc, View, read_back_texture, render_image,
-};
+use furbake_render::headless::{read_back_texture, render_image};
+use furbake_render::{FurAsset, FurRenderer, RenderSettings, ShellBlend, TargetDesc, View};
 use furbake_runtime::{Camera, Light};
 use image::RgbaImage;
 

@@ -11,7 +11,8 @@ use furbake_bake::{BakeSettings, NoProgress, bake};
 use furbake_formats::SectionKind;
 use furbake_formats::sections::triangle_uv_map::TriangleUvMap;
 use furbake_import::{ImportSettings, import_gltf, import_gltf_slice, testmesh};
-use furbake_render::{FurAsset, FurRenderer, RenderError, RenderSettings, RenderTarget, render_preview};
+use furbake_render::headless::{RenderTarget, render_preview};
+use furbake_render::{FurAsset, FurRenderer, RenderError, RenderSettings};
 use furbake_runtime::Pack;
 
 fn write_pack(gltf_mesh: furbake_import::ImportedMesh, dir: &Path, name: &str, resolution: u32) -> std::path::PathBuf {
@@ -104,7 +105,7 @@ fn preview_of_the_fox_is_framed_and_furry() {
     let dir = tempfile::tempdir().unwrap();
     let path = write_pack(import_gltf(&fox, &ImportSettings::default()).unwrap(), dir.path(), "fox", 64);
     let (w, h) = (192, 128);
-    let image = render_preview(&path, w, h).unwrap();
+    let image = render_preview(&furbake_runtime::Pack::open(&path).unwrap(), w, h, &Default::default()).unwrap();
     image.save(std::env::temp_dir().join("furbake_fox_preview_test.png")).unwrap();
     let bg = image.get_pixel(0, 0).0;
     let drawn: Vec<(u32, u32)> =

@@ -9,7 +9,8 @@ use crate::common;
 
 use crate::common::gpu;
 use furbake_grass::{ForceField, ForceScene};
-use furbake_render::{BladeRenderer, BladeSettings, BladeShading, RenderTarget, View, read_back};
+use furbake_render::headless::{RenderTarget, read_back};
+use furbake_render::{BladeRenderer, BladeSettings, BladeShading, View};
 use furbake_runtime::{Camera, Light};
 use image::RgbaImage;
 
@@ -190,7 +191,8 @@ fn the_ground_under_the_blades_takes_the_grass_colour() {
     baked.to_writer().write_atomic(&path).unwrap();
     let pack = furbake_runtime::Pack::open(&path).unwrap();
     let image =
-        furbake_render::render_opened_pack(&pack, 160, 120, None, &furbake_render::RenderSettings::default()).unwrap();
+        furbake_render::headless::render_pack(&pack, 160, 120, None, &furbake_render::RenderSettings::default())
+            .unwrap();
     image.save(std::env::temp_dir().join("furbake-render-tests").join("blade_shading_ground.png")).unwrap();
     let bg = *image.get_pixel(0, 0);
     let drawn: Vec<_> = image.pixels().filter(|p| p.0.iter().zip(bg.0).any(|(a, b)| a.abs_diff(b) > 12)).collect();

@@ -18,7 +18,8 @@ use furbake_grass::{
     BladeFieldSettings, BladeMaterial, BladeShape, ForceField, ForceScene, Interpolation, KeyframeDecoder, WindSource,
     build_reference_blade, compress_poses, ground_grid_mesh, scatter_blades, simulate_poses,
 };
-use furbake_render::{BladeRenderer, BladeSettings, BladeShading, RenderTarget, View, read_back};
+use furbake_render::headless::{RenderTarget, read_back};
+use furbake_render::{BladeRenderer, BladeSettings, BladeShading, View};
 use furbake_runtime::{Camera, Light};
 use glam::{Vec2, Vec3, Vec3Swizzles};
 use image::RgbaImage;

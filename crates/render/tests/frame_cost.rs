@@ -20,7 +20,9 @@ use std::time::Instant;
 use furbake_bake::settings::dotted_override;
 use furbake_bake::{BakeSettings, NoProgress, bake};
 use furbake_import::{ImportSettings, import_gltf};
-use furbake_render::{HeadlessGpu, PipelineCache, RenderTarget, SceneRenderer, blocking_calls_on_this_thread};
+use furbake_render::headless::{HeadlessGpu, RenderTarget};
+use furbake_render::testing::blocking_calls_on_this_thread;
+use furbake_render::{PipelineCache, SceneRenderer};
 use furbake_runtime::{Scene, World};
 
 struct Counting;
@@ -133,7 +135,7 @@ impl Demo {
                 .unwrap();
         });
         {
-            let mut pass = target.begin_pass(&mut encoder, "host pass", Some(renderer.frame.background));
+            let mut pass = target.begin_pass(&mut encoder, "host pass", Some(renderer.frame().background));
             measure(&mut || renderer.render(&mut pass));
         }
         gpu.queue.submit([encoder.finish()]);
@@ -163,7 +165,7 @@ fn demo_scene_frame_cost_and_allocations() {
     }
     let Demo { gpu, target, renderer, .. } = &demo;
     gpu.check().unwrap();
-    let image = furbake_render::read_back(&gpu.device, &gpu.queue, target).unwrap();
+    let image = furbake_render::headless::read_back(&gpu.device, &gpu.queue, target).unwrap();
     let bg = image.get_pixel(0, 0).0;
     assert!(image.pixels().filter(|p| p.0 != bg).count() > 320 * 240 / 20, "the demo frame is nearly empty");
 
@@ -189,7 +191,7 @@ fn demo_scene_frame_cost_and_allocations() {
         "demo scene, {} packs ({}): world_view + prepare_world + render over {FRAMES} frames: median {median:.0} µs, \
          mean {mean:.0} µs, p90 {:.0} µs; allocations per frame {lo}–{hi}; wgpu allocates {per_write:.1} per \
          queue.write_buffer",
-        renderer.packs.len(),
+        renderer.packs().len(),
         if cfg!(debug_assertions) { "debug build" } else { "release build" },
         times_us[times_us.len() * 9 / 10],
     );

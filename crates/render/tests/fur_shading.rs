@@ -14,7 +14,7 @@
 //!     8/255), and ignores every shading parameter (bit-identical frames);
 //! (d) the hair direction the shells shade along, read back from the GPU, is the normal at rest
 //!     and leans towards a sheared scale vector exactly as the CPU twin
-//!     `furbake_render::shading::strand_tangent` (eq. 3.36's derivative) says;
+//!     `furbake_render::testing::strand_tangent` (eq. 3.36's derivative) says;
 //! plus scenes: `[packs.shading]` reaches the pack's renderer, and a bad value is refused naming
 //! `packs[0].shading.FIELD`.
 //! Renders stay small (128², 16 layers).
@@ -25,8 +25,9 @@ use std::sync::{Arc, OnceLock};
 use crate::common::gpu;
 use furbake_bake::{BakeSettings, NoProgress, bake};
 use furbake_import::{ImportSettings, import_gltf_slice, testmesh};
-use furbake_render::shading::strand_tangent;
-use furbake_render::{FurAsset, FurRenderer, FurShading, RenderSettings, RenderTarget, View, render_image};
+use furbake_render::headless::{RenderTarget, render_image};
+use furbake_render::testing::strand_tangent;
+use furbake_render::{FurAsset, FurRenderer, FurShading, RenderSettings, View};
 use furbake_runtime::{Camera, Light, LightSource, Scene, SceneError, World};
 use glam::{Vec3, Vec4Swizzles};
 use image::RgbaImage;
@@ -353,7 +354,7 @@ fn scenes_set_the_shading_of_each_pack_and_refuse_bad_values() {
     let world = World::new(scene).unwrap();
     let g = gpu();
     let renderer = furbake_render::SceneRenderer::new(&g.device, &g.queue, &world).unwrap();
-    assert_eq!(renderer.packs[0].fur.as_ref().unwrap().settings().shading, expected);
+    assert_eq!(renderer.packs()[0].fur.as_ref().unwrap().settings().shading, expected);
     // No table: the defaults.
     let plain =
         Scene::from_toml_str("[[packs]]\nname = \"s\"\npath = \"sphere.fbk\"\n", Path::new("plain.toml"), dir.path())

@@ -23,9 +23,8 @@ use crate::common::gpu;
 use furbake_bake::{BakeSettings, NoProgress, bake};
 use furbake_grass::{ForceField, ForceScene};
 use furbake_import::{ImportSettings, import_gltf};
-use furbake_render::{
-    BladeRenderer, BladeSettings, FurAsset, FurShading, RenderSettings, RenderTarget, View, read_back, render_image,
-};
+use furbake_render::headless::{RenderTarget, read_back, render_image};
+use furbake_render::{BladeRenderer, BladeSettings, FurAsset, FurShading, RenderSettings, View};
 use furbake_runtime::{Camera, Light};
 use image::RgbaImage;
 
@@ -145,7 +144,13 @@ fn fox_preview() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("fox.fbk");
     baked.to_writer().write_atomic(&path).unwrap();
-    let image = furbake_render::render_preview(&path, 160, 120).unwrap();
+    let image = furbake_render::headless::render_preview(
+        &furbake_runtime::Pack::open(&path).unwrap(),
+        160,
+        120,
+        &Default::default(),
+    )
+    .unwrap();
     check("fox", &image, FUR);
 }
 

@@ -18,10 +18,10 @@ use furbake_grass::{
     BladeFieldSettings, BladeMaterial, BladeShape, ForceField, ForceScene, Interpolation, KeyframeDecoder,
     build_reference_blade, compress_poses, ground_grid_mesh, scatter_blades, simulate_poses,
 };
-use furbake_render::shaders::FrameUniforms;
-use furbake_render::{
-    BladeRenderer, BladeSettings, CullLists, CullReference, GrassCulling, RenderTarget, View, read_back,
-};
+use furbake_render::FrameUniforms;
+use furbake_render::headless::{RenderTarget, read_back};
+use furbake_render::testing::{CullLists, CullReference};
+use furbake_render::{BladeRenderer, BladeSettings, GrassCulling, View};
 use furbake_runtime::Camera;
 use glam::{DMat4, DVec4, Mat4, Vec2, Vec3};
 use image::RgbaImage;
@@ -208,8 +208,8 @@ fn no_blade_outside_the_frustum_is_drawn() {
             let f = frame(&view, model);
             draw(&r, &f);
             let lists = r.read_culling(&gpu().device, &gpu().queue).unwrap();
-            let m = DMat4::from_cols_array_2d(&f.view_proj.map(|c| c.map(f64::from)))
-                * DMat4::from_cols_array_2d(&f.model.map(|c| c.map(f64::from)));
+            let m = DMat4::from_cols_array_2d(&f.view_proj().to_cols_array_2d().map(|c| c.map(f64::from)))
+                * DMat4::from_cols_array_2d(&f.model().to_cols_array_2d().map(|c| c.map(f64::from)));
             let mut outside = 0;
             for (b, _) in (0..field().blade_count()).map(|b| (b, ())) {
                 let clip = blade_box(b, reach).map(|p| m * p);
@@ -255,7 +255,7 @@ fn frustum_culling_keeps_every_blade_in_view_and_draws_the_same_image() {
         let image_unculled = draw(&unculled, &f);
         assert!(image_culled == image_unculled, "{name}: culling by the frustum changed the image");
         // Every blade with a posed vertex inside the clip volume is drawn.
-        let m = Mat4::from_cols_array_2d(&f.view_proj) * model;
+        let m = f.view_proj() * model;
         let f_ = field();
         let mut in_view = 0;
         for b in 0..f_.blade_count() {
@@ -416,7 +416,13 @@ fn preview_of(gltf: &[u8], density: Option<f32>) -> RgbaImage {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("mesh.fbk");
     baked.to_writer().write_atomic(&path).unwrap();
-    furbake_render::render_preview(&path, 160, 120).unwrap()
+    furbake_render::headless::render_preview(
+        &furbake_runtime::Pack::open(&path).unwrap(),
+        160,
+        120,
+        &Default::default(),
+    )
+    .unwrap()
 }
 
 #[test]

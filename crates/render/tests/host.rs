@@ -19,10 +19,10 @@ use std::sync::OnceLock;
 
 use crate::common::gpu;
 use example::{Furbake, HostOptions, Packs, Placement, render_image};
-use furbake_render::{
-    FurAsset, FurRenderer, HeadlessGpu, PipelineCache, RenderError, RenderSettings, RenderTarget, SceneFrame,
-    ShellBlend, TargetDesc, blocking_calls_on_this_thread, read_back,
-};
+use furbake_render::SceneFrame;
+use furbake_render::headless::{HeadlessGpu, RenderTarget, read_back};
+use furbake_render::testing::blocking_calls_on_this_thread;
+use furbake_render::{FurAsset, FurRenderer, PipelineCache, RenderError, RenderSettings, ShellBlend, TargetDesc};
 use image::RgbaImage;
 
 const W: u32 = 200;
@@ -233,7 +233,7 @@ fn a_pass_with_a_second_colour_attachment_keeps_it_untouched() {
         fox.render(&mut pass);
     }
     g.queue.submit([encoder.finish()]);
-    let second = furbake_render::read_back_texture(&g.device, &g.queue, &extra).unwrap();
+    let second = furbake_render::headless::read_back_texture(&g.device, &g.queue, &extra).unwrap();
     g.check().unwrap();
     let red = second.pixels().filter(|p| p.0 == [255, 0, 0, 255]).count();
     assert_eq!(red, 64 * 64, "attachment 1 was written");
@@ -332,7 +332,7 @@ fn a_host_frame_neither_submits_nor_waits_inside_furbake() {
     assert_eq!(submission_number(g.queue.submit([])), start + 2);
     // The counter counts: the headless readback submits and waits.
     let calls = blocking_calls_on_this_thread();
-    furbake_render::read_back_texture(&g.device, &g.queue, host.output()).unwrap();
+    furbake_render::headless::read_back_texture(&g.device, &g.queue, host.output()).unwrap();
     assert!(blocking_calls_on_this_thread() >= calls + 2);
     g.check().unwrap();
     assert_eq!(frames, 3);
@@ -461,7 +461,7 @@ fn the_host_matches_the_headless_preview_where_they_overlap() {
     let partial = Furbake { fox: stand_in, ..fur };
     host.encode_frame(&g.queue, &mut encoder, &placement, Some(&partial));
     g.queue.submit([encoder.finish()]);
-    let without_fox = furbake_render::read_back_texture(&g.device, &g.queue, host.output()).unwrap();
+    let without_fox = furbake_render::headless::read_back_texture(&g.device, &g.queue, host.output()).unwrap();
     let (drawn, far, _) = compare(&without_fox, &reference, bg, BLOCK, BLOCK_TOLERANCE);
     println!("without the Fox: {far} of {drawn} {BLOCK}² squares beyond tolerance");
     assert!(far * 100 > drawn * 2 * 5, "a frame without the Fox passes as the reference ({far} of {drawn})");

@@ -19,7 +19,8 @@ use std::sync::{Arc, OnceLock};
 use crate::common::gpu;
 use furbake_bake::{BakeSettings, NoProgress, bake};
 use furbake_import::ImportSettings;
-use furbake_render::{FurAsset, RenderSettings, View, render_image};
+use furbake_render::headless::render_image;
+use furbake_render::{FurAsset, RenderSettings, View};
 use furbake_runtime::{Ambient, Camera, LightSource, Lighting, Scene};
 use image::RgbaImage;
 
@@ -207,19 +208,21 @@ fn light_count_frame_cost() {
     let renderers: Vec<_> = lightings
         .iter()
         .map(|(_, lighting)| {
-            let settings =
-                RenderSettings { light_slots: furbake_render::light_slots_for(lighting), ..Default::default() };
+            let settings = RenderSettings {
+                light_slots: furbake_render::RenderSettings::light_slots_for(lighting),
+                ..Default::default()
+            };
             furbake_render::FurRenderer::new(
                 g.pipelines(),
                 &g.queue,
                 &asset,
                 &settings,
-                &furbake_render::RenderTarget::desc(),
+                &furbake_render::headless::RenderTarget::desc(),
             )
             .unwrap()
         })
         .collect();
-    let target = furbake_render::RenderTarget::new(&g.device, 640, 480).unwrap();
+    let target = furbake_render::headless::RenderTarget::new(&g.device, 640, 480).unwrap();
     let mut times = vec![Vec::new(); lightings.len()];
     for frame in 0..11 {
         for (k, ((_, lighting), renderer)) in lightings.iter().zip(&renderers).enumerate() {

@@ -6,7 +6,8 @@
 use std::sync::OnceLock;
 
 use crate::common::{furry_sphere, gpu};
-use furbake_render::{FurAsset, FurRenderer, RenderSettings, RenderTarget, ShellLod, View, read_back};
+use furbake_render::headless::{RenderTarget, read_back};
+use furbake_render::{FurAsset, FurRenderer, RenderSettings, ShellLod, View};
 use furbake_runtime::{Camera, Lighting};
 use image::RgbaImage;
 
@@ -100,10 +101,9 @@ fn a_frame_without_a_viewport_draws_every_layer() {
     let lod = renderer(Some(LOD));
     let g = gpu();
     let mut encoder = g.device.create_command_encoder(&Default::default());
-    let mut frame = view(40.0).uniforms(SIZE, SIZE);
-    frame.viewport = [0.0; 4];
+    let frame = view(40.0).uniforms(SIZE, SIZE).with_viewport(0, 0);
     lod.prepare(&g.queue, &mut encoder, &frame);
     assert_eq!(lod.layers_in_view(0).unwrap(), 16);
-    assert_eq!(lod.shell_level(&frame), furbake_render::ShellLevel::full(16));
+    assert_eq!(furbake_render::testing::shell_level(&lod, &frame), furbake_render::testing::ShellLevel::full(16));
     drop(encoder);
 }

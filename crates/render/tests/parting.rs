@@ -15,9 +15,9 @@ use std::sync::{Arc, OnceLock};
 use crate::common::gpu;
 use furbake_bake::{BakeSettings, NoProgress, bake};
 use furbake_import::{ImportSettings, import_gltf_slice, testmesh};
-use furbake_render::{
-    FurAsset, FurRenderer, RenderSettings, RenderTarget, SceneObject, SceneRenderer, ShellVertexLayout, read_back,
-};
+use furbake_render::headless::{RenderTarget, SceneObject, read_back};
+use furbake_render::{FurAsset, FurRenderer, RenderSettings, SceneRenderer};
+use furbake_runtime::ShellVertexLayout;
 use furbake_runtime::{Scene, World};
 use furbake_sim::shell_vertex_position;
 use glam::{Mat4, Vec3};
@@ -186,7 +186,7 @@ gust_amplitude = 0.3
     let renderer = SceneRenderer::new(&g.device, &g.queue, &world).unwrap();
     let target = RenderTarget::new(&g.device, 128, 128).unwrap();
     renderer.render_world(&g.device, &g.queue, &target, &world).unwrap();
-    assert_eq!(renderer.packs[0].fur.as_ref().unwrap().scale_layout(), ShellVertexLayout::PerCorner);
+    assert_eq!(renderer.packs()[0].fur.as_ref().unwrap().scale_layout(), ShellVertexLayout::PerCorner);
     let parted = read_back(&g.device, &g.queue, &target).unwrap();
     let out = std::env::temp_dir().join("furbake-render-tests");
     std::fs::create_dir_all(&out).unwrap();
@@ -201,7 +201,7 @@ gust_amplitude = 0.3
         scale_vectors: None,
         scale_layout: ShellVertexLayout::PerVertex,
     };
-    renderer.frame.render(&g.device, &g.queue, &target, &[object]).unwrap();
+    renderer.frame().render(&g.device, &g.queue, &target, &[object]).unwrap();
     let skin = read_back(&g.device, &g.queue, &target).unwrap();
     let bg = parted.get_pixel(0, 0).0;
     assert_eq!(bg, skin.get_pixel(0, 0).0, "same background");

@@ -13,7 +13,8 @@ use std::sync::{Arc, OnceLock};
 use crate::common::gpu;
 use furbake_bake::{BakeSettings, NoProgress, bake};
 use furbake_import::{ImportSettings, import_gltf_slice, testmesh};
-use furbake_render::{FurAsset, FurRenderer, RenderSettings, RenderTarget, View, read_back};
+use furbake_render::headless::{RenderTarget, read_back};
+use furbake_render::{FurAsset, FurRenderer, RenderSettings, View};
 use furbake_runtime::{Camera, Light};
 use furbake_sim::{
     ForceSet, Simulator, SolverKind, SolverSettings, SpringTopology, Wind, shell_offset, shell_vertex_position,

@@ -13,10 +13,8 @@ use std::sync::{Arc, OnceLock};
 use crate::common::gpu;
 use furbake_bake::{BakeSettings, NoProgress, bake};
 use furbake_import::{ImportSettings, import_gltf_slice, testmesh};
-use furbake_render::{
-    FurAsset, FurRenderer, FurShading, HeadlessGpu, RenderSettings, RenderTarget, ShellBlend, View, read_back,
-    render_image,
-};
+use furbake_render::headless::{HeadlessGpu, RenderTarget, read_back, render_image};
+use furbake_render::{FurAsset, FurRenderer, FurShading, RenderSettings, ShellBlend, View};
 use furbake_runtime::{Camera, Light};
 use image::RgbaImage;
 

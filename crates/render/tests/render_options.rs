@@ -7,7 +7,8 @@ use std::path::Path;
 
 use furbake_bake::{BakeSettings, NoProgress, bake};
 use furbake_import::{ImportSettings, import_gltf_slice, testmesh};
-use furbake_render::{HeadlessGpu, RenderSettings, RenderTarget, SceneRenderer, ShellBlend};
+use furbake_render::headless::{HeadlessGpu, RenderTarget};
+use furbake_render::{RenderSettings, SceneRenderer, ShellBlend};
 use furbake_runtime::{RenderOptions, Scene, SceneError, ShellBlendMode, World};
 
 fn sphere_dir() -> tempfile::TempDir {
@@ -40,7 +41,7 @@ fn scene_pack_and_command_options_override_key_by_key() {
             SceneRenderer::for_target_with(gpu.pipelines(), &gpu.queue, &world, &RenderTarget::desc(), overrides)
                 .unwrap();
         renderer
-            .packs
+            .packs()
             .iter()
             .map(|p| {
                 let fur = p.fur.as_ref().unwrap();
@@ -48,7 +49,7 @@ fn scene_pack_and_command_options_override_key_by_key() {
             })
             .collect::<Vec<_>>()
     };
-    let test = furbake_render::ALPHA_TEST_THRESHOLD;
+    let test = furbake_render::RenderSettings::ALPHA_TEST_THRESHOLD;
     // The scene's [render] for pack a; pack b's own shell count and fins, the scene's blending.
     assert_eq!(
         drawn(&RenderOptions::default()),
@@ -61,7 +62,7 @@ fn scene_pack_and_command_options_override_key_by_key() {
     // No options anywhere: the renderer's defaults (one shell per atlas slice).
     let plain = World::new(scene(dir.path(), "[[packs]]\nname = \"a\"\npath = \"sphere.fbk\"\n").unwrap()).unwrap();
     let renderer = SceneRenderer::new(&gpu.device, &gpu.queue, &plain).unwrap();
-    let fur = renderer.packs[0].fur.as_ref().unwrap();
+    let fur = renderer.packs()[0].fur.as_ref().unwrap();
     assert_eq!((fur.drawn_layers(), fur.settings().fins, fur.settings().blend), (16, true, ShellBlend::AlphaBlend));
     // Bad overrides are refused before anything is built.
     let bad = RenderOptions { silhouette_band: Some(2.0), ..Default::default() };
@@ -95,9 +96,13 @@ fn bad_render_keys_name_their_key() {
 fn options_change_the_preview() {
     let dir = sphere_dir();
     let pack = furbake_runtime::Pack::open(dir.path().join("sphere.fbk")).unwrap();
-    let render = |options: &RenderOptions| furbake_render::render_preview_with(&pack, 96, 96, options).unwrap();
+    let render = |options: &RenderOptions| furbake_render::headless::render_preview(&pack, 96, 96, options).unwrap();
     let default = render(&RenderOptions::default());
-    assert_eq!(default, furbake_render::render_preview_of(&pack, 96, 96).unwrap(), "no options: the default preview");
+    assert_eq!(
+        default,
+        furbake_render::headless::render_preview(&pack, 96, 96, &Default::default()).unwrap(),
+        "no options: the default preview"
+    );
     let differ =
         |a: &image::RgbaImage, b: &image::RgbaImage| a.pixels().zip(b.pixels()).filter(|(p, q)| p != q).count();
     for (what, options) in [

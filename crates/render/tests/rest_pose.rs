@@ -8,7 +8,8 @@
 use furbake_bake::{BakeSettings, NoProgress, bake};
 use furbake_import::testmesh::{SkinnedStrip, TestPrimitive, gltf_json};
 use furbake_import::{ImportSettings, import_gltf_slice};
-use furbake_render::{RenderSettings, render_opened_pack};
+use furbake_render::RenderSettings;
+use furbake_render::headless::render_pack;
 use furbake_runtime::Pack;
 use image::RgbaImage;
 
@@ -24,7 +25,7 @@ fn preview(gltf: &[u8], name: &str) -> RgbaImage {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join(format!("{name}.fbk"));
     baked.to_writer().write_atomic(&path).unwrap();
-    let image = render_opened_pack(&Pack::open(&path).unwrap(), W, H, None, &RenderSettings::default()).unwrap();
+    let image = render_pack(&Pack::open(&path).unwrap(), W, H, None, &RenderSettings::default()).unwrap();
     let out = std::env::temp_dir().join("furbake-render-tests");
     std::fs::create_dir_all(&out).unwrap();
     image.save(out.join(format!("rest_pose_{name}.png"))).unwrap();

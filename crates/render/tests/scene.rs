@@ -19,7 +19,9 @@ use furbake_grass::{
     scatter_blades, simulate_poses,
 };
 use furbake_import::{ImportSettings, import_gltf_slice, testmesh};
-use furbake_render::{BladeForces, PackInput, RenderTarget, SceneFrame, SceneObject, SceneRenderer, read_back};
+use furbake_render::SceneFrame;
+use furbake_render::headless::{RenderTarget, SceneObject, read_back};
+use furbake_render::{BladeForces, PackInput, SceneRenderer};
 use furbake_runtime::{Scene, ShellVertexLayout, World};
 use glam::{Mat4, Vec3};
 use image::RgbaImage;
@@ -111,11 +113,11 @@ fn every_pack_is_drawn_where_its_model_matrix_puts_it() {
     let (_, scene) = scene();
     let g = gpu();
     let renderer = SceneRenderer::new(&g.device, &g.queue, &World::new(scene.clone()).unwrap()).unwrap();
-    assert_eq!(renderer.packs.len(), 2);
-    assert!(renderer.packs[0].fur.is_some() && renderer.packs[0].blades.is_none());
-    assert!(renderer.packs[1].fur.is_none() && renderer.packs[1].blades.is_some());
+    assert_eq!(renderer.packs().len(), 2);
+    assert!(renderer.packs()[0].fur.is_some() && renderer.packs()[0].blades.is_none());
+    assert!(renderer.packs()[1].fur.is_none() && renderer.packs()[1].blades.is_some());
     // The scene declares wind, so shearing is compiled in.
-    assert!(renderer.packs[0].fur.as_ref().unwrap().settings().shearing);
+    assert!(renderer.packs()[0].fur.as_ref().unwrap().settings().shearing);
     let target = RenderTarget::new(&g.device, SIZE, SIZE).unwrap();
     let view = renderer.render_frame(&g.device, &g.queue, &target, &[]).unwrap();
     assert_eq!(view.camera, scene.camera.unwrap());
@@ -137,7 +139,7 @@ fn every_pack_is_drawn_where_its_model_matrix_puts_it() {
 
     // The same fur object alone (one SceneObject, same camera): the left half of the frame is
     // unchanged by the grass pass.
-    let fur = renderer.packs[0].fur.as_ref().unwrap();
+    let fur = renderer.packs()[0].fur.as_ref().unwrap();
     let alone = SceneFrame::from_scene(scene);
     let model = Mat4::from_translation(Vec3::new(-1.3, 0.0, 0.0));
     alone
@@ -167,7 +169,7 @@ fn model_matrices_translate_and_scale_a_furry_object() {
     let (_, scene) = scene();
     let g = gpu();
     let renderer = SceneRenderer::new(&g.device, &g.queue, &World::new(scene.clone()).unwrap()).unwrap();
-    let fur = renderer.packs[0].fur.as_ref().unwrap();
+    let fur = renderer.packs()[0].fur.as_ref().unwrap();
     let frame = SceneFrame::from_scene(scene);
     let target = RenderTarget::new(&g.device, SIZE, SIZE).unwrap();
     let render = |model: Mat4| {
@@ -211,14 +213,14 @@ fn per_frame_corner_forces_bend_the_grass_in_world_space() {
     let g = gpu();
     let mut renderer = SceneRenderer::new(&g.device, &g.queue, &World::new(scene.clone()).unwrap()).unwrap();
     // Seen from above and in front of the patch (edge-on, bending mostly lowers the tips).
-    renderer.frame.camera = Some(furbake_runtime::Camera {
+    renderer.frame_mut().camera = Some(furbake_runtime::Camera {
         eye: [1.3, 1.8, 2.2],
         target: [1.3, -0.3, 0.0],
         up: [0.0, 1.0, 0.0],
         fov_y_deg: 30.0,
     });
     let renderer = renderer;
-    let blades = renderer.packs[1].blades.as_ref().unwrap();
+    let blades = renderer.packs()[1].blades.as_ref().unwrap();
     let corners = blades.corner_count() as usize;
     let target = RenderTarget::new(&g.device, SIZE, SIZE).unwrap();
     let calm = vec![[0.0f32; 2]; corners];
@@ -269,7 +271,7 @@ fn bad_frame_inputs_are_refused() {
     let renderer = SceneRenderer::new(&g.device, &g.queue, &World::new(scene.clone()).unwrap()).unwrap();
     let target = RenderTarget::new(&g.device, 32, 32).unwrap();
     let short = vec![[0.0f32, 1.0, 0.0]; 3];
-    let forces = vec![[0.0f32; 2]; renderer.packs[1].blades.as_ref().unwrap().corner_count() as usize];
+    let forces = vec![[0.0f32; 2]; renderer.packs()[1].blades.as_ref().unwrap().corner_count() as usize];
     let cases = [
         vec![PackInput { scale_vectors: Some(&short), ..Default::default() }],
         vec![PackInput::default(), PackInput { scale_vectors: Some(&short), ..Default::default() }],
@@ -285,7 +287,7 @@ fn bad_frame_inputs_are_refused() {
     }
     assert_eq!(refused, cases.len());
     // One renderer twice in one frame (one uniform buffer, one model matrix per frame).
-    let fur = renderer.packs[0].fur.as_ref().unwrap();
+    let fur = renderer.packs()[0].fur.as_ref().unwrap();
     let twice = [
         SceneObject::Fur {
             renderer: fur,
@@ -300,7 +302,7 @@ fn bad_frame_inputs_are_refused() {
             scale_layout: ShellVertexLayout::PerVertex,
         },
     ];
-    assert!(renderer.frame.render(&g.device, &g.queue, &target, &twice).is_err());
+    assert!(renderer.frame().render(&g.device, &g.queue, &target, &twice).is_err());
     assert!(renderer.render_frame(&g.device, &g.queue, &target, &[PackInput::default(); 2]).is_ok());
 }
 
@@ -337,7 +339,7 @@ fn rendered_blade_positions(scene: Scene) -> (Vec<[f32; 3]>, World) {
     let renderer = SceneRenderer::new(&g.device, &g.queue, &world).unwrap();
     let target = RenderTarget::new(&g.device, 64, 64).unwrap();
     renderer.render_world(&g.device, &g.queue, &target, &world).unwrap();
-    let blades = renderer.packs[0].blades.as_ref().unwrap();
+    let blades = renderer.packs()[0].blades.as_ref().unwrap();
     blades.compute(&g.device, &g.queue).unwrap();
     (blades.read_positions(&g.device, &g.queue).unwrap(), world)
 }
@@ -404,7 +406,7 @@ fn entries_of_one_pack_share_its_gpu_asset() {
     };
     let world = text(3);
     let renderer = SceneRenderer::new(&g.device, &g.queue, &world).unwrap();
-    let fur: Vec<_> = renderer.packs.iter().filter_map(|p| p.fur.as_ref()).collect();
+    let fur: Vec<_> = renderer.packs().iter().filter_map(|p| p.fur.as_ref()).collect();
     assert_eq!(fur.len(), 3);
     assert!(fur.windows(2).all(|w| std::sync::Arc::ptr_eq(w[0].gpu_asset(), w[1].gpu_asset())));
     assert_eq!(std::sync::Arc::strong_count(fur[0].gpu_asset()), 3, "one upload, three renderers");
@@ -415,15 +417,15 @@ fn entries_of_one_pack_share_its_gpu_asset() {
     }
     let lawn = World::new(Scene::from_toml_str(&t, Path::new("g.toml"), dir).unwrap()).unwrap();
     let both = SceneRenderer::new(&g.device, &g.queue, &lawn).unwrap();
-    let (a, b) = (both.packs[0].blades.as_ref().unwrap(), both.packs[1].blades.as_ref().unwrap());
+    let (a, b) = (both.packs()[0].blades.as_ref().unwrap(), both.packs()[1].blades.as_ref().unwrap());
     assert!(a.shares_data_with(b));
     let alone = SceneRenderer::new(&g.device, &g.queue, &text(1)).unwrap();
-    assert!(!a.shares_data_with(alone.packs[1].blades.as_ref().unwrap()), "another renderer set uploads its own");
+    assert!(!a.shares_data_with(alone.packs()[1].blades.as_ref().unwrap()), "another renderer set uploads its own");
     // The estimate: the shared part once, the per-placement part per entry.
     let (one, ten) =
         (SceneRenderer::estimate_gpu_bytes(&text(1)).unwrap(), SceneRenderer::estimate_gpu_bytes(&text(10)).unwrap());
     let asset = furbake_render::FurAsset::from_pack(world.pack(0), true).unwrap();
-    let per_entry = asset.instance_gpu_bytes() + furbake_render::RENDERER_OVERHEAD_BYTES;
+    let per_entry = asset.instance_gpu_bytes() + furbake_render::testing::RENDERER_OVERHEAD_BYTES;
     assert_eq!(ten - one, 9 * per_entry, "each extra entry costs its own data only");
     assert!(asset.shared_gpu_bytes(true) > asset.instance_gpu_bytes(), "the atlas is the bulk, and it is shared");
     g.check().unwrap();

@@ -19,10 +19,10 @@ use std::sync::{Arc, OnceLock};
 use crate::common::gpu;
 use furbake_bake::{BakeSettings, NoProgress, bake};
 use furbake_import::{ImportSettings, ImportedMesh, import_gltf};
-use furbake_render::silhouette::{SilhouetteEdge, edge_facing, interior_edges, silhouette_edges};
-use furbake_render::{
-    FurAsset, FurRenderer, RenderSettings, RenderTarget, View, blocking_calls_on_this_thread, render_image,
-};
+use furbake_render::headless::{RenderTarget, render_image};
+use furbake_render::testing::blocking_calls_on_this_thread;
+use furbake_render::testing::{SilhouetteEdge, edge_facing, interior_edges, silhouette_edges};
+use furbake_render::{FurAsset, FurRenderer, RenderSettings, View};
 use furbake_runtime::Pack;
 use furbake_runtime::animation::{AnimationPlayer, Pose, joint_world_matrices, skinning_matrices};
 use glam::{Mat4, Quat, Vec3};

@@ -29,10 +29,11 @@ use furbake_formats::sections::morph_targets::{MorphGroup, MorphTargets};
 use furbake_formats::sections::skin_mesh::SkinMesh;
 use furbake_formats::sections::skin_weights::SkinWeights;
 use furbake_import::{ImportSettings, ImportedMesh, import_gltf};
-use furbake_render::{
-    FurAsset, FurRenderer, RenderError, RenderSettings, RenderTarget, ShellVertexLayout, SkinningPass, View, read_back,
-};
+use furbake_render::headless::{RenderTarget, read_back};
+use furbake_render::testing::SkinningPass;
+use furbake_render::{FurAsset, FurRenderer, RenderError, RenderSettings, View};
 use furbake_runtime::Pack;
+use furbake_runtime::ShellVertexLayout;
 use furbake_runtime::animation::{AnimationPlayer, Pose, joint_world_matrices, morph_and_skin, skinning_matrices};
 use glam::{Mat4, Quat, Vec3};
 
@@ -572,7 +573,8 @@ fn skinning_pass_time() {
 /// frame differs from the same world in its bind pose.
 #[test]
 fn a_world_playing_a_clip_is_drawn_in_the_worlds_pose() {
-    use furbake_render::{RenderTarget, SceneRenderer};
+    use furbake_render::SceneRenderer;
+    use furbake_render::headless::RenderTarget;
     use furbake_runtime::{Scene, World};
     let g = gpu();
     let dir = fox_pack().0.path();
@@ -585,7 +587,7 @@ fn a_world_playing_a_clip_is_drawn_in_the_worlds_pose() {
         let renderer = SceneRenderer::new(&g.device, &g.queue, world).unwrap();
         renderer.render_world(&g.device, &g.queue, &target, world).unwrap();
         let image = read_back(&g.device, &g.queue, &target).unwrap();
-        let pass = renderer.packs[0].fur.as_ref().unwrap().skinning().expect("the Fox is skinned");
+        let pass = renderer.packs()[0].fur.as_ref().unwrap().skinning().expect("the Fox is skinned");
         (image, pass.read_back(&g.device, &g.queue).unwrap())
     };
     let running = world_with("animation = { clip = \"Run\", speed = 0.0, start_s = 0.3 }");
@@ -628,10 +630,10 @@ fn the_automatic_framing_covers_the_clip_played() {
     };
     let g = gpu();
     let renderer = furbake_render::SceneRenderer::new(&g.device, &g.queue, &world).unwrap();
-    assert!(renderer.packs[0].clip_bounds.is_some(), "an animated pack has clip bounds");
+    assert!(renderer.packs()[0].clip_bounds.is_some(), "an animated pack has clip bounds");
     let view = renderer.world_view(&world);
     let view_proj = view.view_proj(1.0);
-    let bind = renderer.packs[0].fur.as_ref().unwrap().bounding_sphere();
+    let bind = renderer.packs()[0].fur.as_ref().unwrap().bounding_sphere();
     assert_ne!(view.bounds_radius, bind.1, "framed on the clip, not the bind pose");
     let mut checked = 0;
     for _ in 0..37 {

@@ -8,9 +8,8 @@ use crate::common;
 
 use crate::common::gpu;
 use furbake_grass::{ForceField, ForceScene};
-use furbake_render::{
-    BladeRenderer, BladeSettings, FurRenderer, RenderError, RenderSettings, RenderTarget, View, read_back,
-};
+use furbake_render::headless::{RenderTarget, read_back};
+use furbake_render::{BladeRenderer, BladeSettings, FurRenderer, RenderError, RenderSettings, View};
 use furbake_runtime::{Camera, Lighting};
 use image::RgbaImage;
 
@@ -83,8 +82,9 @@ fn one_fur_renderer_draws_two_views_in_one_frame() {
     let two = RenderSettings { views: 2, ..Default::default() };
     let renderer = FurRenderer::new(g.pipelines(), &g.queue, &asset, &two, &RenderTarget::desc()).unwrap();
     let [left, right] = split_screen(&renderer, [&a, &b]).unwrap();
-    let alone =
-        |view: &View| furbake_render::render_image(g, &asset, &RenderSettings::default(), view, SIZE, SIZE).unwrap();
+    let alone = |view: &View| {
+        furbake_render::headless::render_image(g, &asset, &RenderSettings::default(), view, SIZE, SIZE).unwrap()
+    };
     assert!(left == alone(&a), "view 0 draws its own camera");
     assert!(right == alone(&b), "view 1 draws its own camera, not view 0's");
     assert!(left != right);

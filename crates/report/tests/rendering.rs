@@ -137,10 +137,9 @@ fn shells_approach_the_reference_and_the_stacking_brings_them_closer() {
 fn the_default_level_of_detail_draws_the_measured_knee() {
     // docs/rendering-accuracy.md "Level of detail: the knee": at each measured fur length the
     // default ShellLod draws the knee's count from a maximum of 64 (the sweep's largest).
-    use furbake_render::{ShellLevel, ShellLod};
+    use furbake_render::ShellLod;
     use furbake_report::rendering::report::MEASURED_KNEES;
     for (px, knee) in MEASURED_KNEES {
-        let level = ShellLevel::of(64, &ShellLod::default(), px);
-        assert_eq!((level.layers, level.fade), (knee, 1.0), "fur {px} px long");
+        assert_eq!(ShellLod::default().layers(64, px), (knee, 1.0), "fur {px} px long");
     }
 }

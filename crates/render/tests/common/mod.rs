@@ -12,7 +12,8 @@ use furbake_grass::{
     scatter_blades, simulate_poses,
 };
 use furbake_import::{ImportSettings, import_gltf_slice, testmesh};
-use furbake_render::{FurAsset, HeadlessGpu};
+use furbake_render::FurAsset;
+use furbake_render::headless::HeadlessGpu;
 
 /// The machine's adapter (lavapipe without a GPU); the tests never skip without one.
 pub fn gpu() -> &'static HeadlessGpu {

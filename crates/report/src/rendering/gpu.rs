@@ -7,7 +7,8 @@
 
 use std::time::Instant;
 
-use furbake_render::{FurAsset, FurRenderer, HeadlessGpu, RenderError, RenderSettings, RenderTarget, View};
+use furbake_render::headless::{HeadlessGpu, RenderTarget};
+use furbake_render::{FurAsset, FurRenderer, RenderError, RenderSettings, View};
 
 /// A device made for measuring: furbake's headless device with pipeline statistics where the
 /// adapter has them.
@@ -47,13 +48,14 @@ impl FloatTarget {
             wgpu::TextureFormat::Rgba16Float,
             wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
         );
-        let depth = make("report float depth", furbake_render::DEPTH_FORMAT, wgpu::TextureUsages::RENDER_ATTACHMENT);
+        let depth =
+            make("report float depth", furbake_render::headless::DEPTH_FORMAT, wgpu::TextureUsages::RENDER_ATTACHMENT);
         FloatTarget { color, depth }
     }
 
     fn desc() -> furbake_render::TargetDesc {
         furbake_render::TargetDesc::new(wgpu::TextureFormat::Rgba16Float)
-            .with_depth(furbake_render::DEPTH_FORMAT, wgpu::CompareFunction::LessEqual)
+            .with_depth(furbake_render::headless::DEPTH_FORMAT, wgpu::CompareFunction::LessEqual)
     }
 
     fn begin_pass<'e>(&self, encoder: &'e mut wgpu::CommandEncoder, clear: [f32; 4]) -> wgpu::RenderPass<'e> {
@@ -267,7 +269,7 @@ impl MeasuringGpu {
         };
         let image = match &float {
             Some(f) => f.read_back(self)?,
-            None => furbake_render::read_back(&self.gpu.device, &self.gpu.queue, &target)?,
+            None => furbake_render::headless::read_back(&self.gpu.device, &self.gpu.queue, &target)?,
         };
         let mut times = Vec::new();
         for _ in 0..timed_frames.max(1) {

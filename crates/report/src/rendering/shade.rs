@@ -36,14 +36,14 @@ pub struct ShadeParams {
 impl ShadeParams {
     /// The parameters of a frame whose uniforms are `frame` (`View::uniforms`) with `shading`.
     pub fn new(frame: &FrameUniforms, shading: FurShading) -> ShadeParams {
-        let count = (frame.light_count[0] as usize).min(frame.lights.len());
+        let (sky, ground) = frame.ambient();
         ShadeParams {
-            lights: frame.lights[..count]
-                .iter()
-                .map(|l| LightUniform { vector: Vec4::from(l.vector), radiance: Vec4::from(l.radiance) })
+            lights: frame
+                .lights()
+                .map(|(vector, radiance)| LightUniform { vector: Vec4::from(vector), radiance: Vec4::from(radiance) })
                 .collect(),
-            ambient_sky: Vec4::from(frame.ambient_sky).truncate(),
-            ambient_ground: Vec4::from(frame.ambient_ground).truncate(),
+            ambient_sky: Vec3::from(sky),
+            ambient_ground: Vec3::from(ground),
             shading,
             lambert: true,
         }
@@ -219,8 +219,9 @@ mod tests {
     #[test]
     fn ambient_only_light_leaves_the_occluded_colour() {
         // No light source, ambient 1 everywhere: rgb = colour · occlusion at the root.
-        let frame =
-            furbake_render::FrameUniforms { ambient_sky: [1.0; 4], ambient_ground: [1.0; 4], ..Default::default() };
+        let ambient = furbake_runtime::Ambient { sky: [1.0; 3], ground: [1.0; 3] };
+        let lighting = furbake_runtime::Lighting::new(&[], ambient).expect("no sources");
+        let frame = FrameUniforms::new(glam::Mat4::IDENTITY, Vec3::ZERO, lighting, glam::Mat4::IDENTITY);
         let p = ShadeParams::new(&frame, FurShading::default());
         let rgb = p.strand_shade(Vec3::splat(0.5), Vec3::Y, Vec3::Y, Vec3::ZERO, Vec3::Y, 0.0, 1.0, 1.0);
         let expected = 0.5 * (1.0 - FurShading::default().root_occlusion);
