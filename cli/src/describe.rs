@@ -26,7 +26,7 @@ use furbake_formats::sections::skin_weights::SkinWeights;
 use furbake_formats::sections::spring_topology::SpringTopology;
 use furbake_formats::sections::triangle_uv_map::TriangleUvMap;
 use furbake_formats::{DecodedSections, Pack, Section, SectionKind, VerifySummary};
-use furbake_runtime::{Scene, World};
+use furbake_runtime::{Scene, World, WorldOptions, WorldPlan};
 use serde_json::{Map, Value, json};
 
 use crate::args::{InspectArgs, VerifyArgs};
@@ -100,6 +100,14 @@ pub fn open_verified(path: &Path) -> Result<Pack, Failure> {
     let pack = Pack::open(path).input()?;
     pack.verify().map_err(|e| e.with_path(path)).input()?;
     Ok(pack)
+}
+
+/// The plan of a scene's world, as `simulate`, `preview` and `view` make it: every pack file
+/// opened once and validated as `verify` does ([`open_scene_packs`]), then the stages and memory
+/// planned by `furbake_runtime::WorldPlan`.
+pub fn plan_scene(scene: Scene, scene_path: &Path, options: WorldOptions) -> Result<WorldPlan, Failure> {
+    let packs = open_scene_packs(&scene, scene_path)?;
+    WorldPlan::with_packs(scene, packs, options).map_err(|e| failure::runtime(e, scene_path))
 }
 
 /// The packs of the runtime scene at `scene_path`, opened once per file (`World::open_packs`) and

@@ -259,9 +259,10 @@ impl SceneRun {
 pub(crate) fn open_scene_world(path: &Path, target_bytes: u64, max_memory: u64) -> Result<World, Failure> {
     let scene = Scene::load(path).map_err(failure::scene)?;
     // Every pack validated as `verify` does before the world reads it (docs/design.md "Runtime:
-    // packs"); the world and the renderers share what verification decoded.
-    let packs = crate::describe::open_scene_packs(&scene, path)?;
-    let world = World::with_packs(scene, packs, WorldOptions::default()).map_err(|e| failure::runtime(e, path))?;
+    // packs"), and the world planned as `simulate` plans it; the world and the renderers share
+    // what verification decoded.
+    let plan = crate::describe::plan_scene(scene, path, WorldOptions::default())?;
+    let world = plan.build().map_err(|e| failure::runtime(e, path))?;
     check_gpu_memory(&world, path, target_bytes, max_memory)?;
     Ok(world)
 }

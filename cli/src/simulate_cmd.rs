@@ -8,23 +8,20 @@
 //! of every pack in world space (README "`simulate --state-out`").
 //!
 //! Before the world is built, every pack of the scene is validated as `verify` does (a pack
-//! `verify` rejects exits 1), then the run's memory is estimated from the scene and its packs'
-//! section tables ([`estimate_run_memory`]) and a run above `--max-memory` exits 2 naming what
-//! drives it.
+//! `verify` rejects exits 1) and the world is planned (`furbake_runtime::WorldPlan`, as `preview`
+//! and `view` plan theirs: [`crate::describe::plan_scene`]); a run whose planned memory is above
+//! `--max-memory` exits 2 naming what drives it.
 //!
 //! The former `simulate PACK --scene SIM.toml` form is retired: it and a furbake-sim scene file
 //! exit 2 with a one-line message saying how to write the scene now.
 
-use std::io::{Read, Seek, SeekFrom, Write};
+use std::io::Write;
 use std::path::Path;
-use std::sync::Arc;
 use std::time::Instant;
 
 use anyhow::anyhow;
-use furbake_formats::{SectionEntry, SectionKind};
-use furbake_runtime::stages::{PackRole, StageKind, choose_topology, plan_stages};
-use furbake_runtime::{Pack, PackState, RuntimeError, Scene, World, WorldOptions};
-use furbake_sim::TopologyKind;
+use furbake_formats::SectionKind;
+use furbake_runtime::{PackState, RuntimeError, Scene, World, WorldOptions, WorldPlan};
 use serde::Serialize;
 
 use crate::args::{SimulateArgs, format_bytes};
@@ -82,10 +79,10 @@ pub fn run(args: SimulateArgs, quiet: bool) -> Result<(), Failure> {
     // Every pack is validated as `verify` does before anything else reads it, so a corrupt pack
     // is bad input (exit 1) even when the estimate below would refuse the run too
     // (docs/design.md "Runtime: packs").
-    let packs = crate::describe::open_scene_packs(&scene, path)?;
-    check_memory_budget(&scene, &packs, path, args.state_out.is_some(), args.max_memory)?;
     let options = WorldOptions { step_statistics: wants_report, ..WorldOptions::default() };
-    let mut world = World::with_packs(scene, packs, options).map_err(|e| failure::runtime(e, path))?;
+    let plan = crate::describe::plan_scene(scene, path, options)?;
+    check_memory_budget(&plan, path, args.state_out.is_some(), args.max_memory)?;
+    let mut world = plan.build().map_err(|e| failure::runtime(e, path))?;
     // The report streams — its head, each step record as it is taken, then its tail — into the
     // -o file (named only once the run succeeds) and to stdout with --json; nothing is kept.
     let head =
@@ -423,22 +420,6 @@ fn stage_table(r: &ReportTail, frames: u64) -> String {
 // Memory budget
 // ---------------------------------------------------------------------------------------------
 
-/// Solver bytes per mass of the simulated topology: position, velocity and their next values,
-/// rest state and the model's per-mass arrays (`Vec3A`s and indices), fitted to measurements
-/// (docs/design.md "Memory budget").
-const SOLVER_BYTES_PER_MASS: u64 = 160;
-/// Solver bytes per spring or stick (both ends' adjacency entries, weights, the energy list and
-/// the implicit solver's scratch), fitted with [`SOLVER_BYTES_PER_MASS`].
-const SOLVER_BYTES_PER_LINK: u64 = 136;
-/// Per shell vertex of a fur pack: its rest direction and scale vector (`[f32; 3]` each).
-const BYTES_PER_SHELL_VERTEX: u64 = 24;
-/// Per triangle corner of a separable topology: the skin transform it follows (`Mat4`, `Mat3`,
-/// `Vec3`: 112 bytes) and its skin vertex.
-const BYTES_PER_PARTING_CORNER: u64 = 112 + 4;
-/// Per skin vertex of an animated pack: its skin transform and posed position and normal.
-const BYTES_PER_ANIMATED_VERTEX: u64 = 112 + 2 * 12;
-/// Per cluster corner of a grass pack with a force stage: the field's and the frame's `(x, z)`.
-const BYTES_PER_GRASS_CORNER: u64 = 16;
 /// One `[x, y, z]` of `--state-out`: the world-space copy and its pretty JSON text (about 80
 /// bytes) held twice while it is written, measured.
 const BYTES_PER_STATE_VECTOR: u64 = 180;
@@ -453,16 +434,10 @@ struct RunPart {
     bytes: u64,
 }
 
-/// Refuses a run whose estimated memory ([`estimate_run_memory`]) is above `max_memory`: exit 2
-/// naming the scene, the estimate, the budget and what drives the largest part.
-fn check_memory_budget(
-    scene: &Scene,
-    packs: &[Arc<Pack>],
-    path: &Path,
-    state_out: bool,
-    max_memory: u64,
-) -> Result<(), Failure> {
-    let mut parts = estimate_run_memory(scene, packs, state_out).map_err(|e| failure::runtime(e, path))?;
+/// Refuses a run whose estimated memory ([`run_parts`]) is above `max_memory`: exit 2 naming the
+/// scene, the estimate, the budget and what drives the largest part.
+fn check_memory_budget(plan: &WorldPlan, path: &Path, state_out: bool, max_memory: u64) -> Result<(), Failure> {
+    let mut parts = run_parts(plan, state_out).map_err(|e| failure::runtime(e, path))?;
     let need: u64 = parts.iter().map(|p| p.bytes).sum();
     if need <= max_memory {
         return Ok(());
@@ -480,179 +455,47 @@ fn check_memory_budget(
     )))
 }
 
-/// Estimates what running `scene` holds, before the world is built: per pack file, every section
-/// that verification decoded (a decoded section is about as large as its payload, the pack keeps
-/// each for the run, and the largest payload is held once more while it is decoded), counted for
-/// the first scene entry that names the file, as the world shares it; per scene entry, its solver
-/// state, shell vertices, animation and grass corners; the `--state-out` text (the report's step
-/// records are streamed, never kept). The counts come from the packs' section tables and the heads
-/// of the sections whose counts it needs (the record layout of docs/format.md); the stages are
-/// planned as the world plans them ([`plan_stages`], [`choose_topology`]). `packs` are the
-/// scene's packs, one per entry, as [`World::open_packs`] opened them (and `Pack::verify`
-/// validated them).
-fn estimate_run_memory(scene: &Scene, packs: &[Arc<Pack>], state_out: bool) -> Result<Vec<RunPart>, RuntimeError> {
-    // One slot per file (entries naming one file share its `Pack`): whether it is counted yet.
-    let file_of: Vec<usize> = packs.iter().map(|p| packs.iter().position(|q| Arc::ptr_eq(p, q)).unwrap_or(0)).collect();
-    let mut counted = vec![false; packs.len()];
-    let roles: Vec<PackRole> = scene
-        .packs
+/// The parts of a run's memory: per scene entry what the world plan estimates it holds
+/// (`WorldPlan::memory`; the largest section payload, held once more while it is decoded, with
+/// the largest entry), and the `--state-out` text (the report's step records are streamed, never
+/// kept), which reports every pack's skin besides its simulated state.
+fn run_parts(plan: &WorldPlan, state_out: bool) -> Result<Vec<RunPart>, RuntimeError> {
+    let mut parts: Vec<RunPart> = plan
+        .memory()
         .iter()
-        .zip(packs)
-        .map(|(sp, p)| PackRole {
-            fur: p.has(SectionKind::SHELL_ATLAS) || p.has(SectionKind::SPRING_TOPOLOGY),
-            grass: p.has(SectionKind::BLADE_FIELD),
-            moving: sp.motion.len() > 1,
-            topology: p.has(SectionKind::SPRING_TOPOLOGY),
-            animated: sp.animation.is_some(),
+        .zip(&plan.scene().packs)
+        .map(|(m, sp)| RunPart {
+            what: match m.masses {
+                0 => format!(
+                    "pack entry `{}` ({}, {} vertices, {} triangles)",
+                    m.name,
+                    sp.path.display(),
+                    m.vertices,
+                    m.triangles
+                ),
+                masses => format!("pack entry `{}` ({}, {masses} simulated masses)", m.name, sp.path.display()),
+            },
+            advice: "place fewer or smaller packs in the scene, or raise --max-memory".into(),
+            bytes: m.bytes,
         })
         .collect();
-    let stages = plan_stages(&scene.effects, &roles);
-    let parting = scene.effects.parting.is_some();
-    let mut parts = Vec::new();
-    let mut state_vectors = 0u64;
-    let (mut largest_payload, mut reading_entry) = (0u64, 0usize);
-    for (i, sp) in scene.packs.iter().enumerate() {
-        let planned = |k: StageKind| stages.iter().any(|s| s.pack == i && s.kind == k);
-        let pack = &*packs[i];
-        let first = |kind: SectionKind| pack.find(kind).next().map(|k| pack.sections()[k]);
-        let mesh = first(SectionKind::SKIN_MESH).map(|e| (peek_record(&pack.display_path(), &e), e.length));
-        let (vertices, triangles) = match &mesh {
-            Some((Some(head), _)) => (head.count(0) / 3, head.count(3) / 3),
-            Some((None, length)) => (length / 40, 0),
-            None => (0, 0),
-        };
-        let mut own = 0;
-        let mut masses = 0;
-        if roles[i].fur {
-            let topology = if planned(StageKind::FurSolver) {
-                let kinds = pack.topology_kinds()?;
-                let available: Vec<TopologyKind> = kinds.iter().map(|&(_, k)| k).collect();
-                choose_topology(&available, parting)
-                    .and_then(|kind| kinds.iter().find(|&&(_, k)| k == kind).map(|&(index, _)| (kind, index)))
-            } else {
-                None
-            };
-            match topology {
-                Some((kind, index)) => {
-                    let entry = pack.sections()[index];
-                    let counts = peek_record(&pack.display_path(), &entry)
-                        .map(|h| (h.count(1), h.count(3) / 2 + h.count(7) / 2, h.count(9) / 2));
-                    let (m, links, shell) = counts.unwrap_or((entry.length / 17, 0, vertices));
-                    masses = m;
-                    own += m * SOLVER_BYTES_PER_MASS + links * SOLVER_BYTES_PER_LINK + shell * BYTES_PER_SHELL_VERTEX;
-                    if kind.is_separable() {
-                        own += shell * BYTES_PER_PARTING_CORNER;
-                    }
-                    state_vectors += 2 * m + shell;
-                }
-                None => {
-                    own += vertices * BYTES_PER_SHELL_VERTEX;
-                    state_vectors += vertices;
-                }
-            }
-        }
-        if roles[i].animated {
-            own += vertices * BYTES_PER_ANIMATED_VERTEX;
-        }
-        if planned(StageKind::GrassForces) {
-            if let Some(entry) = first(SectionKind::BLADE_FIELD) {
-                // The blade field's metadata starts with its cluster grid: origin and cell size
-                // (`[f32; 2]` each), then `cells_x` and `cells_z` (`u32`).
-                let corners = peek_record(&pack.display_path(), &entry)
-                    .and_then(|h| h.meta_u32(16).zip(h.meta_u32(20)))
-                    .map_or(entry.length / 40, |(x, z)| (u64::from(x) + 1) * (u64::from(z) + 1));
-                own = own.saturating_add(corners.saturating_mul(BYTES_PER_GRASS_CORNER));
-            }
-        }
-        if state_out {
-            // `--state-out` reports every pack's skin.
-            state_vectors += vertices;
-        }
-        // The decoded sections of the file, counted once, for its first entry.
-        let mut shared = 0;
-        if !std::mem::replace(&mut counted[file_of[i]], true) {
-            let decoded = pack.sections().iter().filter(|e| SectionKind::KNOWN.contains(&e.kind));
-            for e in decoded {
-                shared += e.length;
-                if e.length > largest_payload {
-                    (largest_payload, reading_entry) = (e.length, i);
-                }
-            }
-        }
-        let what = match masses {
-            0 => {
-                format!("pack entry `{}` ({}, {vertices} vertices, {triangles} triangles)", sp.name, sp.path.display())
-            }
-            m => format!("pack entry `{}` ({}, {m} simulated masses)", sp.name, sp.path.display()),
-        };
-        parts.push(RunPart {
-            what,
-            advice: "place fewer or smaller packs in the scene, or raise --max-memory".into(),
-            bytes: shared + own,
-        });
-    }
-    if let Some(part) = parts.get_mut(reading_entry) {
-        part.bytes += largest_payload;
+    if let Some(largest) = parts.iter_mut().max_by_key(|p| p.bytes) {
+        largest.bytes = largest.bytes.saturating_add(plan.largest_payload());
     }
     if state_out {
+        let mut vectors = 0u64;
+        for (m, pack) in plan.memory().iter().zip(plan.packs()) {
+            let skin = match m.vertices {
+                0 if pack.has(SectionKind::SKIN_MESH) => pack.skin_mesh()?.positions.len() as u64,
+                v => v,
+            };
+            vectors += m.state_vectors + skin;
+        }
         parts.push(RunPart {
-            what: format!("the --state-out text ({state_vectors} vectors)"),
+            what: format!("the --state-out text ({vectors} vectors)"),
             advice: "leave out --state-out or raise --max-memory".into(),
-            bytes: state_vectors * BYTES_PER_STATE_VECTOR,
+            bytes: vectors * BYTES_PER_STATE_VECTOR,
         });
     }
     Ok(parts)
-}
-
-/// The head of a record section (docs/format.md "the record layout"): its arrays' element counts
-/// and the first bytes of its metadata.
-struct RecordHead {
-    counts: Vec<u64>,
-    meta: Vec<u8>,
-}
-
-impl RecordHead {
-    /// Element count of array `i` (0 when there is no such array).
-    fn count(&self, i: usize) -> u64 {
-        self.counts.get(i).copied().unwrap_or(0)
-    }
-
-    /// The little-endian `u32` at byte `at` of the metadata.
-    fn meta_u32(&self, at: usize) -> Option<u32> {
-        Some(u32::from_le_bytes(self.meta.get(at..at + 4)?.try_into().ok()?))
-    }
-}
-
-/// Reads the head of the record at `entry` in the file at `path`: at most 64 arrays and 64 bytes
-/// of metadata, inside the section. `None` when anything does not fit or cannot be read (the
-/// estimate then falls back on the payload length).
-fn peek_record(path: &Path, entry: &SectionEntry) -> Option<RecordHead> {
-    const MAX_ARRAYS: u64 = 64;
-    const META_BYTES: u64 = 64;
-    let (mut file, _) = furbake_formats::input::open_regular(path).ok()?;
-    let mut read_at = |at: u64, len: u64| -> Option<Vec<u8>> {
-        let end = at.checked_add(len)?;
-        if end > entry.length {
-            return None;
-        }
-        file.seek(SeekFrom::Start(entry.offset.checked_add(at)?)).ok()?;
-        let mut buf = vec![0u8; len as usize];
-        file.read_exact(&mut buf).ok()?;
-        Some(buf)
-    };
-    let head = read_at(0, 8)?;
-    let meta_len = u64::from(u32::from_le_bytes(head[0..4].try_into().ok()?));
-    let arrays = u64::from(u32::from_le_bytes(head[4..8].try_into().ok()?));
-    if arrays > MAX_ARRAYS {
-        return None;
-    }
-    let table = read_at(8, 24 * arrays)?;
-    // Read again from the file, which may have changed since it was verified: a count is capped at
-    // the payload's length, so a lying head cannot overflow the estimate.
-    let counts = table
-        .chunks_exact(24)
-        .map(|e| u64::from_le_bytes(e[16..24].try_into().unwrap_or([0; 8])).min(entry.length))
-        .collect();
-    let meta = read_at(8 + 24 * arrays, meta_len.min(META_BYTES))?;
-    Some(RecordHead { counts, meta })
 }

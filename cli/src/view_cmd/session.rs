@@ -9,7 +9,7 @@ use std::sync::Arc;
 use anyhow::anyhow;
 use furbake_formats::SectionKind;
 use furbake_render::FurAsset;
-use furbake_runtime::{Effect, Effects, Pack, Scene, StageStats, World, WorldOptions};
+use furbake_runtime::{Effect, Effects, Pack, Scene, StageStats, World, WorldOptions, WorldPlan};
 
 use crate::failure::{self, Failure};
 use crate::preview_cmd;
@@ -191,7 +191,8 @@ pub fn pack_world(path: &Path, aspect: f32, target_bytes: u64, max_memory: u64) 
         let asset = FurAsset::from_pack(&pack, false).map_err(|e| preview_cmd::render_failure(e, path))?;
         scene.camera = Some(asset.auto_view(aspect).camera);
     }
-    let world = World::with_packs(scene, vec![Arc::new(pack)], WorldOptions::default())
+    let world = WorldPlan::with_packs(scene, vec![Arc::new(pack)], WorldOptions::default())
+        .and_then(WorldPlan::build)
         .map_err(|e| failure::runtime(e, path))?;
     preview_cmd::check_gpu_memory(&world, path, target_bytes, max_memory)?;
     Ok(world)

@@ -12,7 +12,10 @@
 //! topology, with parting a separable one), then each [`World::step`] applies the events due and
 //! advances one `time_step_s`, leaving per pack the fur scale vectors (eq. 3.35, after the
 //! wrong-side guard of §3.4.3) and the grass forces. [`World::stage_stats`] counts each stage's
-//! runs and wall time; [`World::pack_state`] reports a pack's state in world space.
+//! runs and wall time; [`World::pack_state`] reports a pack's state in world space. A host that
+//! budgets memory or checks the stages before building the world plans it first
+//! ([`WorldPlan`]: each pack file opened once, the stages, the memory each entry will hold) and
+//! builds the world from that plan.
 //! [`animation`] is the CPU reference of character animation — clip sampling, a clip player
 //! with cross-fades, joint and skinning matrices, morph-then-skin of positions and normals — on
 //! a pack's skeleton, skin weights, morph targets and clips; the [`World`] drives it for packs
@@ -78,6 +81,7 @@
 
 pub mod animation;
 mod frame;
+mod plan;
 pub mod scene;
 pub mod stages;
 mod world;
@@ -93,6 +97,7 @@ pub use frame::{
     GRASS_FORCE_PER_M_PER_S,
 };
 pub use furbake_formats::Pack;
+pub use plan::{EntryMemory, WorldPlan};
 pub use scene::{
     Ambient, Camera, Effect, Effects, Event, GrassCulling, Light, LightSource, Lighting, MAX_LIGHTS, RenderOptions,
     Scene, SceneError, ScenePack, ShellBlendMode, Solver, SolverChoice,

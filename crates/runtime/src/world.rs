@@ -15,7 +15,7 @@ use std::time::{Duration, Instant};
 
 use furbake_formats::sections::blade_field::ClusterGrid;
 use furbake_formats::sections::spring_topology::NO_MASS;
-use furbake_formats::{PackSections, SectionKind, check_consistency};
+use furbake_formats::{PackSections, check_consistency};
 use furbake_grass::{ForceField, ForceScene};
 use furbake_sim::{
     ForceSet, FrameMotion, GuardParams, SimError, Simulator, SkinMove, SkinTransform, SolverKind, SolverSettings,
@@ -29,9 +29,9 @@ use crate::frame::{self, ForcesOn, MeshFrame};
 use crate::scene::{Effect, Effects, Event, Scene, ScenePack};
 use crate::stages::{
     NON_SEPARABLE_PREFERENCE, PackRole, PlannedStage, SEPARABLE_PREFERENCE, StageKind, StageStats, choose_solver,
-    choose_topology, plan_stages,
+    choose_topology,
 };
-use crate::{Pack, RuntimeError};
+use crate::{Pack, RuntimeError, WorldPlan};
 
 /// Most mass updates (masses × substeps) one [`World::step`] may spend on one pack's fur: 2^22,
 /// about a fifth of a second of one core for the implicit solver in a release build (measured
@@ -318,23 +318,19 @@ impl World {
     /// field at time 0 is computed here, outside the stage counters, so a renderer has forces
     /// before the first step.
     pub fn with_packs(scene: Scene, opened: Vec<Arc<Pack>>, options: WorldOptions) -> Result<World, RuntimeError> {
-        if opened.len() != scene.packs.len() {
-            return Err(RuntimeError::Parameter {
-                what: format!("{} packs opened for a scene of {}", opened.len(), scene.packs.len()),
-            });
-        }
+        WorldPlan::with_packs(scene, opened, options)?.build()
+    }
+
+    /// The world of a [`WorldPlan`] ([`WorldPlan::build`]): its packs, pack roles and stages as
+    /// planned.
+    pub(crate) fn from_plan(
+        scene: Scene,
+        opened: Vec<Arc<Pack>>,
+        options: WorldOptions,
+        roles: Vec<PackRole>,
+        stages: Vec<PlannedStage>,
+    ) -> Result<World, RuntimeError> {
         let packs: Vec<(ScenePack, Arc<Pack>)> = scene.packs.iter().cloned().zip(opened).collect();
-        let roles: Vec<PackRole> = packs
-            .iter()
-            .map(|(sp, p)| PackRole {
-                fur: p.has(SectionKind::SHELL_ATLAS) || p.has(SectionKind::SPRING_TOPOLOGY),
-                grass: p.has(SectionKind::BLADE_FIELD),
-                moving: sp.motion.len() > 1 || options.host_placement,
-                topology: p.has(SectionKind::SPRING_TOPOLOGY),
-                animated: sp.animation.is_some(),
-            })
-            .collect();
-        let stages = plan_stages(&scene.effects, &roles);
         let mut world_packs = Vec::with_capacity(packs.len());
         for (i, (sp, pack)) in packs.into_iter().enumerate() {
             let planned = |k: StageKind| stages.iter().any(|s| s.pack == i && s.kind == k);

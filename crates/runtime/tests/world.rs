@@ -9,7 +9,7 @@ use std::sync::Arc;
 use furbake_bake::{BakeSettings, BladeSettings, NoProgress, bake};
 use furbake_formats::SectionKind;
 use furbake_import::{ImportSettings, import_gltf_slice, testmesh};
-use furbake_runtime::{Pack, RuntimeError, Scene, ShellVertexLayout, StageKind, World, WorldOptions};
+use furbake_runtime::{Pack, RuntimeError, Scene, ShellVertexLayout, StageKind, World, WorldOptions, WorldPlan};
 use furbake_sim::{SolverKind, TopologyKind};
 
 /// Bakes `gltf` into `dir/name` with `topologies` and, when `blades`, a small blade field.
@@ -468,4 +468,60 @@ fn a_step_of_a_large_topology_under_absurd_gravity_is_refused_not_run_for_second
     // Ordinary gravity still steps.
     let mut world = World::new(scene(dir.path(), &pack, "[effects.gravity]\n")).unwrap();
     world.step().unwrap();
+}
+
+#[test]
+fn a_world_plan_opens_each_file_once_reads_only_what_its_world_reads_and_counts_shared_sections_once() {
+    // Two entries of one furry patch (simulated, with grass forces) and one of a sphere:
+    // the plan is what the world runs, reads nothing the world would not, and counts the
+    // patch's decoded sections for its first entry only.
+    let dir = tempfile::tempdir().unwrap();
+    let patch = patch_pack(dir.path(), &["prisms"], true);
+    let sphere = sphere_pack(dir.path(), &["prisms"]);
+    let text = format!(
+        "time_step_s = 0.02\n\
+         [[packs]]\nname = \"a\"\npath = {:?}\n\
+         [[packs]]\nname = \"b\"\npath = {:?}\ntranslation = [3.0, 0.0, 0.0]\n\
+         [[packs]]\nname = \"ball\"\npath = {:?}\n\
+         [effects.wind]\nvelocity_m_per_s = [2.0, 0.0, 0.0]\n",
+        patch.file_name().unwrap().to_str().unwrap(),
+        patch.file_name().unwrap().to_str().unwrap(),
+        sphere.file_name().unwrap().to_str().unwrap(),
+    );
+    let scene = Scene::from_toml_str(&text, Path::new("test.toml"), dir.path()).unwrap();
+    let plan = WorldPlan::new(scene, WorldOptions::default()).unwrap();
+    let packs = plan.packs().to_vec();
+    assert!(Arc::ptr_eq(&packs[0], &packs[1]), "entries naming one file share one opened pack");
+    assert!(!Arc::ptr_eq(&packs[0], &packs[2]));
+    let planned = plan.stages().to_vec();
+    let memory = plan.memory().to_vec();
+    let reads_after_plan: Vec<_> = packs.iter().map(|p| p.read_counts()).collect();
+
+    // What the plan read is what the world reads: building it reads nothing more.
+    let world = plan.build().unwrap();
+    assert_eq!(world.stages(), planned.as_slice());
+    let reads_after_build: Vec<_> = packs.iter().map(|p| p.read_counts()).collect();
+    assert_eq!(reads_after_plan, reads_after_build);
+    assert_eq!(reads_of(&packs[0], SectionKind::KEYFRAME_TABLE), vec![0]);
+    assert_eq!(reads_of(&packs[0], SectionKind::SHELL_ATLAS), vec![0]);
+
+    // The entries' counts are the decoded sections' own.
+    let mesh = packs[0].skin_mesh().unwrap();
+    let topology = packs[0].spring_topology(TopologyKind::PRISMS).unwrap();
+    for m in &memory[..2] {
+        assert_eq!((m.vertices, m.triangles), (mesh.positions.len() as u64, mesh.triangles.len() as u64));
+        assert_eq!(m.masses, topology.mass_kg.len() as u64);
+        assert_eq!(m.state_vectors, 2 * m.masses + topology.shell_vertex_masses.len() as u64);
+    }
+    let ball = packs[2].spring_topology(TopologyKind::PRISMS).unwrap();
+    assert_eq!(memory[2].masses, ball.mass_kg.len() as u64);
+    // The patch's decoded sections are counted once, for entry `a`.
+    let held: u64 = packs[0]
+        .sections()
+        .iter()
+        .zip(packs[0].read_counts())
+        .filter(|(_, (_, n))| *n > 0)
+        .map(|(e, _)| e.length)
+        .sum();
+    assert_eq!(memory[0].bytes - memory[1].bytes, held);
 }
