@@ -22,6 +22,7 @@
 //! # Ok::<(), furbake_formats::FormatError>(())
 //! ```
 
+#![deny(missing_docs)]
 mod atomic;
 mod consistency;
 mod container;

@@ -41,7 +41,27 @@
 //! meaning), and the manifest (summarised in `asset.extras.furbake`).
 //!
 //! Everything is deterministic: the same pack and options give the same bytes.
+//!
+//! ```
+//! use furbake_bake::{BakeSettings, NoProgress, bake};
+//! use furbake_export::{ExportOptions, export_glb};
+//! use furbake_formats::Pack;
+//! use furbake_import::{import_gltf_slice, testmesh};
+//!
+//! // A small furry sphere, baked into a pack in memory.
+//! let mesh = import_gltf_slice(&testmesh::uv_sphere(6, 8, 0.5).gltf, "ball.gltf", None, &Default::default())?;
+//! let mut settings = BakeSettings::preset("fur")?;
+//! (settings.volume.resolution, settings.volume.layers) = (16, 4);
+//! let pack = Pack::from_bytes(&bake(&mesh, "ball.gltf", &settings, &mut NoProgress)?.to_writer().to_bytes())?;
+//!
+//! let glb = export_glb(&pack, &ExportOptions::default())?;
+//! assert_eq!(&glb[..4], b"glTF"); // a binary glTF 2.0 container
+//! assert_eq!(u32::from_le_bytes(glb[4..8].try_into()?), 2);
+//! assert_eq!(glb, export_glb(&pack, &ExportOptions::default())?, "deterministic");
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
+#![deny(missing_docs)]
 mod glb;
 
 use std::collections::HashMap;

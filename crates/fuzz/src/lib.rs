@@ -34,6 +34,7 @@
 //! println!("{outcome:?}");
 //! ```
 
+#![deny(missing_docs)]
 pub mod campaign;
 pub mod corpus;
 pub mod gltf;

@@ -31,6 +31,7 @@
 //! # Ok::<(), furbake_grass::GrassError>(())
 //! ```
 
+#![deny(missing_docs)]
 pub mod blade;
 pub mod decode;
 pub mod field;

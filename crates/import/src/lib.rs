@@ -32,6 +32,7 @@
 //! # Ok::<(), furbake_import::ImportError>(())
 //! ```
 
+#![deny(missing_docs)]
 mod accessor;
 mod animation;
 mod base64;

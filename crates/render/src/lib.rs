@@ -122,6 +122,7 @@
 //! the GPU passes are checked against, and readbacks that submit and wait — what this crate's
 //! tests inspect, never what a frame calls.
 
+#![deny(missing_docs)]
 mod asset;
 mod blades;
 mod blocking;

@@ -47,6 +47,7 @@
 //! Every number comes from running the physics in this process: errors are deterministic, times
 //! depend on the machine and its load (the document says how many threads it had).
 
+#![deny(missing_docs)]
 use std::path::{Path, PathBuf};
 
 pub mod fur;

@@ -27,6 +27,7 @@
 //! Determinism: every kernel gathers each mass's forces over its own links in a fixed order and
 //! every sum uses fixed-size chunks, so results are bit-identical for any rayon thread count.
 
+#![deny(missing_docs)]
 mod clusters;
 mod error;
 pub mod forces;
