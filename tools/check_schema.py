@@ -1,7 +1,10 @@
 #!/usr/bin/env python3
-"""Validates JSON documents against one of furbake's JSON Schemas (docs/schemas/).
+"""Validates JSON or TOML documents against one of furbake's JSON Schemas (docs/schemas/).
 
     python3 tools/check_schema.py docs/schemas/bake-report.schema.json report.json [more.json ...]
+    python3 tools/check_schema.py docs/schemas/scene.schema.json fixtures/scenes/*.toml
+
+A `.toml` file is read with Python's tomllib (3.11+) and validated as the JSON it maps to.
 
 Prints one line per violation (`file: path: message`) and exits 1 when any document breaks its
 schema, 2 when the schema itself is not a valid draft 2020-12 schema or a file cannot be read.
@@ -10,6 +13,7 @@ Needs the `jsonschema` Python package (Debian: python3-jsonschema; `make deps` i
 
 import json
 import sys
+import tomllib
 
 import jsonschema
 
@@ -29,8 +33,12 @@ def main(argv):
     bad = 0
     for path in argv[2:]:
         try:
-            with open(path, encoding="utf-8") as f:
-                doc = json.load(f)
+            if path.endswith(".toml"):
+                with open(path, "rb") as f:
+                    doc = tomllib.load(f)
+            else:
+                with open(path, encoding="utf-8") as f:
+                    doc = json.load(f)
         except (OSError, ValueError) as e:
             print(f"{path}: {e}", file=sys.stderr)
             return 2

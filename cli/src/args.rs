@@ -66,6 +66,10 @@ pub enum Command {
     /// animated pack the skeleton, skin and clips.
     #[command(after_help = EXIT_CODES)]
     Export(ExportArgs),
+    /// Print the JSON Schema of a file people write by hand (`scene`: runtime scenes), for
+    /// editors that validate and complete TOML against it (docs/schemas/scene.schema.json).
+    #[command(after_help = EXIT_CODES)]
+    Schema(SchemaArgs),
 }
 
 /// What `--max-memory` defaults to, in bytes (2 GiB).
@@ -523,6 +527,14 @@ pub struct ReportArgs {
     /// Directory to write into (`accuracy.md` and its SVG charts).
     #[arg(short, long, default_value = "docs")]
     pub output: std::path::PathBuf,
+}
+
+/// `furbake schema`
+#[derive(Args, Debug)]
+pub struct SchemaArgs {
+    /// Which file: `scene` (a runtime scene, `furbake simulate|preview|view SCENE.toml`).
+    #[arg(value_parser = ["scene"])]
+    pub which: String,
 }
 
 /// The topology kind names, from the format's own list (so the CLI never drifts from it).

@@ -15,6 +15,7 @@ mod keyframes_cmd;
 mod png;
 mod preview_cmd;
 mod report_cmd;
+mod schema_cmd;
 mod simulate_cmd;
 mod stdout;
 mod view_cmd;
@@ -63,6 +64,7 @@ fn main() -> ExitCode {
         Command::Report(a) => report_cmd::run(a, cli.quiet),
         Command::Extract(a) => extract_cmd::run(a, cli.quiet),
         Command::Export(a) => export_cmd::run(a, cli.quiet),
+        Command::Schema(a) => schema_cmd::run(a),
         Command::View(a) => view_cmd::run(a, cli.quiet),
     };
     match result {

@@ -96,3 +96,80 @@ fn real_outputs_validate_against_the_documented_schemas() {
     let v = violations("inspect", &[&write_json(&dir.path().join("b3.json"), &broken)]);
     assert!(v.len() == 1 && v[0].contains("crc32"), "a numeric crc32: {v:?}");
 }
+
+#[test]
+fn scene_files_have_a_schema_that_says_what_furbake_reads() {
+    // The committed schema is what `furbake schema scene` derives from the scene types.
+    let out = furbake(&["schema", "scene"]);
+    assert_ok(&out, "furbake schema scene");
+    let committed = std::fs::read_to_string(repo("docs/schemas/scene.schema.json")).unwrap();
+    assert!(
+        stdout(&out) == committed,
+        "docs/schemas/scene.schema.json is stale: furbake schema scene > docs/schemas/scene.schema.json"
+    );
+
+    // Every scene the repository ships validates.
+    let scenes: Vec<PathBuf> = std::fs::read_dir(repo("fixtures/scenes"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "toml"))
+        .collect();
+    assert!(scenes.len() >= 4);
+    let v = violations("scene", &scenes.iter().map(PathBuf::as_path).collect::<Vec<_>>());
+    assert!(v.is_empty(), "{v:#?}");
+
+    // Broken scenes: the schema refuses each, and furbake (exit 1) names the key, what it
+    // expects, and where.
+    let dir = tempfile::tempdir().unwrap();
+    let base = "time_step_s = 0.02\n[[packs]]\nname = \"fox\"\npath = \"fox.fbk\"\n[effects.gravity]\n";
+    let cases: [(&str, &str, &[&str]); 11] = [
+        ("time_step_s = 0.02", "time_step_s = \"0.02\"", &["time_step_s:", "expected a number", "line 1"]),
+        ("time_step_s = 0.02", "time_step_s = 0.02\nframe_rate = 60", &["frame_rate", "unknown field", "time_step_s"]),
+        (
+            "[effects.gravity]",
+            "[effects]\ngravity = [0.0, -9.81, 0.0]",
+            &["effects.gravity:", "expected a table, e.g. `gravity = { acceleration_m_per_s2"],
+        ),
+        ("path = \"fox.fbk\"", "", &["packs[0]:", "missing field `path`"]),
+        ("time_step_s = 0.02", "time_step_s = 0.02\nsolver = \"verlet\"", &["solver:", "`implicit`", "`xpbd`"]),
+        (
+            "time_step_s = 0.02",
+            "time_step_s = 0.02\n[[lights]]\ntype = \"spot\"",
+            &["lights[0].type:", "`directional` or `point`"],
+        ),
+        (
+            "time_step_s = 0.02",
+            "time_step_s = 0.02\n[camera]\neye = [1.0, 2.0]\ntarget = [0.0, 0.0, 0.0]",
+            &["camera.eye:", "invalid length 2", "array of 3 numbers, e.g. `[0.0, 1.0, 0.0]`"],
+        ),
+        (
+            "[effects.gravity]",
+            "[effects.wind]\nvelocity_m_per_s = \"fast\"",
+            &["effects.wind.velocity_m_per_s:", "array of 3 numbers"],
+        ),
+        (
+            "[effects.gravity]",
+            "[effects.gravity]\n[[events]]\nat_s = 1.0\nkind = \"explode\"",
+            &["events[0].kind:", "`teleport`", "`forces_off`"],
+        ),
+        ("[effects.gravity]", "[effects.gravity]\n[render]\nblend = \"additive\"", &["render.blend:", "`alpha_blend`"]),
+        (
+            "path = \"fox.fbk\"",
+            "path = \"fox.fbk\"\nscale = \"big\"",
+            &["packs[0].scale:", "expected a number", "line 5"],
+        ),
+    ];
+    for (i, (from, to, needles)) in cases.iter().enumerate() {
+        let scene = dir.path().join(format!("broken{i}.toml"));
+        std::fs::write(&scene, base.replacen(from, to, 1)).unwrap();
+        let v = violations("scene", &[&scene]);
+        assert!(!v.is_empty(), "the schema accepts broken scene {i}: {to}");
+        let out = furbake(&["simulate", s(&scene), "--frames", "1"]);
+        assert_eq!(out.status.code(), Some(1), "broken scene {i}: {}", stderr(&out));
+        let err = stderr(&out);
+        assert_eq!(err.lines().count(), 1, "one line: {err}");
+        for needle in *needles {
+            assert!(err.contains(needle), "broken scene {i} ({to}): {needle:?} not in {err}");
+        }
+    }
+}

@@ -83,6 +83,7 @@ pub enum SceneError {
 
 /// A validated scene.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(deny_unknown_fields)]
 pub struct Scene {
     /// Simulation time step in seconds. Default 1/60.
@@ -139,6 +140,7 @@ pub struct Scene {
 /// segment, every second node, every fourth node). Distances are world metres from the eye to the
 /// blade root.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(deny_unknown_fields, default)]
 pub struct GrassCulling {
     /// Cull and simplify at all. Off: every blade at full detail, one instanced draw. Default on.
@@ -226,6 +228,7 @@ fn default_time_step() -> f32 {
 
 /// Which mass–spring solver the scene runs (fur thesis §3.3).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(rename_all = "snake_case")]
 pub enum SolverChoice {
     /// Chosen from the topology: the stick solver for sticks and separable sticks (rigid links),
@@ -273,15 +276,38 @@ impl Default for Solver {
     }
 }
 
+/// The `[solver]` table as written (what [`Solver`] reads besides the `solver = "kind"`
+/// shorthand).
 #[derive(Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[cfg_attr(feature = "schema", schemars(title = "SolverTable"))]
 #[serde(deny_unknown_fields)]
 struct SolverTable {
+    /// Which solver. Default `auto`.
     #[serde(default)]
     kind: SolverChoice,
+    /// Jacobi sweeps per implicit step, in [1, 1000]; 1 is the fur thesis's method. Default 1.
     #[serde(default = "one_u32")]
     implicit_iterations: u32,
+    /// Gauss–Seidel iterations per XPBD step, in [1, 1000]. Default 8.
     xpbd_iterations: Option<u32>,
+    /// Local/global iterations per step of the Liu et al. 2013 solver, in [1, 1000]. Default 10.
     local_global_iterations: Option<u32>,
+}
+
+/// `solver = "implicit"` (the kind alone) or a `[solver]` table.
+#[cfg(feature = "schema")]
+impl schemars::JsonSchema for Solver {
+    fn schema_name() -> std::borrow::Cow<'static, str> {
+        "Solver".into()
+    }
+
+    fn json_schema(generator: &mut schemars::SchemaGenerator) -> schemars::Schema {
+        schemars::json_schema!({
+            "description": "The fur solver: the kind alone (`solver = \"implicit\"`) or a `[solver]` table with the kind and its iteration counts.",
+            "anyOf": [generator.subschema_for::<SolverChoice>(), generator.subschema_for::<SolverTable>()]
+        })
+    }
 }
 
 fn one_u32() -> u32 {
@@ -309,6 +335,7 @@ impl<'de> Deserialize<'de> for Solver {
 
 /// A timed event of a scene.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Event {
     /// The pack jumps by `offset_m` (world metres) and stays there; its free fur masses keep their
@@ -370,6 +397,7 @@ impl Event {
 
 /// A pinhole camera.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(deny_unknown_fields)]
 pub struct Camera {
     /// Eye position in metres (world space).
@@ -393,6 +421,7 @@ fn default_fov() -> f32 {
 
 /// A directional light with an ambient term.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(deny_unknown_fields)]
 pub struct Light {
     /// Direction the light travels (from the light towards the scene); need not be unit length.
@@ -429,6 +458,7 @@ pub const MAX_LIGHTS: usize = 4;
 
 /// One light source of a scene or a host's frame (`[[lights]]`; docs/design.md "Lights").
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
 pub enum LightSource {
     /// Light from infinitely far away, travelling along `direction`.
@@ -493,6 +523,7 @@ impl LightSource {
 /// Hemisphere ambient light (`[ambient]`): `sky` on surfaces facing up (+Y), `ground` on those
 /// facing down, blended by the normal's height, `mix(ground, sky, (1 + n.y)/2)`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(deny_unknown_fields)]
 pub struct Ambient {
     /// Linear RGB from above. Default `[0.25, 0.25, 0.25]` (the `[light]` default's ambient).
@@ -577,6 +608,7 @@ impl From<Light> for Lighting {
 
 /// One pack placed in the scene.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(deny_unknown_fields)]
 pub struct ScenePack {
     /// Unique name within the scene.
@@ -614,6 +646,7 @@ pub struct ScenePack {
 
 /// How shells and fins are blended into what is behind them (`blend` of [`RenderOptions`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(rename_all = "snake_case")]
 pub enum ShellBlendMode {
     /// Alpha blending, no depth writes (soft; the renderer's default).
@@ -628,6 +661,7 @@ pub enum ShellBlendMode {
 /// renderer's defaults: `furbake_render::RenderSettings`, `BladeSettings`, which document
 /// each). Validated with the scene, naming the key.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(deny_unknown_fields)]
 pub struct RenderOptions {
     /// Shell layers drawn, at most the atlas limit (1024); 0 draws the bare skin. Default: one per
@@ -699,6 +733,7 @@ impl RenderOptions {
 /// per pack as `[packs.shading]`. The defaults are tuned on the bundled Fox and the generated
 /// furry sphere. Colours are linear RGB multipliers.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(deny_unknown_fields, default)]
 pub struct FurShading {
     /// The strand model at all. Off: the fur is shaded as before it existed (vertex colour ×
@@ -797,6 +832,7 @@ impl FurShading {
 /// What a pack's animation plays from time 0 (the fur thesis's future work, §3.4.1: the skin's
 /// own motion drives the fur's anchored masses).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(deny_unknown_fields)]
 pub struct PackAnimation {
     /// Name of a clip in the pack (`furbake inspect` lists them).
@@ -860,6 +896,7 @@ impl Transform {
 
 /// One keyframe of a pack's motion path; positions between keys are interpolated linearly.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(deny_unknown_fields)]
 pub struct MotionKey {
     /// Time of the key in seconds, ≥ 0.
@@ -921,6 +958,7 @@ impl ScenePack {
 /// The effects a scene declares. Every field defaults to "absent"; the runtime builds a stage
 /// only for what is present.
 #[derive(Debug, Default, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(deny_unknown_fields)]
 pub struct Effects {
     /// Constant acceleration on every mass.
@@ -957,6 +995,40 @@ pub struct Effects {
 /// used to fail on its first number with "expected an array of length 3" — for an array of
 /// length 3. These fields accept only a table, and anything else is answered with the form
 /// to write (`tests/scene.rs` checks the messages).
+/// A TOML or shape error as a scene's author reads it: the dotted key (`packs[0].scale`; none for
+/// a TOML syntax error or an unknown top-level key), serde's message with Rust's type names in
+/// words (`expected f32` → `expected a number`), and the line and column.
+fn parse_message(text: &str, e: &toml::de::Error, key: &str) -> String {
+    let mut message = e.message().trim().to_string();
+    for (rust, words) in [
+        ("expected f32", "expected a number"),
+        ("expected f64", "expected a number"),
+        ("expected u64", "expected a whole number ≥ 0"),
+        ("expected u32", "expected a whole number ≥ 0"),
+        ("expected usize", "expected a whole number ≥ 0"),
+        ("expected a sequence", "expected an array"),
+        ("expected a map", "expected a table"),
+        ("invalid type: map,", "invalid type: table,"),
+        ("invalid type: sequence,", "invalid type: array,"),
+    ] {
+        message = message.replace(rust, words);
+    }
+    if let Some(n) = message.strip_suffix(", expected an array of length 3").map(str::len) {
+        message.replace_range(n.., ", expected an array of 3 numbers, e.g. `[0.0, 1.0, 0.0]`");
+    }
+    let at = e.span().map(|span| {
+        let before = &text[..span.start.min(text.len())];
+        let line = before.matches('\n').count() + 1;
+        let column = before.len() - before.rfind('\n').map_or(0, |i| i + 1) + 1;
+        format!(" (line {line}, column {column})")
+    });
+    let key = key.trim_start_matches('.');
+    match key.is_empty() || key == "?" {
+        true => format!("{message}{}", at.unwrap_or_default()),
+        false => format!("{key}: {message}{}", at.unwrap_or_default()),
+    }
+}
+
 mod table {
     use std::fmt;
     use std::marker::PhantomData;
@@ -1046,6 +1118,7 @@ impl Clone for Effects {
 
 /// Gravity.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(deny_unknown_fields)]
 pub struct Gravity {
     /// Acceleration in m/s². Default `[0, -9.81, 0]`.
@@ -1059,6 +1132,7 @@ fn default_gravity() -> [f32; 3] {
 
 /// Global wind: a constant velocity plus an optional sinusoidal gust.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(deny_unknown_fields)]
 pub struct Wind {
     /// Wind velocity in m/s.
@@ -1077,6 +1151,7 @@ fn default_gust_hz() -> f32 {
 
 /// A point wind source, `w = normalize(WP)·ω/|WP|^σ` (grass thesis eq. 4.1).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(deny_unknown_fields)]
 pub struct WindSource {
     /// Position W in metres.
@@ -1100,6 +1175,7 @@ fn default_sigma() -> f32 {
 
 /// Inertial forces from object motion.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(deny_unknown_fields)]
 pub struct ObjectMotion {
     /// Scale of the inertial force, ≥ 0. Default 1.
@@ -1110,6 +1186,7 @@ pub struct ObjectMotion {
 /// A spherical force brush controlled by the user: it pushes fur masses within `radius_m` of its
 /// position away from it with `strength_n · (1 − d/radius)²`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(deny_unknown_fields)]
 pub struct Interaction {
     /// Where the brush starts, world metres; `None` = inactive until the application moves it
@@ -1124,6 +1201,7 @@ pub struct Interaction {
 
 /// A collider acting as a local wind source.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(tag = "shape", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Collider {
     /// A sphere.
@@ -1144,6 +1222,7 @@ pub enum Collider {
 
 /// An axis-aligned box in which wind forces are removed.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(deny_unknown_fields)]
 pub struct WindlessArea {
     /// Minimum corner in metres.
@@ -1154,12 +1233,14 @@ pub struct WindlessArea {
 
 /// Fur parting: use a separable topology so triangles can move apart.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(deny_unknown_fields)]
 pub struct Parting {}
 
 /// The wrong-side guard: restoring force `F = (n − s)(1 − n·s)·w` (eq. 3.37) and the threshold
 /// test `n·s < cos α` with impulse and frozen scale vector.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(deny_unknown_fields)]
 pub struct WrongSideGuard {
     /// Weight `w` of the restoring force on each tip mass, in the topology's force units (newtons
@@ -1190,6 +1271,7 @@ fn default_alpha() -> f32 {
 
 /// One effect kind, for planning stages and for stage counters.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(rename_all = "snake_case")]
 pub enum Effect {
     /// [`Effects::gravity`].
@@ -1257,6 +1339,55 @@ impl Effect {
 }
 
 impl Scene {
+    /// The JSON Schema (draft 2020-12) of scene files: every key, its type, range notes and
+    /// default from these types' documentation, for editors that validate and complete TOML
+    /// (taplo, Even Better TOML) and for `furbake schema scene`. Feature `schema`.
+    #[cfg(feature = "schema")]
+    pub fn json_schema() -> schemars::Schema {
+        // TOML has no null: an absent key is the default, so optional keys are not nullable and
+        // null defaults are left out.
+        use serde_json::Value;
+        let no_nulls = schemars::transform::RecursiveTransform(|s: &mut schemars::Schema| {
+            if s.get("default").is_some_and(Value::is_null) {
+                s.remove("default");
+            }
+            if let Some(fields) = s.get_mut("default").and_then(Value::as_object_mut) {
+                fields.retain(|_, v| !v.is_null());
+            }
+            // `Option<T>`: T alone.
+            if let Some(Value::Array(types)) = s.get_mut("type") {
+                types.retain(|t| t != "null");
+                if types.len() == 1 {
+                    let only = types.remove(0);
+                    s.insert("type".into(), only);
+                }
+            }
+            let null = serde_json::json!({ "type": "null" });
+            if let Some(Value::Array(alternatives)) = s.get_mut("anyOf") {
+                alternatives.retain(|a| *a != null);
+                if alternatives.len() == 1 {
+                    let Some(Value::Object(only)) = alternatives.pop() else { return };
+                    s.remove("anyOf");
+                    for (k, v) in only {
+                        s.insert(k, v);
+                    }
+                }
+            }
+        });
+        let mut schema = schemars::generate::SchemaSettings::draft2020_12()
+            .with_transform(no_nulls)
+            .into_generator()
+            .into_root_schema_for::<Scene>();
+        schema.insert("title".into(), "furbake scene".into());
+        schema.insert(
+            "description".into(),
+            "A furbake runtime scene (TOML): the packs to place, the camera and lights, the solver, the effects \
+             the scene calls for and timed events (README \"Scenes\"; `furbake schema scene` prints this schema)."
+                .into(),
+        );
+        schema
+    }
+
     /// Reads, parses and validates the scene file at `path`; relative pack paths are resolved
     /// against its directory. Only a regular file of at most
     /// [`furbake_formats::input::MAX_TEXT_BYTES`] is read, never blocking on a FIFO.
@@ -1274,8 +1405,15 @@ impl Scene {
         if let Ok(table) = toml::from_str::<toml::Table>(text) {
             check_outdated(&table).map_err(|(field, what)| SceneError::Outdated { path: name.into(), field, what })?;
         }
-        let mut scene: Scene =
-            toml::from_str(text).map_err(|e| SceneError::Parse { path: name.into(), message: e.to_string() })?;
+        let parse = |e: toml::de::Error, key: &str| SceneError::Parse {
+            path: name.into(),
+            message: parse_message(text, &e, key),
+        };
+        let de = toml::Deserializer::parse(text).map_err(|e| parse(e, ""))?;
+        let mut scene: Scene = serde_path_to_error::deserialize(de).map_err(|e| {
+            let key = e.path().to_string();
+            parse(e.into_inner(), &key)
+        })?;
         scene.validate().map_err(|(field, what)| SceneError::Invalid { path: name.into(), field, what })?;
         for p in &mut scene.packs {
             if p.path.is_relative() {

@@ -115,7 +115,12 @@ fn an_effect_written_as_a_value_is_answered_with_the_table_to_write() {
                 assert!(message.contains("expected a table"), "{line}: {message}");
                 assert!(message.contains(example), "{line}: {message}");
                 assert!(!message.contains("array of length"), "{line}: {message}");
-                assert!(message.contains(line), "{line}: the message quotes the line: {message}");
+                let key = line.split(' ').next().unwrap();
+                assert!(
+                    message.starts_with(&format!("effects.{key}: ")),
+                    "{line}: the message names the key: {message}"
+                );
+                assert!(message.contains("(line 5, column "), "{line}: the message says where: {message}");
             }
             other => panic!("expected a parse error for {line:?}, got {other:?}"),
         }
