@@ -66,8 +66,9 @@ pub enum Command {
     /// animated pack the skeleton, skin and clips.
     #[command(after_help = EXIT_CODES)]
     Export(ExportArgs),
-    /// Print the JSON Schema of a file people write by hand (`scene`: runtime scenes), for
-    /// editors that validate and complete TOML against it (docs/schemas/scene.schema.json).
+    /// Print the JSON Schema of a file people write by hand (`scene`: runtime scenes; `config`:
+    /// bake configs; `batch`: batch files), for editors that validate and complete TOML against
+    /// it (docs/schemas/).
     #[command(after_help = EXIT_CODES)]
     Schema(SchemaArgs),
 }
@@ -532,8 +533,9 @@ pub struct ReportArgs {
 /// `furbake schema`
 #[derive(Args, Debug)]
 pub struct SchemaArgs {
-    /// Which file: `scene` (a runtime scene, `furbake simulate|preview|view SCENE.toml`).
-    #[arg(value_parser = ["scene"])]
+    /// Which file: `scene` (a runtime scene, `furbake simulate|preview|view SCENE.toml`) or
+    /// `config` (a bake config, `furbake bake --config FILE`) or `batch` (`furbake batch FILE`).
+    #[arg(value_parser = ["scene", "config", "batch"])]
     pub which: String,
 }
 

@@ -10,7 +10,7 @@ use std::io::{IsTerminal, Read};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use anyhow::{Context, anyhow};
+use anyhow::anyhow;
 use furbake_bake::BakeSettings;
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
@@ -23,9 +23,9 @@ use crate::failure::{Classify, Failure};
 use crate::files::Files;
 
 /// Keys shared by `[defaults]` and every `[[asset]]`.
-#[derive(Deserialize, Default, Clone)]
+#[derive(Deserialize, Default, Clone, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
-struct Common {
+pub(crate) struct Common {
     /// The preset the settings start from (`fur`, `grass`).
     preset: Option<String>,
     /// A bake config TOML (the `--config` file), relative to the batch file.
@@ -34,6 +34,7 @@ struct Common {
     asset_root: Option<PathBuf>,
     /// Settings overrides (the keys of a `--config` file); an asset's are applied after the
     /// defaults'.
+    #[schemars(with = "Option<BakeSettings>")]
     settings: Option<toml::Table>,
     /// Write `<pack>.d` depfiles.
     depfile: Option<bool>,
@@ -41,18 +42,20 @@ struct Common {
     max_memory: Option<String>,
 }
 
-#[derive(Deserialize, Default)]
+/// `[defaults]`: what every asset starts from.
+#[derive(Deserialize, Default, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
-struct Defaults {
+pub(crate) struct Defaults {
     #[serde(flatten)]
     common: Common,
     /// Where packs go when an asset names no `output` (default: beside the batch file).
     out_dir: Option<PathBuf>,
 }
 
-#[derive(Deserialize)]
+/// `[[asset]]`: one glTF to bake.
+#[derive(Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
-struct AssetEntry {
+pub(crate) struct AssetEntry {
     /// The glTF, relative to the batch file.
     input: PathBuf,
     /// The pack, relative to the batch file (default: `out_dir/<input stem>.fbk`).
@@ -61,11 +64,14 @@ struct AssetEntry {
     common: Common,
 }
 
-#[derive(Deserialize)]
+/// A batch file: shared defaults and the assets to bake (`furbake batch FILE`).
+#[derive(Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
-struct BatchFile {
+pub(crate) struct BatchFile {
+    /// What every asset starts from.
     #[serde(default)]
     defaults: Defaults,
+    /// The assets to bake, at least one.
     #[serde(default, rename = "asset")]
     assets: Vec<AssetEntry>,
 }
@@ -91,8 +97,15 @@ enum Outcome {
 /// Runs `furbake batch`.
 pub fn run(args: BatchArgs, quiet: bool) -> Result<(), Failure> {
     let text = crate::files::read_text(&args.file, "the batch file")?;
-    let file: BatchFile =
-        toml::from_str(&text).with_context(|| format!("{}: invalid batch file", args.file.display())).input()?;
+    let invalid = |key: &str, e: toml::de::Error| {
+        let message = furbake_formats::input::located_message(&text, key, e.message(), e.span());
+        Failure::Input(anyhow!("{}: invalid batch file: {message}", args.file.display()))
+    };
+    let de = toml::Deserializer::parse(&text).map_err(|e| invalid("", e))?;
+    let file: BatchFile = serde_path_to_error::deserialize(de).map_err(|e| {
+        let key = e.path().to_string();
+        invalid(&key, e.into_inner())
+    })?;
     let base = match args.file.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         // The current directory: paths stay as the file spells them (`Fox.glb`, not `./Fox.glb`).

@@ -170,3 +170,54 @@ mod tests {
         assert!(e.to_string().contains("a FIFO"), "{e}");
     }
 }
+
+/// serde's message about a hand-written file (a scene, a bake config) in the words of the file's
+/// author: Rust's type names said as what to write (`expected f32` → `expected a number`,
+/// `expected a sequence` → `expected an array`), and a three-element array shown by example.
+pub fn settings_message_in_words(message: &str) -> String {
+    let mut message = message.trim().to_string();
+    for (rust, words) in [
+        ("expected f32", "expected a number"),
+        ("expected f64", "expected a number"),
+        ("expected u64", "expected a whole number ≥ 0"),
+        ("expected u32", "expected a whole number ≥ 0"),
+        ("expected u16", "expected a whole number ≥ 0"),
+        ("expected u8", "expected a whole number ≥ 0"),
+        ("expected usize", "expected a whole number ≥ 0"),
+        ("expected a sequence", "expected an array"),
+        ("expected a map", "expected a table"),
+        ("invalid type: map,", "invalid type: table,"),
+        ("invalid type: sequence,", "invalid type: array,"),
+        ("floating point", "number"),
+    ] {
+        message = message.replace(rust, words);
+    }
+    if let Some(n) = message.strip_suffix(", expected an array of length 3").map(str::len) {
+        message.replace_range(n.., ", expected an array of 3 numbers, e.g. `[0.0, 1.0, 0.0]`");
+    }
+    // `expected struct VolumeParams`: a table, whatever Rust calls it.
+    while let Some(at) = message.find("expected struct ") {
+        let name_end =
+            message[at + 16..].find(|c: char| !c.is_alphanumeric() && c != '_').map_or(message.len(), |e| at + 16 + e);
+        message.replace_range(at..name_end, "expected a table");
+    }
+    message
+}
+
+/// One line locating a settings error in the text of the file it came from: `key: message (line
+/// L, column C)`, the dotted key left out when empty (a syntax error, an unknown top-level key),
+/// the place left out when the parser gave no byte range.
+pub fn located_message(text: &str, key: &str, message: &str, span: Option<std::ops::Range<usize>>) -> String {
+    let message = settings_message_in_words(message);
+    let at = span.map(|span| {
+        let before = &text[..span.start.min(text.len())];
+        let line = before.matches('\n').count() + 1;
+        let column = before.chars().count() - before.rfind('\n').map_or(0, |i| before[..=i].chars().count()) + 1;
+        format!(" (line {line}, column {column})")
+    });
+    let key = key.trim_start_matches('.');
+    match key.is_empty() || key == "?" {
+        true => format!("{message}{}", at.unwrap_or_default()),
+        false => format!("{key}: {message}{}", at.unwrap_or_default()),
+    }
+}

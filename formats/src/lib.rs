@@ -31,6 +31,8 @@ pub mod input;
 mod kind;
 mod pack;
 pub mod record;
+#[cfg(feature = "schema")]
+pub mod schema;
 pub mod sections;
 mod verify;
 

@@ -99,14 +99,17 @@ fn real_outputs_validate_against_the_documented_schemas() {
 
 #[test]
 fn scene_files_have_a_schema_that_says_what_furbake_reads() {
-    // The committed schema is what `furbake schema scene` derives from the scene types.
-    let out = furbake(&["schema", "scene"]);
-    assert_ok(&out, "furbake schema scene");
-    let committed = std::fs::read_to_string(repo("docs/schemas/scene.schema.json")).unwrap();
-    assert!(
-        stdout(&out) == committed,
-        "docs/schemas/scene.schema.json is stale: furbake schema scene > docs/schemas/scene.schema.json"
-    );
+    // The committed schemas are what `furbake schema KIND` derives from the types that read the
+    // files.
+    for kind in ["scene", "config", "batch"] {
+        let out = furbake(&["schema", kind]);
+        assert_ok(&out, "furbake schema");
+        let committed = std::fs::read_to_string(repo(&format!("docs/schemas/{kind}.schema.json"))).unwrap();
+        assert!(
+            stdout(&out) == committed,
+            "docs/schemas/{kind}.schema.json is stale: furbake schema {kind} > docs/schemas/{kind}.schema.json"
+        );
+    }
 
     // Every scene the repository ships validates.
     let scenes: Vec<PathBuf> = std::fs::read_dir(repo("fixtures/scenes"))
@@ -170,6 +173,92 @@ fn scene_files_have_a_schema_that_says_what_furbake_reads() {
         assert_eq!(err.lines().count(), 1, "one line: {err}");
         for needle in *needles {
             assert!(err.contains(needle), "broken scene {i} ({to}): {needle:?} not in {err}");
+        }
+    }
+}
+
+/// The `.toml` files of `fixtures/DIR`.
+fn toml_fixtures(dir: &str) -> Vec<PathBuf> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(repo(dir))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "toml"))
+        .collect();
+    files.sort();
+    files
+}
+
+#[test]
+fn bake_configs_and_batch_files_have_schemas_that_say_what_furbake_reads() {
+    // The bundled configs and batch file validate, and furbake reads them: each config bakes.
+    let configs = toml_fixtures("fixtures/configs");
+    let batches = toml_fixtures("fixtures/batch");
+    assert!(configs.len() >= 2 && !batches.is_empty());
+    let v = violations("config", &configs.iter().map(PathBuf::as_path).collect::<Vec<_>>());
+    assert!(v.is_empty(), "{v:#?}");
+    let v = violations("batch", &batches.iter().map(PathBuf::as_path).collect::<Vec<_>>());
+    assert!(v.is_empty(), "{v:#?}");
+    let dir = tempfile::tempdir().unwrap();
+    let sphere = repo("fixtures/generated/sphere.gltf");
+    for config in &configs {
+        let pack = dir.path().join("out.fbk");
+        let out = furbake(&["bake", s(&sphere), "-o", s(&pack), "--resolution", "16", "--config", s(config), "-q"]);
+        assert_ok(&out, &format!("bake --config {}", config.display()));
+    }
+
+    // Broken configs: refused by the schema, and by furbake (exit 2, a setting) naming the
+    // dotted key and what it expects in words.
+    let configs: [(&str, &[&str]); 5] = [
+        ("seed = \"seven\"\n", &["seed:", "expected a whole number"]),
+        ("[volume]\nlayerz = 4\n", &["volume.layerz:", "unknown field", "`layers`"]),
+        ("[volume]\nresolution = 2.5\n", &["volume.resolution:", "expected a whole number"]),
+        ("topologies = \"prisms\"\n[uv]\nrepeat_m = 0.1\n", &["topologies:", "expected an array"]),
+        (
+            "[import]\nfur_mask = { source = \"texture\" }\n[uv]\nrepeat_m = 0.1\n",
+            &["import.fur_mask.source:", "`vertex_color`"],
+        ),
+    ];
+    for (i, (text, needles)) in configs.iter().enumerate() {
+        let config = dir.path().join(format!("broken{i}.toml"));
+        std::fs::write(&config, text).unwrap();
+        assert!(!violations("config", &[&config]).is_empty(), "the schema accepts broken config {i}: {text}");
+        let out = furbake(&["bake", s(&sphere), "-o", s(&dir.path().join("x.fbk")), "--config", s(&config), "-q"]);
+        assert_eq!(out.status.code(), Some(2), "broken config {i}: {}", stderr(&out));
+        let err = stderr(&out);
+        for needle in *needles {
+            assert!(err.contains(needle), "broken config {i} ({text}): {needle:?} not in {err}");
+        }
+    }
+
+    // Broken batch files: refused by the schema, and by furbake naming the asset and the key.
+    std::fs::copy(&sphere, dir.path().join("sphere.gltf")).unwrap();
+    let batches: [(&str, i32, &[&str]); 4] = [
+        (
+            "[[asset]]\nouput = \"x.fbk\"\ninput = \"sphere.gltf\"\n",
+            1,
+            &["asset[0]:", "unknown field `ouput`", "line 1"],
+        ),
+        (
+            "[defaults]\npreset = \"fur\"\n[[asset]]\noutput = \"x.fbk\"\n",
+            1,
+            &["asset[0]:", "missing field `input`", "line 3"],
+        ),
+        (
+            "[[asset]]\ninput = \"sphere.gltf\"\n[asset.settings]\nvolume.layers = \"many\"\n",
+            2,
+            &["asset 1 (sphere.gltf)", "volume.layers:", "expected a whole number"],
+        ),
+        ("[defaults.settings]\nvolume = 3\n[[asset]]\ninput = \"sphere.gltf\"\n", 2, &["volume:", "expected a table"]),
+    ];
+    for (i, (text, code, needles)) in batches.iter().enumerate() {
+        let batch = dir.path().join(format!("batch{i}.toml"));
+        std::fs::write(&batch, text).unwrap();
+        assert!(!violations("batch", &[&batch]).is_empty(), "the schema accepts broken batch file {i}: {text}");
+        let out = furbake(&["batch", s(&batch), "-q"]);
+        assert_eq!(out.status.code(), Some(*code), "broken batch file {i}: {}", stderr(&out));
+        let err = stderr(&out);
+        for needle in *needles {
+            assert!(err.contains(needle), "broken batch file {i} ({text}): {needle:?} not in {err}");
         }
     }
 }

@@ -15,6 +15,7 @@ use crate::volume;
 
 /// Settings of the shell geometry.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(deny_unknown_fields)]
 pub struct ShellSettings {
     /// Distance from the skin to the outermost shell, in metres (scene units). `None` = a
@@ -27,6 +28,7 @@ pub struct ShellSettings {
 
 /// Every parameter of one bake.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(deny_unknown_fields)]
 pub struct BakeSettings {
     /// Preset the settings started from (recorded in the manifest).
@@ -56,6 +58,7 @@ pub struct BakeSettings {
 
 /// Settings of the grass-blade stages.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(deny_unknown_fields)]
 pub struct BladeSettings {
     /// Where blades grow and how they are clustered.
@@ -110,8 +113,18 @@ impl BakeSettings {
         // One key patched (`--set`): blame it; several (a config file): serde's message names the
         // field, the caller names the file.
         let blamed = || if leaves.len() == 1 { leaves[0].clone() } else { "settings".to_owned() };
-        let merged: BakeSettings =
-            serde_json::from_value(base).map_err(|e| SettingsError::Invalid { key: blamed(), what: e.to_string() })?;
+        // The failing key's dotted path (`volume.resolution`) from the deserializer itself.
+        let merged: BakeSettings = serde_path_to_error::deserialize(base).map_err(|e| {
+            let path = e.path().to_string();
+            let key = match path.trim_start_matches('.') {
+                "" | "?" => blamed(),
+                path => path.to_owned(),
+            };
+            SettingsError::Invalid {
+                key,
+                what: furbake_formats::input::settings_message_in_words(&e.into_inner().to_string()),
+            }
+        })?;
         // Structs that tolerate unknown fields when read from a pack (`topology`, whose metadata
         // must stay readable when fields are added) would drop a misspelt key silently: every
         // patched key must survive the round trip.
@@ -120,6 +133,19 @@ impl BakeSettings {
             return Err(SettingsError::Invalid { key: key.clone(), what: "unknown key".into() });
         }
         Ok(merged)
+    }
+
+    /// The JSON Schema (draft 2020-12) of bake config files (`--config`, a batch's `config`):
+    /// every key of these settings, documented, none required — a config patches a preset
+    /// (`furbake schema config` prints it). Feature `schema`.
+    #[cfg(feature = "schema")]
+    pub fn config_schema() -> schemars::Schema {
+        furbake_formats::schema::toml_file_schema::<BakeSettings>(
+            "furbake bake config",
+            "A furbake bake config (TOML, `furbake bake --config FILE`): keys of the bake settings that replace \
+             the preset's, table by table (README \"Bake settings\"; `furbake schema config` prints this schema).",
+            true,
+        )
     }
 
     /// Checks every setting's range, stage by stage ([`crate::validate::validate_settings`]); the

@@ -13,6 +13,7 @@ use crate::rng::{SplitMix64, derive_seed, stage};
 
 /// Settings of the UV stage.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(deny_unknown_fields)]
 pub struct UvSettings {
     /// Metres of surface per texture repeat; `None` = 4 × the fur length.

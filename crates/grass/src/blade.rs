@@ -14,6 +14,7 @@ use crate::GrassError;
 
 /// Shape of the reference blade. All lengths in blade lengths.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(deny_unknown_fields)]
 pub struct BladeShape {
     /// Quads along the blade (level of detail), 1..=256. Default 8.

@@ -20,6 +20,7 @@ const STAGE_SCATTER: u64 = 0x0067_7261_7373; // "grass"
 
 /// Blade field settings.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(deny_unknown_fields)]
 pub struct BladeFieldSettings {
     /// Blades per square metre of furry surface. Default 400.

@@ -31,6 +31,7 @@ pub const MAX_POSES: u32 = 1 << 20;
 
 /// The force grid to simulate.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(deny_unknown_fields)]
 pub struct PoseGridSettings {
     /// Represented poses, `magnitudes × angles` (the thesis's "1000 poses"). Default 1000.
@@ -85,6 +86,7 @@ impl PoseGridSettings {
 
 /// Everything a keyframe table bake needs.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(deny_unknown_fields)]
 pub struct KeyframeSettings {
     /// Reference blade shape (segments = level of detail).

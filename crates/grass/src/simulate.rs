@@ -25,6 +25,7 @@ use crate::blade::ReferenceBlade;
 /// Material of the simulated blade. Units: a blade one length unit long (the keyframes are in
 /// blade lengths), forces in the same unit as [`crate::PoseGridSettings::max_force`].
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(deny_unknown_fields)]
 pub struct BladeMaterial {
     /// Bending stiffness `EI` across the blade (bending towards its normal) at the root, force ×

@@ -15,6 +15,7 @@ use serde::{Deserialize, Serialize};
 /// names = ["Fur", "Mane"]
 /// ```
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(default, deny_unknown_fields)]
 pub struct ImportSettings {
     /// Which triangles carry fur. Default: [`FurMaskSource::All`].
@@ -39,6 +40,7 @@ impl Default for ImportSettings {
 
 /// Where the per-triangle fur mask comes from.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(tag = "source", rename_all = "snake_case", deny_unknown_fields)]
 pub enum FurMaskSource {
     /// Every triangle carries fur (the default).
@@ -76,6 +78,7 @@ pub enum FurMaskSource {
 
 /// One channel of a vertex colour.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(rename_all = "lowercase")]
 pub enum ColorChannel {
     /// Red.
@@ -102,6 +105,7 @@ impl ColorChannel {
 
 /// The welding distance: positions closer than this become one vertex.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(rename_all = "snake_case", deny_unknown_fields)]
 pub enum WeldTolerance {
     /// A fraction of the diagonal of the imported positions' bounding box (after node

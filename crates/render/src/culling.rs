@@ -46,6 +46,9 @@ const SALT_LOD: u32 = 0xb529_7a4d;
 /// frustum tests pad each blade by this share of its half-width more.
 pub const EDGE_ON_WIDTH: f32 = 0.35;
 
+/// The culling parameters of one frame as `blade_cull.wgsl` reads them (`CullParams`): the
+/// frame's planes and eye in the pack frame, the level-of-detail and thinning distances, the
+/// blade's reach and the draw's index ranges.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct CullParams {

@@ -999,34 +999,7 @@ pub struct Effects {
 /// a TOML syntax error or an unknown top-level key), serde's message with Rust's type names in
 /// words (`expected f32` → `expected a number`), and the line and column.
 fn parse_message(text: &str, e: &toml::de::Error, key: &str) -> String {
-    let mut message = e.message().trim().to_string();
-    for (rust, words) in [
-        ("expected f32", "expected a number"),
-        ("expected f64", "expected a number"),
-        ("expected u64", "expected a whole number ≥ 0"),
-        ("expected u32", "expected a whole number ≥ 0"),
-        ("expected usize", "expected a whole number ≥ 0"),
-        ("expected a sequence", "expected an array"),
-        ("expected a map", "expected a table"),
-        ("invalid type: map,", "invalid type: table,"),
-        ("invalid type: sequence,", "invalid type: array,"),
-    ] {
-        message = message.replace(rust, words);
-    }
-    if let Some(n) = message.strip_suffix(", expected an array of length 3").map(str::len) {
-        message.replace_range(n.., ", expected an array of 3 numbers, e.g. `[0.0, 1.0, 0.0]`");
-    }
-    let at = e.span().map(|span| {
-        let before = &text[..span.start.min(text.len())];
-        let line = before.matches('\n').count() + 1;
-        let column = before.len() - before.rfind('\n').map_or(0, |i| i + 1) + 1;
-        format!(" (line {line}, column {column})")
-    });
-    let key = key.trim_start_matches('.');
-    match key.is_empty() || key == "?" {
-        true => format!("{message}{}", at.unwrap_or_default()),
-        false => format!("{key}: {message}{}", at.unwrap_or_default()),
-    }
+    furbake_formats::input::located_message(text, key, e.message(), e.span())
 }
 
 mod table {
@@ -1344,48 +1317,12 @@ impl Scene {
     /// (taplo, Even Better TOML) and for `furbake schema scene`. Feature `schema`.
     #[cfg(feature = "schema")]
     pub fn json_schema() -> schemars::Schema {
-        // TOML has no null: an absent key is the default, so optional keys are not nullable and
-        // null defaults are left out.
-        use serde_json::Value;
-        let no_nulls = schemars::transform::RecursiveTransform(|s: &mut schemars::Schema| {
-            if s.get("default").is_some_and(Value::is_null) {
-                s.remove("default");
-            }
-            if let Some(fields) = s.get_mut("default").and_then(Value::as_object_mut) {
-                fields.retain(|_, v| !v.is_null());
-            }
-            // `Option<T>`: T alone.
-            if let Some(Value::Array(types)) = s.get_mut("type") {
-                types.retain(|t| t != "null");
-                if types.len() == 1 {
-                    let only = types.remove(0);
-                    s.insert("type".into(), only);
-                }
-            }
-            let null = serde_json::json!({ "type": "null" });
-            if let Some(Value::Array(alternatives)) = s.get_mut("anyOf") {
-                alternatives.retain(|a| *a != null);
-                if alternatives.len() == 1 {
-                    let Some(Value::Object(only)) = alternatives.pop() else { return };
-                    s.remove("anyOf");
-                    for (k, v) in only {
-                        s.insert(k, v);
-                    }
-                }
-            }
-        });
-        let mut schema = schemars::generate::SchemaSettings::draft2020_12()
-            .with_transform(no_nulls)
-            .into_generator()
-            .into_root_schema_for::<Scene>();
-        schema.insert("title".into(), "furbake scene".into());
-        schema.insert(
-            "description".into(),
+        furbake_formats::schema::toml_file_schema::<Scene>(
+            "furbake scene",
             "A furbake runtime scene (TOML): the packs to place, the camera and lights, the solver, the effects \
-             the scene calls for and timed events (README \"Scenes\"; `furbake schema scene` prints this schema)."
-                .into(),
-        );
-        schema
+             the scene calls for and timed events (README \"Scenes\"; `furbake schema scene` prints this schema).",
+            false,
+        )
     }
 
     /// Reads, parses and validates the scene file at `path`; relative pack paths are resolved

@@ -36,6 +36,7 @@ pub const MAX_POSES: u64 = 1 << 24;
 
 /// Which mirror symmetries of the animation are exploited (thesis fig. 3.8–3.9).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(rename_all = "lowercase")]
 pub enum Symmetry {
     /// Every pose of the full circle of angles is stored.
@@ -96,6 +97,7 @@ impl Symmetry {
 
 /// How each displacement component is stored.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(rename_all = "lowercase")]
 pub enum DisplacementEncoding {
     /// IEEE binary32, uncompressed.
@@ -265,6 +267,7 @@ impl PoseGrid {
 /// Which lossless compression stages were applied (quantisation is the payload's encoding and
 /// symmetry is [`KeyframeTable::symmetry`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(deny_unknown_fields)]
 pub struct CompressionStages {
     /// Vertices that never move are not stored (`vertex_map` = [`STATIC_VERTEX`]).

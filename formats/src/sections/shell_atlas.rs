@@ -11,6 +11,7 @@ use crate::{FormatError, SectionKind};
 
 /// One population of hairs in the volume (the coat, or the undercoat).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(deny_unknown_fields)]
 pub struct HairCoat {
     /// Hair roots per base texel, in (0, 1]. Coat default 0.05, undercoat 0.35.
@@ -33,6 +34,7 @@ pub struct HairCoat {
 
 /// Parameters of the hair volume and of the atlases sliced from it.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(deny_unknown_fields)]
 pub struct VolumeParams {
     /// Shell layers (volume depth). `fur` preset 16, `grass` 64.

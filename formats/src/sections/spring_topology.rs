@@ -101,6 +101,7 @@ impl fmt::Debug for TopologyKind {
 /// The parameters a topology was built with (stored in the section's metadata). Defaults suit
 /// short fur (2 cm) on a mesh in metres.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 pub struct TopologyParams {
     /// Fur length: distance from a root mass to its tip mass along the vertex normal, metres.
     /// Default 0.02.
