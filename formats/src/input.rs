@@ -128,49 +128,6 @@ pub fn read_text(path: &Path, what: &str) -> std::io::Result<String> {
         .map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, format!("is not UTF-8 text: {e}")))
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn sizes_read_as_people_write_them() {
-        assert_eq!(format_size(16 << 20), "16 MiB");
-        assert_eq!(format_size(3 << 30), "3 GiB");
-        assert_eq!(format_size(1536), "1.5 KiB");
-        assert_eq!(format_size(12), "12 bytes");
-    }
-
-    #[test]
-    fn devices_directories_and_oversized_files_are_refused_before_reading() {
-        let dir = tempfile::tempdir().unwrap();
-        let e = read_bounded(dir.path(), 10, "a scene").unwrap_err();
-        assert!(e.to_string().contains("a directory"), "{e}");
-        #[cfg(unix)]
-        {
-            let e = read_bounded(Path::new("/dev/zero"), 10, "a scene").unwrap_err();
-            assert!(e.to_string().contains("a character device"), "{e}");
-        }
-        let big = dir.path().join("big.toml");
-        std::fs::write(&big, vec![b'#'; 11]).unwrap();
-        let e = read_bounded(&big, 10, "a scene").unwrap_err();
-        assert_eq!(e.kind(), std::io::ErrorKind::FileTooLarge);
-        assert!(e.to_string().contains("limit of 10 bytes for a scene"), "{e}");
-        assert_eq!(read_bounded(&big, 11, "a scene").unwrap().len(), 11);
-    }
-
-    #[cfg(unix)]
-    #[test]
-    fn a_fifo_is_refused_at_once() {
-        let dir = tempfile::tempdir().unwrap();
-        let fifo = dir.path().join("scene.toml");
-        let c = std::ffi::CString::new(fifo.to_str().unwrap()).unwrap();
-        // SAFETY: a valid NUL-terminated path; mkfifo keeps nothing.
-        assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
-        let e = read_text(&fifo, "a scene").unwrap_err();
-        assert!(e.to_string().contains("a FIFO"), "{e}");
-    }
-}
-
 /// serde's message about a hand-written file (a scene, a bake config) in the words of the file's
 /// author: Rust's type names said as what to write (`expected f32` → `expected a number`,
 /// `expected a sequence` → `expected an array`), and a three-element array shown by example.
@@ -219,5 +176,48 @@ pub fn located_message(text: &str, key: &str, message: &str, span: Option<std::o
     match key.is_empty() || key == "?" {
         true => format!("{message}{}", at.unwrap_or_default()),
         false => format!("{key}: {message}{}", at.unwrap_or_default()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sizes_read_as_people_write_them() {
+        assert_eq!(format_size(16 << 20), "16 MiB");
+        assert_eq!(format_size(3 << 30), "3 GiB");
+        assert_eq!(format_size(1536), "1.5 KiB");
+        assert_eq!(format_size(12), "12 bytes");
+    }
+
+    #[test]
+    fn devices_directories_and_oversized_files_are_refused_before_reading() {
+        let dir = tempfile::tempdir().unwrap();
+        let e = read_bounded(dir.path(), 10, "a scene").unwrap_err();
+        assert!(e.to_string().contains("a directory"), "{e}");
+        #[cfg(unix)]
+        {
+            let e = read_bounded(Path::new("/dev/zero"), 10, "a scene").unwrap_err();
+            assert!(e.to_string().contains("a character device"), "{e}");
+        }
+        let big = dir.path().join("big.toml");
+        std::fs::write(&big, vec![b'#'; 11]).unwrap();
+        let e = read_bounded(&big, 10, "a scene").unwrap_err();
+        assert_eq!(e.kind(), std::io::ErrorKind::FileTooLarge);
+        assert!(e.to_string().contains("limit of 10 bytes for a scene"), "{e}");
+        assert_eq!(read_bounded(&big, 11, "a scene").unwrap().len(), 11);
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_fifo_is_refused_at_once() {
+        let dir = tempfile::tempdir().unwrap();
+        let fifo = dir.path().join("scene.toml");
+        let c = std::ffi::CString::new(fifo.to_str().unwrap()).unwrap();
+        // SAFETY: a valid NUL-terminated path; mkfifo keeps nothing.
+        assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
+        let e = read_text(&fifo, "a scene").unwrap_err();
+        assert!(e.to_string().contains("a FIFO"), "{e}");
     }
 }

@@ -15,8 +15,8 @@ fn scene() -> ForceScene {
     ForceScene {
         global_wind: Vec2::new(0.8, 0.3),
         sources: vec![
-            WindSource { position_m: Vec3::new(10.0, 1.0, -5.0), power: 6.0, concentration: 1.5, delayed: false },
-            WindSource { position_m: Vec3::new(-20.0, 2.0, 15.0), power: 9.0, concentration: 1.0, delayed: false },
+            WindSource { position_m: Vec3::new(10.0, 1.0, -5.0), power: 6.0, falloff_exponent: 1.5, delayed: false },
+            WindSource { position_m: Vec3::new(-20.0, 2.0, 15.0), power: 9.0, falloff_exponent: 1.0, delayed: false },
         ],
         colliders: vec![Collider::Sphere {
             center_m: Vec3::new(3.0, 0.3, 3.0),

@@ -20,7 +20,7 @@ use crate::force::ForceField;
 
 /// How a pose is built from the keyframes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Interpolation {
+pub enum PoseInterpolation {
     /// The nearest keyframe (the thesis's choice with 1000 keyframes).
     Nearest,
     /// Linear in-betweening, eq. 3.13, along magnitude and angle.
@@ -29,16 +29,17 @@ pub enum Interpolation {
     Spherical,
 }
 
-impl Interpolation {
+impl PoseInterpolation {
     /// Every mode.
-    pub const ALL: [Interpolation; 3] = [Interpolation::Nearest, Interpolation::Linear, Interpolation::Spherical];
+    pub const ALL: [PoseInterpolation; 3] =
+        [PoseInterpolation::Nearest, PoseInterpolation::Linear, PoseInterpolation::Spherical];
 
     /// `nearest`, `linear` or `spherical`.
     pub fn name(self) -> &'static str {
         match self {
-            Interpolation::Nearest => "nearest",
-            Interpolation::Linear => "linear",
-            Interpolation::Spherical => "spherical",
+            PoseInterpolation::Nearest => "nearest",
+            PoseInterpolation::Linear => "linear",
+            PoseInterpolation::Spherical => "spherical",
         }
     }
 }
@@ -54,7 +55,7 @@ pub struct PoseKey {
 
 /// The poses around a force and their blend: `keys = [(m0, j0), (m0, j1), (m1, j0), (m1, j1)]`,
 /// `t_angle` and `t_magnitude` the fractions between them; `weights` the bilinear weights (for
-/// [`Interpolation::Nearest`] all four keys are the nearest pose and `weights = [1, 0, 0, 0]`).
+/// [`PoseInterpolation::Nearest`] all four keys are the nearest pose and `weights = [1, 0, 0, 0]`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PoseBlend {
     /// The four neighbouring keys.
@@ -192,11 +193,11 @@ impl KeyframeDecoder {
     }
 
     /// The poses around a blade-local force `(along width axis, along normal)` and their blend.
-    pub fn select(&self, force_local: Vec2, interpolation: Interpolation) -> PoseBlend {
+    pub fn select(&self, force_local: Vec2, interpolation: PoseInterpolation) -> PoseBlend {
         let (mu, alpha) = self.grid_coordinates(force_local);
         let a = self.grid.angles as i64;
         let wrap = |j: f32| (j as i64).rem_euclid(a) as u32;
-        if interpolation == Interpolation::Nearest {
+        if interpolation == PoseInterpolation::Nearest {
             let key = self.nearest_key(mu, alpha);
             return PoseBlend { keys: [key; 4], weights: [1.0, 0.0, 0.0, 0.0], t_angle: 0.0, t_magnitude: 0.0 };
         }
@@ -217,15 +218,15 @@ impl KeyframeDecoder {
 
     /// Blade-local vertex positions of the pose `blend` (reference + displacement; the spherical
     /// mode slerps root→vertex vectors).
-    pub fn pose_positions(&self, blend: &PoseBlend, interpolation: Interpolation, out: &mut [Vec3]) {
+    pub fn pose_positions(&self, blend: &PoseBlend, interpolation: PoseInterpolation, out: &mut [Vec3]) {
         for (v, o) in out.iter_mut().enumerate().take(self.reference.len()) {
             let r = self.reference[v];
             *o = match interpolation {
-                Interpolation::Nearest => r + self.displacement(blend.keys[0], v),
-                Interpolation::Linear => {
+                PoseInterpolation::Nearest => r + self.displacement(blend.keys[0], v),
+                PoseInterpolation::Linear => {
                     r + blend.keys.iter().zip(blend.weights).map(|(k, w)| self.displacement(*k, v) * w).sum::<Vec3>()
                 }
-                Interpolation::Spherical => {
+                PoseInterpolation::Spherical => {
                     let p = blend.keys.map(|k| r + self.displacement(k, v));
                     let lo = slerp(p[0], p[1], blend.t_angle);
                     let hi = slerp(p[2], p[3], blend.t_angle);
@@ -244,7 +245,7 @@ impl KeyframeDecoder {
         yaw_rad: f32,
         height_scale: f32,
         force: Vec3,
-        interpolation: Interpolation,
+        interpolation: PoseInterpolation,
         out: &mut [Vec3],
     ) {
         let (s, c) = yaw_rad.sin_cos();
@@ -475,7 +476,7 @@ mod tests {
             for k in 0..2000 {
                 let theta = k as f32 * 0.0131 - 3.0;
                 let force = Vec2::new(theta.sin(), theta.cos()) * (k % 50) as f32 * 0.1;
-                let key = d.select(force, Interpolation::Nearest).keys[0];
+                let key = d.select(force, PoseInterpolation::Nearest).keys[0];
                 let expect = match d.stored_pose(key) {
                     None => 0,
                     Some(sp) => (sp.index + 1) << 2 | (sp.flip_z as u32) << 1 | sp.flip_x as u32,
@@ -515,7 +516,7 @@ mod tests {
         for (yaw, force) in
             [(0.3f32, Vec3::new(1.2, 0.0, 2.1)), (2.0, Vec3::new(-3.0, 0.0, 0.4)), (-1.0, Vec3::new(0.1, 0.0, -0.9))]
         {
-            for mode in Interpolation::ALL {
+            for mode in PoseInterpolation::ALL {
                 let mut a = vec![Vec3::ZERO; 32];
                 let mut b = vec![Vec3::ZERO; 32];
                 d.world_positions(root, yaw, 0.3, force, mode, &mut a);
@@ -542,7 +543,7 @@ mod tests {
             for k in 0..40 {
                 let theta = k as f32 * 0.161;
                 let force = Vec2::new(theta.sin(), theta.cos()) * (0.1 * k as f32);
-                for mode in Interpolation::ALL {
+                for mode in PoseInterpolation::ALL {
                     let (mut a, mut b) = (vec![Vec3::ZERO; 32], vec![Vec3::ZERO; 32]);
                     full.pose_positions(&full.select(force, mode), mode, &mut a);
                     half.pose_positions(&half.select(force, mode), mode, &mut b);
@@ -613,7 +614,7 @@ mod tests {
         let theta = g.angle(j);
         let force = Vec2::new(theta.sin(), theta.cos()) * g.magnitude(m);
         let key = PoseKey { magnitude: m + 1, angle: j };
-        for mode in Interpolation::ALL {
+        for mode in PoseInterpolation::ALL {
             let blend = d.select(force, mode);
             let mut p = vec![Vec3::ZERO; 32];
             d.pose_positions(&blend, mode, &mut p);
@@ -632,12 +633,12 @@ mod tests {
         let keyed =
             |angle| (d.reference()[30] + d.displacement(PoseKey { magnitude: g.magnitudes, angle }, 30)).length();
         let mean = 0.5 * (keyed(j) + keyed(j + 1));
-        let (lin, sph) = (tip(Interpolation::Linear), tip(Interpolation::Spherical));
+        let (lin, sph) = (tip(PoseInterpolation::Linear), tip(PoseInterpolation::Spherical));
         assert!((sph - mean).abs() < 2e-3, "slerp keeps the length: {sph} vs {mean}");
         assert!((lin - mean).abs() > 2.0 * (sph - mean).abs(), "lerp shortens the blade: {lin} vs {sph} ({mean})");
         // Zero force: the reference blade.
         let mut p = vec![Vec3::ONE; 32];
-        d.pose_positions(&d.select(Vec2::ZERO, Interpolation::Nearest), Interpolation::Nearest, &mut p);
+        d.pose_positions(&d.select(Vec2::ZERO, PoseInterpolation::Nearest), PoseInterpolation::Nearest, &mut p);
         assert_eq!(p, d.reference());
         assert_eq!(d.nearest_packed(Vec2::ZERO), 0);
     }

@@ -21,7 +21,7 @@ pub struct WindSource {
     /// Emissive power `ω` (force × metres^σ).
     pub power: f32,
     /// Concentration `σ` (≥ 0): higher values keep the wind more local.
-    pub concentration: f32,
+    pub falloff_exponent: f32,
     /// Delay the attenuation to the blades (fig. 4.8) instead of applying it at the corners.
     pub delayed: bool,
 }
@@ -35,7 +35,7 @@ impl WindSource {
         if d == 0.0 {
             return Vec2::ZERO;
         }
-        (wp / d).xz() * (self.power / d.max(min_distance_m).powf(self.concentration))
+        (wp / d).xz() * (self.power / d.max(min_distance_m).powf(self.falloff_exponent))
     }
 }
 
@@ -273,7 +273,7 @@ impl ForceField {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::decode::{Interpolation, KeyframeDecoder};
+    use crate::decode::{KeyframeDecoder, PoseInterpolation};
     use crate::field::{BladeFieldSettings, ground_grid_mesh, scatter_blades};
     use crate::keyframes::{KeyframeSettings, PoseGridSettings, bake_keyframe_table};
 
@@ -295,8 +295,8 @@ mod tests {
         let scene = ForceScene {
             global_wind: Vec2::new(2.0, 1.0),
             sources: vec![
-                WindSource { position_m: Vec3::new(0.0, 0.5, 3.0), power: 4.0, concentration: 1.0, delayed: false },
-                WindSource { position_m: Vec3::new(-3.0, 0.5, 0.0), power: 4.0, concentration: 2.0, delayed: true },
+                WindSource { position_m: Vec3::new(0.0, 0.5, 3.0), power: 4.0, falloff_exponent: 1.0, delayed: false },
+                WindSource { position_m: Vec3::new(-3.0, 0.5, 0.0), power: 4.0, falloff_exponent: 2.0, delayed: true },
             ],
             blockers: vec![blocker],
             ..ForceScene::default()
@@ -315,9 +315,9 @@ mod tests {
             let corners = field.grid().corner_indices(c).map(|i| field.grid().corner_position(i));
             if corners.iter().all(|q| blocker.contains(Vec2::from(*q))) {
                 assert_eq!(f, Vec2::ZERO, "blade at {p}");
-                d.world_positions(p, 0.7, 0.3, f.extend(0.0).xzy(), Interpolation::Linear, &mut pose);
+                d.world_positions(p, 0.7, 0.3, f.extend(0.0).xzy(), PoseInterpolation::Linear, &mut pose);
                 let mut rest = vec![Vec3::ZERO; 32];
-                d.world_positions(p, 0.7, 0.3, Vec3::ZERO, Interpolation::Linear, &mut rest);
+                d.world_positions(p, 0.7, 0.3, Vec3::ZERO, PoseInterpolation::Linear, &mut rest);
                 assert_eq!(pose, rest);
                 inside += 1;
             } else if corners.iter().all(|q| !blocker.contains(Vec2::from(*q))) {
@@ -362,7 +362,7 @@ mod tests {
                 blades.yaw_rad[b],
                 blades.height_scale[b],
                 f.extend(0.0).xzy(),
-                Interpolation::Linear,
+                PoseInterpolation::Linear,
                 &mut pose,
             );
             let tip = (pose[30] + pose[31]) * 0.5 - p;
@@ -374,7 +374,8 @@ mod tests {
 
     #[test]
     fn corner_forces_follow_eq_4_1_and_delay_removes_cluster_artefacts() {
-        let src = WindSource { position_m: Vec3::new(0.1, 0.0, 0.2), power: 2.0, concentration: 3.0, delayed: false };
+        let src =
+            WindSource { position_m: Vec3::new(0.1, 0.0, 0.2), power: 2.0, falloff_exponent: 3.0, delayed: false };
         // eq. 4.1 at a point.
         let p = Vec3::new(1.1, 0.0, 0.2);
         assert!((src.force_at(p, 0.05) - Vec2::new(2.0, 0.0)).length() < 1e-6);

@@ -10,7 +10,7 @@
 //! eq. 3.13 and spherical eq. 3.14 in-betweening). No CLI, no GPU.
 //!
 //! ```
-//! use furbake_grass::{KeyframeSettings, bake_keyframe_table, KeyframeDecoder, Interpolation};
+//! use furbake_grass::{KeyframeSettings, bake_keyframe_table, KeyframeDecoder, PoseInterpolation};
 //! use furbake_formats::sections::keyframe_table::Symmetry;
 //!
 //! let mut settings = KeyframeSettings::default(); // 8 segments, 1000 poses, all stages, snorm16
@@ -25,8 +25,8 @@
 //! let decoder = KeyframeDecoder::new(&table)?;
 //! let mut pose = vec![glam::Vec3::ZERO; 32];
 //! // A force of 2 units straight onto the blade's front (angle 0 to its normal).
-//! let blend = decoder.select(glam::Vec2::new(0.0, 2.0), Interpolation::Linear);
-//! decoder.pose_positions(&blend, Interpolation::Linear, &mut pose);
+//! let blend = decoder.select(glam::Vec2::new(0.0, 2.0), PoseInterpolation::Linear);
+//! decoder.pose_positions(&blend, PoseInterpolation::Linear, &mut pose);
 //! assert!(pose[31].z > 0.05, "the tip bends along the force");
 //! # Ok::<(), furbake_grass::GrassError>(())
 //! ```
@@ -41,7 +41,7 @@ pub mod rng;
 pub mod simulate;
 
 pub use blade::{BladeShape, ReferenceBlade, build_reference_blade};
-pub use decode::{BladeSoa, Interpolation, KeyframeDecoder, PoseBlend, PoseKey};
+pub use decode::{BladeSoa, KeyframeDecoder, PoseBlend, PoseInterpolation, PoseKey};
 pub use field::{BladeFieldSettings, ground_grid_mesh, scatter_blades};
 pub use force::{Collider, ForceField, ForceScene, WindBlocker, WindSource};
 pub use keyframes::{

@@ -109,7 +109,7 @@ fn blades(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
         BladeFieldSettings, BladeMaterial, BladeShape, ForceField, ForceScene, WindSource, build_reference_blade,
         compress_poses, ground_grid_mesh, scatter_blades, simulate_poses,
     };
-    use furbake_render::{BladeRenderer, BladeSettings, GrassCulling};
+    use furbake_render::{BladeRenderSettings, BladeRenderer, GrassCulling};
     use glam::{Vec2, Vec3};
 
     let target_blades: f64 = args.first().map(|s| s.parse()).transpose()?.unwrap_or(1_000_000.0);
@@ -143,7 +143,7 @@ fn blades(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
         &gpu.queue,
         &field,
         &table,
-        &BladeSettings::default(),
+        &BladeRenderSettings::default(),
         &RenderTarget::desc(),
     )?;
     let culling = *blades.culling();
@@ -166,7 +166,7 @@ fn blades(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
                 WindSource {
                     position_m: Vec3::new(center[0] + a.cos() * half * 0.6, 0.3, center[2] + a.sin() * half * 0.6),
                     power: 3.0,
-                    concentration: 1.0,
+                    falloff_exponent: 1.0,
                     delayed: false,
                 }
             })

@@ -24,7 +24,7 @@ use furbake_import::{ImportSettings, import_gltf};
 use furbake_render::SceneFrame;
 use furbake_render::headless::{HeadlessGpu, SceneObject, read_back_texture};
 use furbake_render::{
-    BladeRenderer, BladeSettings, FurAsset, FurRenderer, PipelineCache, RenderSettings, TargetDesc, View,
+    BladeRenderSettings, BladeRenderer, FurAsset, FurRenderer, PipelineCache, RenderSettings, TargetDesc, View,
 };
 use furbake_runtime::ShellVertexLayout;
 use furbake_runtime::{Camera, Light, LightSource, Pack};
@@ -120,7 +120,7 @@ impl Furbake {
         // The patch's vertex colours are white: tinted to a dry-grass green.
         let grass = RenderSettings { tint: [0.45, 0.6, 0.3], ..settings };
         let patch = FurRenderer::new(pipelines, queue, &FurAsset::from_pack(&packs.grass, true)?, &grass, target)?;
-        let blades = BladeRenderer::from_pack(pipelines, queue, &packs.grass, &BladeSettings::default(), target)?
+        let blades = BladeRenderer::from_pack(pipelines, queue, &packs.grass, &BladeRenderSettings::default(), target)?
             .ok_or("the grass patch has no blade field")?;
         Ok(Furbake { fox, patch, blades })
     }

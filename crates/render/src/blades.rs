@@ -18,7 +18,7 @@
 
 use furbake_formats::sections::blade_field::BladeField;
 use furbake_formats::sections::keyframe_table::{Displacements, KeyframeTable, STATIC_VERTEX};
-use furbake_grass::{ForceField, Interpolation};
+use furbake_grass::{ForceField, PoseInterpolation};
 use wgpu::util::DeviceExt;
 
 use crate::culling::{BLOCK, BLOCKS_AT, BladeLods, CullParams, GrassCulling, LISTS_AT};
@@ -120,10 +120,10 @@ const WORKGROUP: u32 = 64;
 
 /// How blades are drawn.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct BladeSettings {
-    /// Pose selection: [`Interpolation::Nearest`] (default) or [`Interpolation::Linear`];
+pub struct BladeRenderSettings {
+    /// Pose selection: [`PoseInterpolation::Nearest`] (default) or [`PoseInterpolation::Linear`];
     /// spherical is CPU-only and refused.
-    pub interpolation: Interpolation,
+    pub interpolation: PoseInterpolation,
     /// Linear RGB blade colour. Default a grass green `[0.18, 0.45, 0.08]`.
     pub color: [f32; 3],
     /// Lambert diffuse (off: unlit colour). Default true.
@@ -140,9 +140,9 @@ pub struct BladeSettings {
     pub views: u32,
 }
 
-impl BladeSettings {
+impl BladeRenderSettings {
     /// These settings with `options`' blade key (`blade_shading`) applied where it is given.
-    pub fn with_options(mut self, options: &furbake_runtime::RenderOptions) -> BladeSettings {
+    pub fn with_options(mut self, options: &furbake_runtime::RenderOptions) -> BladeRenderSettings {
         if let Some(on) = options.blade_shading {
             self.shading.enabled = on;
         }
@@ -160,10 +160,10 @@ impl BladeSettings {
     }
 }
 
-impl Default for BladeSettings {
+impl Default for BladeRenderSettings {
     fn default() -> Self {
-        BladeSettings {
-            interpolation: Interpolation::Nearest,
+        BladeRenderSettings {
+            interpolation: PoseInterpolation::Nearest,
             color: [0.18, 0.45, 0.08],
             lambert: true,
             culling: GrassCulling::default(),
@@ -183,7 +183,7 @@ impl Default for BladeSettings {
 pub struct BladeShading {
     /// Off: the flat colour × two-sided Lambert (every other field ignored). Default true.
     pub enabled: bool,
-    /// Linear RGB colour at the tip; the root takes [`BladeSettings::color`]. Default a lighter,
+    /// Linear RGB colour at the tip; the root takes [`BladeRenderSettings::color`]. Default a lighter,
     /// yellower green `[0.36, 0.58, 0.12]`.
     pub tip_color: [f32; 3],
     /// How much darker the root is than the tip (grass thesis fig. 4.1's v-shadowing: the
@@ -324,7 +324,7 @@ const _: () = assert!(std::mem::offset_of!(FrameAndCull, cull) == CULL_OFFSET as
 /// wind sources with their per-corner directions, and the culling passes' parameters, decisions,
 /// work (indirect draw arguments and block counts) and instance lists.
 struct InstanceBuffers {
-    /// One per view ([`BladeSettings::views`]): what the camera decides.
+    /// One per view ([`BladeRenderSettings::views`]): what the camera decides.
     views: Vec<ViewBuffers>,
     params: wgpu::Buffer,
     forces: wgpu::Buffer,
@@ -544,7 +544,7 @@ impl BladeRenderer {
         queue: &wgpu::Queue,
         field: &BladeField,
         table: &KeyframeTable,
-        settings: &BladeSettings,
+        settings: &BladeRenderSettings,
         target: &TargetDesc,
     ) -> Result<BladeRenderer, RenderError> {
         let draw_pipeline = pipelines.blades(target)?;
@@ -558,15 +558,15 @@ impl BladeRenderer {
         _queue: &wgpu::Queue,
         field: &BladeField,
         table: &KeyframeTable,
-        settings: &BladeSettings,
+        settings: &BladeRenderSettings,
         target: &TargetDesc,
         draw_pipeline: wgpu::RenderPipeline,
     ) -> Result<BladeRenderer, RenderError> {
         let device = pipelines.device();
         let interpolation = match settings.interpolation {
-            Interpolation::Nearest => 0,
-            Interpolation::Linear => 1,
-            Interpolation::Spherical => {
+            PoseInterpolation::Nearest => 0,
+            PoseInterpolation::Linear => 1,
+            PoseInterpolation::Spherical => {
                 return Err(RenderError::Parameter {
                     what: "spherical blade interpolation is CPU-only; use nearest or linear".into(),
                 });
@@ -577,7 +577,7 @@ impl BladeRenderer {
         }
         check_culling(&settings.culling)?;
         settings.shading.validate()?;
-        crate::renderer::check_view_count(settings.views, "BladeSettings::views")?;
+        crate::renderer::check_view_count(settings.views, "BladeRenderSettings::views")?;
         // The checks of `KeyframeDecoder::new`, so a hand-built table cannot index out of range.
         let g = table.grid;
         let factor = table.symmetry.factor();
@@ -798,7 +798,7 @@ impl BladeRenderer {
         pipelines: &PipelineCache,
         queue: &wgpu::Queue,
         pack: &furbake_formats::Pack,
-        settings: &BladeSettings,
+        settings: &BladeRenderSettings,
         target: &TargetDesc,
     ) -> Result<Option<BladeRenderer>, RenderError> {
         let Some(field) = pack.optional_section::<BladeField>()? else { return Ok(None) };
@@ -914,7 +914,7 @@ impl BladeRenderer {
             });
         }
         let bad = |v: &[f32]| v.iter().any(|c| !c.is_finite());
-        if delayed.iter().any(|s| bad(&s.position_m.to_array()) || bad(&[s.power, s.concentration]))
+        if delayed.iter().any(|s| bad(&s.position_m.to_array()) || bad(&[s.power, s.falloff_exponent]))
             || bad(&[scene.sample_height_m, scene.min_distance_m])
         {
             return Err(RenderError::Parameter { what: "delayed wind sources must be finite".into() });
@@ -939,7 +939,7 @@ impl BladeRenderer {
             let w = s.position_m;
             sources.push(DelayedSourceGpu {
                 position_power: [w.x, w.y, w.z, s.power],
-                params: [s.concentration, scene.min_distance_m, 0.0, 0.0],
+                params: [s.falloff_exponent, scene.min_distance_m, 0.0, 0.0],
             });
         }
         if !sources.is_empty() {
@@ -1100,7 +1100,7 @@ impl BladeRenderer {
         self.prepare_slot(queue, encoder, 0, frame);
     }
 
-    /// Writes the uniforms of view `view` (1 ≤ `view` < [`BladeSettings::views`]; view 0 is
+    /// Writes the uniforms of view `view` (1 ≤ `view` < [`BladeRenderSettings::views`]; view 0 is
     /// [`BladeRenderer::prepare`]'s) and records its culling passes into `encoder`, so that
     /// [`BladeRenderer::render_view`] draws this frame's blades from another camera before the
     /// host submits (each view keeps its own uniforms and instance lists). A view out of range is
@@ -1121,7 +1121,7 @@ impl BladeRenderer {
         if view < self.groups.len() {
             return Ok(());
         }
-        Err(crate::renderer::view_out_of_range(view, self.groups.len(), "BladeSettings::views"))
+        Err(crate::renderer::view_out_of_range(view, self.groups.len(), "BladeRenderSettings::views"))
     }
 
     fn prepare_slot(

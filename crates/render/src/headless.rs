@@ -11,7 +11,8 @@
 use furbake_runtime::Pack;
 
 use crate::{
-    BladeRenderer, BladeSettings, FurAsset, FurRenderer, PipelineCache, RenderError, RenderSettings, TargetDesc, View,
+    BladeRenderSettings, BladeRenderer, FurAsset, FurRenderer, PipelineCache, RenderError, RenderSettings, TargetDesc,
+    View,
 };
 
 pub use crate::scene::SceneObject;
@@ -389,8 +390,8 @@ pub fn render_preview(
 /// The blade settings of a pack previewed alone: every blade in view at full detail (a pack has
 /// no scene to say what its units are — the Fox glTF is in centimetres — so only the frustum
 /// culls).
-fn preview_blade_settings() -> BladeSettings {
-    BladeSettings { culling: crate::GrassCulling::frustum_only(), ..BladeSettings::default() }
+fn preview_blade_settings() -> BladeRenderSettings {
+    BladeRenderSettings { culling: crate::GrassCulling::frustum_only(), ..BladeRenderSettings::default() }
 }
 
 /// [`render_preview`] with a chosen view (`None`: framed automatically) and fur settings.
@@ -410,7 +411,7 @@ fn render_pack_with(
     height: u32,
     view: Option<View>,
     settings: &RenderSettings,
-    blade_settings: &BladeSettings,
+    blade_settings: &BladeRenderSettings,
 ) -> Result<image::RgbaImage, RenderError> {
     let asset = FurAsset::from_pack(pack, settings.fins)?;
     let gpu = HeadlessGpu::new()?;

@@ -147,7 +147,7 @@ use headless::LAVAPIPE_HINT;
 use scene::RENDERER_OVERHEAD_BYTES;
 
 pub use asset::FurAsset;
-pub use blades::{BladeRenderer, BladeSettings, BladeShading};
+pub use blades::{BladeRenderSettings, BladeRenderer, BladeShading};
 pub use culling::GrassCulling;
 pub use lod::ShellLod;
 pub use pipelines::PipelineCache;

@@ -33,7 +33,7 @@ use glam::{Mat4, Vec3};
 use crate::headless::RenderTarget;
 use crate::shaders::FrameUniforms;
 use crate::{
-    BladeRenderer, BladeSettings, FurAsset, FurGpuAsset, FurRenderer, PipelineCache, RenderError, RenderSettings,
+    BladeRenderSettings, BladeRenderer, FurAsset, FurGpuAsset, FurRenderer, PipelineCache, RenderError, RenderSettings,
     TargetDesc, View,
 };
 
@@ -408,7 +408,7 @@ impl SceneRenderer {
                 let mut settings = settings;
                 if pack.has(SectionKind::BLADE_FIELD) && settings.tint == RenderSettings::default().tint {
                     // The ground under the blades takes the grass colour.
-                    settings.tint = BladeSettings::default().ground_tint();
+                    settings.tint = BladeRenderSettings::default().ground_tint();
                 }
                 Some(FurRenderer::with_gpu_asset(pipelines, asset, gpu.clone(), &settings, target)?)
             } else {
@@ -416,8 +416,8 @@ impl SceneRenderer {
             };
             // A grass pack placed again draws from the first placement's uploaded field.
             let first = (0..i).find(|&j| std::sync::Arc::ptr_eq(world.pack(j), pack));
-            let blade_settings =
-                BladeSettings { culling: scene.grass_culling, ..BladeSettings::default() }.with_options(&options);
+            let blade_settings = BladeRenderSettings { culling: scene.grass_culling, ..BladeRenderSettings::default() }
+                .with_options(&options);
             let earlier = first.and_then(|j| packs.get(j)).and_then(|p: &PackRenderers| p.blades.as_ref());
             let blades = match earlier.filter(|b| b.shading_enabled() == blade_settings.shading.enabled) {
                 Some(earlier) => Some(earlier.instance(pipelines)?),

@@ -10,7 +10,7 @@ use crate::common;
 use crate::common::gpu;
 use furbake_grass::{ForceField, ForceScene};
 use furbake_render::headless::{RenderTarget, read_back};
-use furbake_render::{BladeRenderer, BladeSettings, BladeShading, View};
+use furbake_render::{BladeRenderSettings, BladeRenderer, BladeShading, View};
 use furbake_runtime::{Camera, Light};
 use image::RgbaImage;
 
@@ -34,7 +34,7 @@ const BACK: [f32; 3] = [-0.2, -0.5, 1.0];
 
 fn render(shading: BladeShading, light: [f32; 3], name: &str) -> RgbaImage {
     let (device, queue) = (&gpu().device, &gpu().queue);
-    let settings = BladeSettings { shading, ..BladeSettings::default() };
+    let settings = BladeRenderSettings { shading, ..BladeRenderSettings::default() };
     let blades = BladeRenderer::new(
         gpu().pipelines(),
         queue,
@@ -157,7 +157,7 @@ fn out_of_range_shading_is_refused_by_name() {
         (BladeShading { tip_color: [f32::NAN, 0.0, 0.0], ..BladeShading::default() }, "tip_color"),
         (BladeShading { translucency: -0.1, ..BladeShading::default() }, "translucency"),
     ] {
-        let settings = BladeSettings { shading: bad, ..BladeSettings::default() };
+        let settings = BladeRenderSettings { shading: bad, ..BladeRenderSettings::default() };
         let err = BladeRenderer::new(
             gpu().pipelines(),
             queue,
@@ -222,7 +222,8 @@ fn blade_coverage_is_the_outline_area() {
         field.height_scale[i] = 1.0;
     }
     let size = 256u32;
-    let settings = BladeSettings { culling: furbake_render::GrassCulling::frustum_only(), ..BladeSettings::default() };
+    let settings =
+        BladeRenderSettings { culling: furbake_render::GrassCulling::frustum_only(), ..BladeRenderSettings::default() };
     let blades = BladeRenderer::new(
         gpu().pipelines(),
         queue,

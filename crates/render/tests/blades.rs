@@ -15,11 +15,11 @@ use furbake_formats::sections::blade_field::BladeField;
 use furbake_formats::sections::keyframe_table::{CompressionStages, DisplacementEncoding, KeyframeTable, Symmetry};
 use furbake_grass::keyframes::{PoseGridSettings, SimulatedPoses};
 use furbake_grass::{
-    BladeFieldSettings, BladeMaterial, BladeShape, ForceField, ForceScene, Interpolation, KeyframeDecoder, WindSource,
-    build_reference_blade, compress_poses, ground_grid_mesh, scatter_blades, simulate_poses,
+    BladeFieldSettings, BladeMaterial, BladeShape, ForceField, ForceScene, KeyframeDecoder, PoseInterpolation,
+    WindSource, build_reference_blade, compress_poses, ground_grid_mesh, scatter_blades, simulate_poses,
 };
 use furbake_render::headless::{RenderTarget, read_back};
-use furbake_render::{BladeRenderer, BladeSettings, BladeShading, View};
+use furbake_render::{BladeRenderSettings, BladeRenderer, BladeShading, View};
 use furbake_runtime::{Camera, Light};
 use glam::{Vec2, Vec3, Vec3Swizzles};
 use image::RgbaImage;
@@ -53,7 +53,7 @@ fn gusty_scene() -> ForceScene {
         sources: vec![WindSource {
             position_m: Vec3::new(-0.6, 0.1, 0.5),
             power: 1.2,
-            concentration: 1.0,
+            falloff_exponent: 1.0,
             delayed: false,
         }],
         ..ForceScene::default()
@@ -64,14 +64,14 @@ fn gusty_scene() -> ForceScene {
 /// rounding boundary (where a 1-ulp difference in the force may legitimately pick the neighbour).
 const BOUNDARY: f32 = 1e-4;
 
-/// Global wind plus three point sources of different power and concentration (eq. 4.1), one
+/// Global wind plus three point sources of different power and falloff_exponent (eq. 4.1), one
 /// inside the patch, one at its edge and one far away: the per-blade force (four cluster corner
 /// forces × bilinear weights, eq. 3.6) varies in size and direction across every cluster.
 fn three_source_scene() -> ForceScene {
-    let source = |x, z, power, concentration| WindSource {
+    let source = |x, z, power, falloff_exponent| WindSource {
         position_m: Vec3::new(x, 0.2, z),
         power,
-        concentration,
+        falloff_exponent,
         delayed: false,
     };
     ForceScene {
@@ -139,8 +139,8 @@ fn compare_with_cpu(scene: &ForceScene, name: &str, with_scene: bool) {
         let table = table(symmetry, encoding);
         let decoder = KeyframeDecoder::new(&table).unwrap();
         let vc = decoder.vertex_count();
-        for interpolation in [Interpolation::Nearest, Interpolation::Linear] {
-            let settings = BladeSettings { interpolation, ..Default::default() };
+        for interpolation in [PoseInterpolation::Nearest, PoseInterpolation::Linear] {
+            let settings = BladeRenderSettings { interpolation, ..Default::default() };
             let blades =
                 BladeRenderer::new(gpu().pipelines(), &gpu().queue, &field, &table, &settings, &RenderTarget::desc())
                     .unwrap();
@@ -172,7 +172,7 @@ fn compare_with_cpu(scene: &ForceScene, name: &str, with_scene: bool) {
                 let err = (0..vc).map(|v| Vec3::from(got[b * vc + v]).distance(cpu[v])).fold(0.0f32, f32::max);
                 // A zero force (all four corners in a windless area) is no boundary: magnitude 0
                 // selects the rest pose whatever the angle.
-                let on_boundary = interpolation == Interpolation::Nearest
+                let on_boundary = interpolation == PoseInterpolation::Nearest
                     && f != Vec2::ZERO
                     && [mu + 0.5, alpha + 0.5].iter().any(|x| {
                         let fr = x - x.floor();
@@ -213,26 +213,29 @@ fn bad_inputs_are_refused() {
     let field = patch();
     let table = table(Symmetry::XZ, DisplacementEncoding::Snorm16);
     let (device, queue, pipelines) = (&gpu().device, &gpu().queue, gpu().pipelines());
-    let spherical = BladeSettings { interpolation: Interpolation::Spherical, ..Default::default() };
+    let spherical = BladeRenderSettings { interpolation: PoseInterpolation::Spherical, ..Default::default() };
     assert!(BladeRenderer::new(pipelines, queue, &field, &table, &spherical, &RenderTarget::desc()).is_err());
     let mut broken = table.clone();
     broken.vertex_map[3] = broken.stored_vectors + 7;
     assert!(
-        BladeRenderer::new(pipelines, queue, &field, &broken, &BladeSettings::default(), &RenderTarget::desc())
+        BladeRenderer::new(pipelines, queue, &field, &broken, &BladeRenderSettings::default(), &RenderTarget::desc())
             .is_err()
     );
     let mut short = field.clone();
     short.yaw_rad.pop();
     assert!(
-        BladeRenderer::new(pipelines, queue, &short, &table, &BladeSettings::default(), &RenderTarget::desc()).is_err()
+        BladeRenderer::new(pipelines, queue, &short, &table, &BladeRenderSettings::default(), &RenderTarget::desc())
+            .is_err()
     );
     let mut lost = field.clone();
     lost.cluster[0] = lost.grid.clusters() as u32;
     assert!(
-        BladeRenderer::new(pipelines, queue, &lost, &table, &BladeSettings::default(), &RenderTarget::desc()).is_err()
+        BladeRenderer::new(pipelines, queue, &lost, &table, &BladeRenderSettings::default(), &RenderTarget::desc())
+            .is_err()
     );
     let blades =
-        BladeRenderer::new(pipelines, queue, &field, &table, &BladeSettings::default(), &RenderTarget::desc()).unwrap();
+        BladeRenderer::new(pipelines, queue, &field, &table, &BladeRenderSettings::default(), &RenderTarget::desc())
+            .unwrap();
     assert!(blades.read_positions(device, queue).is_err(), "nothing computed yet");
     let corners = field.grid.corners();
     assert!(blades.set_corner_forces(queue, &vec![[0.0; 2]; corners - 1]).is_err());
@@ -250,7 +253,7 @@ fn from_pack_uploads_the_packs_blade_field_and_keyframe_table() {
     let bare = dir.path().join("table_only.fbk");
     furbake_formats::PackWriter::new().push_section(&table).write_atomic(&bare).unwrap();
     let (device, queue, pipelines) = (&gpu().device, &gpu().queue, gpu().pipelines());
-    let settings = BladeSettings::default();
+    let settings = BladeRenderSettings::default();
     let pack = furbake_runtime::Pack::open(&bare).unwrap();
     assert!(
         BladeRenderer::from_pack(pipelines, queue, &pack, &settings, &RenderTarget::desc()).unwrap().is_none(),
@@ -297,9 +300,15 @@ fn side_view() -> View {
 
 fn render(field: &BladeField, table: &KeyframeTable, scene: &ForceScene) -> RgbaImage {
     let (device, queue) = (&gpu().device, &gpu().queue);
-    let blades =
-        BladeRenderer::new(gpu().pipelines(), queue, field, table, &BladeSettings::default(), &RenderTarget::desc())
-            .unwrap();
+    let blades = BladeRenderer::new(
+        gpu().pipelines(),
+        queue,
+        field,
+        table,
+        &BladeRenderSettings::default(),
+        &RenderTarget::desc(),
+    )
+    .unwrap();
     let mut forces = ForceField::new(field.grid);
     forces.update(scene);
     blades.set_force_field(queue, &forces).unwrap();
@@ -374,11 +383,11 @@ fn blades_draw_over_what_the_target_holds_without_a_clear() {
     let view =
         View { camera: Camera { eye: [0.3, 0.5, 2.2], target: [0.3, 0.12, 0.0], ..side_view().camera }, ..side_view() };
     // Flat shading: this test is about compositing, and a flat teal is recognisable exactly.
-    let flat_green = BladeSettings { shading: BladeShading::FLAT, ..Default::default() };
+    let flat_green = BladeRenderSettings { shading: BladeShading::FLAT, ..Default::default() };
     let first =
         BladeRenderer::new(gpu().pipelines(), queue, &left, &table, &flat_green, &RenderTarget::desc()).unwrap();
     first.render_to(device, queue, &target, &view, Some([0.0, 0.0, 1.0, 1.0])).unwrap();
-    let teal = BladeSettings { color: [0.0, 0.5, 0.5], shading: BladeShading::FLAT, ..Default::default() };
+    let teal = BladeRenderSettings { color: [0.0, 0.5, 0.5], shading: BladeShading::FLAT, ..Default::default() };
     let second = BladeRenderer::new(gpu().pipelines(), queue, &right, &table, &teal, &RenderTarget::desc()).unwrap();
     second.render_to(device, queue, &target, &view, None).unwrap();
     let image = read_back(device, queue, &target).unwrap();

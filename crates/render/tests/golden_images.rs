@@ -24,7 +24,7 @@ use furbake_bake::{BakeSettings, NoProgress, bake};
 use furbake_grass::{ForceField, ForceScene};
 use furbake_import::{ImportSettings, import_gltf};
 use furbake_render::headless::{RenderTarget, read_back, render_image};
-use furbake_render::{BladeRenderer, BladeSettings, FurAsset, FurShading, RenderSettings, View};
+use furbake_render::{BladeRenderSettings, BladeRenderer, FurAsset, FurShading, RenderSettings, View};
 use furbake_runtime::{Camera, Light};
 use image::RgbaImage;
 
@@ -161,7 +161,7 @@ fn render_grass(eye: [f32; 3], light: [f32; 3]) -> RgbaImage {
         &g.queue,
         common::default_blade_patch(),
         common::default_blade_table(),
-        &BladeSettings::default(),
+        &BladeRenderSettings::default(),
         &RenderTarget::desc(),
     )
     .unwrap();

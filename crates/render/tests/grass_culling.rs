@@ -15,13 +15,13 @@ use furbake_formats::sections::blade_field::BladeField;
 use furbake_formats::sections::keyframe_table::{CompressionStages, DisplacementEncoding, KeyframeTable, Symmetry};
 use furbake_grass::keyframes::PoseGridSettings;
 use furbake_grass::{
-    BladeFieldSettings, BladeMaterial, BladeShape, ForceField, ForceScene, Interpolation, KeyframeDecoder,
+    BladeFieldSettings, BladeMaterial, BladeShape, ForceField, ForceScene, KeyframeDecoder, PoseInterpolation,
     build_reference_blade, compress_poses, ground_grid_mesh, scatter_blades, simulate_poses,
 };
 use furbake_render::FrameUniforms;
 use furbake_render::headless::{RenderTarget, read_back};
 use furbake_render::testing::{CullLists, CullReference};
-use furbake_render::{BladeRenderer, BladeSettings, GrassCulling, View};
+use furbake_render::{BladeRenderSettings, BladeRenderer, GrassCulling, View};
 use furbake_runtime::Camera;
 use glam::{DMat4, DVec4, Mat4, Vec2, Vec3};
 use image::RgbaImage;
@@ -76,7 +76,7 @@ fn wind() -> ForceField {
 }
 
 fn renderer(culling: GrassCulling) -> BladeRenderer {
-    let settings = BladeSettings { culling, ..BladeSettings::default() };
+    let settings = BladeRenderSettings { culling, ..BladeRenderSettings::default() };
     let r = BladeRenderer::new(gpu().pipelines(), &gpu().queue, field(), table(), &settings, &RenderTarget::desc())
         .unwrap();
     r.set_force_field(&gpu().queue, &wind()).unwrap();
@@ -263,7 +263,14 @@ fn frustum_culling_keeps_every_blade_in_view_and_draws_the_same_image() {
             let root = Vec3::from(f_.positions[b]);
             let force = forces.blade_force(corners, f_.weights[b], root);
             let force = Vec3::new(force.x, 0.0, force.y);
-            decoder.world_positions(root, f_.yaw_rad[b], f_.height_scale[b], force, Interpolation::Nearest, &mut posed);
+            decoder.world_positions(
+                root,
+                f_.yaw_rad[b],
+                f_.height_scale[b],
+                force,
+                PoseInterpolation::Nearest,
+                &mut posed,
+            );
             let visible = posed.iter().any(|p| {
                 let c = m * p.extend(1.0);
                 c.x.abs() < c.w * 0.999 && c.y.abs() < c.w * 0.999 && c.z > 0.0 && c.z < c.w
@@ -381,7 +388,7 @@ fn culling_off_draws_every_blade_and_bad_settings_are_refused() {
     assert!(r.read_culling(&gpu().device, &gpu().queue).unwrap().drawn() * 3 < field().blade_count());
     // Out-of-range settings name the key, at creation and when changed.
     let bad = GrassCulling { min_density: 0.0, ..GrassCulling::default() };
-    let settings = BladeSettings { culling: bad, ..BladeSettings::default() };
+    let settings = BladeRenderSettings { culling: bad, ..BladeRenderSettings::default() };
     let err = BladeRenderer::new(gpu().pipelines(), &gpu().queue, field(), table(), &settings, &RenderTarget::desc())
         .err()
         .expect("min_density 0 is refused");

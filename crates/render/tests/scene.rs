@@ -350,7 +350,7 @@ fn a_delayed_wind_source_reaches_the_rendered_blades() {
     // the GPU, and those leave delayed-attenuation sources out, so a delayed source had no
     // effect on the picture. The frame must pose every blade under `ForceField::blade_force`.
     use furbake_formats::sections::keyframe_table::KeyframeTable;
-    use furbake_grass::{Interpolation, KeyframeDecoder};
+    use furbake_grass::{KeyframeDecoder, PoseInterpolation};
     use glam::Vec3Swizzles;
     let (dir, _) = scene();
     let (delayed, world) = rendered_blade_positions(source_scene(dir.path(), true));
@@ -368,7 +368,7 @@ fn a_delayed_wind_source_reaches_the_rendered_blades() {
         let corners = field.grid.corner_indices(field.cluster[b]);
         let f = grass.field.blade_force(corners, field.weights[b], root);
         let (yaw, h) = (field.yaw_rad[b], field.height_scale[b]);
-        decoder.world_positions(root, yaw, h, f.extend(0.0).xzy(), Interpolation::Nearest, &mut cpu);
+        decoder.world_positions(root, yaw, h, f.extend(0.0).xzy(), PoseInterpolation::Nearest, &mut cpu);
         let err = (0..vc).map(|v| Vec3::from(delayed[b * vc + v]).distance(cpu[v])).fold(0.0f32, f32::max);
         // Nearest-pose selection: a force within rounding of a pose-cell boundary may pick the
         // neighbouring pose on either side; such blades are counted, not compared.

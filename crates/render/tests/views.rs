@@ -1,4 +1,4 @@
-//! Several views in one frame (`RenderSettings::views`, `BladeSettings::views`): one fur renderer
+//! Several views in one frame (`RenderSettings::views`, `BladeRenderSettings::views`): one fur renderer
 //! and one blade renderer prepared for two cameras into one encoder (`prepare` for view 0,
 //! `prepare_view` for view 1) and drawn into two targets before a single submission (split
 //! screen, a reflection) draw exactly what each camera draws alone; with one view slot, the second
@@ -9,7 +9,7 @@ use crate::common;
 use crate::common::gpu;
 use furbake_grass::{ForceField, ForceScene};
 use furbake_render::headless::{RenderTarget, read_back};
-use furbake_render::{BladeRenderer, BladeSettings, FurRenderer, RenderError, RenderSettings, View};
+use furbake_render::{BladeRenderSettings, BladeRenderer, FurRenderer, RenderError, RenderSettings, View};
 use furbake_runtime::{Camera, Lighting};
 use image::RgbaImage;
 
@@ -101,7 +101,7 @@ fn one_blade_renderer_draws_two_views_in_one_frame() {
     let g = gpu();
     let (table, field) = (common::blade_table(100), common::blade_patch(150.0));
     let blades = |views| {
-        let settings = BladeSettings { views, ..BladeSettings::default() };
+        let settings = BladeRenderSettings { views, ..BladeRenderSettings::default() };
         let r = BladeRenderer::new(g.pipelines(), &g.queue, &field, &table, &settings, &RenderTarget::desc()).unwrap();
         let mut forces = ForceField::new(field.grid);
         forces.update(&ForceScene::default());

@@ -22,9 +22,9 @@ use glam::{DVec3, Vec2, Vec3};
 
 use furbake_grass::rng::SplitMix64;
 use furbake_grass::{
-    BladeFieldSettings, BladeSimulator, BladeSoa, ForceField, ForceScene, GrassError, Interpolation, KeyframeDecoder,
-    KeyframeSettings, PoseGridSettings, ReferenceBlade, WindSource, build_reference_blade, compress_poses,
-    ground_grid_mesh, scatter_blades, simulate_poses,
+    BladeFieldSettings, BladeSimulator, BladeSoa, ForceField, ForceScene, GrassError, KeyframeDecoder,
+    KeyframeSettings, PoseGridSettings, PoseInterpolation, ReferenceBlade, WindSource, build_reference_blade,
+    compress_poses, ground_grid_mesh, scatter_blades, simulate_poses,
 };
 
 /// Timed batches per measurement; the fastest is reported (the least disturbed by other load).
@@ -77,7 +77,7 @@ pub struct PoseErrorRow {
     /// Represented poses.
     pub poses: u32,
     /// Selection mode.
-    pub interpolation: Interpolation,
+    pub interpolation: PoseInterpolation,
     /// Displacement encoding of the table.
     pub encoding: DisplacementEncoding,
     /// Largest vertex error, blade lengths.
@@ -118,7 +118,7 @@ pub fn measure_pose_error(options: &GrassAccuracyOptions) -> Result<Vec<PoseErro
             let table = compress_poses(&simulated, Symmetry::XZ, base.stages, encoding)?;
             let decoder = KeyframeDecoder::new(&table)?;
             let mut pose = vec![Vec3::ZERO; decoder.vertex_count()];
-            for mode in Interpolation::ALL {
+            for mode in PoseInterpolation::ALL {
                 let (mut max, mut sum, mut n) = (0.0f32, 0.0f64, 0u64);
                 for (force, exact) in &queries {
                     decoder.pose_positions(&decoder.select(*force, mode), mode, &mut pose);
@@ -161,7 +161,7 @@ pub struct SelectionCost {
     /// Vertices per blade.
     pub vertices: usize,
     /// Per selection: (mode, ns per blade of `select`, ns per blade of `pose_positions`).
-    pub per_mode: Vec<(Interpolation, f64, f64)>,
+    pub per_mode: Vec<(PoseInterpolation, f64, f64)>,
     /// ns per call of `furbake_grass::decode::slerp` on the vector pairs the spherical decode slerps.
     pub slerp_ns: f64,
     /// ns per call of the same slerp written with libm (`acos` and three `sin`, as before the
@@ -172,15 +172,15 @@ pub struct SelectionCost {
 }
 
 impl SelectionCost {
-    fn ns(&self, mode: Interpolation) -> (f64, f64) {
+    fn ns(&self, mode: PoseInterpolation) -> (f64, f64) {
         self.per_mode.iter().find(|m| m.0 == mode).map_or((0.0, 0.0), |m| (m.1, m.2))
     }
 
     /// The document's explanation, with the numbers.
     pub fn markdown(&self) -> String {
-        let (ls, lp) = self.ns(Interpolation::Linear);
-        let (ss, sp) = self.ns(Interpolation::Spherical);
-        let (ns, np) = self.ns(Interpolation::Nearest);
+        let (ls, lp) = self.ns(PoseInterpolation::Linear);
+        let (ss, sp) = self.ns(PoseInterpolation::Spherical);
+        let (ns, np) = self.ns(PoseInterpolation::Nearest);
         let slerp_total = self.slerp_ns * self.slerps_per_blade as f64;
         format!(
             "Measured on the {}-keyframe f32 table with the queries above (ns per blade, one thread): \
@@ -231,7 +231,7 @@ pub fn measure_selection_cost(options: &GrassAccuracyOptions) -> Result<Selectio
     let blades = (repeats * forces.len()) as f64;
     let mut pose = vec![Vec3::ZERO; decoder.vertex_count()];
     let mut per_mode = Vec::new();
-    for mode in Interpolation::ALL {
+    for mode in PoseInterpolation::ALL {
         let select = best_of(TIMING_BATCHES, || {
             for _ in 0..repeats {
                 for f in &forces {
@@ -253,7 +253,7 @@ pub fn measure_selection_cost(options: &GrassAccuracyOptions) -> Result<Selectio
     // The slerps of the spherical decode, replayed alone.
     let mut pairs = Vec::new();
     for f in &forces {
-        let b = decoder.select(*f, Interpolation::Spherical);
+        let b = decoder.select(*f, PoseInterpolation::Spherical);
         for v in 0..decoder.vertex_count() {
             let r = decoder.reference()[v];
             let p = b.keys.map(|k| r + decoder.displacement(k, v));
@@ -363,8 +363,8 @@ pub fn force_test_scene(delayed: bool) -> ForceScene {
     ForceScene {
         global_wind: Vec2::ZERO,
         sources: vec![
-            WindSource { position_m: Vec3::new(0.7, 0.3, -0.4), power: 3.0, concentration: 2.0, delayed },
-            WindSource { position_m: Vec3::new(-8.0, 0.5, 7.0), power: 2.0, concentration: 1.0, delayed },
+            WindSource { position_m: Vec3::new(0.7, 0.3, -0.4), power: 3.0, falloff_exponent: 2.0, delayed },
+            WindSource { position_m: Vec3::new(-8.0, 0.5, 7.0), power: 2.0, falloff_exponent: 1.0, delayed },
         ],
         min_distance_m: 0.25,
         ..ForceScene::default()
@@ -446,7 +446,7 @@ pub fn pose_chart(rows: &[PoseErrorRow]) -> (String, usize) {
         [("max", (|r: &PoseErrorRow| r.error_max) as fn(&PoseErrorRow) -> f32), ("RMS", |r| r.error_rms)]
     {
         let mut series = Vec::new();
-        for (si, mode) in Interpolation::ALL.into_iter().enumerate() {
+        for (si, mode) in PoseInterpolation::ALL.into_iter().enumerate() {
             for (ei, enc) in DisplacementEncoding::ALL.into_iter().enumerate() {
                 let points: Vec<Point> = rows
                     .iter()
@@ -604,14 +604,16 @@ mod tests {
         let coarse = poses
             .iter()
             .find(|r| {
-                r.poses == 400 && r.interpolation == Interpolation::Linear && r.encoding == DisplacementEncoding::Unorm8
+                r.poses == 400
+                    && r.interpolation == PoseInterpolation::Linear
+                    && r.encoding == DisplacementEncoding::Unorm8
             })
             .expect("row");
-        assert!(coarse.error_rms >= err(400, Interpolation::Linear));
-        for m in Interpolation::ALL {
+        assert!(coarse.error_rms >= err(400, PoseInterpolation::Linear));
+        for m in PoseInterpolation::ALL {
             assert!(err(400, m) < err(12, m), "{m:?}: more keyframes, less error");
         }
-        assert!(err(400, Interpolation::Linear) < err(400, Interpolation::Nearest));
+        assert!(err(400, PoseInterpolation::Linear) < err(400, PoseInterpolation::Nearest));
         let forces = measure_force_error(&options).expect("measures");
         assert_eq!(forces.len(), 4);
         let f = |size: f32, delayed| {

@@ -4,7 +4,7 @@
 //! is well-formed, keeps its legend outside the plot areas and has no overlapping point labels.
 
 use furbake_formats::sections::keyframe_table::DisplacementEncoding;
-use furbake_grass::Interpolation;
+use furbake_grass::PoseInterpolation;
 use furbake_report::fur::{AccuracySettings, SceneId, chart_name, configurations};
 use furbake_report::grass::GrassAccuracyOptions;
 use furbake_report::svg::Rect;
@@ -222,7 +222,7 @@ fn a_tiny_report_has_every_table_with_the_expected_rows() {
         ("Time per step", options.fur.timing_sizes.len(), 2 + SolverKind::ALL.len()),
         (
             "Pose error against the direct simulation",
-            options.grass.pose_counts.len() * Interpolation::ALL.len() * options.grass.encodings.len(),
+            options.grass.pose_counts.len() * PoseInterpolation::ALL.len() * options.grass.encodings.len(),
             6,
         ),
         ("Quantisation", DisplacementEncoding::ALL.len(), 6),

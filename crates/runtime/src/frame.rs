@@ -198,7 +198,7 @@ pub(crate) fn grass_force_scene(effects: &Effects, on: ForcesOn, t: f64, frame: 
             out.sources.push(furbake_grass::WindSource {
                 position_m: frame.point(Vec3::from(s.position)),
                 power: s.power * frame.scale.powf(-s.falloff_exponent),
-                concentration: s.falloff_exponent,
+                falloff_exponent: s.falloff_exponent,
                 delayed: s.delayed_attenuation,
             });
         }

@@ -658,7 +658,7 @@ pub enum ShellBlendMode {
 /// Render settings a scene (`[render]`), a scene pack (`[packs.render]`) or a command's flags
 /// (`furbake preview`, `furbake view`) choose; every key is optional and a key left out keeps
 /// what the level below says (flags over the pack's keys, over the scene's, over the
-/// renderer's defaults: `furbake_render::RenderSettings`, `BladeSettings`, which document
+/// renderer's defaults: `furbake_render::RenderSettings`, `BladeRenderSettings`, which document
 /// each). Validated with the scene, naming the key.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]

@@ -806,9 +806,7 @@ fn build_fur(scene: &Scene, pack: &Pack, simulate: bool, options: WorldOptions) 
     check_consistency(pack.sections(), &sections).map_err(|e| e.with_path(&pack.display_path()))?;
     debug_assert!(topology.shell_vertex_masses.iter().all(|m| (m[0] == NO_MASS) == (m[1] == NO_MASS)));
     let guard = match scene.effects.wrong_side_guard {
-        Some(g) => {
-            GuardParams { enabled: true, threshold_angle_deg: g.max_angle_deg, impulse_m_per_s: g.impulse_m_per_s }
-        }
+        Some(g) => GuardParams { enabled: true, max_angle_deg: g.max_angle_deg, impulse_m_per_s: g.impulse_m_per_s },
         None => GuardParams { enabled: false, ..GuardParams::default() },
     };
     let defaults = SolverSettings::of(choose_solver(kind, scene.solver.kind));

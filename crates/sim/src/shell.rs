@@ -51,14 +51,14 @@ pub struct GuardParams {
     pub enabled: bool,
     /// Threshold angle α between the vertex normal and the scale vector, degrees (0 < α < 90).
     /// Default 80.
-    pub threshold_angle_deg: f32,
+    pub max_angle_deg: f32,
     /// Speed added along the normal to a tip when the test fires, m/s. Default 0.05.
     pub impulse_m_per_s: f32,
 }
 
 impl Default for GuardParams {
     fn default() -> Self {
-        GuardParams { enabled: true, threshold_angle_deg: 80.0, impulse_m_per_s: 0.05 }
+        GuardParams { enabled: true, max_angle_deg: 80.0, impulse_m_per_s: 0.05 }
     }
 }
 
@@ -97,7 +97,7 @@ impl GuardState {
     /// points past the guard's angle from its tip's direction is replaced by that direction, so
     /// a frozen vector never shows fur inside the posed surface.
     pub fn follow_rest_directions(&mut self, model: &SimModel, p: &GuardParams) {
-        let cos_a = if p.enabled { p.threshold_angle_deg.to_radians().cos() } else { -1.0 };
+        let cos_a = if p.enabled { p.max_angle_deg.to_radians().cos() } else { -1.0 };
         for (s, t) in self.scale.iter_mut().zip(&model.tips) {
             if t.n.dot(*s) < cos_a {
                 *s = t.n;
@@ -114,7 +114,7 @@ impl GuardState {
     /// Tests every tip against `cos α`; updates scale vectors; applies impulses to `v`.
     /// Per-tip work runs in parallel; impulses are applied afterwards in tip order.
     pub fn apply(&mut self, model: &SimModel, p: &GuardParams, x: &[Vec3A], v: &mut [Vec3A]) -> GuardOutcome {
-        let cos_a = p.threshold_angle_deg.to_radians().cos();
+        let cos_a = p.max_angle_deg.to_radians().cos();
         let enabled = p.enabled;
         self.kick.resize(model.tips.len(), false);
         let test = |(t, (scale, (frozen, kick))): (&crate::model::Tip, (&mut Vec3A, (&mut bool, &mut bool)))| {

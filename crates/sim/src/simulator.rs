@@ -161,10 +161,10 @@ impl SolverSettings {
         if !(self.reference_tolerance > 0.0 && self.reference_tolerance < 1.0) {
             return bad("reference_tolerance", "must lie in (0, 1)");
         }
-        let a = self.guard.threshold_angle_deg;
+        let a = self.guard.max_angle_deg;
         let impulse = self.guard.impulse_m_per_s;
         if !(a > 0.0 && a < 90.0 && impulse.is_finite() && impulse >= 0.0) {
-            return bad("guard", "threshold_angle_deg must lie in (0, 90), impulse_m_per_s finite and ≥ 0");
+            return bad("guard", "max_angle_deg must lie in (0, 90), impulse_m_per_s finite and ≥ 0");
         }
         Ok(())
     }

@@ -153,7 +153,7 @@ fn tip_error(sim: &Simulator, t: &SpringTopology) -> f32 {
 }
 
 fn check_scale_vectors(sim: &Simulator, guard: &GuardParams, what: &str) -> usize {
-    let cos_a = guard.threshold_angle_deg.to_radians().cos();
+    let cos_a = guard.max_angle_deg.to_radians().cos();
     let mut checked = 0;
     for (s, n) in sim.scale_vectors().iter().zip(sim.shell_normals()) {
         if n == [0.0; 3] {

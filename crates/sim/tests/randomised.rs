@@ -65,7 +65,7 @@ proptest! {
             max_substeps: 1_000,
             ..SolverSettings::of(solver)
         };
-        let cos_a = settings.guard.threshold_angle_deg.to_radians().cos();
+        let cos_a = settings.guard.max_angle_deg.to_radians().cos();
         let mut sim = Simulator::new(&topo, settings).expect("valid topology");
         sim.set_forces(ForceSet {
             gravity_m_per_s2: gravity,

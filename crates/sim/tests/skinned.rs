@@ -83,7 +83,7 @@ fn epsilon(solver: SolverKind) -> f64 {
 /// Runs one case; false when an explicit or stick step was refused up front (`StepTooLarge`).
 fn run(topo: &SpringTopology, base: &[Vec3], solver: SolverKind, motion: Motion, what: &str) -> bool {
     let settings = SolverSettings { max_substeps: 2_000, ..SolverSettings::of(solver) };
-    let cos_a = settings.guard.threshold_angle_deg.to_radians().cos();
+    let cos_a = settings.guard.max_angle_deg.to_radians().cos();
     let mut sim = Simulator::new(topo, settings).expect("built topologies simulate");
     sim.set_forces(ForceSet::default()).expect("default forces are valid");
     let dt = 1.0 / 60.0;

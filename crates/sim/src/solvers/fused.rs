@@ -104,7 +104,7 @@ pub(super) fn group_step(step: Step, mode: Mode, cg: &[CgRow]) -> StepOutcome {
         None => (None, None),
     };
     let gctx = params.map(|p| GuardCtx {
-        cos_a: p.threshold_angle_deg.to_radians().cos(),
+        cos_a: p.max_angle_deg.to_radians().cos(),
         enabled: p.enabled,
         impulse: p.impulse_m_per_s,
     });
