@@ -114,7 +114,7 @@ pub fn plan_scene(scene: Scene, scene_path: &Path, options: WorldOptions) -> Res
 /// each validated as `verify` does (see [`open_verified`]) before the world reads them
 /// (`simulate`, `preview`, `view`). A pack `verify` rejects is bad input (exit 1), the message
 /// naming the scene and the pack.
-pub fn open_scene_packs(scene: &Scene, scene_path: &Path) -> Result<Vec<Arc<Pack>>, Failure> {
+fn open_scene_packs(scene: &Scene, scene_path: &Path) -> Result<Vec<Arc<Pack>>, Failure> {
     let packs = World::open_packs(scene).map_err(|e| failure::runtime(e, scene_path))?;
     for (i, pack) in packs.iter().enumerate() {
         if !packs[..i].iter().any(|p| Arc::ptr_eq(p, pack)) {

@@ -63,6 +63,8 @@ pub struct WorldPlan {
     roles: Vec<PackRole>,
     stages: Vec<PlannedStage>,
     memory: Vec<EntryMemory>,
+    /// The largest payload among the sections the packs hold decoded once planned.
+    largest_payload: u64,
 }
 
 impl WorldPlan {
@@ -95,8 +97,9 @@ impl WorldPlan {
             })
             .collect();
         let stages = plan_stages(&scene.effects, &roles);
-        let mut plan = WorldPlan { scene, packs, options, roles, stages, memory: Vec::new() };
+        let mut plan = WorldPlan { scene, packs, options, roles, stages, memory: Vec::new(), largest_payload: 0 };
         plan.memory = plan.estimate_memory()?;
+        plan.largest_payload = plan.held_sections().map(|(_, length)| length).max().unwrap_or(0);
         Ok(plan)
     }
 
@@ -128,12 +131,13 @@ impl WorldPlan {
     /// The estimated bytes the world holds while it runs: every entry's, plus the largest
     /// section payload once more (held while it is decoded).
     pub fn estimated_bytes(&self) -> u64 {
-        self.memory.iter().map(|m| m.bytes).sum::<u64>().saturating_add(self.largest_payload())
+        self.memory.iter().map(|m| m.bytes).sum::<u64>().saturating_add(self.largest_payload)
     }
 
-    /// The largest payload among the sections the packs hold decoded.
+    /// The largest payload among the sections the packs hold decoded once planned (held once
+    /// more while it is decoded).
     pub fn largest_payload(&self) -> u64 {
-        self.held_sections().map(|(_, length)| length).max().unwrap_or(0)
+        self.largest_payload
     }
 
     /// Builds the world this plan describes.
