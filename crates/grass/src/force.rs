@@ -15,7 +15,7 @@ use rayon::prelude::*;
 
 /// A point wind source (eq. 4.1).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct WindSource {
+pub struct BladeWindSource {
     /// Position `W`, metres.
     pub position_m: Vec3,
     /// Emissive power `ω` (force × metres^σ).
@@ -26,7 +26,7 @@ pub struct WindSource {
     pub delayed: bool,
 }
 
-impl WindSource {
+impl BladeWindSource {
     /// The exact (horizontal) wind of this source at `p`; distances are clamped below by
     /// `min_distance_m` so a blade on the source does not receive an infinite force.
     pub fn force_at(&self, p: Vec3, min_distance_m: f32) -> Vec2 {
@@ -42,7 +42,7 @@ impl WindSource {
 /// A colliding object, treated as a local force source pushing blades away from it (§5.2). The
 /// push has full `strength` inside the object and fades smoothly to zero `falloff_m` beyond it.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Collider {
+pub enum BladeCollider {
     /// A sphere.
     Sphere {
         /// Centre, metres.
@@ -79,16 +79,16 @@ fn fade(outside_m: f32, falloff_m: f32) -> f32 {
     t * t * (3.0 - 2.0 * t)
 }
 
-impl Collider {
+impl BladeCollider {
     /// The exact (horizontal) push at `p`.
     pub fn force_at(&self, p: Vec3) -> Vec2 {
         match *self {
-            Collider::Sphere { center_m, radius_m, strength, falloff_m } => {
+            BladeCollider::Sphere { center_m, radius_m, strength, falloff_m } => {
                 let d = p - center_m;
                 let dir = d.xz().normalize_or_zero();
                 dir * (strength * fade(d.length() - radius_m, falloff_m))
             }
-            Collider::Ellipsoid { center_m, radii_m, strength, falloff_m } => {
+            BladeCollider::Ellipsoid { center_m, radii_m, strength, falloff_m } => {
                 let r = radii_m.max(Vec3::splat(1e-6));
                 let q = (p - center_m) / r;
                 let grad = (q / r).xz().normalize_or_zero();
@@ -122,9 +122,9 @@ pub struct ForceScene {
     /// Global wind `(x, z)`, force units.
     pub global_wind: Vec2,
     /// Point wind sources.
-    pub sources: Vec<WindSource>,
+    pub sources: Vec<BladeWindSource>,
     /// Colliding objects.
-    pub colliders: Vec<Collider>,
+    pub colliders: Vec<BladeCollider>,
     /// Windless areas.
     pub blockers: Vec<WindBlocker>,
     /// Height at which the corners sample the field, metres. Default 0.
@@ -181,7 +181,7 @@ fn for_rows(data: &mut [Vec2], row: usize, f: impl Fn(usize, &mut [Vec2]) + Sync
 
 #[derive(Clone, Debug, PartialEq)]
 struct DelayedSource {
-    source: WindSource,
+    source: BladeWindSource,
     /// Unit horizontal direction per corner (zero where blocked).
     directions: Vec<Vec2>,
 }
@@ -295,8 +295,8 @@ mod tests {
         let scene = ForceScene {
             global_wind: Vec2::new(2.0, 1.0),
             sources: vec![
-                WindSource { position_m: Vec3::new(0.0, 0.5, 3.0), power: 4.0, falloff_exponent: 1.0, delayed: false },
-                WindSource { position_m: Vec3::new(-3.0, 0.5, 0.0), power: 4.0, falloff_exponent: 2.0, delayed: true },
+                BladeWindSource { position_m: Vec3::new(0.0, 0.5, 3.0), power: 4.0, falloff_exponent: 1.0, delayed: false },
+                BladeWindSource { position_m: Vec3::new(-3.0, 0.5, 0.0), power: 4.0, falloff_exponent: 2.0, delayed: true },
             ],
             blockers: vec![blocker],
             ..ForceScene::default()
@@ -332,7 +332,7 @@ mod tests {
     fn a_blade_next_to_a_collision_sphere_bends_away_from_it() {
         let center = Vec3::new(0.3, 0.2, -0.4);
         let scene = ForceScene {
-            colliders: vec![Collider::Sphere { center_m: center, radius_m: 0.4, strength: 3.0, falloff_m: 0.6 }],
+            colliders: vec![BladeCollider::Sphere { center_m: center, radius_m: 0.4, strength: 3.0, falloff_m: 0.6 }],
             ..ForceScene::default()
         };
         let mesh = ground_grid_mesh([4.0, 4.0], [4, 4]);
@@ -375,12 +375,12 @@ mod tests {
     #[test]
     fn corner_forces_follow_eq_4_1_and_delay_removes_cluster_artefacts() {
         let src =
-            WindSource { position_m: Vec3::new(0.1, 0.0, 0.2), power: 2.0, falloff_exponent: 3.0, delayed: false };
+            BladeWindSource { position_m: Vec3::new(0.1, 0.0, 0.2), power: 2.0, falloff_exponent: 3.0, delayed: false };
         // eq. 4.1 at a point.
         let p = Vec3::new(1.1, 0.0, 0.2);
         assert!((src.force_at(p, 0.05) - Vec2::new(2.0, 0.0)).length() < 1e-6);
         let exact = ForceScene { sources: vec![src], ..ForceScene::default() };
-        let delayed = ForceScene { sources: vec![WindSource { delayed: true, ..src }], ..ForceScene::default() };
+        let delayed = ForceScene { sources: vec![BladeWindSource { delayed: true, ..src }], ..ForceScene::default() };
         let mut f_cluster = ForceField::new(grid());
         f_cluster.update(&exact);
         let mut f_delayed = ForceField::new(grid());

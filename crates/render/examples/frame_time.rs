@@ -106,7 +106,7 @@ fn blades(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
     use furbake_formats::sections::keyframe_table::{CompressionStages, DisplacementEncoding, Symmetry};
     use furbake_grass::keyframes::PoseGridSettings;
     use furbake_grass::{
-        BladeFieldSettings, BladeMaterial, BladeShape, ForceField, ForceScene, WindSource, build_reference_blade,
+        BladeFieldSettings, BladeMaterial, BladeShape, ForceField, ForceScene, BladeWindSource, build_reference_blade,
         compress_poses, ground_grid_mesh, scatter_blades, simulate_poses,
     };
     use furbake_render::{BladeRenderSettings, BladeRenderer, GrassCulling};
@@ -163,7 +163,7 @@ fn blades(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
         sources: (0..3)
             .map(|k| {
                 let a = time_s * 0.7 + k as f32 * 2.1;
-                WindSource {
+                BladeWindSource {
                     position_m: Vec3::new(center[0] + a.cos() * half * 0.6, 0.3, center[2] + a.sin() * half * 0.6),
                     power: 3.0,
                     falloff_exponent: 1.0,

@@ -20,7 +20,7 @@
 //
 // `crates/render/src/culling.rs` is the CPU reference of passes 1–2 (the lists must be equal).
 
-@group(0) @binding(0) var<uniform> cull: CullParams;
+@group(0) @binding(0) var<uniform> cull: CullUniforms;
 @group(0) @binding(1) var<storage, read> blades: array<Blade>;
 // Per cluster: (min xyz, tallest height scale), (max xyz, unused); min > max for an empty one.
 @group(0) @binding(2) var<storage, read> cluster_bounds: array<vec4<f32>>;
@@ -33,7 +33,7 @@
 // the blade's pose-grid coordinates evaluated here once so the vertex shader does not.
 @group(0) @binding(5) var<storage, read_write> instances: array<u32>;
 // What `blade_grid` (grass_pose.wgsl) reads.
-@group(0) @binding(6) var<uniform> params: BladeParams;
+@group(0) @binding(6) var<uniform> params: BladeUniforms;
 @group(0) @binding(7) var<storage, read> corner_forces: array<vec2<f32>>;
 @group(0) @binding(8) var<storage, read> delayed: array<DelayedSource>;
 @group(0) @binding(9) var<storage, read> delayed_directions: array<vec2<f32>>;

@@ -16,7 +16,7 @@
 const STATIC_VERTEX: u32 = 0xffffffffu;
 
 @group(0) @binding(0) var<uniform> frame: Frame;
-@group(0) @binding(1) var<uniform> params: BladeParams;
+@group(0) @binding(1) var<uniform> params: BladeUniforms;
 @group(0) @binding(2) var<storage, read> blades: array<Blade>;
 @group(0) @binding(3) var<storage, read> corner_forces: array<vec2<f32>>;
 @group(0) @binding(4) var<storage, read> payload: array<u32>;
@@ -29,7 +29,7 @@ const STATIC_VERTEX: u32 = 0xffffffffu;
 
 // The frame's culling parameters and the instance lists of the culling passes (blade_cull.wgsl):
 // words 0..4 the start of each LOD's list (in entries), then the entries (blade, μ, α).
-@group(0) @binding(9) var<uniform> cull: CullParams;
+@group(0) @binding(9) var<uniform> cull: CullUniforms;
 @group(0) @binding(10) var<storage, read> instances: array<u32>;
 
 // Written by the compute pass only.

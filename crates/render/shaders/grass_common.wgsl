@@ -26,7 +26,7 @@ fn cluster_corners(c: u32, cells_x: u32) -> vec4<u32> {
 
 // The frame's culling parameters, all in the pack frame (the blade field's own metres; the host's
 // world distances are divided by the model matrix's scale on the CPU).
-struct CullParams {
+struct CullUniforms {
     // The six clip planes of view_proj × model (left, right, bottom, top, near, far), normalised
     // so that dot(xyz, p) + w is a signed distance; a degenerate plane is (0, 0, 0, 1).
     planes: array<vec4<f32>, 6>,

@@ -5,7 +5,7 @@
 // continuous pose-grid coordinates. Prepended after grass_common.wgsl; each module declares the
 // bindings it reads (`params`, `blades`, `corner_forces`, `delayed`, `delayed_directions`).
 
-struct BladeParams {
+struct BladeUniforms {
     // Linear RGB blade colour; a unused.
     color: vec4<f32>,
     blade_count: u32,

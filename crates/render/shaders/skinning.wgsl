@@ -10,7 +10,7 @@
 // fur_common.wgsl: this file stands alone. Rust twins of its structs: crates/render/src/shaders.rs.
 
 // Counts of this pack's skin (written once, when the pass is created).
-struct SkinningParams {
+struct SkinningUniforms {
     // Welded skin vertices (= entries of bind_vertices and skinned_out).
     vertex_count: u32,
     // Influence slots per vertex: 4 or 8 (SkinWeights::influences_per_vertex).
@@ -34,7 +34,7 @@ override MORPH: bool = false;
 // The morph targets carry normal deltas (MorphTargets::normal_deltas is not empty).
 override MORPH_NORMALS: bool = false;
 
-@group(0) @binding(0) var<uniform> params: SkinningParams;
+@group(0) @binding(0) var<uniform> params: SkinningUniforms;
 @group(0) @binding(1) var<storage, read> bind_vertices: array<SkinnedVertex>;
 // Bind index per influence slot, vertex-major, two u16 per word (slot 2j in the low half of word j,
 // the little-endian order of SkinWeights::binds).

@@ -21,17 +21,17 @@ use furbake_formats::sections::keyframe_table::{Displacements, KeyframeTable, ST
 use furbake_grass::{ForceField, PoseInterpolation};
 use wgpu::util::DeviceExt;
 
-use crate::culling::{BLOCK, BLOCKS_AT, BladeLods, CullParams, GrassCulling, LISTS_AT};
+use crate::culling::{BLOCK, BLOCKS_AT, BladeLods, CullUniforms, GrassCulling, LISTS_AT};
 #[cfg(feature = "testing")]
 use crate::culling::{CullLists, MAX_LODS};
 pub use crate::shaders::BLADES_WGSL;
 use crate::shaders::FrameUniforms;
 use crate::{PipelineCache, RenderError, TargetDesc};
 
-/// The `BladeParams` uniform of `blades.wgsl` (binding 1).
+/// The `BladeUniforms` uniform of `blades.wgsl` (binding 1).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct BladeParams {
+pub struct BladeUniforms {
     /// Linear RGB blade colour (a unused).
     pub color: [f32; 4],
     /// Number of blades.
@@ -270,7 +270,7 @@ impl BladeShading {
 
 /// One blade field with its keyframe table on the GPU.
 pub struct BladeRenderer {
-    params: BladeParams,
+    params: BladeUniforms,
     /// The roots' bounding sphere and the largest height scale ([`root_bounds`]).
     bounds: ([f32; 3], f32, f32),
     blade_count: u32,
@@ -282,7 +282,7 @@ pub struct BladeRenderer {
     culling: GrassCulling,
     /// This renderer's own buffers (uniforms, forces, delayed sources, culling state).
     own: InstanceBuffers,
-    /// `BladeParams::delayed_sources` as last uploaded.
+    /// `BladeUniforms::delayed_sources` as last uploaded.
     delayed_count: std::sync::atomic::AtomicU32,
     grid: furbake_formats::sections::blade_field::ClusterGrid,
     #[cfg(feature = "testing")]
@@ -312,7 +312,7 @@ pub struct BladeRenderer {
 struct FrameAndCull {
     frame: FrameUniforms,
     pad: [f32; CULL_PAD],
-    cull: CullParams,
+    cull: CullUniforms,
 }
 
 /// Byte offset of [`FrameAndCull::cull`].
@@ -355,9 +355,9 @@ fn cull_buffer_bytes(blades: u64, clusters: u64) -> [u64; 3] {
 impl InstanceBuffers {
     fn new(
         device: &wgpu::Device,
-        params: &BladeParams,
+        params: &BladeUniforms,
         corners: usize,
-        cull: &CullParams,
+        cull: &CullUniforms,
         views: u32,
     ) -> InstanceBuffers {
         let init = |label, contents: &[u8], usage| {
@@ -429,7 +429,7 @@ impl InstanceBuffers {
 
     /// The culling parameters' part of [`InstanceBuffers::frame`].
     fn cull_binding(view: &ViewBuffers) -> wgpu::BindingResource<'_> {
-        let size = wgpu::BufferSize::new(std::mem::size_of::<CullParams>() as u64);
+        let size = wgpu::BufferSize::new(std::mem::size_of::<CullUniforms>() as u64);
         wgpu::BindingResource::Buffer(wgpu::BufferBinding { buffer: &view.frame, offset: CULL_OFFSET, size })
     }
 
@@ -655,7 +655,7 @@ impl BladeRenderer {
         let (payload, encoding) = pack_payload(&table.displacements);
         let [r, gr, b] = settings.color;
         let sh = &settings.shading;
-        let params = BladeParams {
+        let params = BladeUniforms {
             color: [r, gr, b, 1.0],
             blade_count: blades.len() as u32,
             vertex_count: vertex_count as u32,
@@ -716,7 +716,7 @@ impl BladeRenderer {
             wgpu::BufferUsages::INDEX,
         );
         let clusters = field.grid.clusters() as u32;
-        let cull = CullParams::new(&FrameUniforms::default(), &settings.culling, &lods, params.blade_count, clusters);
+        let cull = CullUniforms::new(&FrameUniforms::default(), &settings.culling, &lods, params.blade_count, clusters);
         let own = InstanceBuffers::new(device, &params, corners, &cull, settings.views);
         let groups = own.view_groups(pipelines, &data);
         Ok(BladeRenderer {
@@ -860,7 +860,7 @@ impl BladeRenderer {
 
     #[cfg(feature = "testing")]
     /// The uniforms the shaders receive.
-    pub fn params(&self) -> &BladeParams {
+    pub fn params(&self) -> &BladeUniforms {
         &self.params
     }
 
@@ -872,13 +872,13 @@ impl BladeRenderer {
         Ok(())
     }
 
-    /// Writes `BladeParams::delayed_sources` when it changes (most frames it stays 0: one upload
+    /// Writes `BladeUniforms::delayed_sources` when it changes (most frames it stays 0: one upload
     /// fewer per frame).
     fn write_delayed_count(&self, queue: &wgpu::Queue, count: u32) {
         if self.delayed_count.swap(count, std::sync::atomic::Ordering::Relaxed) == count {
             return;
         }
-        let offset = std::mem::offset_of!(BladeParams, delayed_sources) as u64;
+        let offset = std::mem::offset_of!(BladeUniforms, delayed_sources) as u64;
         queue.write_buffer(&self.own.params, offset, bytemuck::bytes_of(&count));
     }
 
@@ -1082,8 +1082,8 @@ impl BladeRenderer {
     }
 
     /// The culling parameters of `frame` (what [`BladeRenderer::prepare`] uploads).
-    pub(crate) fn cull_params(&self, frame: &FrameUniforms) -> CullParams {
-        CullParams::new(frame, &self.culling, &self.lods, self.blade_count, self.grid.clusters() as u32)
+    pub(crate) fn cull_params(&self, frame: &FrameUniforms) -> CullUniforms {
+        CullUniforms::new(frame, &self.culling, &self.lods, self.blade_count, self.grid.clusters() as u32)
     }
 
     /// Writes `frame` (the host's view-projection, eye and light, and the field's model matrix,

@@ -2,7 +2,7 @@
 //! draws and at what level of detail. The GPU side is `shaders/blade_cull.wgsl`, recorded by
 //! [`crate::BladeRenderer::prepare`] and drawn with one `draw_indexed_indirect` per level; this
 //! module holds what the CPU prepares for it — the levels' index lists, the reach of any pose, the
-//! clusters' bounds, the frame's [`CullParams`] — and [`CullReference`], the CPU twin of the
+//! clusters' bounds, the frame's [`CullUniforms`] — and [`CullReference`], the CPU twin of the
 //! culling passes that tests compare the GPU's instance lists with.
 //!
 //! Two levels: each cluster (a cell of the blade field's grid) is tested as a box holding every
@@ -38,7 +38,7 @@ const SALT_THINNING: u32 = 0x68e3_1da4;
 #[cfg(feature = "testing")]
 const SALT_LOD: u32 = 0xb529_7a4d;
 
-/// The frame's culling parameters as `grass_common.wgsl` reads them (`CullParams`).
+/// The frame's culling parameters as `grass_common.wgsl` reads them (`CullUniforms`).
 /// The share of its width a blade seen edge-on still shows once the draw thickens it across the
 /// view (`vs_blade` in `shaders/blades.wgsl`; Ghost of Tsushima's view-space thickening of
 /// edge-on blades): blades between the orientation cull's `min_visible_width` and this are
@@ -46,12 +46,12 @@ const SALT_LOD: u32 = 0xb529_7a4d;
 /// frustum tests pad each blade by this share of its half-width more.
 pub const EDGE_ON_WIDTH: f32 = 0.35;
 
-/// The culling parameters of one frame as `blade_cull.wgsl` reads them (`CullParams`): the
+/// The culling parameters of one frame as `blade_cull.wgsl` reads them (`CullUniforms`): the
 /// frame's planes and eye in the pack frame, the level-of-detail and thinning distances, the
 /// blade's reach and the draw's index ranges.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct CullParams {
+pub struct CullUniforms {
     /// The six clip planes of view_proj × model, normalised; a degenerate one is `(0, 0, 0, 1)`.
     pub planes: [[f32; 4]; 6],
     /// Eye in the pack frame (xyz); w = 1 when culling is on.
@@ -210,7 +210,7 @@ fn plane(m: &Mat4, row: Option<(usize, f32)>, near: bool) -> [f32; 4] {
     if n.is_finite() && n > 1e-20 { (p / n).to_array() } else { [0.0, 0.0, 0.0, 1.0] }
 }
 
-impl CullParams {
+impl CullUniforms {
     /// The parameters of one frame: `frame`'s view-projection and model matrix (the field's pack
     /// frame → world: rotation, translation, uniform scale), `culling`'s distances (world metres)
     /// and the field's `lods`, `blades` and `clusters`.
@@ -234,7 +234,7 @@ impl CullParams {
         let [d1, d2] = c.lod_distances_m.map(|d| d / scale);
         let max = c.max_distance_m / scale;
         let w = c.min_visible_width;
-        CullParams {
+        CullUniforms {
             planes,
             eye: [eye.x, eye.y, eye.z, c.enabled as u32 as f32],
             lod: [d1, d2, d1 * c.lod_transition, d2 * c.lod_transition],
@@ -271,7 +271,7 @@ impl CullLists {
 
 #[cfg(feature = "testing")]
 /// The CPU reference of the culling passes (`cs_cull_clusters`, `cs_cull_blades`): the same
-/// tests in the same f32 arithmetic on the same parameters ([`CullParams::new`]).
+/// tests in the same f32 arithmetic on the same parameters ([`CullUniforms::new`]).
 pub struct CullReference {
     roots: Vec<[f32; 4]>,
     yaw: Vec<[f32; 2]>,
@@ -348,8 +348,8 @@ impl CullReference {
     }
 
     /// The frame's parameters (as the renderer uploads them).
-    pub fn params(&self, frame: &FrameUniforms, culling: &GrassCulling) -> CullParams {
-        CullParams::new(frame, culling, &self.lods, self.roots.len() as u32, (self.bounds.len() / 2) as u32)
+    pub fn params(&self, frame: &FrameUniforms, culling: &GrassCulling) -> CullUniforms {
+        CullUniforms::new(frame, culling, &self.lods, self.roots.len() as u32, (self.bounds.len() / 2) as u32)
     }
 
     /// The blades drawn for `frame` under `culling`, per level of detail.
@@ -407,7 +407,7 @@ impl CullReference {
 
     /// The blade tests of `classify` in `blade_cull.wgsl` (after its cluster test): the LOD or
     /// `None`, and whether a comparison was close to its threshold.
-    fn classify_blade(&self, b: u32, p: &CullParams) -> (Option<u32>, bool) {
+    fn classify_blade(&self, b: u32, p: &CullUniforms) -> (Option<u32>, bool) {
         let [x, y, z, h] = self.roots[b as usize];
         let root = Vec3::new(x, y, z);
         let eye = Vec3::from_slice(&p.eye[..3]);

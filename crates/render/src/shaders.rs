@@ -237,10 +237,10 @@ pub struct FurUniforms {
     pub stacking: [f32; 4],
 }
 
-/// The skinning pass's counts (`SkinningParams` in `skinning.wgsl`; binding 0), written once.
+/// The skinning pass's counts (`SkinningUniforms` in `skinning.wgsl`; binding 0), written once.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct SkinningParams {
+pub struct SkinningUniforms {
     /// Welded skin vertices.
     pub vertex_count: u32,
     /// Influence slots per vertex: 4 or 8 (`SkinWeights::influences_per_vertex`); 0 without
@@ -483,13 +483,13 @@ mod tests {
         ];
         assert_eq!(check_layout("Fur", size_of::<FurUniforms>(), &fur), 3, "Fur is in all three shaders");
         let params = [
-            ("vertex_count", offset_of!(SkinningParams, vertex_count)),
-            ("influences_per_vertex", offset_of!(SkinningParams, influences_per_vertex)),
-            ("target_count", offset_of!(SkinningParams, target_count)),
-            ("pad0", offset_of!(SkinningParams, pad0)),
+            ("vertex_count", offset_of!(SkinningUniforms, vertex_count)),
+            ("influences_per_vertex", offset_of!(SkinningUniforms, influences_per_vertex)),
+            ("target_count", offset_of!(SkinningUniforms, target_count)),
+            ("pad0", offset_of!(SkinningUniforms, pad0)),
         ];
-        assert_eq!(check_layout("SkinningParams", size_of::<SkinningParams>(), &params), 1, "in skinning.wgsl");
-        use crate::blades::BladeParams as B;
+        assert_eq!(check_layout("SkinningUniforms", size_of::<SkinningUniforms>(), &params), 1, "in skinning.wgsl");
+        use crate::blades::BladeUniforms as B;
         let pad = offset_of!(B, pad);
         let params = [
             ("color", offset_of!(B, color)),
@@ -518,8 +518,8 @@ mod tests {
             ("gloss", offset_of!(B, gloss)),
         ];
         // grass_pose.wgsl, prepended to the draw and to the culling passes.
-        assert_eq!(check_layout("BladeParams", size_of::<B>(), &params), 2);
-        use crate::culling::CullParams as C;
+        assert_eq!(check_layout("BladeUniforms", size_of::<B>(), &params), 2);
+        use crate::culling::CullUniforms as C;
         let cull = [
             ("planes", offset_of!(C, planes)),
             ("eye", offset_of!(C, eye)),
@@ -530,7 +530,7 @@ mod tests {
             ("first_index", offset_of!(C, first_index)),
             ("counts", offset_of!(C, counts)),
         ];
-        assert_eq!(check_layout("CullParams", size_of::<C>(), &cull), 2, "grass_common.wgsl, in both");
+        assert_eq!(check_layout("CullUniforms", size_of::<C>(), &cull), 2, "grass_common.wgsl, in both");
     }
 
     #[test]

@@ -22,7 +22,7 @@ use glam::Mat4;
 use wgpu::util::DeviceExt;
 
 use crate::RenderError;
-use crate::shaders::{SKINNING_WGSL, SkinnedVertex, SkinningParams};
+use crate::shaders::{SKINNING_WGSL, SkinnedVertex, SkinningUniforms};
 
 /// Vertices per workgroup of `cs_skin` (its `@workgroup_size`).
 const WORKGROUP_SIZE: u32 = 64;
@@ -170,7 +170,7 @@ impl SkinningPass {
             .zip(&mesh.normals)
             .map(|(p, n)| SkinnedVertex { position: [p[0], p[1], p[2], 1.0], normal: [n[0], n[1], n[2], 0.0] })
             .collect();
-        let params = SkinningParams {
+        let params = SkinningUniforms {
             vertex_count: v as u32,
             influences_per_vertex: weights.map_or(0, |w| w.influences_per_vertex),
             target_count: morphs.map_or(0, |m| m.target_count() as u32),

@@ -20,10 +20,10 @@
 //!   calling thread (the middleware tests hold `prepare` and `render` to zero).
 //! - [`RENDERER_OVERHEAD_BYTES`], the fixed memory per renderer the estimates add.
 
-pub use crate::blades::BladeParams;
+pub use crate::blades::BladeUniforms;
 pub use crate::blocking::blocking_calls_on_this_thread;
 pub use crate::culling::{
-    BladeLods, CullDecision, CullLists, CullParams, CullReference, EDGE_ON_WIDTH, MAX_LODS, blade_random, thinning_keep,
+    BladeLods, CullDecision, CullLists, CullUniforms, CullReference, EDGE_ON_WIDTH, MAX_LODS, blade_random, thinning_keep,
 };
 pub use crate::lod::{ShellLevel, projected_fur_px};
 pub use crate::scene::RENDERER_OVERHEAD_BYTES;

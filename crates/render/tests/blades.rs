@@ -16,7 +16,7 @@ use furbake_formats::sections::keyframe_table::{CompressionStages, DisplacementE
 use furbake_grass::keyframes::{PoseGridSettings, SimulatedPoses};
 use furbake_grass::{
     BladeFieldSettings, BladeMaterial, BladeShape, ForceField, ForceScene, KeyframeDecoder, PoseInterpolation,
-    WindSource, build_reference_blade, compress_poses, ground_grid_mesh, scatter_blades, simulate_poses,
+    BladeWindSource, build_reference_blade, compress_poses, ground_grid_mesh, scatter_blades, simulate_poses,
 };
 use furbake_render::headless::{RenderTarget, read_back};
 use furbake_render::{BladeRenderSettings, BladeRenderer, BladeShading, View};
@@ -50,7 +50,7 @@ fn patch() -> BladeField {
 fn gusty_scene() -> ForceScene {
     ForceScene {
         global_wind: Vec2::new(1.5, 0.4),
-        sources: vec![WindSource {
+        sources: vec![BladeWindSource {
             position_m: Vec3::new(-0.6, 0.1, 0.5),
             power: 1.2,
             falloff_exponent: 1.0,
@@ -68,7 +68,7 @@ const BOUNDARY: f32 = 1e-4;
 /// inside the patch, one at its edge and one far away: the per-blade force (four cluster corner
 /// forces × bilinear weights, eq. 3.6) varies in size and direction across every cluster.
 fn three_source_scene() -> ForceScene {
-    let source = |x, z, power, falloff_exponent| WindSource {
+    let source = |x, z, power, falloff_exponent| BladeWindSource {
         position_m: Vec3::new(x, 0.2, z),
         power,
         falloff_exponent,

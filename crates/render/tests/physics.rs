@@ -17,7 +17,7 @@ use furbake_render::headless::{RenderTarget, read_back};
 use furbake_render::{FurAsset, FurRenderer, RenderSettings, View};
 use furbake_runtime::{Camera, Light};
 use furbake_sim::{
-    ForceSet, Simulator, SolverKind, SolverSettings, SpringTopology, Wind, shell_offset, shell_vertex_position,
+    ForceSet, Simulator, SolverKind, SolverSettings, SpringTopology, WindForce, shell_offset, shell_vertex_position,
 };
 use glam::Vec3;
 use image::RgbaImage;
@@ -53,7 +53,7 @@ fn plane() -> &'static (FurAsset, SpringTopology) {
 /// +X of `wind_n` newtons per mass.
 fn simulated_scale_vectors(topology: &SpringTopology, wind_n: f32, steps: u32) -> Vec<[f32; 3]> {
     let mut sim = Simulator::new(topology, SolverSettings::of(SolverKind::Implicit)).unwrap();
-    let wind = Wind { direction: [1.0, 0.0, 0.0], force_n: wind_n, gust_amplitude: 0.0, ..Wind::default() };
+    let wind = WindForce { direction: [1.0, 0.0, 0.0], force_n: wind_n, gust_amplitude: 0.0, ..WindForce::default() };
     sim.set_forces(ForceSet { wind: Some(wind), ..ForceSet::default() }).unwrap();
     for _ in 0..steps {
         sim.step(1.0 / 60.0).unwrap();
@@ -336,7 +336,7 @@ fn simulated_wind_shifts_the_sphere_silhouette_towards_plus_x() {
     let ((l_rest, r_rest, x_rest), (l_wind, r_wind, x_wind)) = (fringe(&rest), fringe(&windy));
     println!("fringe rest: {l_rest} left / {r_rest} right, mean x {x_rest:.1}; wind: {l_wind} / {r_wind}, {x_wind:.1}");
     assert!(l_rest + r_rest > 200, "the fur fringe has {} pixels", l_rest + r_rest);
-    // Wind along +X lays the fur on the left side (normal −X) flat against the skin — the guard
+    // WindForce along +X lays the fur on the left side (normal −X) flat against the skin — the guard
     // keeps it out of the surface — while the right side's fur already points downwind: the
     // fringe's mean x moves right (≈ 0.9 px of a ≈ 8 px wide fur ring here; 0.5 asked) and the
     // right fringe outweighs the left one by more than at rest.

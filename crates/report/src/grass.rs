@@ -23,7 +23,7 @@ use glam::{DVec3, Vec2, Vec3};
 use furbake_grass::rng::SplitMix64;
 use furbake_grass::{
     BladeFieldSettings, BladeSimulator, BladeSoa, ForceField, ForceScene, GrassError, KeyframeDecoder,
-    KeyframeSettings, PoseGridSettings, PoseInterpolation, ReferenceBlade, WindSource, build_reference_blade,
+    KeyframeSettings, PoseGridSettings, PoseInterpolation, ReferenceBlade, BladeWindSource, build_reference_blade,
     compress_poses, ground_grid_mesh, scatter_blades, simulate_poses,
 };
 
@@ -363,8 +363,8 @@ pub fn force_test_scene(delayed: bool) -> ForceScene {
     ForceScene {
         global_wind: Vec2::ZERO,
         sources: vec![
-            WindSource { position_m: Vec3::new(0.7, 0.3, -0.4), power: 3.0, falloff_exponent: 2.0, delayed },
-            WindSource { position_m: Vec3::new(-8.0, 0.5, 7.0), power: 2.0, falloff_exponent: 1.0, delayed },
+            BladeWindSource { position_m: Vec3::new(0.7, 0.3, -0.4), power: 3.0, falloff_exponent: 2.0, delayed },
+            BladeWindSource { position_m: Vec3::new(-8.0, 0.5, 7.0), power: 2.0, falloff_exponent: 1.0, delayed },
         ],
         min_distance_m: 0.25,
         ..ForceScene::default()

@@ -20,7 +20,7 @@
 //! conservatively.
 
 use furbake_grass::ForceScene;
-use furbake_sim::{FrameMotion, LocalForce, Wind};
+use furbake_sim::{FrameMotion, LocalForce, WindForce};
 use glam::{Mat4, Quat, Vec2, Vec3};
 
 use crate::scene::{Collider, Effect, Effects, Interaction, WindSource};
@@ -152,7 +152,7 @@ impl ForcesOn {
 /// Fur wind in the mesh frame: the global wind plus every point source evaluated at the pack's
 /// `origin` (eq. 4.1 in 3D: furbake-sim has one wind per simulation, so sources act on fur
 /// uniformly), as furbake-sim's travelling-gust wind.
-pub(crate) fn fur_wind(effects: &Effects, on: ForcesOn, origin: Vec3, frame: &MeshFrame) -> Wind {
+pub(crate) fn fur_wind(effects: &Effects, on: ForcesOn, origin: Vec3, frame: &MeshFrame) -> WindForce {
     let mut v = Vec3::ZERO;
     if on.has(Effect::Wind) {
         v += effects.wind.map_or(Vec3::ZERO, |w| Vec3::from(w.velocity_m_per_s));
@@ -163,7 +163,7 @@ pub(crate) fn fur_wind(effects: &Effects, on: ForcesOn, origin: Vec3, frame: &Me
         }
     }
     let (amp, hz) = effects.wind.map_or((0.0, 0.0), |w| (w.gust_amplitude, w.gust_frequency_hz));
-    Wind {
+    WindForce {
         direction: (frame.rotation.inverse() * v).normalize_or_zero().to_array(),
         force_n: FUR_WIND_N_PER_M_PER_S * v.length() / frame.scale,
         gust_amplitude: amp,
@@ -195,7 +195,7 @@ pub(crate) fn grass_force_scene(effects: &Effects, on: ForcesOn, t: f64, frame: 
     }
     if on.has(Effect::WindSources) {
         for s in &effects.wind_sources {
-            out.sources.push(furbake_grass::WindSource {
+            out.sources.push(furbake_grass::BladeWindSource {
                 position_m: frame.point(Vec3::from(s.position)),
                 power: s.power * frame.scale.powf(-s.falloff_exponent),
                 falloff_exponent: s.falloff_exponent,
@@ -206,7 +206,7 @@ pub(crate) fn grass_force_scene(effects: &Effects, on: ForcesOn, t: f64, frame: 
     if on.has(Effect::Collisions) {
         for c in &effects.collisions {
             out.colliders.push(match *c {
-                Collider::Sphere { center, radius_m } => furbake_grass::Collider::Sphere {
+                Collider::Sphere { center, radius_m } => furbake_grass::BladeCollider::Sphere {
                     center_m: frame.point(Vec3::from(center)),
                     radius_m: radius_m / frame.scale,
                     strength: GRASS_COLLIDER_STRENGTH,
@@ -214,7 +214,7 @@ pub(crate) fn grass_force_scene(effects: &Effects, on: ForcesOn, t: f64, frame: 
                 },
                 Collider::Ellipsoid { center, radii_m } => {
                     let r = Vec3::from(radii_m) / frame.scale;
-                    furbake_grass::Collider::Ellipsoid {
+                    furbake_grass::BladeCollider::Ellipsoid {
                         center_m: frame.point(Vec3::from(center)),
                         radii_m: r,
                         strength: GRASS_COLLIDER_STRENGTH,

@@ -18,7 +18,7 @@ use furbake_formats::sections::spring_topology::NO_MASS;
 use furbake_formats::{PackSections, check_consistency};
 use furbake_grass::{ForceField, ForceScene};
 use furbake_sim::{
-    ForceSet, FrameMotion, GuardParams, SimError, Simulator, SkinMove, SkinTransform, SolverKind, SolverSettings,
+    ForceSet, FrameMotion, GuardSettings, SimError, Simulator, SkinMove, SkinTransform, SolverKind, SolverSettings,
     StepStats, TopologyKind,
 };
 use glam::{Mat4, Vec3};
@@ -806,8 +806,8 @@ fn build_fur(scene: &Scene, pack: &Pack, simulate: bool, options: WorldOptions) 
     check_consistency(pack.sections(), &sections).map_err(|e| e.with_path(&pack.display_path()))?;
     debug_assert!(topology.shell_vertex_masses.iter().all(|m| (m[0] == NO_MASS) == (m[1] == NO_MASS)));
     let guard = match scene.effects.wrong_side_guard {
-        Some(g) => GuardParams { enabled: true, max_angle_deg: g.max_angle_deg, impulse_m_per_s: g.impulse_m_per_s },
-        None => GuardParams { enabled: false, ..GuardParams::default() },
+        Some(g) => GuardSettings { enabled: true, max_angle_deg: g.max_angle_deg, impulse_m_per_s: g.impulse_m_per_s },
+        None => GuardSettings { enabled: false, ..GuardSettings::default() },
     };
     let defaults = SolverSettings::of(choose_solver(kind, scene.solver.kind));
     let masses = topology.mass_kg.len().max(1) as u64;

@@ -18,7 +18,7 @@ use crate::SimError;
 /// The phase uses the mass's rest position, so wind adds no stiffness.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
-pub struct Wind {
+pub struct WindForce {
     /// Direction (normalised internally; zero disables the wind). Default +X.
     pub direction: [f32; 3],
     /// Mean force on each free mass, newtons. Default 1e-4.
@@ -31,9 +31,9 @@ pub struct Wind {
     pub gust_wavelength_m: f32,
 }
 
-impl Default for Wind {
+impl Default for WindForce {
     fn default() -> Self {
-        Wind {
+        WindForce {
             direction: [1.0, 0.0, 0.0],
             force_n: 1e-4,
             gust_amplitude: 0.5,
@@ -77,7 +77,7 @@ pub struct ForceSet {
     /// Weight `w` of the restoring force of eq. 3.37 on each tip mass, newtons. Default 0.01.
     pub restoring_weight_n: f32,
     /// Global wind (none by default).
-    pub wind: Option<Wind>,
+    pub wind: Option<WindForce>,
     /// Object motion turned into inertial forces (at rest by default).
     pub motion: FrameMotion,
     /// Local interaction forces (none by default).

@@ -43,9 +43,9 @@ pub mod synth;
 pub mod topology;
 
 pub use error::SimError;
-pub use forces::{ForceSet, FrameMotion, LocalForce, Wind, restoring_force};
+pub use forces::{ForceSet, FrameMotion, LocalForce, WindForce, restoring_force};
 pub use furbake_formats::sections::spring_topology::{SpringTopology, TopologyKind, TopologyParams};
-pub use shell::{GuardParams, scale_vector, shell_offset, shell_vertex_position};
+pub use shell::{GuardSettings, scale_vector, shell_offset, shell_vertex_position};
 pub use simulator::{Energy, Simulator, SolverKind, SolverSettings, StepStats};
 pub use skin::{SkinMove, SkinTransform};
 pub use topology::{build_topology, mesh_edges, validate_mesh};

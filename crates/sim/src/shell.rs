@@ -46,7 +46,7 @@ pub fn shell_vertex_position(
 /// Parameters of the wrong-side-scale guard (§3.4.3).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
-pub struct GuardParams {
+pub struct GuardSettings {
     /// Run the guard (default true). Off, scale vectors follow the masses wherever they go.
     pub enabled: bool,
     /// Threshold angle α between the vertex normal and the scale vector, degrees (0 < α < 90).
@@ -56,9 +56,9 @@ pub struct GuardParams {
     pub impulse_m_per_s: f32,
 }
 
-impl Default for GuardParams {
+impl Default for GuardSettings {
     fn default() -> Self {
-        GuardParams { enabled: true, max_angle_deg: 80.0, impulse_m_per_s: 0.05 }
+        GuardSettings { enabled: true, max_angle_deg: 80.0, impulse_m_per_s: 0.05 }
     }
 }
 
@@ -96,7 +96,7 @@ impl GuardState {
     /// After the skin moved (the tips' rest directions changed): a kept scale vector that now
     /// points past the guard's angle from its tip's direction is replaced by that direction, so
     /// a frozen vector never shows fur inside the posed surface.
-    pub fn follow_rest_directions(&mut self, model: &SimModel, p: &GuardParams) {
+    pub fn follow_rest_directions(&mut self, model: &SimModel, p: &GuardSettings) {
         let cos_a = if p.enabled { p.max_angle_deg.to_radians().cos() } else { -1.0 };
         for (s, t) in self.scale.iter_mut().zip(&model.tips) {
             if t.n.dot(*s) < cos_a {
@@ -113,7 +113,7 @@ impl GuardState {
 
     /// Tests every tip against `cos α`; updates scale vectors; applies impulses to `v`.
     /// Per-tip work runs in parallel; impulses are applied afterwards in tip order.
-    pub fn apply(&mut self, model: &SimModel, p: &GuardParams, x: &[Vec3A], v: &mut [Vec3A]) -> GuardOutcome {
+    pub fn apply(&mut self, model: &SimModel, p: &GuardSettings, x: &[Vec3A], v: &mut [Vec3A]) -> GuardOutcome {
         let cos_a = p.max_angle_deg.to_radians().cos();
         let enabled = p.enabled;
         self.kick.resize(model.tips.len(), false);

@@ -13,7 +13,7 @@ use crate::SimError;
 use crate::clusters::Clusters;
 use crate::forces::{ForceEval, ForceSet};
 use crate::model::{NONE, SimModel};
-use crate::shell::{GuardParams, GuardState};
+use crate::shell::{GuardSettings, GuardState};
 use crate::skin::{BindPose, SkinMove, SkinTransform};
 use crate::solvers::{self, ImplicitScratch, LocalGlobalScratch, ReferenceScratch, Step, XpbdScratch, sum_over};
 
@@ -107,7 +107,7 @@ pub struct SolverSettings {
     /// 5,000.
     pub reference_max_iterations: u32,
     /// The wrong-side-scale guard.
-    pub guard: GuardParams,
+    pub guard: GuardSettings,
     /// Compute energy, external work and the largest displacement every step (the statistics of
     /// [`StepStats`]; off in benchmarks). Default true.
     pub track_energy: bool,
@@ -126,7 +126,7 @@ impl Default for SolverSettings {
             max_link_rotation_rad: 0.5,
             reference_tolerance: 1e-10,
             reference_max_iterations: 5_000,
-            guard: GuardParams::default(),
+            guard: GuardSettings::default(),
             track_energy: true,
         }
     }

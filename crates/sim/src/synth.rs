@@ -159,7 +159,7 @@ pub fn stiff_net() -> SpringTopology {
 pub fn stiff_net_forces() -> crate::ForceSet {
     crate::ForceSet {
         restoring_weight_n: 0.0,
-        wind: Some(crate::Wind {
+        wind: Some(crate::WindForce {
             direction: [0.3, 0.0, 1.0],
             force_n: 5e-3,
             gust_amplitude: 0.5,
@@ -178,7 +178,7 @@ pub fn stiff_net_forces() -> crate::ForceSet {
 pub fn fur_wind_forces() -> crate::ForceSet {
     crate::ForceSet {
         gravity_m_per_s2: [0.0; 3],
-        wind: Some(crate::Wind {
+        wind: Some(crate::WindForce {
             direction: [1.0, 0.0, 0.4],
             force_n: 3e-4,
             gust_amplitude: 0.8,

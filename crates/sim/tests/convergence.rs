@@ -24,7 +24,7 @@
 use crate::common::{Net, flat};
 use furbake_formats::sections::spring_topology::{TopologyKind, TopologyParams};
 use furbake_sim::{
-    ForceSet, GuardParams, Simulator, SolverKind, SolverSettings, SpringTopology, build_topology, meshes, synth,
+    ForceSet, GuardSettings, Simulator, SolverKind, SolverSettings, SpringTopology, build_topology, meshes, synth,
 };
 
 const ITERATIONS: [u32; 5] = [1, 2, 4, 8, 32];
@@ -35,7 +35,7 @@ fn settings(kind: SolverKind, iterations: u32) -> SolverSettings {
         max_link_rotation_rad: 0.0,
         max_substeps: 100_000,
         track_energy: false,
-        guard: GuardParams { enabled: false, ..GuardParams::default() },
+        guard: GuardSettings { enabled: false, ..GuardSettings::default() },
         ..SolverSettings::of(kind)
     }
 }

@@ -23,7 +23,7 @@
 use furbake_formats::sections::skin_mesh::SkinMesh;
 use furbake_formats::sections::spring_topology::{SpringTopology, TopologyKind, TopologyParams};
 use furbake_sim::{
-    ForceSet, FrameMotion, GuardParams, SimError, Simulator, SolverKind, SolverSettings, Wind, build_topology, meshes,
+    ForceSet, FrameMotion, GuardSettings, SimError, Simulator, SolverKind, SolverSettings, WindForce, build_topology, meshes,
 };
 
 /// Tips must be back within this fraction of the fur length.
@@ -50,7 +50,7 @@ fn base_params() -> TopologyParams {
 
 fn windy() -> ForceSet {
     ForceSet {
-        wind: Some(Wind { direction: [1.0, 0.0, 0.3], force_n: 2e-4, gust_amplitude: 0.8, ..Wind::default() }),
+        wind: Some(WindForce { direction: [1.0, 0.0, 0.3], force_n: 2e-4, gust_amplitude: 0.8, ..WindForce::default() }),
         ..ForceSet::default()
     }
 }
@@ -152,7 +152,7 @@ fn tip_error(sim: &Simulator, t: &SpringTopology) -> f32 {
     worst
 }
 
-fn check_scale_vectors(sim: &Simulator, guard: &GuardParams, what: &str) -> usize {
+fn check_scale_vectors(sim: &Simulator, guard: &GuardSettings, what: &str) -> usize {
     let cos_a = guard.max_angle_deg.to_radians().cos();
     let mut checked = 0;
     for (s, n) in sim.scale_vectors().iter().zip(sim.shell_normals()) {

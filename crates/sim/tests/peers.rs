@@ -232,7 +232,7 @@ fn peers_are_deterministic_across_thread_counts() -> Result<(), SimError> {
         for kind in [SolverKind::Xpbd, SolverKind::LocalGlobal] {
             let run = || -> Result<Vec<[f32; 3]>, SimError> {
                 let mut sim = Simulator::new(&t, SolverSettings::of(kind))?;
-                sim.set_forces(ForceSet { wind: Some(furbake_sim::Wind::default()), ..ForceSet::default() })?;
+                sim.set_forces(ForceSet { wind: Some(furbake_sim::WindForce::default()), ..ForceSet::default() })?;
                 for _ in 0..3 {
                     sim.step(1.0 / 60.0)?;
                 }

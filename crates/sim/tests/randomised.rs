@@ -8,7 +8,7 @@
 //! keeps θ ≤ 0.5 rad so this stays bounded, but not within the 5 % the fixed cases show.
 
 use furbake_formats::sections::spring_topology::{TopologyKind, TopologyParams};
-use furbake_sim::{ForceSet, SimError, Simulator, SolverKind, SolverSettings, Wind, build_topology, meshes};
+use furbake_sim::{ForceSet, SimError, Simulator, SolverKind, SolverSettings, WindForce, build_topology, meshes};
 use proptest::prelude::*;
 
 fn log_range(lo: f64, hi: f64) -> impl Strategy<Value = f32> {
@@ -70,7 +70,7 @@ proptest! {
         sim.set_forces(ForceSet {
             gravity_m_per_s2: gravity,
             restoring_weight_n: restoring,
-            wind: Some(Wind { force_n: wind, ..Wind::default() }),
+            wind: Some(WindForce { force_n: wind, ..WindForce::default() }),
             ..ForceSet::default()
         }).expect("valid forces");
         let mut e_max = 0.0f64;
@@ -123,7 +123,7 @@ fn separable_prisms_spinning_after_a_teleport_keep_their_energy_budget() {
         let mut sim = Simulator::new(&topo, settings).expect("valid topology");
         sim.set_forces(ForceSet {
             restoring_weight_n: 0.01,
-            wind: Some(Wind { force_n: 0.005, ..Wind::default() }),
+            wind: Some(WindForce { force_n: 0.005, ..WindForce::default() }),
             ..ForceSet::default()
         })
         .expect("valid forces");

@@ -16,7 +16,7 @@
 use crate::common::{Net, flat};
 use furbake_formats::sections::spring_topology::{TopologyKind, TopologyParams};
 use furbake_sim::{
-    ForceSet, GuardParams, Simulator, SolverKind, SolverSettings, SpringTopology, Wind, build_topology, meshes, synth,
+    ForceSet, GuardSettings, Simulator, SolverKind, SolverSettings, SpringTopology, WindForce, build_topology, meshes, synth,
 };
 
 const DURATION: f64 = 0.1;
@@ -26,7 +26,7 @@ fn reference_positions(t: &SpringTopology, f: &ForceSet, dt: f64, duration: f64)
         max_link_rotation_rad: 0.0,
         track_energy: false,
         reference_tolerance: 1e-12,
-        guard: GuardParams { enabled: false, ..GuardParams::default() },
+        guard: GuardSettings { enabled: false, ..GuardSettings::default() },
         ..SolverSettings::of(SolverKind::Reference)
     };
     let mut sim = Simulator::new(t, settings).expect("valid settings");
@@ -100,7 +100,7 @@ fn the_reference_converges_at_first_order_to_rk4_with_the_restoring_force() {
     let t = build_topology(&meshes::grid(3, 3, 0.02), TopologyKind::SPRING_STICKS, &TopologyParams::default())
         .expect("builds");
     let f = ForceSet {
-        wind: Some(Wind {
+        wind: Some(WindForce {
             direction: [1.0, 0.0, 0.4],
             force_n: 2e-3,
             gust_amplitude: 0.8,

@@ -62,7 +62,7 @@ fn non_finite_state_is_reported_not_propagated() {
 
 fn run(t: &furbake_sim::SpringTopology, settings: SolverSettings, steps: u32, dt: f64) -> Vec<[f32; 3]> {
     let mut sim = Simulator::new(t, settings).expect("valid");
-    sim.set_forces(ForceSet { wind: Some(furbake_sim::Wind::default()), ..ForceSet::default() }).expect("valid");
+    sim.set_forces(ForceSet { wind: Some(furbake_sim::WindForce::default()), ..ForceSet::default() }).expect("valid");
     for _ in 0..steps {
         sim.step(dt).expect("stable");
     }

@@ -49,7 +49,7 @@ use glam::Vec3A;
 
 use crate::forces::{ForceEval, restoring_force};
 use crate::model::{NONE, SimModel};
-use crate::shell::{GuardOutcome, GuardParams, GuardState};
+use crate::shell::{GuardOutcome, GuardSettings, GuardState};
 
 pub(crate) use chunks::{CHUNK, PARALLEL_MIN, sum_over};
 pub(crate) use explicit::{explicit_step, stable_step};
@@ -76,7 +76,7 @@ pub(crate) struct Step<'a> {
     pub v_out: &'a mut [Vec3A],
     /// The wrong-side guard (§3.4.3), on a frame step's last substep: run in the step's own pass
     /// where the topology allows (see [`StepOutcome::guard`]), else left to the caller.
-    pub guard: Option<(&'a GuardParams, &'a mut GuardState)>,
+    pub guard: Option<(&'a GuardSettings, &'a mut GuardState)>,
     /// `Some(θ)` (implicit and reference solvers): compute the next step's rotation-limited step
     /// for the link-rotation limit `θ` (radians) in the step's own pass where possible.
     pub rotation: Option<f64>,
