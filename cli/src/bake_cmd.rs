@@ -7,7 +7,9 @@ use std::time::Instant;
 
 use anyhow::anyhow;
 use furbake_bake::validate::check_against_mesh;
-use furbake_bake::{BakeSettings, BakedPack, Progress, Stage, bake, estimate_bake_memory, settings::dotted_override};
+use furbake_bake::{
+    BakePlan, BakeSettings, BakedPack, Progress, Stage, bake, estimate_bake_memory, settings::dotted_override,
+};
 use furbake_import::{ImportError, ImportedMesh, import_gltf, import_gltf_with_asset_root};
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -21,7 +23,7 @@ use crate::files::Files;
 /// read: a bad setting exits 2 with a message that starts with its key, and nothing is written.
 /// A config file that cannot be read or is not TOML is bad input (exit 1); its keys and values are
 /// settings (exit 2).
-pub fn plan(args: &BakeArgs) -> Result<BakeSettings, Failure> {
+pub fn plan(args: &BakeArgs) -> Result<BakePlan, Failure> {
     let mut settings = BakeSettings::preset(&args.preset).usage()?;
     if let Some(path) = &args.config {
         let text = crate::files::read_text(path, "the config")?;
@@ -52,9 +54,9 @@ pub fn plan(args: &BakeArgs) -> Result<BakeSettings, Failure> {
         settings =
             settings.with_overrides(&dotted_override(s).usage()?).map_err(|e| anyhow!("{e} (in --set {s})")).usage()?;
     }
-    settings.validate().usage()?;
+    let plan = settings.plan().usage()?;
     check_output_paths(args)?;
-    Ok(settings)
+    Ok(plan)
 }
 
 /// The bake's files: its glTF and config as inputs; the pack (`-o -`: stdout), the depfile and
@@ -277,7 +279,7 @@ pub fn run(args: BakeArgs, quiet: bool) -> Result<(), Failure> {
 
 /// Imports, checks the memory budget, bakes and writes the pack, then the PNGs, the depfile and
 /// the report the job asks for. `bar` (a terminal's progress bar) is advanced stage by stage.
-pub fn bake_job(job: &Job, settings: &BakeSettings, bar: Option<ProgressBar>) -> Result<Done, Failure> {
+pub fn bake_job(job: &Job, settings: &BakePlan, bar: Option<ProgressBar>) -> Result<Done, Failure> {
     let started = Instant::now();
     let imported = match job.asset_root {
         Some(root) => import_gltf_with_asset_root(job.mesh, root, &settings.import),

@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::anyhow;
-use furbake_bake::BakeSettings;
+use furbake_bake::{BakePlan, BakeSettings};
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 use serde::Deserialize;
@@ -84,7 +84,7 @@ struct Planned {
     asset_root: Option<PathBuf>,
     depfile: Option<PathBuf>,
     max_memory: u64,
-    settings: BakeSettings,
+    settings: BakePlan,
 }
 
 /// How one asset ended.
@@ -203,7 +203,7 @@ fn plan(file: &BatchFile, base: &Path, batch: &Path) -> Result<(Vec<Planned>, Fi
                 crate::files::table_overrides(table).map_err(|e| anyhow!("{}: settings.{e}", what())).usage()?;
             settings = settings.with_overrides(&value).map_err(|e| anyhow!("{}: {e}", what())).usage()?;
         }
-        settings.validate().map_err(|e| anyhow!("{}: {e}", what())).usage()?;
+        let settings = settings.plan().map_err(|e| anyhow!("{}: {e}", what())).usage()?;
         let input = base.join(&a.input);
         let output = match &a.output {
             Some(o) => base.join(o),

@@ -322,3 +322,66 @@ pub fn run_verify(args: VerifyArgs, quiet: bool) -> Result<(), Failure> {
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    use furbake_bake::{BakeSettings, NoProgress, bake, settings::dotted_override};
+    use furbake_import::{ImportSettings, import_gltf};
+    use furbake_runtime::{Scene, StageKind};
+
+    use crate::{preview_cmd, simulate_cmd};
+
+    /// Bakes `gltf` (under the repository root) with `preset` and `sets` into `dir/name`.
+    fn bake_into(dir: &Path, gltf: &str, preset: &str, sets: &[&str], name: &str) {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+        let mesh = import_gltf(&root.join(gltf), &ImportSettings::default()).unwrap();
+        let mut settings = BakeSettings::preset(preset).unwrap();
+        for set in sets {
+            settings = settings.with_overrides(&dotted_override(set).unwrap()).unwrap();
+        }
+        let baked = bake(&mesh, name, &settings.plan().unwrap(), &mut NoProgress).unwrap();
+        baked.to_writer().write_atomic(&dir.join(name)).unwrap();
+    }
+
+    /// `simulate`, `preview` and `view` plan `make demo`'s scene alike: the same stages, the same
+    /// memory estimate per entry and in all, each pack file opened once and shared by its entries.
+    /// (`view` opens a scene through `preview_cmd::open_scene_world`, which plans with
+    /// `preview_cmd::plan_scene_world`.)
+    #[test]
+    fn simulate_preview_and_view_plan_the_demo_scene_alike() {
+        let dir = tempfile::tempdir().unwrap();
+        let small = ["volume.resolution=16", "volume.layers=4", "topologies=[\"prisms\"]"];
+        bake_into(dir.path(), "fixtures/real/Fox.glb", "fur", &small, "fox.fbk");
+        let grass = [&small[..], &["blades.field.density_per_m2=400"]].concat();
+        bake_into(dir.path(), "fixtures/generated/grass_patch.gltf", "grass", &grass, "grass-patch.fbk");
+        let scene_path = dir.path().join("fox_and_grass.toml");
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+        std::fs::copy(root.join("fixtures/scenes/demo_fox_and_grass.toml"), &scene_path).unwrap();
+
+        let shown = preview_cmd::plan_scene_world(&scene_path).unwrap();
+        let kinds: Vec<StageKind> = shown.stages().iter().map(|s| s.kind).collect();
+        for kind in [StageKind::Animation, StageKind::FurSolver] {
+            assert!(kinds.contains(&kind), "the demo scene animates the Fox and simulates its fur: {kinds:?}");
+        }
+        let files = |plan: &furbake_runtime::WorldPlan| {
+            let mut distinct: Vec<*const furbake_runtime::Pack> =
+                plan.packs().iter().map(|p| &**p as *const _).collect();
+            distinct.sort();
+            distinct.dedup();
+            (plan.packs().len(), distinct.len())
+        };
+        let scene = Scene::load(&scene_path).unwrap();
+        assert_eq!(files(&shown), (scene.packs().len(), 2), "two pack files, each opened once");
+        for report in [false, true] {
+            let simulated = simulate_cmd::plan_world(scene.clone(), &scene_path, report).unwrap();
+            assert_eq!(simulated.scene(), shown.scene());
+            assert_eq!(simulated.stages(), shown.stages(), "report {report}");
+            assert_eq!(simulated.memory(), shown.memory(), "report {report}");
+            assert_eq!(simulated.estimated_bytes(), shown.estimated_bytes());
+            assert_eq!(simulated.largest_payload(), shown.largest_payload());
+            assert_eq!(files(&simulated), files(&shown));
+        }
+    }
+}

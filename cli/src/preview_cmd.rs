@@ -20,7 +20,7 @@ use anyhow::{Context, anyhow};
 use furbake_render::headless::{HeadlessGpu, RenderTarget, read_back, render_preview};
 use furbake_render::{RenderError, SceneRenderer};
 use furbake_runtime::RenderOptions;
-use furbake_runtime::{Scene, World, WorldOptions};
+use furbake_runtime::{Scene, World, WorldOptions, WorldPlan};
 
 use crate::args::PreviewArgs;
 use crate::failure::{self, Classify, Failure};
@@ -97,7 +97,7 @@ fn plan(args: PreviewArgs) -> Result<PreviewPlan, Failure> {
             // outputs"); frames go into a directory.
             let scene = furbake_runtime::Scene::load(&args.input).map_err(failure::scene)?;
             let mut files = crate::files::Files::with_inputs(
-                std::iter::once(args.input.as_path()).chain(scene.packs.iter().map(|p| p.path.as_path())),
+                std::iter::once(args.input.as_path()).chain(scene.packs().iter().map(|p| p.path.as_path())),
             );
             match &output {
                 SceneOutput::Still(png) => files.stream_output("--output", png)?,
@@ -257,14 +257,18 @@ impl SceneRun {
 /// The renderers' GPU memory is then checked against `max_memory` before anything is created on
 /// the GPU ([`check_gpu_memory`]).
 pub(crate) fn open_scene_world(path: &Path, target_bytes: u64, max_memory: u64) -> Result<World, Failure> {
-    let scene = Scene::load(path).map_err(failure::scene)?;
-    // Every pack validated as `verify` does before the world reads it (docs/design.md "Runtime:
-    // packs"), and the world planned as `simulate` plans it; the world and the renderers share
-    // what verification decoded.
-    let plan = crate::describe::plan_scene(scene, path, WorldOptions::default())?;
-    let world = plan.build().map_err(|e| failure::runtime(e, path))?;
+    let world = plan_scene_world(path)?.build().map_err(|e| failure::runtime(e, path))?;
     check_gpu_memory(&world, path, target_bytes, max_memory)?;
     Ok(world)
+}
+
+/// The world of the runtime scene at `path` as `preview` and `view` plan it: every pack validated
+/// as `verify` does before the world reads it (docs/design.md "Runtime: packs") and planned as
+/// `simulate` plans it ([`crate::describe::plan_scene`]); the world and the renderers share what
+/// verification decoded.
+pub(crate) fn plan_scene_world(path: &Path) -> Result<WorldPlan, Failure> {
+    let scene = Scene::load(path).map_err(failure::scene)?;
+    crate::describe::plan_scene(scene, path, WorldOptions::default())
 }
 
 /// Refuses (exit 2) a world whose renderers' estimated GPU memory
@@ -297,7 +301,7 @@ fn run_scene(
 ) -> Result<(), Failure> {
     let started = Instant::now();
     let mut run = SceneRun::start(path, (w, h), max_memory, render)?;
-    let step_s = run.world.scene().time_step_s;
+    let step_s = run.world.scene().time_step_s();
     let settle_steps = (settle_s / step_s as f64 - 1e-9).ceil().max(0.0);
     let frames = match output {
         SceneOutput::Frames { count, .. } => u64::from(*count),

@@ -54,12 +54,12 @@ pub fn run(args: SimulateArgs, quiet: bool) -> Result<(), Failure> {
     }
     let scene = Scene::load(path).map_err(failure::scene)?;
     plan_files(&args, &scene)?;
-    let dt = scene.time_step_s;
+    let dt = scene.time_step_s();
     let frames = match args.frames {
         Some(n) if n > MAX_FRAMES => return Err(Failure::Usage(anyhow!("--frames {n} is above {MAX_FRAMES}"))),
         Some(n) => n,
         None => {
-            let steps = (scene.duration_s.unwrap_or(DEFAULT_SCENE_TIME_S) / dt as f64 - 1e-9).ceil().max(1.0);
+            let steps = (scene.duration_s().unwrap_or(DEFAULT_SCENE_TIME_S) / dt as f64 - 1e-9).ceil().max(1.0);
             if steps > MAX_FRAMES as f64 {
                 return Err(Failure::Usage(anyhow!(
                     "{}: duration_s / time_step_s is {steps} steps, above {MAX_FRAMES}; shorten duration_s, \
@@ -79,14 +79,17 @@ pub fn run(args: SimulateArgs, quiet: bool) -> Result<(), Failure> {
     // Every pack is validated as `verify` does before anything else reads it, so a corrupt pack
     // is bad input (exit 1) even when the estimate below would refuse the run too
     // (docs/design.md "Runtime: packs").
-    let options = WorldOptions { step_statistics: wants_report, ..WorldOptions::default() };
-    let plan = crate::describe::plan_scene(scene, path, options)?;
+    let plan = plan_world(scene, path, wants_report)?;
     check_memory_budget(&plan, path, args.state_out.is_some(), args.max_memory)?;
     let mut world = plan.build().map_err(|e| failure::runtime(e, path))?;
     // The report streams — its head, each step record as it is taken, then its tail — into the
     // -o file (named only once the run succeeds) and to stdout with --json; nothing is kept.
-    let head =
-        ReportHead { scene: path.display().to_string(), frames, time_step_s: world.scene().time_step_s, record_every };
+    let head = ReportHead {
+        scene: path.display().to_string(),
+        frames,
+        time_step_s: world.scene().time_step_s(),
+        record_every,
+    };
     let mut failed: Option<Failure> = None;
     let mut wall_s = 0.0;
     let mut produce = |sink: &mut dyn Write| -> std::io::Result<()> {
@@ -200,7 +203,7 @@ impl StepRecord {
         StepRecord {
             step,
             time_s: world.time_s(),
-            pack: world.scene().packs[pack].name.clone(),
+            pack: world.scene().packs()[pack].name.clone(),
             energy_j: s.energy.total_j(),
             kinetic_j: s.energy.kinetic_j,
             spring_j: s.energy.spring_j,
@@ -321,7 +324,7 @@ struct StateFile {
 /// a regular file; `-` is stdout, which only one of `--json`, `-o -` and `--state-out -` may use.
 fn plan_files(args: &SimulateArgs, scene: &Scene) -> Result<(), Failure> {
     let mut files = crate::files::Files::with_inputs(
-        std::iter::once(args.input.as_path()).chain(scene.packs.iter().map(|p| p.path.as_path())),
+        std::iter::once(args.input.as_path()).chain(scene.packs().iter().map(|p| p.path.as_path())),
     );
     let on_stdout = [
         ("--json", args.json),
@@ -359,7 +362,7 @@ fn looks_like_a_pack(path: &Path) -> bool {
 fn report_tail(world: &World, wall_s: f64) -> ReportTail {
     let packs = (0..world.pack_count())
         .map(|i| {
-            let sp = &world.scene().packs[i];
+            let sp = &world.scene().packs()[i];
             let fur = world.fur(i);
             let sim = fur.and_then(|f| f.simulation);
             PackRow {
@@ -434,6 +437,13 @@ struct RunPart {
     bytes: u64,
 }
 
+/// The world `simulate` runs: the scene's packs verified and planned as `preview` and `view` plan
+/// them ([`crate::describe::plan_scene`]), with step statistics kept when a report is asked for.
+pub(crate) fn plan_world(scene: Scene, path: &Path, wants_report: bool) -> Result<WorldPlan, Failure> {
+    let options = WorldOptions { step_statistics: wants_report, ..WorldOptions::default() };
+    crate::describe::plan_scene(scene, path, options)
+}
+
 /// Refuses a run whose estimated memory ([`run_parts`]) is above `max_memory`: exit 2 naming the
 /// scene, the estimate, the budget and what drives the largest part.
 fn check_memory_budget(plan: &WorldPlan, path: &Path, state_out: bool, max_memory: u64) -> Result<(), Failure> {
@@ -463,7 +473,7 @@ fn run_parts(plan: &WorldPlan, state_out: bool) -> Result<Vec<RunPart>, RuntimeE
     let mut parts: Vec<RunPart> = plan
         .memory()
         .iter()
-        .zip(&plan.scene().packs)
+        .zip(plan.scene().packs())
         .map(|(m, sp)| RunPart {
             what: match m.masses {
                 0 => format!(

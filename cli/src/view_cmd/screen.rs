@@ -265,7 +265,7 @@ impl Screen {
     /// on every grass renderer; returns whether culling is now on, or `None` when the scene has
     /// no grass.
     pub fn toggle_grass_culling(&mut self, world: &furbake_runtime::World) -> Result<Option<bool>, RenderError> {
-        let scene = world.scene().grass_culling;
+        let scene = world.scene().grass_culling();
         let mut now = None;
         for pack in self.renderer.packs_mut() {
             if let Some(blades) = pack.blades.as_mut() {

@@ -9,7 +9,8 @@ use std::sync::Arc;
 use anyhow::anyhow;
 use furbake_formats::SectionKind;
 use furbake_render::FurAsset;
-use furbake_runtime::{Effect, Effects, Pack, Scene, StageStats, World, WorldOptions, WorldPlan};
+use furbake_runtime::scene::PackAnimation;
+use furbake_runtime::{Effect, Effects, Pack, Scene, ScenePack, StageStats, World, WorldOptions, WorldPlan};
 
 use crate::failure::{self, Failure};
 use crate::preview_cmd;
@@ -39,13 +40,13 @@ impl Session {
     pub fn new(path: &Path, world: World) -> Session {
         let scene = world.scene().clone();
         let packs = (0..world.pack_count()).map(|i| Arc::clone(world.pack(i))).collect();
-        let effects = scene.effects.enabled().into_iter().map(|e| (e, false)).collect();
+        let effects = scene.effects().enabled().into_iter().map(|e| (e, false)).collect();
         Session { path: path.to_path_buf(), scene, packs, world, effects, playing: true }
     }
 
     /// The scene's time step, seconds.
     pub fn time_step_s(&self) -> f64 {
-        self.scene.time_step_s as f64
+        self.scene.time_step_s() as f64
     }
 
     /// Advances the world one time step.
@@ -75,7 +76,7 @@ impl Session {
             .map(|i| self.world.animation(i).map(|a| a.clip_name(a.playback().clip).to_string()))
             .collect();
         let mut world = self.rebuild()?;
-        let (declared, off) = (&self.scene.effects, &self.effects);
+        let (declared, off) = (&self.scene.effects(), &self.effects);
         world
             .update_effects(|e| {
                 for &(effect, switched_off) in off {
@@ -107,7 +108,7 @@ impl Session {
                 effect_name(effect)
             ));
         }
-        let declared = &self.scene.effects;
+        let declared = &self.scene.effects();
         self.world
             .update_effects(|e| {
                 set_strength(e, declared, effect, off);
@@ -131,7 +132,7 @@ impl Session {
             }
             .to_string();
             animator.play(&name, CLIP_FADE_S).map_err(|e| Failure::Input(anyhow!("{}: {e}", self.path.display())))?;
-            playing.push(format!("{}: {name}", self.scene.packs[i].name));
+            playing.push(format!("{}: {name}", self.scene.packs()[i].name));
         }
         Ok((!playing.is_empty()).then(|| playing.join(", ")))
     }
@@ -171,26 +172,16 @@ pub fn pack_world(path: &Path, aspect: f32, target_bytes: u64, max_memory: u64) 
         .animation_clips()
         .map_err(|e| input(e.into()))?
         .and_then(|clips| clips.clips.first().map(|c| c.name.clone()));
-    let mut entry = toml::Table::new();
-    entry.insert("name".into(), "pack".into());
-    // A placeholder: the real path (UTF-8 or not) is set after parsing.
-    entry.insert("path".into(), "pack.fbk".into());
-    if let Some(clip) = first_clip {
-        let mut animation = toml::Table::new();
-        animation.insert("clip".into(), clip.into());
-        entry.insert("animation".into(), animation.into());
-    }
-    let mut root = toml::Table::new();
-    root.insert("packs".into(), toml::Value::Array(vec![entry.into()]));
-    let mut scene = Scene::from_toml_str(&root.to_string(), path, Path::new("")).map_err(failure::scene)?;
-    scene.packs[0].path = path.to_path_buf();
+    let mut entry = ScenePack::new("pack", path);
+    entry.animation = first_clip.map(PackAnimation::new);
     // A pack alone says nothing of its units (the Fox glTF is in centimetres): distances in
     // metres would cull its grass, so only the frustum culls (G switches that off too).
-    scene.grass_culling = furbake_runtime::GrassCulling::frustum_only();
+    let mut scene = Scene::builder(vec![entry]).grass_culling(furbake_runtime::GrassCulling::frustum_only());
     if pack.has(SectionKind::SKIN_MESH) && pack.has(SectionKind::SHELL_ATLAS) {
         let asset = FurAsset::from_pack(&pack, false).map_err(|e| preview_cmd::render_failure(e, path))?;
-        scene.camera = Some(asset.auto_view(aspect).camera);
+        scene = scene.camera(Some(asset.auto_view(aspect).camera));
     }
+    let scene = scene.build().map_err(failure::scene)?;
     let world = WorldPlan::with_packs(scene, vec![Arc::new(pack)], WorldOptions::default())
         .and_then(WorldPlan::build)
         .map_err(|e| failure::runtime(e, path))?;
@@ -277,7 +268,7 @@ mod tests {
             strength_n = 3.0
             [effects.wrong_side_guard]
         "#;
-        Scene::from_toml_str(text, "s.toml".as_ref(), Path::new("")).unwrap().effects
+        Scene::from_toml_str(text, "s.toml".as_ref(), Path::new("")).unwrap().effects().clone()
     }
 
     #[test]

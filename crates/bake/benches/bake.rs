@@ -9,7 +9,7 @@ use furbake_import::{import_gltf_slice, testmesh};
 fn bench_bake(c: &mut Criterion) {
     // 40 rings × 38 segments: 2·38·39 = 2,964 triangles.
     let sphere = testmesh::uv_sphere(40, 38, 0.5);
-    let settings = BakeSettings::preset("fur").expect("built-in preset");
+    let settings = BakeSettings::preset("fur").expect("built-in preset").plan().expect("the preset is valid");
     let mut group = c.benchmark_group("bake");
     group.sample_size(20);
     group.bench_function(format!("fur_preset_sphere_{}_triangles", sphere.triangles), |b| {

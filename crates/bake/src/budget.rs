@@ -238,7 +238,7 @@ struct Part {
 
 /// Estimates the peak bytes [`crate::bake`] and the pack write will hold for `settings` on
 /// `input` (see the module documentation). Expects settings that passed
-/// [`crate::validate::validate_settings`] and [`crate::validate::check_against_mesh`] (their
+/// [`BakeSettings::plan`](crate::BakeSettings::plan) and [`crate::validate::check_against_mesh`] (their
 /// counts are then bounded); nothing is allocated beyond one `u64` per furry triangle corner.
 ///
 /// ```
@@ -443,8 +443,7 @@ mod tests {
         for set in sets {
             s = s.with_overrides(&dotted_override(set).unwrap()).unwrap();
         }
-        s.validate().unwrap();
-        s
+        s.plan().unwrap().into_settings()
     }
 
     #[test]

@@ -17,7 +17,7 @@
 //! let imported = import_gltf_slice(&gltf, "sphere.gltf", None, &Default::default())?;
 //! let mut settings = BakeSettings::preset("fur")?;
 //! settings.volume.resolution = 32; // keep the doctest quick
-//! let baked = bake(&imported, "sphere.gltf", &settings, &mut NoProgress)?;
+//! let baked = bake(&imported, "sphere.gltf", &settings.plan()?, &mut NoProgress)?;
 //! assert_eq!(baked.uv_map.corners.len(), baked.mesh.triangles.len());
 //! let bytes = baked.to_writer().to_bytes();
 //! assert!(furbake_formats::Pack::from_bytes(&bytes).is_ok());
@@ -46,8 +46,8 @@ use furbake_formats::sections::triangle_uv_map::TriangleUvMap;
 use furbake_import::{ImportedAnimation, ImportedMesh};
 
 pub use budget::{MemoryEstimate, MemoryPart, estimate_bake_memory};
-pub use settings::{BakeSettings, BladeSettings, ShellSettings};
-pub use validate::SettingsError;
+pub use settings::{BakeSettings, BladeSettings, SettingsError, ShellSettings};
+pub use validate::BakePlan;
 
 /// Why a bake failed.
 #[derive(Debug, thiserror::Error)]
@@ -211,15 +211,16 @@ impl BakedPack {
     }
 }
 
-/// Runs the whole pipeline on an imported mesh. The settings are validated first, alone and then
-/// against the mesh's size ([`validate`]); no stage starts before both checks pass.
+/// Runs the whole pipeline on an imported mesh with settings validated when they were planned
+/// ([`BakeSettings::plan`]); what depends on the mesh's size is checked first
+/// ([`validate::check_against_mesh`]), and no stage starts before it passes.
 pub fn bake(
     input: &ImportedMesh,
     input_name: &str,
-    settings: &BakeSettings,
+    plan: &BakePlan,
     progress: &mut dyn Progress,
 ) -> Result<BakedPack, BakeError> {
-    settings.validate()?;
+    let settings = plan.settings();
     validate::check_against_mesh(settings, &input.mesh)?;
     let mesh = &input.mesh;
     if mesh.furry_triangles() == 0 {

@@ -1,7 +1,8 @@
 //! The bake plan: one settings struct per stage, presets (`fur`, `grass`), and deep-merged
 //! overrides from a config file or `--set key=value` flags. Parse, then plan: [`BakeSettings`] is
-//! validated as a whole before any stage runs (the ranges are in [`crate::validate`]), and it is
-//! what the manifest records.
+//! validated as a whole before any stage runs ([`BakeSettings::plan`] makes a
+//! [`crate::validate::BakePlan`]; the ranges are in [`crate::validate`]), and it is what the
+//! manifest records.
 
 use furbake_formats::sections::shell_atlas::VolumeParams;
 use furbake_formats::sections::spring_topology::{TopologyKind, TopologyParams};
@@ -9,9 +10,68 @@ use furbake_grass::{BladeFieldSettings, KeyframeSettings};
 use furbake_import::ImportSettings;
 use serde::{Deserialize, Serialize};
 
+use furbake_formats::OutOfRange;
+
 use crate::uv_map::UvSettings;
-use crate::validate::SettingsError;
 use crate::volume;
+
+/// A bake setting that cannot be used. Blame: the caller (the CLI exits 2). Every message starts
+/// with the setting's key.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum SettingsError {
+    /// A value outside its allowed range (or not finite).
+    #[error("{key} = {value} is out of range (allowed: {allowed})")]
+    OutOfRange {
+        /// Dotted path of the setting, as under the manifest's `settings`.
+        key: String,
+        /// The value given, as text.
+        value: String,
+        /// The allowed range or values.
+        allowed: String,
+    },
+    /// A key, name or value that is not understood (unknown key, unknown topology, wrong type,
+    /// settings that contradict each other).
+    #[error("{key}: {what}")]
+    Invalid {
+        /// Dotted path of the setting (or `settings` when no single key is to blame).
+        key: String,
+        /// What is wrong.
+        what: String,
+    },
+    /// A value that is in range alone but asks for more than the bake accepts (memory, counts).
+    #[error("{key} = {value} asks for {amount} {what}, above the limit of {limit}")]
+    TooLarge {
+        /// Dotted path of the setting to lower.
+        key: String,
+        /// The value given, as text (with the other settings it combines with).
+        value: String,
+        /// What would be counted.
+        what: String,
+        /// How many.
+        amount: u64,
+        /// The largest count accepted.
+        limit: u64,
+    },
+}
+
+impl SettingsError {
+    /// The dotted key of the offending setting.
+    pub fn key(&self) -> &str {
+        match self {
+            SettingsError::OutOfRange { key, .. }
+            | SettingsError::Invalid { key, .. }
+            | SettingsError::TooLarge { key, .. } => key,
+        }
+    }
+
+    pub(crate) fn range(key: impl Into<String>, value: impl std::fmt::Display, allowed: impl Into<String>) -> Self {
+        SettingsError::OutOfRange { key: key.into(), value: value.to_string(), allowed: allowed.into() }
+    }
+
+    pub(crate) fn prefixed(prefix: &str, e: OutOfRange) -> Self {
+        SettingsError::OutOfRange { key: format!("{prefix}.{}", e.field), value: e.value, allowed: e.allowed }
+    }
+}
 
 /// Settings of the shell geometry.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -99,7 +159,7 @@ impl BakeSettings {
 
     /// Applies `overrides` (a JSON object, e.g. parsed from TOML) on top of these settings: objects
     /// merge key by key, anything else replaces. Unknown keys and values of the wrong type are
-    /// errors that name the key. Ranges are not checked here: see [`Self::validate`].
+    /// errors that name the key. Ranges are not checked here: see [`Self::plan`].
     pub fn with_overrides(&self, overrides: &serde_json::Value) -> Result<BakeSettings, SettingsError> {
         let mut start = self.clone();
         // A patch that configures blades on settings without them starts from the blade defaults,
@@ -146,12 +206,6 @@ impl BakeSettings {
              the preset's, table by table (README \"Bake settings\"; `furbake schema config` prints this schema).",
             true,
         )
-    }
-
-    /// Checks every setting's range, stage by stage ([`crate::validate::validate_settings`]); the
-    /// first violation names its key, the value and the allowed range.
-    pub fn validate(&self) -> Result<(), SettingsError> {
-        crate::validate::validate_settings(self)
     }
 }
 

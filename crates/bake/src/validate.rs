@@ -5,7 +5,7 @@
 //! `inspect` shows it under the manifest's `settings` (`topology.stiffness_n_per_m`), then the
 //! value given and the allowed range. Two checks, in this order:
 //!
-//! 1. [`validate_settings`] needs nothing but the settings, so a caller runs it before it reads
+//! 1. [`BakeSettings::plan`] needs nothing but the settings, so a caller runs it before it reads
 //!    the input: import (fur mask, welding), volume, shells, UV, blades (field and keyframes),
 //!    topologies and their parameters, and the sizes they imply alone (hairs of the volume).
 //! 2. [`check_against_mesh`] adds the limits that depend on the imported mesh (blade count,
@@ -16,71 +16,12 @@
 //! a positive value is needed, absurd sizes (a fur length of 3e38 or 1e-45 metres) and counts that
 //! would need gigabytes. After both checks the stages trust their settings.
 
-use furbake_formats::OutOfRange;
 use furbake_formats::sections::skin_mesh::SkinMesh;
 use furbake_formats::sections::spring_topology::{CHAIN_MASSES_RANGE, FUR_LENGTH_RANGE_M, TopologyKind};
 use furbake_grass::{BladeFieldSettings, KeyframeSettings};
 
-use crate::settings::{BakeSettings, BladeSettings, topology_names};
+use crate::settings::{BakeSettings, BladeSettings, SettingsError, topology_names};
 use crate::volume::{self, VolumeError};
-
-/// A bake setting that cannot be used. Blame: the caller (the CLI exits 2). Every message starts
-/// with the setting's key.
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
-pub enum SettingsError {
-    /// A value outside its allowed range (or not finite).
-    #[error("{key} = {value} is out of range (allowed: {allowed})")]
-    OutOfRange {
-        /// Dotted path of the setting, as under the manifest's `settings`.
-        key: String,
-        /// The value given, as text.
-        value: String,
-        /// The allowed range or values.
-        allowed: String,
-    },
-    /// A key, name or value that is not understood (unknown key, unknown topology, wrong type,
-    /// settings that contradict each other).
-    #[error("{key}: {what}")]
-    Invalid {
-        /// Dotted path of the setting (or `settings` when no single key is to blame).
-        key: String,
-        /// What is wrong.
-        what: String,
-    },
-    /// A value that is in range alone but asks for more than the bake accepts (memory, counts).
-    #[error("{key} = {value} asks for {amount} {what}, above the limit of {limit}")]
-    TooLarge {
-        /// Dotted path of the setting to lower.
-        key: String,
-        /// The value given, as text (with the other settings it combines with).
-        value: String,
-        /// What would be counted.
-        what: String,
-        /// How many.
-        amount: u64,
-        /// The largest count accepted.
-        limit: u64,
-    },
-}
-
-impl SettingsError {
-    /// The dotted key of the offending setting.
-    pub fn key(&self) -> &str {
-        match self {
-            SettingsError::OutOfRange { key, .. }
-            | SettingsError::Invalid { key, .. }
-            | SettingsError::TooLarge { key, .. } => key,
-        }
-    }
-
-    fn range(key: impl Into<String>, value: impl std::fmt::Display, allowed: impl Into<String>) -> Self {
-        SettingsError::OutOfRange { key: key.into(), value: value.to_string(), allowed: allowed.into() }
-    }
-
-    fn prefixed(prefix: &str, e: OutOfRange) -> Self {
-        SettingsError::OutOfRange { key: format!("{prefix}.{}", e.field), value: e.value, allowed: e.allowed }
-    }
-}
 
 /// Shortest and longest length in metres (scene units) of every length setting: fur length, UV
 /// repeat, blade heights, cluster size. Outside, the pack is unusable (denormal or overflowing
@@ -125,9 +66,47 @@ fn interval(lo: f32, hi: f32) -> String {
     format!("[{}, {}]", bound(lo), bound(hi))
 }
 
+/// Bake settings that passed every check that needs no mesh ([`BakeSettings::plan`]): the only
+/// settings [`crate::bake`] takes, so they are checked once, where they are read (a config file,
+/// `--set` flags, a batch entry), and the stages trust them. Made only by [`BakeSettings::plan`];
+/// read through `Deref` or [`BakePlan::settings`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct BakePlan {
+    settings: BakeSettings,
+}
+
+impl BakePlan {
+    /// The validated settings.
+    pub fn settings(&self) -> &BakeSettings {
+        &self.settings
+    }
+
+    /// The settings, to change and plan again.
+    pub fn into_settings(self) -> BakeSettings {
+        self.settings
+    }
+}
+
+impl std::ops::Deref for BakePlan {
+    type Target = BakeSettings;
+    fn deref(&self) -> &BakeSettings {
+        &self.settings
+    }
+}
+
+impl BakeSettings {
+    /// Checks every setting's range, stage by stage (import, volume, shells, UV, blades, topologies), and returns the
+    /// settings as a [`BakePlan`]; the first violation names its key, the value and the allowed
+    /// range.
+    pub fn plan(self) -> Result<BakePlan, SettingsError> {
+        validate_settings(&self)?;
+        Ok(BakePlan { settings: self })
+    }
+}
+
 /// Checks every setting that needs no mesh; the first violation is returned. Stages in pipeline
 /// order: preset, import, volume, shells, UV, blades, topologies.
-pub fn validate_settings(s: &BakeSettings) -> Result<(), SettingsError> {
+pub(crate) fn validate_settings(s: &BakeSettings) -> Result<(), SettingsError> {
     validate_import(s)?;
     validate_volume(s)?;
     validate_shells(s)?;

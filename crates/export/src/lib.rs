@@ -52,7 +52,7 @@
 //! let mesh = import_gltf_slice(&testmesh::uv_sphere(6, 8, 0.5).gltf, "ball.gltf", None, &Default::default())?;
 //! let mut settings = BakeSettings::preset("fur")?;
 //! (settings.volume.resolution, settings.volume.layers) = (16, 4);
-//! let pack = Pack::from_bytes(&bake(&mesh, "ball.gltf", &settings, &mut NoProgress)?.to_writer().to_bytes())?;
+//! let pack = Pack::from_bytes(&bake(&mesh, "ball.gltf", &settings.plan()?, &mut NoProgress)?.to_writer().to_bytes())?;
 //!
 //! let glb = export_glb(&pack, &ExportOptions::default())?;
 //! assert_eq!(&glb[..4], b"glTF"); // a binary glTF 2.0 container

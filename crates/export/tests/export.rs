@@ -26,7 +26,7 @@ fn bake(fixture: &str) -> Pack {
     let path = repo().join(fixture);
     let imported = import_gltf(&path, &settings.import).expect("fixture imports");
     let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("input");
-    let baked = furbake_bake::bake(&imported, name, &settings, &mut NoProgress).expect("fixture bakes");
+    let baked = furbake_bake::bake(&imported, name, &settings.plan().unwrap(), &mut NoProgress).expect("fixture bakes");
     Pack::from_bytes(&baked.to_writer().to_bytes()).expect("baked pack reads back")
 }
 

@@ -73,7 +73,8 @@ fn bake_seed(name: &str, gltf: &[u8], topologies: &[&str], blades: Option<BladeS
     settings.volume.layers = 4;
     settings.topologies = topologies.iter().map(|t| t.to_string()).collect();
     settings.blades = blades;
-    let baked = bake(&mesh, name, &settings, &mut NoProgress).map_err(|e| format!("{name}: {e}"))?;
+    let baked = bake(&mesh, name, &settings.plan().map_err(|e| format!("{name}: {e}"))?, &mut NoProgress)
+        .map_err(|e| format!("{name}: {e}"))?;
     Ok(Seed { name: name.replace(".gltf", ".fbk").replace(".glb", ".fbk"), bytes: baked.to_writer().to_bytes() })
 }
 

@@ -498,7 +498,9 @@ pub fn run_gltf(bytes: &[u8], name: &str) -> Result<GltfOutcome, String> {
     if mesh.mesh.triangles.len() > 50_000 {
         return Ok(GltfOutcome::Imported);
     }
-    let Ok(baked) = bake(&mesh, name, &fuzz_bake_settings(), &mut NoProgress) else {
+    let Ok(baked) =
+        bake(&mesh, name, &fuzz_bake_settings().plan().expect("the harness's settings are valid"), &mut NoProgress)
+    else {
         return Ok(GltfOutcome::BakeRejected);
     };
     let pack = Pack::from_bytes(&baked.to_writer().to_bytes()).map_err(|e| format!("baked pack: {e}"))?;

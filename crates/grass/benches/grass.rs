@@ -5,8 +5,8 @@
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use furbake_grass::decode::decode_nearest_batch;
 use furbake_grass::{
-    BladeFieldSettings, BladeSoa, BladeCollider, ForceField, ForceScene, KeyframeDecoder, KeyframeSettings, BladeWindSource,
-    bake_keyframe_table, ground_grid_mesh, scatter_blades,
+    BladeCollider, BladeFieldSettings, BladeSoa, BladeWindSource, ForceField, ForceScene, KeyframeDecoder,
+    KeyframeSettings, bake_keyframe_table, ground_grid_mesh, scatter_blades,
 };
 use glam::{Vec2, Vec3};
 use std::hint::black_box;
@@ -15,8 +15,18 @@ fn scene() -> ForceScene {
     ForceScene {
         global_wind: Vec2::new(0.8, 0.3),
         sources: vec![
-            BladeWindSource { position_m: Vec3::new(10.0, 1.0, -5.0), power: 6.0, falloff_exponent: 1.5, delayed: false },
-            BladeWindSource { position_m: Vec3::new(-20.0, 2.0, 15.0), power: 9.0, falloff_exponent: 1.0, delayed: false },
+            BladeWindSource {
+                position_m: Vec3::new(10.0, 1.0, -5.0),
+                power: 6.0,
+                falloff_exponent: 1.5,
+                delayed: false,
+            },
+            BladeWindSource {
+                position_m: Vec3::new(-20.0, 2.0, 15.0),
+                power: 9.0,
+                falloff_exponent: 1.0,
+                delayed: false,
+            },
         ],
         colliders: vec![BladeCollider::Sphere {
             center_m: Vec3::new(3.0, 0.3, 3.0),

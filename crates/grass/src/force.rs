@@ -295,8 +295,18 @@ mod tests {
         let scene = ForceScene {
             global_wind: Vec2::new(2.0, 1.0),
             sources: vec![
-                BladeWindSource { position_m: Vec3::new(0.0, 0.5, 3.0), power: 4.0, falloff_exponent: 1.0, delayed: false },
-                BladeWindSource { position_m: Vec3::new(-3.0, 0.5, 0.0), power: 4.0, falloff_exponent: 2.0, delayed: true },
+                BladeWindSource {
+                    position_m: Vec3::new(0.0, 0.5, 3.0),
+                    power: 4.0,
+                    falloff_exponent: 1.0,
+                    delayed: false,
+                },
+                BladeWindSource {
+                    position_m: Vec3::new(-3.0, 0.5, 0.0),
+                    power: 4.0,
+                    falloff_exponent: 2.0,
+                    delayed: true,
+                },
             ],
             blockers: vec![blocker],
             ..ForceScene::default()

@@ -43,7 +43,7 @@ pub mod simulate;
 pub use blade::{BladeShape, ReferenceBlade, build_reference_blade};
 pub use decode::{BladeSoa, KeyframeDecoder, PoseBlend, PoseInterpolation, PoseKey};
 pub use field::{BladeFieldSettings, ground_grid_mesh, scatter_blades};
-pub use force::{BladeCollider, ForceField, ForceScene, WindBlocker, BladeWindSource};
+pub use force::{BladeCollider, BladeWindSource, ForceField, ForceScene, WindBlocker};
 pub use keyframes::{
     KeyframeSettings, PoseGridSettings, SimulatedPoses, bake_keyframe_table, compress_poses, simulate_poses,
 };

@@ -66,7 +66,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for layers in layer_counts {
         let mut settings = BakeSettings::preset("fur")?;
         settings.volume.layers = layers;
-        let baked = bake(&imported, "mesh", &settings, &mut NoProgress)?;
+        let baked = bake(&imported, "mesh", &settings.plan()?, &mut NoProgress)?;
         let fins = Some((Arc::new(baked.fins), Arc::new(baked.fin_edges)));
         let asset = FurAsset::new(Arc::new(baked.mesh), Arc::new(baked.shells), Arc::new(baked.uv_map), fins)?;
         let (center, radius) = asset.bounding_sphere();
@@ -106,7 +106,7 @@ fn blades(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
     use furbake_formats::sections::keyframe_table::{CompressionStages, DisplacementEncoding, Symmetry};
     use furbake_grass::keyframes::PoseGridSettings;
     use furbake_grass::{
-        BladeFieldSettings, BladeMaterial, BladeShape, ForceField, ForceScene, BladeWindSource, build_reference_blade,
+        BladeFieldSettings, BladeMaterial, BladeShape, BladeWindSource, ForceField, ForceScene, build_reference_blade,
         compress_poses, ground_grid_mesh, scatter_blades, simulate_poses,
     };
     use furbake_render::{BladeRenderSettings, BladeRenderer, GrassCulling};

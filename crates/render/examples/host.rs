@@ -78,9 +78,8 @@ pub fn bake_packs(fur_layers: u32, blades_per_m2: f32) -> Result<Packs, AnyError
     let dir = tempfile::tempdir()?;
     let bake_one = |gltf: &str, preset: &str, set: String, name: &str| -> Result<Pack, AnyError> {
         let mesh = import_gltf(&root.join(gltf), &ImportSettings::default())?;
-        let settings = BakeSettings::preset(preset)?.with_overrides(&dotted_override(&set)?)?;
-        settings.validate()?;
-        let baked = bake(&mesh, name, &settings, &mut NoProgress)?;
+        let plan = BakeSettings::preset(preset)?.with_overrides(&dotted_override(&set)?)?.plan()?;
+        let baked = bake(&mesh, name, &plan, &mut NoProgress)?;
         let path = dir.path().join(format!("{name}.fbk"));
         baked.to_writer().write_atomic(&path)?;
         Ok(Pack::open(&path)?)

@@ -32,7 +32,7 @@
 //! #     let mesh = import_gltf_slice(&gltf, "sphere.gltf", None, &ImportSettings::default())?;
 //! #     let mut settings = furbake_bake::BakeSettings::preset("fur")?;
 //! #     (settings.volume.layers, settings.volume.resolution) = (8, 32);
-//! #     let baked = furbake_bake::bake(&mesh, "sphere", &settings, &mut furbake_bake::NoProgress)?;
+//! #     let baked = furbake_bake::bake(&mesh, "sphere", &settings.plan()?, &mut furbake_bake::NoProgress)?;
 //! #     baked.to_writer().write_atomic(&fox_path)?;
 //! # }
 //! // Once: the pass furbake draws into (the engine's HDR target, 4× MSAA, its depth buffer),

@@ -171,7 +171,7 @@ impl RenderSettings {
     /// scene's lights.
     pub fn for_scene(scene: &furbake_runtime::Scene) -> RenderSettings {
         RenderSettings {
-            shearing: !scene.effects().is_empty(),
+            shearing: !scene.effects().enabled().is_empty(),
             light_slots: Self::light_slots_for(&scene.lighting()),
             ..Default::default()
         }

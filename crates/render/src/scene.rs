@@ -158,7 +158,7 @@ impl SceneFrame {
     /// The scene's camera and lighting ([`Scene::lighting`]), the default background.
     pub fn from_scene(scene: &Scene) -> SceneFrame {
         SceneFrame {
-            camera: scene.camera,
+            camera: scene.camera(),
             lighting: scene.lighting(),
             background: RenderSettings::default().background,
         }
@@ -312,7 +312,7 @@ impl Default for PackInput<'_> {
 pub struct SceneRenderer {
     /// Camera, light and background.
     frame: SceneFrame,
-    /// One entry per `scene.packs`, in order.
+    /// One entry per `scene.packs()`, in order.
     packs: Vec<PackRenderers>,
     /// The pass every pack's renderers draw into.
     target: TargetDesc,
@@ -381,13 +381,13 @@ impl SceneRenderer {
         overrides.validate().map_err(|(field, what)| RenderError::Parameter { what: format!("{field}: {what}") })?;
         let scene = world.scene();
         let base = RenderSettings::for_scene(scene);
-        let mut packs = Vec::with_capacity(scene.packs.len());
+        let mut packs = Vec::with_capacity(scene.packs().len());
         // Entries naming the same file share the world's one opened pack, and here its one
         // uploaded asset (per fin setting): atlases and vertex buffers are held once however often
         // it is placed.
         type Uploaded<'w> = (&'w std::sync::Arc<furbake_runtime::Pack>, bool, FurAsset, std::sync::Arc<FurGpuAsset>);
         let mut uploaded: Vec<Uploaded<'_>> = Vec::new();
-        for (i, p) in scene.packs.iter().enumerate() {
+        for (i, p) in scene.packs().iter().enumerate() {
             let pack = world.pack(i);
             let options = pack_options(scene, i, overrides);
             let settings = RenderSettings { shading: p.shading, ..base }.with_options(&options);
@@ -416,8 +416,9 @@ impl SceneRenderer {
             };
             // A grass pack placed again draws from the first placement's uploaded field.
             let first = (0..i).find(|&j| std::sync::Arc::ptr_eq(world.pack(j), pack));
-            let blade_settings = BladeRenderSettings { culling: scene.grass_culling, ..BladeRenderSettings::default() }
-                .with_options(&options);
+            let blade_settings =
+                BladeRenderSettings { culling: scene.grass_culling(), ..BladeRenderSettings::default() }
+                    .with_options(&options);
             let earlier = first.and_then(|j| packs.get(j)).and_then(|p: &PackRenderers| p.blades.as_ref());
             let blades = match earlier.filter(|b| b.shading_enabled() == blade_settings.shading.enabled) {
                 Some(earlier) => Some(earlier.instance(pipelines)?),
@@ -670,7 +671,7 @@ const CLIP_BOUND_POSES: u32 = 32;
 /// The render options of scene pack `i`: `overrides` over its `[packs.render]` over the
 /// scene's `[render]`.
 fn pack_options(scene: &Scene, i: usize, overrides: &RenderOptions) -> RenderOptions {
-    overrides.over(&scene.packs[i].render.over(&scene.render))
+    overrides.over(&scene.packs()[i].render.over(scene.render()))
 }
 
 /// Uploads one pack's inputs and records its work (see [`SceneRenderer::prepare_world`]).

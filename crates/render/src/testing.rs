@@ -23,7 +23,8 @@
 pub use crate::blades::BladeUniforms;
 pub use crate::blocking::blocking_calls_on_this_thread;
 pub use crate::culling::{
-    BladeLods, CullDecision, CullLists, CullUniforms, CullReference, EDGE_ON_WIDTH, MAX_LODS, blade_random, thinning_keep,
+    BladeLods, CullDecision, CullLists, CullReference, CullUniforms, EDGE_ON_WIDTH, MAX_LODS, blade_random,
+    thinning_keep,
 };
 pub use crate::lod::{ShellLevel, projected_fur_px};
 pub use crate::scene::RENDERER_OVERHEAD_BYTES;

@@ -18,7 +18,7 @@ use furbake_runtime::Pack;
 fn write_pack(gltf_mesh: furbake_import::ImportedMesh, dir: &Path, name: &str, resolution: u32) -> std::path::PathBuf {
     let mut settings = BakeSettings::preset("fur").unwrap();
     settings.volume.resolution = resolution;
-    let baked = bake(&gltf_mesh, name, &settings, &mut NoProgress).unwrap();
+    let baked = bake(&gltf_mesh, name, &settings.plan().unwrap(), &mut NoProgress).unwrap();
     let path = dir.join(format!("{name}.fbk"));
     baked.to_writer().write_atomic(&path).unwrap();
     path

@@ -185,7 +185,7 @@ fn the_ground_under_the_blades_takes_the_grass_colour() {
     let mut settings = BakeSettings::preset("grass").unwrap();
     settings.volume.resolution = 16;
     settings = settings.with_overrides(&serde_json::json!({"blades": {"field": {"density_per_m2": 100.0}}})).unwrap();
-    let baked = bake(&imported, "patch.gltf", &settings, &mut NoProgress).unwrap();
+    let baked = bake(&imported, "patch.gltf", &settings.plan().unwrap(), &mut NoProgress).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("patch.fbk");
     baked.to_writer().write_atomic(&path).unwrap();

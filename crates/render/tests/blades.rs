@@ -15,8 +15,8 @@ use furbake_formats::sections::blade_field::BladeField;
 use furbake_formats::sections::keyframe_table::{CompressionStages, DisplacementEncoding, KeyframeTable, Symmetry};
 use furbake_grass::keyframes::{PoseGridSettings, SimulatedPoses};
 use furbake_grass::{
-    BladeFieldSettings, BladeMaterial, BladeShape, ForceField, ForceScene, KeyframeDecoder, PoseInterpolation,
-    BladeWindSource, build_reference_blade, compress_poses, ground_grid_mesh, scatter_blades, simulate_poses,
+    BladeFieldSettings, BladeMaterial, BladeShape, BladeWindSource, ForceField, ForceScene, KeyframeDecoder,
+    PoseInterpolation, build_reference_blade, compress_poses, ground_grid_mesh, scatter_blades, simulate_poses,
 };
 use furbake_render::headless::{RenderTarget, read_back};
 use furbake_render::{BladeRenderSettings, BladeRenderer, BladeShading, View};

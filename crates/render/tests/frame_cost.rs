@@ -83,8 +83,7 @@ fn bake_pack(dir: &Path, gltf: &str, preset: &str, sets: &[&str], name: &str) {
     for set in sets {
         settings = settings.with_overrides(&dotted_override(set).unwrap()).unwrap();
     }
-    settings.validate().unwrap();
-    let baked = bake(&mesh, name, &settings, &mut NoProgress).unwrap();
+    let baked = bake(&mesh, name, &settings.plan().unwrap(), &mut NoProgress).unwrap();
     baked.to_writer().write_atomic(&dir.join(name)).unwrap();
 }
 

@@ -50,7 +50,7 @@ fn sphere() -> &'static FurAsset {
     SPHERE.get_or_init(|| {
         let gltf = testmesh::uv_sphere(16, 24, 1.0).gltf;
         let imported = import_gltf_slice(&gltf, "sphere.gltf", None, &ImportSettings::default()).unwrap();
-        let baked = bake(&imported, "sphere", &bake_settings(), &mut NoProgress).unwrap();
+        let baked = bake(&imported, "sphere", &bake_settings().plan().unwrap(), &mut NoProgress).unwrap();
         let fins = Some((Arc::new(baked.fins), Arc::new(baked.fin_edges)));
         FurAsset::new(Arc::new(baked.mesh), Arc::new(baked.shells), Arc::new(baked.uv_map), fins).unwrap()
     })
@@ -345,12 +345,12 @@ fn scenes_set_the_shading_of_each_pack_and_refuse_bad_values() {
     let imported = import_gltf_slice(&gltf, "sphere.gltf", None, &ImportSettings::default()).unwrap();
     let mut settings = bake_settings();
     settings.volume.resolution = 32;
-    let baked = bake(&imported, "sphere", &settings, &mut NoProgress).unwrap();
+    let baked = bake(&imported, "sphere", &settings.plan().unwrap(), &mut NoProgress).unwrap();
     baked.to_writer().write_atomic(&dir.path().join("sphere.fbk")).unwrap();
 
     let scene = scene_with_shading(dir.path(), "back_light = 0.5\ntip_color = [1.0, 0.9, 0.8]").unwrap();
     let expected = FurShading { back_light: 0.5, tip_color: [1.0, 0.9, 0.8], ..FurShading::default() };
-    assert_eq!(scene.packs[0].shading, expected);
+    assert_eq!(scene.packs()[0].shading, expected);
     let world = World::new(scene).unwrap();
     let g = gpu();
     let renderer = furbake_render::SceneRenderer::new(&g.device, &g.queue, &world).unwrap();
@@ -359,7 +359,7 @@ fn scenes_set_the_shading_of_each_pack_and_refuse_bad_values() {
     let plain =
         Scene::from_toml_str("[[packs]]\nname = \"s\"\npath = \"sphere.fbk\"\n", Path::new("plain.toml"), dir.path())
             .unwrap();
-    assert_eq!(plain.packs[0].shading, FurShading::default());
+    assert_eq!(plain.packs()[0].shading, FurShading::default());
 
     for (body, field) in [
         ("primary_exponent = 0.0", "packs[0].shading.primary_exponent"),
@@ -458,7 +458,8 @@ fn cost_assets() -> Vec<(&'static str, FurAsset)> {
     meshes
         .into_iter()
         .map(|(name, imported)| {
-            let baked = bake(&imported, name, &BakeSettings::preset("fur").unwrap(), &mut NoProgress).unwrap();
+            let baked =
+                bake(&imported, name, &BakeSettings::preset("fur").unwrap().plan().unwrap(), &mut NoProgress).unwrap();
             let fins = Some((Arc::new(baked.fins), Arc::new(baked.fin_edges)));
             let asset =
                 FurAsset::new(Arc::new(baked.mesh), Arc::new(baked.shells), Arc::new(baked.uv_map), fins).unwrap();

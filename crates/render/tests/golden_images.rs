@@ -140,7 +140,7 @@ fn fox_preview() {
     let imported = import_gltf(&fox, &ImportSettings::default()).unwrap();
     let mut settings = BakeSettings::preset("fur").unwrap();
     (settings.volume.layers, settings.volume.resolution) = (16, 64);
-    let baked = bake(&imported, "fox", &settings, &mut NoProgress).unwrap();
+    let baked = bake(&imported, "fox", &settings.plan().unwrap(), &mut NoProgress).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("fox.fbk");
     baked.to_writer().write_atomic(&path).unwrap();

@@ -415,7 +415,7 @@ fn preview_of(gltf: &[u8], density: Option<f32>) -> RgbaImage {
         b.keyframes.grid.poses = 40;
         b
     });
-    let baked = furbake_bake::bake(&mesh, "mesh", &settings, &mut furbake_bake::NoProgress).unwrap();
+    let baked = furbake_bake::bake(&mesh, "mesh", &settings.plan().unwrap(), &mut furbake_bake::NoProgress).unwrap();
     if let Some((field, _)) = &baked.blades {
         let h = field.height_scale.iter().copied().fold(0.0f32, f32::max);
         println!("{} blades, tallest {h} m, fur {} m", field.blade_count(), baked.shells.fur_length_m);

@@ -191,7 +191,7 @@ fn light_count_frame_cost() {
     let g = gpu();
     let fox = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/real/Fox.glb");
     let imported = furbake_import::import_gltf(&fox, &ImportSettings::default()).unwrap();
-    let baked = bake(&imported, "fox", &BakeSettings::preset("fur").unwrap(), &mut NoProgress).unwrap();
+    let baked = bake(&imported, "fox", &BakeSettings::preset("fur").unwrap().plan().unwrap(), &mut NoProgress).unwrap();
     let fins = Some((Arc::new(baked.fins), Arc::new(baked.fin_edges)));
     let asset = FurAsset::new(Arc::new(baked.mesh), Arc::new(baked.shells), Arc::new(baked.uv_map), fins).unwrap();
     let (center, radius) = asset.bounding_sphere();

@@ -32,7 +32,7 @@ fn bake_sphere(dir: &Path) -> FurAsset {
     settings.volume.resolution = 64;
     settings.shells.fur_length_m = Some(0.15);
     settings.topologies = vec!["separable-prisms".into()];
-    let baked = bake(&imported, "sphere", &settings, &mut NoProgress).unwrap();
+    let baked = bake(&imported, "sphere", &settings.plan().unwrap(), &mut NoProgress).unwrap();
     baked.to_writer().write_atomic(&dir.join("sphere.fbk")).unwrap();
     let fins = Some((Arc::new(baked.fins), Arc::new(baked.fin_edges)));
     FurAsset::new(Arc::new(baked.mesh), Arc::new(baked.shells), Arc::new(baked.uv_map), fins).unwrap()

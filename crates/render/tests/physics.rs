@@ -30,7 +30,7 @@ fn bake_with_prisms(gltf: &[u8], name: &str, fur_length_m: f32) -> (FurAsset, Sp
     settings.volume.resolution = 64;
     settings.shells.fur_length_m = Some(fur_length_m);
     settings.topologies = vec!["prisms".into()];
-    let mut baked = bake(&imported, name, &settings, &mut NoProgress).unwrap();
+    let mut baked = bake(&imported, name, &settings.plan().unwrap(), &mut NoProgress).unwrap();
     let topology = baked.topologies.pop().expect("the prisms topology was asked for");
     let fins = Some((Arc::new(baked.fins), Arc::new(baked.fin_edges)));
     let asset = FurAsset::new(Arc::new(baked.mesh), Arc::new(baked.shells), Arc::new(baked.uv_map), fins).unwrap();

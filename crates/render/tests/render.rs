@@ -28,7 +28,7 @@ fn bake_asset(gltf: &[u8], name: &str, fur_length_m: f32) -> FurAsset {
     settings.volume.layers = 16;
     settings.volume.resolution = 64;
     settings.shells.fur_length_m = Some(fur_length_m);
-    let baked = bake(&imported, name, &settings, &mut NoProgress).unwrap();
+    let baked = bake(&imported, name, &settings.plan().unwrap(), &mut NoProgress).unwrap();
     let fins = Some((Arc::new(baked.fins), Arc::new(baked.fin_edges)));
     FurAsset::new(Arc::new(baked.mesh), Arc::new(baked.shells), Arc::new(baked.uv_map), fins).unwrap()
 }

@@ -17,7 +17,7 @@ fn sphere_dir() -> tempfile::TempDir {
     let imported = import_gltf_slice(&gltf, "sphere.gltf", None, &ImportSettings::default()).unwrap();
     let mut settings = BakeSettings::preset("fur").unwrap();
     (settings.volume.layers, settings.volume.resolution) = (16, 32);
-    let baked = bake(&imported, "sphere", &settings, &mut NoProgress).unwrap();
+    let baked = bake(&imported, "sphere", &settings.plan().unwrap(), &mut NoProgress).unwrap();
     baked.to_writer().write_atomic(&dir.path().join("sphere.fbk")).unwrap();
     dir
 }
@@ -129,5 +129,5 @@ fn the_lod_key_switches_the_shell_level_of_detail() {
     // From a scene's [render] table.
     let dir = sphere_dir();
     let scene = scene(dir.path(), "[render]\nlod = false\n[[packs]]\nname = \"a\"\npath = \"sphere.fbk\"\n").unwrap();
-    assert_eq!(scene.render.lod, Some(false));
+    assert_eq!(scene.render().lod, Some(false));
 }

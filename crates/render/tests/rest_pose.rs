@@ -21,7 +21,7 @@ fn preview(gltf: &[u8], name: &str) -> RgbaImage {
     let mut settings = BakeSettings::preset("fur").unwrap();
     settings.volume.layers = 8;
     settings.volume.resolution = 16;
-    let baked = bake(&imported, name, &settings, &mut NoProgress).unwrap();
+    let baked = bake(&imported, name, &settings.plan().unwrap(), &mut NoProgress).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join(format!("{name}.fbk"));
     baked.to_writer().write_atomic(&path).unwrap();

@@ -44,7 +44,7 @@ fn scene() -> &'static (tempfile::TempDir, Scene) {
         settings.shells.fur_length_m = Some(0.12);
         // The scene declares wind, so the world simulates the fur: it needs a topology.
         settings.topologies = vec!["prisms".into()];
-        let baked = bake(&imported, "sphere", &settings, &mut NoProgress).unwrap();
+        let baked = bake(&imported, "sphere", &settings.plan().unwrap(), &mut NoProgress).unwrap();
         baked.to_writer().write_atomic(&dir.path().join("fur.fbk")).unwrap();
 
         let grid = PoseGridSettings { poses: 400, ..Default::default() }.resolve(Symmetry::XZ).unwrap();
@@ -120,7 +120,7 @@ fn every_pack_is_drawn_where_its_model_matrix_puts_it() {
     assert!(renderer.packs()[0].fur.as_ref().unwrap().settings().shearing);
     let target = RenderTarget::new(&g.device, SIZE, SIZE).unwrap();
     let view = renderer.render_frame(&g.device, &g.queue, &target, &[]).unwrap();
-    assert_eq!(view.camera, scene.camera.unwrap());
+    assert_eq!(view.camera, scene.camera().unwrap());
     let both = read_back(&g.device, &g.queue, &target).unwrap();
     let dir = std::env::temp_dir().join("furbake-render-tests");
     std::fs::create_dir_all(&dir).unwrap();

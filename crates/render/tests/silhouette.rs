@@ -57,7 +57,7 @@ fn sphere() -> &'static FurAsset {
         settings.volume.layers = 16;
         settings.volume.resolution = 64;
         settings.shells.fur_length_m = Some(0.15);
-        let baked = bake(&imported, "sphere", &settings, &mut NoProgress).unwrap();
+        let baked = bake(&imported, "sphere", &settings.plan().unwrap(), &mut NoProgress).unwrap();
         let fins = Some((Arc::new(baked.fins), Arc::new(baked.fin_edges)));
         FurAsset::new(Arc::new(baked.mesh), Arc::new(baked.shells), Arc::new(baked.uv_map), fins).unwrap()
     })
@@ -75,7 +75,7 @@ fn fox_pack() -> &'static (tempfile::TempDir, Pack) {
         let mut settings = BakeSettings::preset("fur").unwrap();
         settings.volume.layers = 8;
         settings.volume.resolution = 32;
-        let baked = bake(fox_mesh(), "fox", &settings, &mut NoProgress).unwrap();
+        let baked = bake(fox_mesh(), "fox", &settings.plan().unwrap(), &mut NoProgress).unwrap();
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("fox.fbk");
         baked.to_writer().write_atomic(&path).unwrap();

@@ -402,7 +402,7 @@ fn fox_pack() -> &'static (tempfile::TempDir, Pack) {
         let mut settings = BakeSettings::preset("fur").unwrap();
         settings.volume.layers = 16;
         settings.volume.resolution = 32;
-        let baked = bake(fox(), "fox", &settings, &mut NoProgress).unwrap();
+        let baked = bake(fox(), "fox", &settings.plan().unwrap(), &mut NoProgress).unwrap();
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("fox.fbk");
         baked.to_writer().write_atomic(&path).unwrap();

@@ -22,9 +22,9 @@ use glam::{DVec3, Vec2, Vec3};
 
 use furbake_grass::rng::SplitMix64;
 use furbake_grass::{
-    BladeFieldSettings, BladeSimulator, BladeSoa, ForceField, ForceScene, GrassError, KeyframeDecoder,
-    KeyframeSettings, PoseGridSettings, PoseInterpolation, ReferenceBlade, BladeWindSource, build_reference_blade,
-    compress_poses, ground_grid_mesh, scatter_blades, simulate_poses,
+    BladeFieldSettings, BladeSimulator, BladeSoa, BladeWindSource, ForceField, ForceScene, GrassError, KeyframeDecoder,
+    KeyframeSettings, PoseGridSettings, PoseInterpolation, ReferenceBlade, build_reference_blade, compress_poses,
+    ground_grid_mesh, scatter_blades, simulate_poses,
 };
 
 /// Timed batches per measurement; the fastest is reported (the least disturbed by other load).

@@ -35,7 +35,7 @@
 //! let mut settings = BakeSettings::preset("fur")?;
 //! (settings.volume.resolution, settings.volume.layers) = (16, 4);
 //! settings.topologies = vec!["prisms".into()];
-//! bake(&mesh, "sphere.gltf", &settings, &mut NoProgress)?.to_writer().write_atomic(&dir.path().join("ball.fbk"))?;
+//! bake(&mesh, "sphere.gltf", &settings.plan()?, &mut NoProgress)?.to_writer().write_atomic(&dir.path().join("ball.fbk"))?;
 //!
 //! // A scene with gravity and nothing else: no wind stage, no grass stage.
 //! let scene = Scene::from_toml_str(
@@ -101,7 +101,7 @@ pub use furbake_formats::Pack;
 pub use plan::{EntryMemory, WorldPlan};
 pub use scene::{
     Ambient, Camera, Effect, Effects, Event, GrassCulling, Light, LightSource, Lighting, MAX_LIGHTS, RenderOptions,
-    Scene, SceneError, ScenePack, ShellBlendMode, Solver, SolverChoice,
+    Scene, SceneBuilder, SceneError, ScenePack, ShellBlendMode, Solver, SolverChoice,
 };
 pub use stages::{PlannedStage, StageKind, StageStats};
 pub use world::{FurFrame, GrassFrame, MAX_MASS_UPDATES_PER_STEP, PackState, ShellVertexLayout, World, WorldOptions};

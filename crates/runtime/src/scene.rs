@@ -81,56 +81,72 @@ pub enum SceneError {
     },
 }
 
-/// A validated scene.
+/// A validated scene: made only by [`Scene::load`], [`Scene::from_toml_str`] or
+/// [`SceneBuilder::build`], each of which checks every value, so a `Scene` is valid by
+/// construction and the stages below trust it (docs/design.md "Scenes"). Its fields are read
+/// through accessors; [`Scene::into_builder`] changes one and validates again.
+///
+/// ```
+/// use furbake_runtime::{Scene, ScenePack, scene::{Effects, Gravity}};
+/// let scene = Scene::builder(vec![ScenePack::new("fox", "fox.fbk")])
+///     .time_step_s(0.01)
+///     .effects(Effects { gravity: Some(Gravity::default()), ..Effects::default() })
+///     .build()?;
+/// assert_eq!(scene.packs()[0].name, "fox");
+/// // A value out of range is refused with the key that holds it.
+/// let err = scene.into_builder().time_step_s(-1.0).build().unwrap_err();
+/// assert!(err.to_string().contains("time_step_s"), "{err}");
+/// # Ok::<(), furbake_runtime::SceneError>(())
+/// ```
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(deny_unknown_fields)]
 pub struct Scene {
     /// Simulation time step in seconds. Default 1/60.
     #[serde(default = "default_time_step")]
-    pub time_step_s: f32,
+    pub(crate) time_step_s: f32,
     /// The fur solver: `[solver] kind = "auto" | "explicit" | "implicit" | "stick" | "reference"
     /// | "xpbd" | "local_global"` and `implicit_iterations`, `xpbd_iterations`,
     /// `local_global_iterations`, or the shorthand `solver = "implicit"`. Default `auto` (picked
     /// from the topology, see [`SolverChoice::Auto`]) with one implicit iteration.
     #[serde(default)]
-    pub solver: Solver,
+    pub(crate) solver: Solver,
     /// How long `furbake simulate` runs the scene when no `--frames` is given, seconds, in
     /// (0, 86400]. Default `None` (2 s).
     #[serde(default)]
-    pub duration_s: Option<f64>,
+    pub(crate) duration_s: Option<f64>,
     /// The viewpoint. Default: framed automatically from the packs' bounds (`None`).
     #[serde(default)]
-    pub camera: Option<Camera>,
+    pub(crate) camera: Option<Camera>,
     /// The single directional light with its ambient share (`[light]`), the shorthand of
     /// `lights` + `ambient`. `None` with no `lights`: [`Light::default`]. A scene gives either
     /// `[light]` or `[[lights]]`/`[ambient]`, not both; [`Scene::lighting`] is what is drawn.
     #[serde(default)]
-    pub light: Option<Light>,
+    pub(crate) light: Option<Light>,
     /// Up to [`MAX_LIGHTS`] light sources (`[[lights]]`, `type = "directional"` or `"point"`).
     #[serde(default)]
-    pub lights: Vec<LightSource>,
+    pub(crate) lights: Vec<LightSource>,
     /// The hemisphere ambient light (`[ambient]`) that goes with `lights`. Default
     /// [`Ambient::default`].
     #[serde(default)]
-    pub ambient: Option<Ambient>,
+    pub(crate) ambient: Option<Ambient>,
     /// The packs to load, at least one.
-    pub packs: Vec<ScenePack>,
+    pub(crate) packs: Vec<ScenePack>,
     /// The effects the scene asks for; anything absent is not built.
     #[serde(default)]
-    pub effects: Effects,
+    pub(crate) effects: Effects,
     /// Timed events (`[[events]]`): teleports and effects switched off or on, applied before the
     /// first step that starts at or after their time, in file order among equal times.
     #[serde(default)]
-    pub events: Vec<Event>,
+    pub(crate) events: Vec<Event>,
     /// How every pack is drawn (`[render]`: shell count, fins, blending, shading switches),
     /// unless a pack's `[packs.render]` says otherwise. Default: the renderer's defaults.
     #[serde(default)]
-    pub render: RenderOptions,
+    pub(crate) render: RenderOptions,
     /// How grass blades are culled and simplified with distance (`[grass_culling]`). Default:
     /// [`GrassCulling::default`].
     #[serde(default)]
-    pub grass_culling: GrassCulling,
+    pub(crate) grass_culling: GrassCulling,
 }
 
 /// How many blades the renderer draws, and at what detail (grass thesis §5.3 and ch. 7; Jahrmann
@@ -857,6 +873,20 @@ fn yes() -> bool {
     true
 }
 
+impl PackAnimation {
+    /// `clip` played from its start at normal speed, looping (what `animation = { clip = "…" }`
+    /// reads as).
+    pub fn new(clip: impl Into<String>) -> PackAnimation {
+        PackAnimation {
+            clip: clip.into(),
+            speed: one(),
+            looping: yes(),
+            start_s: 0.0,
+            cut_speed_m_per_s: default_cut_speed(),
+        }
+    }
+}
+
 fn default_cut_speed() -> f32 {
     50.0
 }
@@ -920,6 +950,23 @@ impl MotionKey {
 }
 
 impl ScenePack {
+    /// A pack named `name` read from `path`, placed at the origin, unscaled, unmoving, in its
+    /// bind pose, shaded and drawn with the defaults (what a `[[packs]]` entry with only `name`
+    /// and `path` reads as).
+    pub fn new(name: impl Into<String>, path: impl Into<PathBuf>) -> ScenePack {
+        ScenePack {
+            name: name.into(),
+            path: path.into(),
+            translation: [0.0; 3],
+            rotation_deg: [0.0; 3],
+            scale: 1.0,
+            motion: Vec::new(),
+            animation: None,
+            shading: FurShading::default(),
+            render: RenderOptions::default(),
+        }
+    }
+
     /// The placement (without the motion path).
     pub fn transform(&self) -> Transform {
         Transform { translation: self.translation, rotation_deg: self.rotation_deg, scale: self.scale }
@@ -1101,6 +1148,13 @@ pub struct Gravity {
 
 fn default_gravity() -> [f32; 3] {
     [0.0, -9.81, 0.0]
+}
+
+impl Default for Gravity {
+    /// Earth's gravity along −Y (what `[effects.gravity]` with no keys reads as).
+    fn default() -> Self {
+        Gravity { acceleration_m_per_s2: default_gravity() }
+    }
 }
 
 /// Global wind: a constant velocity plus an optional sinusoidal gust.
@@ -1311,6 +1365,157 @@ impl Effect {
     }
 }
 
+/// Builds a [`Scene`] in code: every value starts at its default (what a scene file that lists
+/// only its packs reads as) and [`SceneBuilder::build`] validates the whole scene as
+/// [`Scene::from_toml_str`] does. Pack paths are used as given.
+#[derive(Clone, Debug)]
+#[must_use = "a builder does nothing until `build` is called"]
+pub struct SceneBuilder {
+    scene: Scene,
+}
+
+/// The name errors of a scene built in code carry in place of a file.
+const BUILT_SCENE: &str = "<scene built in code>";
+
+impl SceneBuilder {
+    /// Simulation time step in seconds, in (0, 1]. Default 1/60.
+    pub fn time_step_s(mut self, seconds: f32) -> Self {
+        self.scene.time_step_s = seconds;
+        self
+    }
+    /// The fur solver. Default [`Solver::default`].
+    pub fn solver(mut self, solver: Solver) -> Self {
+        self.scene.solver = solver;
+        self
+    }
+    /// How long `furbake simulate` runs the scene, seconds, or `None` (2 s).
+    pub fn duration_s(mut self, seconds: Option<f64>) -> Self {
+        self.scene.duration_s = seconds;
+        self
+    }
+    /// The viewpoint, or `None` to frame the packs automatically.
+    pub fn camera(mut self, camera: Option<Camera>) -> Self {
+        self.scene.camera = camera;
+        self
+    }
+    /// One directional light with an ambient share (replaces `lights` and `ambient`).
+    pub fn light(mut self, light: Light) -> Self {
+        self.scene.light = Some(light);
+        self.scene.lights.clear();
+        self.scene.ambient = None;
+        self
+    }
+    /// Up to [`MAX_LIGHTS`] light sources and the hemisphere ambient (replaces `light`).
+    pub fn lights(mut self, sources: Vec<LightSource>, ambient: Ambient) -> Self {
+        self.scene.light = None;
+        self.scene.lights = sources;
+        self.scene.ambient = Some(ambient);
+        self
+    }
+    /// Adds a pack (names must stay unique).
+    pub fn pack(mut self, pack: ScenePack) -> Self {
+        self.scene.packs.push(pack);
+        self
+    }
+    /// Changes the pack named `name` (nothing when there is none; `build` still validates it).
+    pub fn edit_pack(mut self, name: &str, edit: impl FnOnce(&mut ScenePack)) -> Self {
+        if let Some(p) = self.scene.packs.iter_mut().find(|p| p.name == name) {
+            edit(p);
+        }
+        self
+    }
+    /// The effects the scene asks for.
+    pub fn effects(mut self, effects: Effects) -> Self {
+        self.scene.effects = effects;
+        self
+    }
+    /// Timed events, applied in time order (file order among equal times).
+    pub fn events(mut self, events: Vec<Event>) -> Self {
+        self.scene.events = events;
+        self
+    }
+    /// How every pack is drawn unless a pack says otherwise.
+    pub fn render(mut self, render: RenderOptions) -> Self {
+        self.scene.render = render;
+        self
+    }
+    /// How grass blades are culled and simplified with distance.
+    pub fn grass_culling(mut self, culling: GrassCulling) -> Self {
+        self.scene.grass_culling = culling;
+        self
+    }
+    /// Validates the scene: the first value out of range is a [`SceneError::Invalid`] naming its
+    /// dotted key.
+    pub fn build(self) -> Result<Scene, SceneError> {
+        self.scene.validate().map_err(|(field, what)| SceneError::Invalid { path: BUILT_SCENE.into(), field, what })?;
+        Ok(self.scene)
+    }
+}
+
+impl Scene {
+    /// A builder for a scene of `packs` with every other value at its default.
+    pub fn builder(packs: Vec<ScenePack>) -> SceneBuilder {
+        SceneBuilder {
+            scene: Scene {
+                time_step_s: default_time_step(),
+                solver: Solver::default(),
+                duration_s: None,
+                camera: None,
+                light: None,
+                lights: Vec::new(),
+                ambient: None,
+                packs,
+                effects: Effects::default(),
+                events: Vec::new(),
+                render: RenderOptions::default(),
+                grass_culling: GrassCulling::default(),
+            },
+        }
+    }
+
+    /// A builder holding this scene's values, to change some and validate again.
+    pub fn into_builder(self) -> SceneBuilder {
+        SceneBuilder { scene: self }
+    }
+
+    /// Simulation time step, seconds.
+    pub fn time_step_s(&self) -> f32 {
+        self.time_step_s
+    }
+    /// The fur solver.
+    pub fn solver(&self) -> Solver {
+        self.solver
+    }
+    /// How long `furbake simulate` runs the scene when no `--frames` is given (`None`: 2 s).
+    pub fn duration_s(&self) -> Option<f64> {
+        self.duration_s
+    }
+    /// The viewpoint (`None`: framed from the packs' bounds).
+    pub fn camera(&self) -> Option<Camera> {
+        self.camera
+    }
+    /// The packs, in file order.
+    pub fn packs(&self) -> &[ScenePack] {
+        &self.packs
+    }
+    /// The effects the scene asks for ([`Effects::enabled`] lists them).
+    pub fn effects(&self) -> &Effects {
+        &self.effects
+    }
+    /// The timed events, in file order.
+    pub fn events(&self) -> &[Event] {
+        &self.events
+    }
+    /// How every pack is drawn unless its own `render` says otherwise.
+    pub fn render(&self) -> &RenderOptions {
+        &self.render
+    }
+    /// How grass blades are culled and simplified with distance.
+    pub fn grass_culling(&self) -> GrassCulling {
+        self.grass_culling
+    }
+}
+
 impl Scene {
     /// The JSON Schema (draft 2020-12) of scene files: every key, its type, range notes and
     /// default from these types' documentation, for editors that validate and complete TOML
@@ -1370,11 +1575,6 @@ impl Scene {
                 Lighting::new(&self.lights, self.ambient.unwrap_or_default()).expect("validated: at most MAX_LIGHTS")
             }
         }
-    }
-
-    /// The effects the scene declares.
-    pub fn effects(&self) -> Vec<Effect> {
-        self.effects.enabled()
     }
 
     /// The checks of the effects' values (part of validating a scene; also what

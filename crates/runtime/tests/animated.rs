@@ -23,7 +23,7 @@ fn fox_dir() -> &'static Path {
         let mut settings = BakeSettings::preset("fur").unwrap();
         (settings.volume.resolution, settings.volume.layers) = (16, 4);
         settings.topologies = vec!["prisms".into(), "separable-spring-sticks".into(), "sticks".into()];
-        let baked = bake(&imported, "Fox.glb", &settings, &mut NoProgress).unwrap();
+        let baked = bake(&imported, "Fox.glb", &settings.plan().unwrap(), &mut NoProgress).unwrap();
         baked.to_writer().write_atomic(&dir.path().join("fox.fbk")).unwrap();
         dir
     })

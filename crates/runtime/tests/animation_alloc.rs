@@ -70,7 +70,7 @@ fn an_animator_update_and_a_host_effects_edit_allocate_nothing() {
     (settings.volume.resolution, settings.volume.layers) = (16, 4);
     settings.topologies = vec!["prisms".into()];
     let dir = tempfile::tempdir().unwrap();
-    bake(&fox, "Fox.glb", &settings, &mut NoProgress)
+    bake(&fox, "Fox.glb", &settings.plan().unwrap(), &mut NoProgress)
         .unwrap()
         .to_writer()
         .write_atomic(&dir.path().join("fox.fbk"))

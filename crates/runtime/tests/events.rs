@@ -17,7 +17,7 @@ fn ball(dir: &Path) {
     let mut settings = BakeSettings::preset("fur").unwrap();
     (settings.volume.resolution, settings.volume.layers) = (16, 4);
     settings.topologies = vec!["prisms".into()];
-    let baked = bake(&imported, "ball.gltf", &settings, &mut NoProgress).unwrap();
+    let baked = bake(&imported, "ball.gltf", &settings.plan().unwrap(), &mut NoProgress).unwrap();
     baked.to_writer().write_atomic(&dir.join("ball.fbk")).unwrap();
 }
 

@@ -24,7 +24,11 @@ fn bake_pack(dir: &Path, name: &str, gltf: &[u8], blades: bool) -> PathBuf {
         b
     });
     let path = dir.join(name);
-    bake(&imported, "mesh.gltf", &settings, &mut NoProgress).unwrap().to_writer().write_atomic(&path).unwrap();
+    bake(&imported, "mesh.gltf", &settings.plan().unwrap(), &mut NoProgress)
+        .unwrap()
+        .to_writer()
+        .write_atomic(&path)
+        .unwrap();
     path
 }
 
@@ -51,7 +55,7 @@ fn host_placements_give_the_motion_paths_physics() {
         2,
         "with host placement every fur pack has its inertial-force stage"
     );
-    let path_of = w.scene().packs[0].clone();
+    let path_of = w.scene().packs()[0].clone();
     for step in 0..40 {
         let t_next = (step + 1) as f64 * 0.01f32 as f64;
         w.set_model_matrix(1, path_of.model_at(t_next)).unwrap();

@@ -16,7 +16,7 @@ fn baked_sphere_bytes() -> Vec<u8> {
     let mut settings = BakeSettings::preset("fur").unwrap();
     settings.volume.resolution = 16;
     settings.volume.layers = 4;
-    bake(&imported, "sphere.gltf", &settings, &mut NoProgress).unwrap().to_writer().to_bytes()
+    bake(&imported, "sphere.gltf", &settings.plan().unwrap(), &mut NoProgress).unwrap().to_writer().to_bytes()
 }
 
 #[test]

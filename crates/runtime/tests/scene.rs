@@ -3,8 +3,8 @@
 
 use std::path::Path;
 
-use furbake_runtime::scene::{Collider, SolverChoice};
-use furbake_runtime::{Effect, Event, GrassCulling, Scene, SceneError, Solver};
+use furbake_runtime::scene::{Collider, Gravity, PackAnimation, SolverChoice};
+use furbake_runtime::{Effect, Effects, Event, GrassCulling, Scene, SceneError, ScenePack, Solver};
 
 fn scenes_dir() -> &'static Path {
     Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/scenes"))
@@ -20,19 +20,19 @@ const MINIMAL: &str = "[[packs]]\nname = \"a\"\npath = \"a.fbk\"\n";
 fn fox_scene_declares_only_its_effects() {
     let scene = Scene::load(scenes_dir().join("runtime_fox_in_wind.toml")).unwrap();
     assert_eq!(
-        scene.effects(),
+        scene.effects().enabled(),
         vec![Effect::Gravity, Effect::Wind, Effect::WindSources, Effect::ObjectMotion, Effect::WrongSideGuard]
     );
-    assert!(!scene.effects.has(Effect::Parting));
-    assert_eq!(scene.packs.len(), 1);
-    assert_eq!(scene.packs[0].path, scenes_dir().join("fox.fbk"), "relative paths resolve against the file");
-    assert_eq!(scene.packs[0].motion.len(), 2);
-    assert_eq!(scene.effects.gravity.unwrap().acceleration_m_per_s2, [0.0, -9.81, 0.0], "default gravity");
-    assert_eq!(scene.effects.wind_sources[0].falloff_exponent, 2.0);
-    let guard = scene.effects.wrong_side_guard.unwrap();
+    assert!(!scene.effects().has(Effect::Parting));
+    assert_eq!(scene.packs().len(), 1);
+    assert_eq!(scene.packs()[0].path, scenes_dir().join("fox.fbk"), "relative paths resolve against the file");
+    assert_eq!(scene.packs()[0].motion.len(), 2);
+    assert_eq!(scene.effects().gravity.unwrap().acceleration_m_per_s2, [0.0, -9.81, 0.0], "default gravity");
+    assert_eq!(scene.effects().wind_sources[0].falloff_exponent, 2.0);
+    let guard = scene.effects().wrong_side_guard.unwrap();
     assert_eq!((guard.restoring_weight_n, guard.max_angle_deg, guard.impulse_m_per_s), (0.02, 75.0, 0.05));
     // The transform places the origin at the translation and scales uniformly.
-    let m = scene.packs[0].motion[1].transform().to_mat4();
+    let m = scene.packs()[0].motion[1].transform().to_mat4();
     assert_eq!(m.transform_point3(glam::Vec3::ZERO), glam::Vec3::new(0.5, 0.0, 0.0));
 }
 
@@ -50,16 +50,16 @@ fn every_effect_parses() {
         Effect::Parting,
         Effect::WrongSideGuard,
     ];
-    assert_eq!(scene.effects(), all.to_vec());
-    assert_eq!(scene.packs[0].path, scenes_dir().join("grass-patch.fbk"));
+    assert_eq!(scene.effects().enabled(), all.to_vec());
+    assert_eq!(scene.packs()[0].path, scenes_dir().join("grass-patch.fbk"));
     let absolute = parse("[[packs]]\nname = \"a\"\npath = \"/abs/a.fbk\"\n").unwrap();
-    assert_eq!(absolute.packs[0].path, Path::new("/abs/a.fbk"), "absolute paths are kept");
-    assert_eq!(scene.effects.collisions.len(), 2);
-    assert!(matches!(scene.effects.collisions[1], Collider::Ellipsoid { radii_m: [0.3, 0.1, 0.2], .. }));
-    assert!(scene.effects.wind_sources[0].delayed_attenuation);
-    assert_eq!(scene.effects.interaction.unwrap().position, Some([0.0, 0.3, 0.0]));
-    assert_eq!(scene.effects.wrong_side_guard.unwrap().impulse_m_per_s, 0.1);
-    let culling = scene.grass_culling;
+    assert_eq!(absolute.packs()[0].path, Path::new("/abs/a.fbk"), "absolute paths are kept");
+    assert_eq!(scene.effects().collisions.len(), 2);
+    assert!(matches!(scene.effects().collisions[1], Collider::Ellipsoid { radii_m: [0.3, 0.1, 0.2], .. }));
+    assert!(scene.effects().wind_sources[0].delayed_attenuation);
+    assert_eq!(scene.effects().interaction.unwrap().position, Some([0.0, 0.3, 0.0]));
+    assert_eq!(scene.effects().wrong_side_guard.unwrap().impulse_m_per_s, 0.1);
+    let culling = scene.grass_culling();
     assert_eq!((culling.max_distance_m, culling.lod_distances_m, culling.min_density), (60.0, [4.0, 12.0], 0.5));
     assert_eq!(culling.thinning_start_m, GrassCulling::default().thinning_start_m, "unset keys keep their defaults");
 }
@@ -67,13 +67,13 @@ fn every_effect_parses() {
 #[test]
 fn minimal_scene_has_no_effects_and_defaults() {
     let scene = parse(MINIMAL).unwrap();
-    assert!(scene.effects().is_empty());
-    assert_eq!(scene.solver, Solver { kind: SolverChoice::Auto, implicit_iterations: 1, ..Solver::default() });
-    assert!(scene.events.is_empty() && scene.duration_s.is_none());
-    assert!(scene.camera.is_none());
-    assert_eq!(scene.grass_culling, GrassCulling::default());
-    assert!((scene.time_step_s - 1.0 / 60.0).abs() < 1e-9);
-    assert_eq!(scene.packs[0].path, Path::new("/base/a.fbk"));
+    assert!(scene.effects().enabled().is_empty());
+    assert_eq!(scene.solver(), Solver { kind: SolverChoice::Auto, implicit_iterations: 1, ..Solver::default() });
+    assert!(scene.events().is_empty() && scene.duration_s().is_none());
+    assert!(scene.camera().is_none());
+    assert_eq!(scene.grass_culling(), GrassCulling::default());
+    assert!((scene.time_step_s() - 1.0 / 60.0).abs() < 1e-9);
+    assert_eq!(scene.packs()[0].path, Path::new("/base/a.fbk"));
 }
 
 #[test]
@@ -129,8 +129,8 @@ fn an_effect_written_as_a_value_is_answered_with_the_table_to_write() {
     let inline =
         parse(&format!("{MINIMAL}[effects]\ngravity = {{ acceleration_m_per_s2 = [0.0, -3.0, 0.0] }}\n")).unwrap();
     let section = parse(&format!("{MINIMAL}[effects.gravity]\nacceleration_m_per_s2 = [0.0, -3.0, 0.0]\n")).unwrap();
-    assert_eq!(inline.effects.gravity.unwrap().acceleration_m_per_s2, [0.0, -3.0, 0.0]);
-    assert_eq!(inline.effects, section.effects);
+    assert_eq!(inline.effects().gravity.unwrap().acceleration_m_per_s2, [0.0, -3.0, 0.0]);
+    assert_eq!(inline.effects(), section.effects());
     // A key inside the table keeps its own error.
     let err = parse(&format!("{MINIMAL}[effects.gravity]\nacceleration = [0.0, -3.0, 0.0]\n")).unwrap_err();
     assert!(err.to_string().contains("acceleration"), "{err}");
@@ -246,9 +246,9 @@ fn missing_file_is_an_io_error() {
 #[test]
 fn the_solver_is_a_table_or_its_kind_alone() {
     let table = parse(&format!("[solver]\nkind = \"reference\"\nimplicit_iterations = 8\n{MINIMAL}")).unwrap();
-    assert_eq!(table.solver, Solver { kind: SolverChoice::Reference, implicit_iterations: 8, ..Solver::default() });
+    assert_eq!(table.solver(), Solver { kind: SolverChoice::Reference, implicit_iterations: 8, ..Solver::default() });
     let short = parse(&format!("solver = \"explicit\"\n{MINIMAL}")).unwrap();
-    assert_eq!(short.solver, Solver { kind: SolverChoice::Explicit, implicit_iterations: 1, ..Solver::default() });
+    assert_eq!(short.solver(), Solver { kind: SolverChoice::Explicit, implicit_iterations: 1, ..Solver::default() });
     for bad in ["solver = \"rk4\"\n", "[solver]\nkind = \"implicit\"\nsweeps = 3\n"] {
         assert!(matches!(parse(&format!("{bad}{MINIMAL}")), Err(SceneError::Parse { .. })), "{bad}");
     }
@@ -266,7 +266,7 @@ fn events_parse_in_file_order_and_are_validated() {
         [[events]]\nkind = \"forces_on\"\nat_s = 2.0\n";
     let scene = parse(&format!("{MINIMAL}{events}")).unwrap();
     assert_eq!(
-        scene.events,
+        scene.events(),
         vec![
             Event::Teleport { at_s: 0.5, pack: "a".into(), offset_m: [0.1, 0.0, 0.0] },
             Event::ForcesOff { at_s: 1.0, effects: vec![Effect::Wind] },
@@ -348,4 +348,39 @@ fn retired_keys_name_what_to_write_now() {
         }
     }
     assert_eq!(cases.len(), 7);
+}
+
+#[test]
+fn a_scene_built_in_code_is_the_scene_its_file_reads_as_and_is_validated_the_same_way() {
+    let text = "time_step_s = 0.01\n[[packs]]\nname = \"fox\"\npath = \"/abs/fox.fbk\"\n\
+                animation = { clip = \"Walk\" }\n[effects.gravity]\n";
+    let read = parse(text).unwrap();
+    let mut fox = ScenePack::new("fox", "/abs/fox.fbk");
+    fox.animation = Some(PackAnimation::new("Walk"));
+    let built = Scene::builder(vec![fox])
+        .time_step_s(0.01)
+        .effects(Effects { gravity: Some(Gravity::default()), ..Effects::default() })
+        .build()
+        .unwrap();
+    assert_eq!(built, read);
+
+    // The builder refuses what the file reader refuses, naming the same dotted key.
+    let invalid_field = |r: Result<Scene, SceneError>| match r {
+        Err(SceneError::Invalid { field, .. }) => field,
+        other => panic!("expected an invalid value, got {other:?}"),
+    };
+    let twice = Scene::builder(vec![ScenePack::new("a", "a.fbk"), ScenePack::new("a", "b.fbk")]).build();
+    assert_eq!(invalid_field(twice), "packs[1].name");
+    assert_eq!(invalid_field(Scene::builder(Vec::new()).build()), "packs");
+    let shrunk = read.clone().into_builder().edit_pack("fox", |p| p.scale = 0.0).build();
+    assert_eq!(invalid_field(shrunk), "packs[0].scale");
+    let slow = read.clone().into_builder().time_step_s(f32::NAN).build();
+    assert_eq!(invalid_field(slow), "time_step_s");
+    let from_nowhere = read.into_builder().events(vec![Event::PlayClip {
+        at_s: 1.0,
+        pack: "cat".into(),
+        clip: "Run".into(),
+        fade_s: 0.2,
+    }]);
+    assert_eq!(invalid_field(from_nowhere.build()), "events[0].pack");
 }

@@ -21,7 +21,11 @@ fn bake_pack(dir: &Path, name: &str, gltf: &[u8], topologies: &[&str], blades: O
     settings.topologies = topologies.iter().map(|t| t.to_string()).collect();
     settings.blades = blades;
     let path = dir.join(name);
-    bake(&imported, "mesh.gltf", &settings, &mut NoProgress).unwrap().to_writer().write_atomic(&path).unwrap();
+    bake(&imported, "mesh.gltf", &settings.plan().unwrap(), &mut NoProgress)
+        .unwrap()
+        .to_writer()
+        .write_atomic(&path)
+        .unwrap();
     path
 }
 
@@ -52,7 +56,7 @@ fn scene(dir: &Path, pack: &Path, effects: &str) -> Scene {
 
 /// Opens the scene's packs ourselves so their read counters can be checked afterwards.
 fn world_with_packs(scene: Scene) -> (World, Vec<Arc<Pack>>) {
-    let packs: Vec<Arc<Pack>> = scene.packs.iter().map(|p| Arc::new(Pack::open(&p.path).unwrap())).collect();
+    let packs: Vec<Arc<Pack>> = scene.packs().iter().map(|p| Arc::new(Pack::open(&p.path).unwrap())).collect();
     (World::with_packs(scene, packs.clone(), WorldOptions::default()).unwrap(), packs)
 }
 
@@ -396,21 +400,21 @@ fn each_effect_alone_plans_exactly_its_stages() {
     ];
     for (effects, expected) in &cases {
         let scene = Scene::from_toml_str(&format!("{base}{effects}"), Path::new("t.toml"), Path::new("/")).unwrap();
-        let plan = plan_stages(&scene.effects, &[fur_and_grass]);
+        let plan = plan_stages(scene.effects(), &[fur_and_grass]);
         let names: Vec<&str> = plan.iter().map(|s| s.kind.name()).collect();
         assert_eq!(&names, expected, "for {effects:?}");
         // Every stage serves only declared effects.
-        let declared = scene.effects();
+        let declared = scene.effects().enabled();
         assert!(plan.iter().flat_map(|s| &s.effects).all(|e| declared.contains(e)), "{effects:?}: {plan:?}");
     }
     // A static pack gets no object-motion stage; a pack without fur or blades gets nothing.
     let motion =
         Scene::from_toml_str(&format!("{base}[effects.object_motion]\n"), Path::new("t"), Path::new("/")).unwrap();
-    assert!(plan_stages(&motion.effects, &[PackRole { moving: false, ..fur_and_grass }]).is_empty());
+    assert!(plan_stages(motion.effects(), &[PackRole { moving: false, ..fur_and_grass }]).is_empty());
     let all = Scene::load(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/scenes/runtime_everything.toml"))
         .unwrap();
-    assert!(plan_stages(&all.effects, &[PackRole::default()]).is_empty());
-    assert_eq!(plan_stages(&all.effects, &[fur_and_grass]).len(), 7, "every stage kind once");
+    assert!(plan_stages(all.effects(), &[PackRole::default()]).is_empty());
+    assert_eq!(plan_stages(all.effects(), &[fur_and_grass]).len(), 7, "every stage kind once");
 }
 
 #[test]

@@ -23,7 +23,8 @@
 use furbake_formats::sections::skin_mesh::SkinMesh;
 use furbake_formats::sections::spring_topology::{SpringTopology, TopologyKind, TopologyParams};
 use furbake_sim::{
-    ForceSet, FrameMotion, GuardSettings, SimError, Simulator, SolverKind, SolverSettings, WindForce, build_topology, meshes,
+    ForceSet, FrameMotion, GuardSettings, SimError, Simulator, SolverKind, SolverSettings, WindForce, build_topology,
+    meshes,
 };
 
 /// Tips must be back within this fraction of the fur length.
@@ -50,7 +51,12 @@ fn base_params() -> TopologyParams {
 
 fn windy() -> ForceSet {
     ForceSet {
-        wind: Some(WindForce { direction: [1.0, 0.0, 0.3], force_n: 2e-4, gust_amplitude: 0.8, ..WindForce::default() }),
+        wind: Some(WindForce {
+            direction: [1.0, 0.0, 0.3],
+            force_n: 2e-4,
+            gust_amplitude: 0.8,
+            ..WindForce::default()
+        }),
         ..ForceSet::default()
     }
 }

@@ -16,7 +16,8 @@
 use crate::common::{Net, flat};
 use furbake_formats::sections::spring_topology::{TopologyKind, TopologyParams};
 use furbake_sim::{
-    ForceSet, GuardSettings, Simulator, SolverKind, SolverSettings, SpringTopology, WindForce, build_topology, meshes, synth,
+    ForceSet, GuardSettings, Simulator, SolverKind, SolverSettings, SpringTopology, WindForce, build_topology, meshes,
+    synth,
 };
 
 const DURATION: f64 = 0.1;

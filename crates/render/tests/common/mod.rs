@@ -29,7 +29,7 @@ pub fn furry_sphere(rings: u32, segments: u32, layers: u32, resolution: u32, fur
     let mut settings = BakeSettings::preset("fur").unwrap();
     (settings.volume.layers, settings.volume.resolution) = (layers, resolution);
     settings.shells.fur_length_m = Some(fur_m);
-    let baked = bake(&imported, "sphere", &settings, &mut NoProgress).unwrap();
+    let baked = bake(&imported, "sphere", &settings.plan().unwrap(), &mut NoProgress).unwrap();
     let fins = Some((Arc::new(baked.fins), Arc::new(baked.fin_edges)));
     FurAsset::new(Arc::new(baked.mesh), Arc::new(baked.shells), Arc::new(baked.uv_map), fins).unwrap()
 }

@@ -67,7 +67,8 @@ pub fn bake_scene(kind: SceneKind, fixtures: &Path, settings: &BakeSettings) -> 
         SceneKind::Fox => (import_gltf(&fixtures.join("real/Fox.glb"), &import), "Fox.glb"),
     };
     let mesh = mesh.map_err(|e| RenderReportError::Import(name.into(), e.to_string()))?;
-    let baked = bake(&mesh, name, settings, &mut NoProgress).map_err(|e| RenderReportError::Bake(e.to_string()))?;
+    let plan = settings.clone().plan().map_err(|e| RenderReportError::Bake(e.to_string()))?;
+    let baked = bake(&mesh, name, &plan, &mut NoProgress).map_err(|e| RenderReportError::Bake(e.to_string()))?;
     let (m, shells, uv) = (Arc::new(baked.mesh), Arc::new(baked.shells), Arc::new(baked.uv_map));
     let fins = Some((Arc::new(baked.fins), Arc::new(baked.fin_edges)));
     let asset = FurAsset::new(Arc::clone(&m), Arc::clone(&shells), Arc::clone(&uv), fins)?;
