@@ -22,46 +22,77 @@ use crate::bake_cmd::{Job, bake_job};
 use crate::failure::{Classify, Failure};
 use crate::files::Files;
 
-/// Keys shared by `[defaults]` and every `[[asset]]`.
-#[derive(Deserialize, Default, Clone, schemars::JsonSchema)]
-#[serde(deny_unknown_fields)]
-pub(crate) struct Common {
-    /// The preset the settings start from (`fur`, `grass`).
-    preset: Option<String>,
-    /// A bake config TOML (the `--config` file), relative to the batch file.
-    config: Option<PathBuf>,
-    /// Extra directory external files may come from (`--asset-root`), relative to the batch file.
-    asset_root: Option<PathBuf>,
-    /// Settings overrides (the keys of a `--config` file); an asset's are applied after the
-    /// defaults'.
-    #[schemars(with = "Option<BakeSettings>")]
-    settings: Option<toml::Table>,
-    /// Write `<pack>.d` depfiles.
+/// Declares a batch table with the keys `[defaults]` and every `[[asset]]` share, written here
+/// once, as plain fields (not a `#[serde(flatten)]`ed struct, whose buffered keys lose their name,
+/// line and column in errors and escape `deny_unknown_fields`), plus the table's own fields; its
+/// `common()` collects the shared keys.
+macro_rules! batch_table {
+    ($(#[$meta:meta])* struct $name:ident { $($own:tt)* }) => {
+        $(#[$meta])*
+        #[derive(Deserialize, schemars::JsonSchema)]
+        #[serde(deny_unknown_fields)]
+        pub(crate) struct $name {
+            $($own)*
+            /// The preset the settings start from (`fur`, `grass`).
+            preset: Option<String>,
+            /// A bake config TOML (the `--config` file), relative to the batch file.
+            config: Option<PathBuf>,
+            /// Extra directory external files may come from (`--asset-root`), relative to the batch file.
+            asset_root: Option<PathBuf>,
+            /// Settings overrides (the keys of a `--config` file); an asset's are applied after the
+            /// defaults'.
+            #[schemars(with = "Option<BakeSettings>")]
+            settings: Option<toml::Table>,
+            /// Write `<pack>.d` depfiles.
+            depfile: Option<bool>,
+            /// Most memory a bake may plan for (`--max-memory`), e.g. "2G".
+            max_memory: Option<String>,
+        }
+
+        impl $name {
+            /// The keys shared by `[defaults]` and every `[[asset]]`.
+            fn common(&self) -> Common<'_> {
+                Common {
+                    preset: self.preset.as_deref(),
+                    config: self.config.as_deref(),
+                    asset_root: self.asset_root.as_deref(),
+                    settings: self.settings.as_ref(),
+                    depfile: self.depfile,
+                    max_memory: self.max_memory.as_deref(),
+                }
+            }
+        }
+    };
+}
+
+/// The keys shared by `[defaults]` and every `[[asset]]` (documented in [`batch_table`]).
+#[derive(Clone, Copy, Default)]
+struct Common<'a> {
+    preset: Option<&'a str>,
+    config: Option<&'a Path>,
+    asset_root: Option<&'a Path>,
+    settings: Option<&'a toml::Table>,
     depfile: Option<bool>,
-    /// Most memory a bake may plan for (`--max-memory`), e.g. "2G".
-    max_memory: Option<String>,
+    max_memory: Option<&'a str>,
 }
 
-/// `[defaults]`: what every asset starts from.
-#[derive(Deserialize, Default, schemars::JsonSchema)]
-#[serde(deny_unknown_fields)]
-pub(crate) struct Defaults {
-    #[serde(flatten)]
-    common: Common,
-    /// Where packs go when an asset names no `output` (default: beside the batch file).
-    out_dir: Option<PathBuf>,
+batch_table! {
+    /// `[defaults]`: what every asset starts from.
+    #[derive(Default)]
+    struct Defaults {
+        /// Where packs go when an asset names no `output` (default: beside the batch file).
+        out_dir: Option<PathBuf>,
+    }
 }
 
-/// `[[asset]]`: one glTF to bake.
-#[derive(Deserialize, schemars::JsonSchema)]
-#[serde(deny_unknown_fields)]
-pub(crate) struct AssetEntry {
-    /// The glTF, relative to the batch file.
-    input: PathBuf,
-    /// The pack, relative to the batch file (default: `out_dir/<input stem>.fbk`).
-    output: Option<PathBuf>,
-    #[serde(flatten)]
-    common: Common,
+batch_table! {
+    /// `[[asset]]`: one glTF to bake.
+    struct AssetEntry {
+        /// The glTF, relative to the batch file.
+        input: PathBuf,
+        /// The pack, relative to the batch file (default: `out_dir/<input stem>.fbk`).
+        output: Option<PathBuf>,
+    }
 }
 
 /// A batch file: shared defaults and the assets to bake (`furbake batch FILE`).
@@ -179,11 +210,11 @@ pub fn run(args: BatchArgs, quiet: bool) -> Result<(), Failure> {
 /// of the whole batch ([`Files`]): no pack or depfile is the batch file, any asset's input or
 /// config, or another output (compared as resolved files), or a device, FIFO or directory.
 fn plan(file: &BatchFile, base: &Path, batch: &Path) -> Result<(Vec<Planned>, Files), Failure> {
-    let d = &file.defaults.common;
+    let d = file.defaults.common();
     let out_dir = file.defaults.out_dir.as_ref().map_or_else(|| base.to_path_buf(), |o| base.join(o));
     let mut plans: Vec<Planned> = Vec::with_capacity(file.assets.len());
     for (i, a) in file.assets.iter().enumerate() {
-        let c = &a.common;
+        let c = a.common();
         let what = || format!("{} asset {} ({})", batch.display(), i + 1, a.input.display());
         let preset = c.preset.as_deref().or(d.preset.as_deref()).unwrap_or("fur");
         let mut settings = BakeSettings::preset(preset).map_err(|e| anyhow!("{}: {e}", what())).usage()?;

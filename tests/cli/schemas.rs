@@ -232,11 +232,22 @@ fn bake_configs_and_batch_files_have_schemas_that_say_what_furbake_reads() {
 
     // Broken batch files: refused by the schema, and by furbake naming the asset and the key.
     std::fs::copy(&sphere, dir.path().join("sphere.gltf")).unwrap();
-    let batches: [(&str, i32, &[&str]); 4] = [
+    let batches: [(&str, i32, &[&str]); 6] = [
         (
             "[[asset]]\nouput = \"x.fbk\"\ninput = \"sphere.gltf\"\n",
             1,
-            &["asset[0]:", "unknown field `ouput`", "line 1"],
+            &["asset[0].ouput:", "unknown field `ouput`", "line 2, column 1"],
+        ),
+        // Keys shared by [defaults] and [[asset]] keep their name and place.
+        (
+            "[defaults]\ndepfile = \"yes\"\n[[asset]]\ninput = \"sphere.gltf\"\n",
+            1,
+            &["defaults.depfile:", "expected a boolean", "line 2, column 11"],
+        ),
+        (
+            "[[asset]]\ninput = \"sphere.gltf\"\nmax_memory = 3\n",
+            1,
+            &["asset[0].max_memory:", "expected a string", "line 3, column 14"],
         ),
         (
             "[defaults]\npreset = \"fur\"\n[[asset]]\noutput = \"x.fbk\"\n",

@@ -11,7 +11,7 @@ use furbake_report::rendering::reference::{ReferenceSettings, render_reference};
 use furbake_report::rendering::report::{FinMode, reference_camera, reference_of, render_settings};
 use furbake_report::rendering::scenes::{FurScene, SceneKind, bake_scene};
 use furbake_report::rendering::score::score;
-use furbake_report::rendering::shade::ShadeParams;
+use furbake_report::rendering::shade::ShadeSettings;
 use furbake_runtime::scene::FurShading;
 
 fn fixtures() -> std::path::PathBuf {
@@ -45,7 +45,7 @@ fn more_samples_per_pixel_change_the_reference_less() {
     // Two seeds at k² samples: their difference is the sampling noise, which falls about as 1/k.
     let scene = patch(&small_fur());
     let view = scene.view(45.0, 12.0 * scene.fur_length_m);
-    let light = ShadeParams::new(&view.uniforms(1, 1), FurShading::default());
+    let light = ShadeSettings::new(&view.uniforms(1, 1), FurShading::default());
     let camera = reference_camera(&view);
     let noise = |strata: u32| {
         let image = |seed| {
@@ -91,7 +91,7 @@ fn seen_from_above_the_hairs_cover_their_projected_area() {
     // patch (many tile repeats of 4 fur lengths) in view.
     let mut view = scene.view(0.0, 50.0);
     view.camera.fov_y_deg = 0.4;
-    let light = ShadeParams::new(&view.uniforms(1, 1), FurShading::default());
+    let light = ShadeSettings::new(&view.uniforms(1, 1), FurShading::default());
     let s = ReferenceSettings { strata: 3, ..Default::default() };
     let image = render_reference(&scene.volume, &reference_camera(&view), &light, 48, 48, &s).unwrap();
     assert!(image.coverage.iter().all(|&c| c == 1.0), "the patch fills the view");

@@ -34,7 +34,7 @@ use furbake_formats::sections::triangle_uv_map::TriangleUvMap;
 use glam::{Mat4, Vec2, Vec3, Vec4};
 use rayon::prelude::*;
 
-use super::shade::ShadeParams;
+use super::shade::ShadeSettings;
 
 /// Why a reference scene cannot be built.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -475,7 +475,15 @@ impl HairVolume {
         best
     }
 
-    fn shade(&self, hit: &Hit, world: Vec3, eye_dir: Vec3, light: &ShadeParams, tint: Vec3, self_shadow: bool) -> Vec3 {
+    fn shade(
+        &self,
+        hit: &Hit,
+        world: Vec3,
+        eye_dir: Vec3,
+        light: &ShadeSettings,
+        tint: Vec3,
+        self_shadow: bool,
+    ) -> Vec3 {
         let pr = &self.prisms[hit.prism as usize];
         let n = Prism::blend(&pr.n, hit.b).normalize_or(pr.n[0]);
         let albedo = Prism::blend(&pr.colour, hit.b) * tint;
@@ -593,7 +601,7 @@ pub fn linear_to_srgb8(c: f32) -> u8 {
 pub fn render_reference(
     volume: &HairVolume,
     camera: &ReferenceCamera,
-    light: &ShadeParams,
+    light: &ShadeSettings,
     width: u32,
     height: u32,
     settings: &ReferenceSettings,

@@ -17,7 +17,7 @@ use super::gpu::MeasuringGpu;
 use super::reference::{ReferenceCamera, ReferenceImage, ReferenceSettings, render_reference};
 use super::scenes::{FurScene, SceneKind, bake_scene};
 use super::score::{Score, score};
-use super::shade::ShadeParams;
+use super::shade::ShadeSettings;
 use crate::svg::{COLORS, Figure, Marker, Panel, Point, Series, render};
 
 /// Which fins furbake draws.
@@ -220,7 +220,7 @@ pub fn reference_of(
         tint: defaults.tint,
         self_shadow: defaults.self_shadow,
     };
-    let light = ShadeParams::new(&view.uniforms(1, 1), FurShading::default());
+    let light = ShadeSettings::new(&view.uniforms(1, 1), FurShading::default());
     Ok(render_reference(&scene.volume, &reference_camera(view), &light, size, size, &settings)?)
 }
 

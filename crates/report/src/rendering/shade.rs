@@ -23,7 +23,7 @@ struct LightUniform {
 /// What the shading reads from the `Frame` and `Fur` uniforms: the frame's lights and hemisphere
 /// ambient (`FrameUniforms`, as the renderer packs them from a `View`), the strand parameters.
 #[derive(Clone, Debug, PartialEq)]
-pub struct ShadeParams {
+pub struct ShadeSettings {
     lights: Vec<LightUniform>,
     ambient_sky: Vec3,
     ambient_ground: Vec3,
@@ -33,11 +33,11 @@ pub struct ShadeParams {
     pub lambert: bool,
 }
 
-impl ShadeParams {
+impl ShadeSettings {
     /// The parameters of a frame whose uniforms are `frame` (`View::uniforms`) with `shading`.
-    pub fn new(frame: &FrameUniforms, shading: FurShading) -> ShadeParams {
+    pub fn new(frame: &FrameUniforms, shading: FurShading) -> ShadeSettings {
         let (sky, ground) = frame.ambient();
-        ShadeParams {
+        ShadeSettings {
             lights: frame
                 .lights()
                 .map(|(vector, radiance)| LightUniform { vector: Vec4::from(vector), radiance: Vec4::from(radiance) })
@@ -222,7 +222,7 @@ mod tests {
         let ambient = furbake_runtime::Ambient { sky: [1.0; 3], ground: [1.0; 3] };
         let lighting = furbake_runtime::Lighting::new(&[], ambient).expect("no sources");
         let frame = FrameUniforms::new(glam::Mat4::IDENTITY, Vec3::ZERO, lighting, glam::Mat4::IDENTITY);
-        let p = ShadeParams::new(&frame, FurShading::default());
+        let p = ShadeSettings::new(&frame, FurShading::default());
         let rgb = p.strand_shade(Vec3::splat(0.5), Vec3::Y, Vec3::Y, Vec3::ZERO, Vec3::Y, 0.0, 1.0, 1.0);
         let expected = 0.5 * (1.0 - FurShading::default().root_occlusion);
         assert!((rgb - Vec3::splat(expected)).abs().max_element() < 1e-6, "{rgb}");
