@@ -216,7 +216,7 @@ fn plan(file: &BatchFile, base: &Path, batch: &Path) -> Result<(Vec<Planned>, Fi
     for (i, a) in file.assets.iter().enumerate() {
         let c = a.common();
         let what = || format!("{} asset {} ({})", batch.display(), i + 1, a.input.display());
-        let preset = c.preset.as_deref().or(d.preset.as_deref()).unwrap_or("fur");
+        let preset = c.preset.or(d.preset).unwrap_or("fur");
         let mut settings = BakeSettings::preset(preset).map_err(|e| anyhow!("{}: {e}", what())).usage()?;
         let config = c.config.as_ref().or(d.config.as_ref()).map(|p| base.join(p));
         if let Some(path) = &config {
@@ -243,7 +243,7 @@ fn plan(file: &BatchFile, base: &Path, batch: &Path) -> Result<(Vec<Planned>, Fi
                 out_dir.join(format!("{}.fbk", stem.to_string_lossy()))
             }
         };
-        let max_memory = match c.max_memory.as_deref().or(d.max_memory.as_deref()) {
+        let max_memory = match c.max_memory.or(d.max_memory) {
             Some(v) => crate::args::parse_bytes(v).map_err(|e| anyhow!("{}: max_memory: {e}", what())).usage()?,
             None => crate::args::DEFAULT_MAX_MEMORY,
         };
