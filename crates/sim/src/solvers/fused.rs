@@ -25,7 +25,8 @@ use super::stick::{place_on_stick, project_sticks};
 use super::{Step, StepOutcome};
 use crate::forces::ForceEval;
 use crate::groups::GROUP;
-use crate::model::{NONE, SimModel};
+use crate::model::SimModel;
+use crate::sentinel::NONE;
 use crate::shell::{GuardOutcome, GuardState};
 
 /// Which update the lane-group kernel applies.

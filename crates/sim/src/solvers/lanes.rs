@@ -10,7 +10,7 @@ use glam::Vec3A;
 
 use super::rotation::rotation_step;
 use crate::groups::GROUP;
-use crate::model::NONE;
+use crate::sentinel::NONE;
 
 /// Eight `f32` lanes and the operations the per-mass kernels need. [`Sc`] is portable (plain
 /// arrays, which the compiler vectorises as it can); [`Avx`] is an AVX register, used only after

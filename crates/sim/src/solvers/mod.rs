@@ -48,7 +48,8 @@ mod xpbd;
 use glam::Vec3A;
 
 use crate::forces::{ForceEval, restoring_force};
-use crate::model::{NONE, SimModel};
+use crate::model::SimModel;
+use crate::sentinel::NONE;
 use crate::shell::{GuardOutcome, GuardSettings, GuardState};
 
 pub(crate) use chunks::{CHUNK, PARALLEL_MIN, sum_over};

@@ -27,7 +27,8 @@ use super::fused::{Mode, finish_step, group_step};
 use super::stick::project_sticks;
 use super::{Step, StepOutcome};
 use crate::forces::{outer, restoring_force_f64};
-use crate::model::{NONE, SimModel};
+use crate::model::SimModel;
+use crate::sentinel::NONE;
 
 /// The most negative transverse stiffness of a compressed link, as a fraction of its lighter
 /// end's mass over `h²`: below it linearised backward Euler with the exact Jacobian is unstable

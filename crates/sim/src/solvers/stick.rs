@@ -12,7 +12,8 @@ use rayon::prelude::*;
 use super::chunks::{CHUNK, PARALLEL_MIN};
 use super::fused::{Mode, group_step};
 use super::{Step, StepOutcome};
-use crate::model::{NONE, SimModel};
+use crate::model::SimModel;
+use crate::sentinel::NONE;
 
 /// One stick-solver step: explicit forces, implicit parent damping
 /// `v' = (v + h F/m + a v_parent)/(1 + a)`, `a = h c/m`, then projection. Runs the step's guard
