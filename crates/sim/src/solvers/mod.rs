@@ -6,8 +6,8 @@
 //!   Jacobian of eq. 3.29: one sweep (the thesis's first iterate of eq. 3.34) or, for two or more
 //!   iterations, preconditioned conjugate gradient from that sweep with the sweep's matrix as
 //!   preconditioner (monotone convergence to the system's solution).
-//! - [`stick`]: the stick solver of §3.4.1 ("orientation only") and the stick projection every
-//!   solver applies after its step.
+//! - [`stick`]: the stick solver of §3.4.1 ("orientation only").
+//! - [`projection`]: the stick projection every solver applies after its step.
 //! - [`reference`]: backward Euler linearised per step with the exact Jacobian of every force,
 //!   solved by BiCGSTAB in f64 with an f64 state kept between steps (Baraff & Witkin 1998): the
 //!   accuracy report measures everyone else against it.
@@ -40,6 +40,7 @@ mod implicit;
 mod lanes;
 mod ldlt;
 mod local_global;
+mod projection;
 mod reference;
 mod rotation;
 mod stick;
@@ -56,9 +57,10 @@ pub(crate) use chunks::{CHUNK, PARALLEL_MIN, sum_over};
 pub(crate) use explicit::{explicit_step, stable_step};
 pub(crate) use implicit::{ImplicitScratch, Sym3, implicit_step};
 pub(crate) use local_global::{LocalGlobalScratch, local_global_step};
+pub(crate) use projection::project_sticks;
 pub(crate) use reference::{ReferenceScratch, reference_step};
 pub(crate) use rotation::rotation_limit;
-pub(crate) use stick::{project_sticks, stick_step};
+pub(crate) use stick::stick_step;
 pub(crate) use xpbd::{XpbdScratch, xpbd_step};
 
 /// One step of size `h` from `(x, v)` to `(x_out, v_out)`: what every solver step reads, where
