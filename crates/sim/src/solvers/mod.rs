@@ -23,7 +23,8 @@
 //!   the wrong-side guard of §3.4.3 and the next rotation limit fused in.
 //! - [`lanes`]: the eight-lane SIMD layer the fused pass is written in (AVX2 + FMA after runtime
 //!   detection, portable arrays otherwise).
-//! - [`rotation`]: the implicit solvers' rotation-limited step.
+//! - [`rotation`]: the implicit solvers' rotation-limited step (its per-mass formula,
+//!   `rotation_step`, sits in [`lanes`] with the lane operations that evaluate it).
 //! - [`chunks`]: fixed-chunk parallel loops and sums, so every result is bit-identical for any
 //!   rayon thread count.
 //!
