@@ -16,7 +16,7 @@ use gltf::json::accessor::Type;
 use gltf::json::mesh::{Mode, Semantic};
 use gltf::json::validation::Checked;
 
-use crate::accessor::{AccessorReader, Elements};
+use crate::accessor::{AccessorReader, Elements, semantic_name};
 use crate::animation::{Influences, NO_GROUP, Rig};
 use crate::external::ExternalFiles;
 
@@ -69,20 +69,6 @@ enum Binding {
     Skin { skin: usize, binds: Vec<u32> },
     /// An unskinned mesh in a rigged file: one bind on its node.
     Rigid(u32),
-}
-
-/// The string a glTF file uses for a semantic (`POSITION`, `COLOR_0`, `_FUR`).
-pub(crate) fn semantic_name(s: &Semantic) -> String {
-    match s {
-        Semantic::Positions => "POSITION".to_string(),
-        Semantic::Normals => "NORMAL".to_string(),
-        Semantic::Tangents => "TANGENT".to_string(),
-        Semantic::Colors(n) => format!("COLOR_{n}"),
-        Semantic::TexCoords(n) => format!("TEXCOORD_{n}"),
-        Semantic::Joints(n) => format!("JOINTS_{n}"),
-        Semantic::Weights(n) => format!("WEIGHTS_{n}"),
-        Semantic::Extras(name) => format!("_{name}"),
-    }
 }
 
 /// Splits an index list into triangles for `mode` (glTF 2.0 §3.7.2.1 topology types).
