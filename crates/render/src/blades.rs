@@ -24,7 +24,6 @@ use wgpu::util::DeviceExt;
 use crate::culling::{BLOCK, BLOCKS_AT, BladeLods, CullUniforms, GrassCulling, LISTS_AT};
 #[cfg(feature = "testing")]
 use crate::culling::{CullLists, MAX_LODS};
-pub use crate::shaders::BLADES_WGSL;
 use crate::shaders::FrameUniforms;
 use crate::{PipelineCache, RenderError, TargetDesc};
 

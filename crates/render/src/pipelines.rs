@@ -14,9 +14,9 @@
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex, OnceLock};
 
-use crate::blades::BLADES_WGSL;
 use crate::shaders::{
-    FIN_ATTRIBUTES, FIN_WGSL, FinVertex, SHELL_WGSL, SILHOUETTE_WGSL, SKIN_WGSL, SURFACE_ATTRIBUTES, SurfaceVertex,
+    BLADES_WGSL, FIN_ATTRIBUTES, FIN_WGSL, FinVertex, SHELL_WGSL, SILHOUETTE_WGSL, SKIN_WGSL, SURFACE_ATTRIBUTES,
+    SurfaceVertex,
 };
 use crate::{RenderError, RenderSettings, ShellBlend, TargetDesc};
 

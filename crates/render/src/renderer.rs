@@ -24,7 +24,8 @@ use furbake_runtime::ShellVertexLayout;
 use glam::{Mat4, Vec3};
 use wgpu::util::DeviceExt;
 
-use crate::asset::{FurAsset, mip_chain};
+use crate::asset::FurAsset;
+use crate::mips::mip_chain;
 use crate::pipelines::{FurPipelines, FurSwitches};
 use crate::shaders::{FrameUniforms, FurUniforms, SkinnedVertex, SurfaceVertex};
 #[cfg(feature = "testing")]
