@@ -1206,7 +1206,7 @@ impl BladeRenderer {
     /// the indirect draw arguments (with culling off: LOD 0's list, every blade); waits for the
     /// GPU. For tests and tools.
     pub fn read_culling(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<CullLists, RenderError> {
-        let read = |buffer, count, what| crate::headless::read_buffer::<u32>(device, queue, buffer, count, what);
+        let read = |buffer, count, what| crate::blocking::read_buffer::<u32>(device, queue, buffer, count, what);
         let lists =
             read(&self.own.views[0].instances, LISTS_AT + 3 * self.blade_count as u64, "culling instance lists")?;
         let mut out = CullLists::default();
@@ -1245,7 +1245,7 @@ impl BladeRenderer {
             return Ok(Vec::new());
         }
         let words: Vec<[f32; 4]> =
-            crate::headless::read_buffer(device, queue, positions, n, "blade positions readback")?;
+            crate::blocking::read_buffer(device, queue, positions, n, "blade positions readback")?;
         let out = words.iter().map(|p| [p[0], p[1], p[2]]).collect();
         Ok(out)
     }

@@ -340,7 +340,7 @@ pub fn read_back_texture(
         wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
     );
     crate::blocking::submit(queue, [encoder.finish()]);
-    map_for_reading(device, &buffer, "image readback")?;
+    crate::blocking::map_for_reading(device, &buffer, "image readback")?;
     let mut pixels = Vec::with_capacity(row as usize * h as usize);
     {
         let view = buffer.get_mapped_range(..).map_err(|e| RenderError::Gpu { what: e.to_string() })?;
@@ -512,48 +512,4 @@ fn rest_pose(pack: &Pack) -> Result<Option<RestPose>, RenderError> {
     let morph_input = morphs.as_deref().map(|m| (m, pose.morph_weights.as_slice()));
     morph_and_skin(&mesh, weights.as_deref(), morph_input, &skinning, &mut positions, &mut normals).map_err(invalid)?;
     Ok(Some(RestPose { skinning, morph_weights: pose.morph_weights, positions, normals }))
-}
-
-#[cfg(feature = "testing")]
-/// Copies the first `count` elements of `source` (a `COPY_SRC` buffer) into a staging buffer,
-/// submits, waits and returns them; `what` names the readback in errors. For tests and tools.
-pub(crate) fn read_buffer<T: bytemuck::Pod>(
-    device: &wgpu::Device,
-    queue: &wgpu::Queue,
-    source: &wgpu::Buffer,
-    count: u64,
-    what: &str,
-) -> Result<Vec<T>, RenderError> {
-    let bytes = count * std::mem::size_of::<T>() as u64;
-    let staging = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some(what),
-        size: bytes,
-        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-        mapped_at_creation: false,
-    });
-    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(what) });
-    encoder.copy_buffer_to_buffer(source, 0, &staging, 0, bytes);
-    crate::blocking::submit(queue, [encoder.finish()]);
-    map_for_reading(device, &staging, what)?;
-    let out = {
-        let view = staging.get_mapped_range(..).map_err(|e| RenderError::Gpu { what: e.to_string() })?;
-        bytemuck::cast_slice(&view).to_vec()
-    };
-    staging.unmap();
-    Ok(out)
-}
-
-/// Maps `buffer` (a `MAP_READ` buffer whose copy was already submitted) and waits until the map
-/// completes; `what` names the readback in errors.
-pub(crate) fn map_for_reading(device: &wgpu::Device, buffer: &wgpu::Buffer, what: &str) -> Result<(), RenderError> {
-    let (tx, rx) = std::sync::mpsc::channel();
-    buffer.map_async(wgpu::MapMode::Read, .., move |r| {
-        let _ = tx.send(r);
-    });
-    crate::blocking::wait(device)?;
-    match rx.recv() {
-        Ok(Ok(())) => Ok(()),
-        Ok(Err(e)) => Err(RenderError::Gpu { what: format!("{what}: mapping failed: {e}") }),
-        Err(_) => Err(RenderError::Gpu { what: format!("{what}: mapping never completed") }),
-    }
 }

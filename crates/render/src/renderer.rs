@@ -855,8 +855,8 @@ impl FurRenderer {
         if let Some(e) = crate::blocking::block_on(scope.pop()) {
             return Err(RenderError::Gpu { what: e.to_string() });
         }
-        crate::headless::map_for_reading(device, &args, "silhouette args readback")?;
-        crate::headless::map_for_reading(device, &instances, "silhouette instances readback")?;
+        crate::blocking::map_for_reading(device, &args, "silhouette args readback")?;
+        crate::blocking::map_for_reading(device, &instances, "silhouette instances readback")?;
         let count = {
             let view = args.get_mapped_range(..).map_err(|e| RenderError::Gpu { what: e.to_string() })?;
             bytemuck::cast_slice::<u8, u32>(&view)[1] as usize
@@ -1087,7 +1087,7 @@ impl FurRenderer {
             return Err(RenderError::Gpu { what: e.to_string() });
         }
         let read = |buffer: &wgpu::Buffer, what| -> Result<Vec<[f32; 3]>, RenderError> {
-            crate::headless::map_for_reading(device, buffer, what)?;
+            crate::blocking::map_for_reading(device, buffer, what)?;
             let out = {
                 let view = buffer.get_mapped_range(..).map_err(|e| RenderError::Gpu { what: e.to_string() })?;
                 let words: &[[f32; 4]] = bytemuck::cast_slice(&view);
