@@ -58,6 +58,21 @@ pub(crate) fn view_out_of_range(view: usize, count: usize, setting: &str) -> Ren
     RenderError::Parameter { what: format!("view {view} of a renderer built for {count} ({setting})") }
 }
 
+/// The shader switches of a fur pipeline drawn with `settings`, for an animated (`skinned`) asset
+/// or not.
+fn fur_switches(settings: &RenderSettings, skinned: bool) -> FurSwitches {
+    FurSwitches {
+        lambert: settings.lambert,
+        shadow: settings.self_shadow,
+        skinned,
+        strand: settings.shading.enabled,
+        shear: settings.shearing,
+        alpha_blend: settings.blend == ShellBlend::AlphaBlend,
+        alpha_to_coverage: settings.blend == ShellBlend::AlphaTest && settings.alpha_to_coverage,
+        light_slots: settings.light_slots,
+    }
+}
+
 /// Rendering parameters of one asset.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RenderSettings {
@@ -475,7 +490,7 @@ impl FurRenderer {
                 what: "the shared GPU asset was uploaded from another asset or with other fin settings".into(),
             });
         }
-        let switches = FurSwitches::new(settings, asset.is_animated());
+        let switches = fur_switches(settings, asset.is_animated());
         let silhouette = settings.silhouette_fins && gpu.silhouette.is_some();
         let stage_pipelines = pipelines.fur(target, switches, silhouette)?;
         let device = pipelines.device();
