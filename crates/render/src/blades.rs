@@ -1264,4 +1264,55 @@ mod tests {
         let (w, e) = pack_payload(&Displacements::F32(vec![1.5]));
         assert_eq!((w, e), (vec![1.5f32.to_bits()], 0));
     }
+
+    /// The grass structs mirror their WGSL declarations (see `crate::shaders`'s layout tests).
+    #[test]
+    fn blade_structs_match_the_shaders() {
+        use std::mem::{offset_of, size_of};
+
+        use crate::shaders::tests::check_layout;
+        type B = BladeUniforms;
+        let pad = offset_of!(B, pad);
+        let params = [
+            ("color", offset_of!(B, color)),
+            ("blade_count", offset_of!(B, blade_count)),
+            ("vertex_count", offset_of!(B, vertex_count)),
+            ("stored_vectors", offset_of!(B, stored_vectors)),
+            ("stored_angles", offset_of!(B, stored_angles)),
+            ("magnitudes", offset_of!(B, magnitudes)),
+            ("angles", offset_of!(B, angles)),
+            ("mirror_x", offset_of!(B, mirror_x)),
+            ("mirror_z", offset_of!(B, mirror_z)),
+            ("magnitude_per_force", offset_of!(B, magnitude_per_force)),
+            ("angle_per_radian", offset_of!(B, angle_per_radian)),
+            ("scale", offset_of!(B, scale)),
+            ("encoding", offset_of!(B, encoding)),
+            ("interpolation", offset_of!(B, interpolation)),
+            ("lambert", offset_of!(B, lambert)),
+            ("delayed_sources", offset_of!(B, delayed_sources)),
+            ("corner_count", offset_of!(B, corner_count)),
+            ("cells_x", offset_of!(B, cells_x)),
+            ("seed", offset_of!(B, seed)),
+            ("shading", offset_of!(B, shading)),
+            ("pad0", pad),
+            ("tip_color", offset_of!(B, tip_color)),
+            ("shade", offset_of!(B, shade)),
+            ("gloss", offset_of!(B, gloss)),
+        ];
+        // grass_pose.wgsl, prepended to the draw and to the culling passes.
+        assert_eq!(check_layout("BladeUniforms", size_of::<B>(), &params), 2);
+        let blade = [
+            ("root", offset_of!(BladeGpu, root)),
+            ("yaw", offset_of!(BladeGpu, yaw)),
+            ("cluster", offset_of!(BladeGpu, cluster)),
+            ("pad", offset_of!(BladeGpu, pad)),
+            ("weights", offset_of!(BladeGpu, weights)),
+        ];
+        assert_eq!(check_layout("Blade", size_of::<BladeGpu>(), &blade), 2, "grass_common.wgsl, in both");
+        let delayed = [
+            ("position_power", offset_of!(DelayedSourceGpu, position_power)),
+            ("params", offset_of!(DelayedSourceGpu, params)),
+        ];
+        assert_eq!(check_layout("DelayedSource", size_of::<DelayedSourceGpu>(), &delayed), 2);
+    }
 }
