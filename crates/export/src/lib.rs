@@ -239,6 +239,8 @@ struct Shared {
     influences: Option<(usize, Vec<u16>, Vec<f32>)>,
     /// Skin index when skinned.
     skin: Option<usize>,
+    /// The skeleton's bind count (0 without a rig): the bound on the `JOINTS_n` values.
+    bind_count: usize,
 }
 
 fn f(x: f32) -> Value {
@@ -285,7 +287,41 @@ fn png_la(what: String, width: u32, height: u32, la: Vec<u8>) -> Result<Vec<u8>,
     Ok(out.into_inner())
 }
 
+/// Builds the file from the checked sections: one stage per part of the glTF document, in the
+/// order their data is written into the binary chunk (buffer views and accessors are numbered in
+/// that order, so the order is part of the file's bytes).
 fn build(input: &Input<'_>, options: &ExportOptions, notes: &mut Vec<String>) -> Result<Vec<u8>, ExportError> {
+    let layers = check_options(input, options)?;
+    let shared = skinning_palette(input.rig);
+    let mut doc = Document::default();
+    add_skin(&mut doc, input.mesh, &shared);
+    add_shells(&mut doc, input, &shared, layers, options.alpha, notes)?;
+    let fins_exported = add_fins(&mut doc, input, &shared, options.alpha, notes)?;
+    if let Some((skeleton, _)) = input.rig {
+        let joint_base = add_skeleton(&mut doc, skeleton);
+        add_clips(&mut doc, input.clips, joint_base, skeleton.joint_count(), notes);
+    }
+    finish_document(doc, input, layers, fins_exported)
+}
+
+/// The glTF document as the stages of [`build`] fill it: the binary chunk with its buffer views
+/// and accessors, and the top-level arrays whose indices the stages refer to.
+#[derive(Default)]
+struct Document {
+    b: Builder,
+    nodes: Vec<Value>,
+    meshes: Vec<Value>,
+    materials: Vec<Value>,
+    textures: Vec<Value>,
+    images: Vec<Value>,
+    /// The scene's root nodes.
+    scene_nodes: Vec<usize>,
+    skins: Vec<Value>,
+    animations: Vec<Value>,
+}
+
+/// Checks the options and the mesh's size against the pack; returns the shell layers to export.
+fn check_options(input: &Input<'_>, options: &ExportOptions) -> Result<u32, ExportError> {
     let m = input.mesh;
     let atlas_layers = input.shells.layers() as u32;
     let layers = options.layers.unwrap_or(atlas_layers);
@@ -307,83 +343,63 @@ fn build(input: &Input<'_>, options: &ExportOptions, notes: &mut Vec<String>) ->
             m.triangles.len()
         )));
     }
+    Ok(layers)
+}
 
-    let mut b = Builder::default();
-    let mut nodes: Vec<Value> = Vec::new();
-    let mut meshes: Vec<Value> = Vec::new();
-    let mut materials: Vec<Value> = Vec::new();
-    let mut textures: Vec<Value> = Vec::new();
-    let mut images: Vec<Value> = Vec::new();
-    let mut scene_nodes: Vec<usize> = Vec::new();
-
-    // The skinning palette, when the pack is rigged.
-    let shared = match input.rig {
+/// The skinning palette every mesh primitive shares, when the pack is rigged.
+fn skinning_palette(rig: Option<(&Skeleton, &SkinWeights)>) -> Shared {
+    let bind_count = rig.map_or(0, |(sk, _)| sk.bind_count());
+    match rig {
         Some((sk, w)) => {
             let k = w.influences_per_vertex as usize;
             let (binds, weights) = gltf_influences(w);
-            Shared { influences: Some((k, binds, weights)), skin: Some(0) }.with_bind_count(sk.bind_count())
+            Shared { influences: Some((k, binds, weights)), skin: Some(0), bind_count }.with_bind_count(sk.bind_count())
         }
-        None => Shared { influences: None, skin: None },
-    };
-    // Adds the skinning attributes of `vertex_of` (welded vertex per exported vertex).
-    let skin_attributes = |b: &mut Builder, attributes: &mut serde_json::Map<String, Value>, vertex_of: &[u32]| {
-        let Some((k, binds, weights)) = &shared.influences else { return };
-        let bind_count = input.rig.map_or(0, |(sk, _)| sk.bind_count());
-        for set in 0..k / 4 {
-            let mut j = Vec::with_capacity(vertex_of.len() * 4);
-            let mut wt = Vec::with_capacity(vertex_of.len() * 4);
-            for &v in vertex_of {
-                let at = v as usize * k + set * 4;
-                j.extend_from_slice(&binds[at..at + 4]);
-                wt.extend_from_slice(&weights[at..at + 4]);
-            }
-            attributes.insert(format!("JOINTS_{set}"), json!(b.joints(&j, bind_count)));
-            attributes.insert(format!("WEIGHTS_{set}"), json!(b.floats(&wt, 4, false, false)));
-        }
-    };
-    let mesh_node = |name: &str, mesh: usize, extras: Option<Value>| {
-        let mut n = json!({ "name": name, "mesh": mesh });
-        if let Some(s) = shared.skin {
-            n["skin"] = json!(s);
-        }
-        if let Some(e) = extras {
-            n["extras"] = e;
-        }
-        n
-    };
-
-    // 1. The skin.
-    if !m.triangles.is_empty() {
-        let uvs = (!m.corner_texcoords.is_empty()).then_some(&m.corner_texcoords);
-        let (vertex_of, uv, indices) = unweld(&m.triangles, (0..m.triangles.len()).collect(), uvs);
-        let mut attributes = serde_json::Map::new();
-        let positions: Vec<f32> = vertex_of.iter().flat_map(|&v| m.positions[v as usize]).collect();
-        attributes.insert("POSITION".into(), json!(b.floats(&positions, 3, false, true)));
-        let normals: Vec<f32> = vertex_of.iter().flat_map(|&v| m.normals[v as usize]).collect();
-        attributes.insert("NORMAL".into(), json!(b.floats(&normals, 3, false, false)));
-        let colors: Vec<f32> = vertex_of.iter().flat_map(|&v| rgb(m.colors[v as usize])).collect();
-        attributes.insert("COLOR_0".into(), json!(b.floats(&colors, 3, false, false)));
-        if uvs.is_some() {
-            attributes.insert("TEXCOORD_0".into(), json!(b.floats(&uv, 2, false, false)));
-        }
-        skin_attributes(&mut b, &mut attributes, &vertex_of);
-        let ind = b.indices(&indices);
-        materials.push(material("skin", [1.0; 4], None, None, false));
-        meshes.push(json!({ "name": "skin", "primitives": [{
-            "attributes": attributes, "indices": ind, "material": materials.len() - 1, "mode": 4 }] }));
-        scene_nodes.push(nodes.len());
-        nodes.push(mesh_node("skin", meshes.len() - 1, None));
+        None => Shared { influences: None, skin: None, bind_count },
     }
+}
 
-    // Samplers: 0 repeats both ways (shells), 1 repeats along the fin and clamps across it.
-    let samplers = json!([
-        { "magFilter": 9729, "minFilter": 9987, "wrapS": 10497, "wrapT": 10497 },
-        { "magFilter": 9729, "minFilter": 9987, "wrapS": 10497, "wrapT": 33071 },
-    ]);
-    let alpha = Some(options.alpha);
+/// Adds the skin: one mesh of the whole surface, unwelded by corner UV, and its scene node.
+fn add_skin(doc: &mut Document, m: &SkinMesh, shared: &Shared) {
+    if m.triangles.is_empty() {
+        return;
+    }
+    let Document { b, nodes, meshes, materials, scene_nodes, .. } = doc;
+    let uvs = (!m.corner_texcoords.is_empty()).then_some(&m.corner_texcoords);
+    let (vertex_of, uv, indices) = unweld(&m.triangles, (0..m.triangles.len()).collect(), uvs);
+    let mut attributes = serde_json::Map::new();
+    let positions: Vec<f32> = vertex_of.iter().flat_map(|&v| m.positions[v as usize]).collect();
+    attributes.insert("POSITION".into(), json!(b.floats(&positions, 3, false, true)));
+    let normals: Vec<f32> = vertex_of.iter().flat_map(|&v| m.normals[v as usize]).collect();
+    attributes.insert("NORMAL".into(), json!(b.floats(&normals, 3, false, false)));
+    let colors: Vec<f32> = vertex_of.iter().flat_map(|&v| rgb(m.colors[v as usize])).collect();
+    attributes.insert("COLOR_0".into(), json!(b.floats(&colors, 3, false, false)));
+    if uvs.is_some() {
+        attributes.insert("TEXCOORD_0".into(), json!(b.floats(&uv, 2, false, false)));
+    }
+    shared.skin_attributes(b, &mut attributes, &vertex_of);
+    let ind = b.indices(&indices);
+    materials.push(material("skin", [1.0; 4], None, None, false));
+    meshes.push(json!({ "name": "skin", "primitives": [{
+        "attributes": attributes, "indices": ind, "material": materials.len() - 1, "mode": 4 }] }));
+    scene_nodes.push(nodes.len());
+    nodes.push(shared.mesh_node("skin", meshes.len() - 1, None));
+}
+
+/// Adds the shells: per exported layer one mesh of the furry triangles pushed out along the
+/// normals, textured with its atlas slice (one PNG per slice, shared by the layers that use it).
+fn add_shells(
+    doc: &mut Document,
+    input: &Input<'_>,
+    shared: &Shared,
+    layers: u32,
+    alpha: ShellAlpha,
+    notes: &mut Vec<String>,
+) -> Result<(), ExportError> {
+    let m = input.mesh;
+    let alpha = Some(alpha);
     let fur_m = input.shells.fur_length_m;
-
-    // 2. The shells.
+    let Document { b, nodes, meshes, materials, textures, images, scene_nodes, .. } = doc;
     let furry: Vec<usize> = (0..m.triangles.len()).filter(|&t| m.fur_mask[t] != 0).collect();
     if layers > 0 && !furry.is_empty() {
         let (vertex_of, uv, indices) = unweld(&m.triangles, furry, Some(&input.uv_map.corners));
@@ -393,7 +409,7 @@ fn build(input: &Input<'_>, options: &ExportOptions, notes: &mut Vec<String>) ->
         let colors: Vec<f32> = vertex_of.iter().flat_map(|&v| rgb(m.colors[v as usize])).collect();
         common.insert("COLOR_0".into(), json!(b.floats(&colors, 3, false, false)));
         common.insert("TEXCOORD_0".into(), json!(b.floats(&uv, 2, false, false)));
-        skin_attributes(&mut b, &mut common, &vertex_of);
+        shared.skin_attributes(b, &mut common, &vertex_of);
         let ind = b.indices(&indices);
         let res = input.shells.params.resolution;
         let mut slice_texture: HashMap<usize, usize> = HashMap::new();
@@ -431,185 +447,222 @@ fn build(input: &Input<'_>, options: &ExportOptions, notes: &mut Vec<String>) ->
                 "attributes": attributes, "indices": ind, "material": materials.len() - 1, "mode": 4 }] }));
             scene_nodes.push(nodes.len());
             let extras = json!({ "furbake": "shell", "layer": layer, "height": t, "offset_m": t * fur_m });
-            nodes.push(mesh_node(&name, meshes.len() - 1, Some(extras)));
+            nodes.push(shared.mesh_node(&name, meshes.len() - 1, Some(extras)));
         }
     } else if layers > 0 {
         notes.push("the pack has no furry triangle: no shell is exported".into());
     }
+    Ok(())
+}
 
-    // 3. The fins.
-    let mut fins_exported = false;
-    if let Some((atlas, edges)) = input.fins.filter(|(_, e)| !e.vertices.is_empty()) {
-        let n = edges.vertices.len();
-        let mut vertex_of = Vec::with_capacity(4 * n);
-        let mut positions = Vec::with_capacity(12 * n);
-        let mut normals = Vec::with_capacity(12 * n);
-        let mut uv = Vec::with_capacity(8 * n);
-        let mut indices = Vec::with_capacity(6 * n);
-        let repeat = input.uv_map.repeat_m;
-        for &[a, bv] in &edges.vertices {
-            let (pa, pb) = (m.positions[a as usize], m.positions[bv as usize]);
-            let length = dist(pa, pb);
-            let base = vertex_of.len() as u32;
-            // a root, b root, a tip, b tip.
-            for (v, along, h) in [(a, 0.0, 0.0), (bv, length, 0.0), (a, 0.0, 1.0), (bv, length, 1.0)] {
-                let p = m.positions[v as usize];
-                let nn = unit(m.normals[v as usize]);
-                vertex_of.push(v);
-                positions.extend([0, 1, 2].map(|k| p[k] + nn[k] * (h * fur_m)));
-                normals.extend(nn);
-                uv.extend([along / repeat, 1.0 - h]);
-            }
-            indices.extend([base, base + 1, base + 3, base, base + 3, base + 2]);
+/// Adds the fins, when the pack has them and the options ask for them: one quad per fin edge
+/// from root to fur length, textured with the fin atlas shaded like the shell layers. Returns
+/// whether any fin was exported.
+fn add_fins(
+    doc: &mut Document,
+    input: &Input<'_>,
+    shared: &Shared,
+    alpha: ShellAlpha,
+    notes: &mut Vec<String>,
+) -> Result<bool, ExportError> {
+    let Some((atlas, edges)) = input.fins.filter(|(_, e)| !e.vertices.is_empty()) else {
+        return Ok(false);
+    };
+    let m = input.mesh;
+    let alpha = Some(alpha);
+    let fur_m = input.shells.fur_length_m;
+    let atlas_layers = input.shells.layers() as u32;
+    let Document { b, nodes, meshes, materials, textures, images, scene_nodes, .. } = doc;
+    let n = edges.vertices.len();
+    let mut vertex_of = Vec::with_capacity(4 * n);
+    let mut positions = Vec::with_capacity(12 * n);
+    let mut normals = Vec::with_capacity(12 * n);
+    let mut uv = Vec::with_capacity(8 * n);
+    let mut indices = Vec::with_capacity(6 * n);
+    let repeat = input.uv_map.repeat_m;
+    for &[a, bv] in &edges.vertices {
+        let (pa, pb) = (m.positions[a as usize], m.positions[bv as usize]);
+        let length = dist(pa, pb);
+        let base = vertex_of.len() as u32;
+        // a root, b root, a tip, b tip.
+        for (v, along, h) in [(a, 0.0, 0.0), (bv, length, 0.0), (a, 0.0, 1.0), (bv, length, 1.0)] {
+            let p = m.positions[v as usize];
+            let nn = unit(m.normals[v as usize]);
+            vertex_of.push(v);
+            positions.extend([0, 1, 2].map(|k| p[k] + nn[k] * (h * fur_m)));
+            normals.extend(nn);
+            uv.extend([along / repeat, 1.0 - h]);
         }
-        let mut attributes = serde_json::Map::new();
-        attributes.insert("POSITION".into(), json!(b.floats(&positions, 3, false, true)));
-        attributes.insert("NORMAL".into(), json!(b.floats(&normals, 3, false, false)));
-        let colors: Vec<f32> = vertex_of.iter().flat_map(|&v| rgb(m.colors[v as usize])).collect();
-        attributes.insert("COLOR_0".into(), json!(b.floats(&colors, 3, false, false)));
-        attributes.insert("TEXCOORD_0".into(), json!(b.floats(&uv, 2, false, false)));
-        skin_attributes(&mut b, &mut attributes, &vertex_of);
-        let ind = b.indices(&indices);
-        // Colour: the self-shadow of the shell layer at each row's height (as fin.wgsl shades
-        // it); alpha: the atlas. Rows run tip (top) to root (bottom).
-        let (w, h) = (atlas.width as usize, atlas.height as usize);
-        let mut la = Vec::with_capacity(2 * w * h);
-        for y in 0..h {
-            let height = 1.0 - (y as f32 + 0.5) / h as f32;
-            let layer = ((height * atlas_layers as f32) as usize).min(atlas_layers as usize - 1);
-            let shade = srgb8(input.shells.shadow[layer]);
-            la.extend(atlas.alpha[y * w..(y + 1) * w].iter().flat_map(|&a| [shade, a]));
-        }
-        let png = png_la("the fin atlas".into(), atlas.width, atlas.height, la)?;
-        let view = b.view(&png, None);
-        images.push(json!({ "name": "fin atlas", "bufferView": view, "mimeType": "image/png" }));
-        textures.push(json!({ "sampler": 1, "source": images.len() - 1 }));
-        materials.push(material("fins", [1.0; 4], Some(textures.len() - 1), alpha, true));
-        meshes.push(json!({ "name": "fins", "primitives": [{
-            "attributes": attributes, "indices": ind, "material": materials.len() - 1, "mode": 4 }] }));
-        scene_nodes.push(nodes.len());
-        nodes.push(mesh_node("fins", meshes.len() - 1, Some(json!({ "furbake": "fins" }))));
-        fins_exported = true;
-        notes.push("fins are exported without the renderer's view-dependent fade (glTF materials cannot express it): they show at full opacity from every side".into());
+        indices.extend([base, base + 1, base + 3, base, base + 3, base + 2]);
     }
+    let mut attributes = serde_json::Map::new();
+    attributes.insert("POSITION".into(), json!(b.floats(&positions, 3, false, true)));
+    attributes.insert("NORMAL".into(), json!(b.floats(&normals, 3, false, false)));
+    let colors: Vec<f32> = vertex_of.iter().flat_map(|&v| rgb(m.colors[v as usize])).collect();
+    attributes.insert("COLOR_0".into(), json!(b.floats(&colors, 3, false, false)));
+    attributes.insert("TEXCOORD_0".into(), json!(b.floats(&uv, 2, false, false)));
+    shared.skin_attributes(b, &mut attributes, &vertex_of);
+    let ind = b.indices(&indices);
+    // Colour: the self-shadow of the shell layer at each row's height (as fin.wgsl shades
+    // it); alpha: the atlas. Rows run tip (top) to root (bottom).
+    let (w, h) = (atlas.width as usize, atlas.height as usize);
+    let mut la = Vec::with_capacity(2 * w * h);
+    for y in 0..h {
+        let height = 1.0 - (y as f32 + 0.5) / h as f32;
+        let layer = ((height * atlas_layers as f32) as usize).min(atlas_layers as usize - 1);
+        let shade = srgb8(input.shells.shadow[layer]);
+        la.extend(atlas.alpha[y * w..(y + 1) * w].iter().flat_map(|&a| [shade, a]));
+    }
+    let png = png_la("the fin atlas".into(), atlas.width, atlas.height, la)?;
+    let view = b.view(&png, None);
+    images.push(json!({ "name": "fin atlas", "bufferView": view, "mimeType": "image/png" }));
+    textures.push(json!({ "sampler": 1, "source": images.len() - 1 }));
+    materials.push(material("fins", [1.0; 4], Some(textures.len() - 1), alpha, true));
+    meshes.push(json!({ "name": "fins", "primitives": [{
+        "attributes": attributes, "indices": ind, "material": materials.len() - 1, "mode": 4 }] }));
+    scene_nodes.push(nodes.len());
+    nodes.push(shared.mesh_node("fins", meshes.len() - 1, Some(json!({ "furbake": "fins" }))));
+    notes.push("fins are exported without the renderer's view-dependent fade (glTF materials cannot express it): they show at full opacity from every side".into());
+    Ok(true)
+}
 
-    // 4. Skeleton, skin and clips.
-    let mut skins: Vec<Value> = Vec::new();
-    let mut animations: Vec<Value> = Vec::new();
-    if let Some((sk, _)) = input.rig {
-        let base = nodes.len();
-        let joint_count = sk.joint_count();
-        let mut children: Vec<Vec<usize>> = vec![Vec::new(); joint_count];
-        let mut roots = Vec::new();
-        for (j, &p) in sk.parents.iter().enumerate() {
-            if p == Skeleton::NO_PARENT {
-                roots.push(base + j);
-            } else {
-                children[p as usize].push(base + j);
-            }
-        }
-        for (j, kids) in children.iter().enumerate() {
-            let mut n = json!({
-                "name": sk.names[j],
-                "translation": sk.translations[j].map(f),
-                "rotation": unit_quat(sk.rotations[j]).map(f),
-                "scale": sk.scales[j].map(f),
-            });
-            if !kids.is_empty() {
-                n["children"] = json!(kids);
-            }
-            nodes.push(n);
-        }
-        // One skin joint per bind; a joint bound twice (two source skins, or a rigid bind on a
-        // joint) gets an identity child node for its second inverse bind, as glTF joints are unique.
-        let mut used = vec![false; joint_count];
-        let mut joints = Vec::with_capacity(sk.bind_count());
-        for (bi, &j) in sk.bind_joints.iter().enumerate() {
-            let j = j as usize;
-            if !used[j] {
-                used[j] = true;
-                joints.push(base + j);
-            } else {
-                let extra = nodes.len();
-                nodes.push(json!({ "name": format!("{} bind {bi}", sk.names[j]) }));
-                let kids = nodes[base + j].get("children").cloned().unwrap_or(json!([]));
-                let mut kids: Vec<Value> = kids.as_array().cloned().unwrap_or_default();
-                kids.push(json!(extra));
-                nodes[base + j]["children"] = json!(kids);
-                joints.push(extra);
-            }
-        }
-        // A common root for the joints: the skeleton's only root, or a new identity root.
-        let root = if roots.len() == 1 {
-            roots[0]
+/// Adds the skeleton's joint nodes, the skin over its binds and the skeleton's root as a scene
+/// node; returns the index of joint 0's node (joint `j` is node `base + j`).
+fn add_skeleton(doc: &mut Document, sk: &Skeleton) -> usize {
+    let Document { b, nodes, scene_nodes, skins, .. } = doc;
+    let base = nodes.len();
+    let joint_count = sk.joint_count();
+    let mut children: Vec<Vec<usize>> = vec![Vec::new(); joint_count];
+    let mut roots = Vec::new();
+    for (j, &p) in sk.parents.iter().enumerate() {
+        if p == Skeleton::NO_PARENT {
+            roots.push(base + j);
         } else {
-            let r = nodes.len();
-            nodes.push(json!({ "name": "skeleton root", "children": roots }));
-            r
-        };
-        scene_nodes.push(root);
-        // Exactly affine (the decoder accepts rounding in the bottom row; glTF does not).
-        let ibm: Vec<f32> = (0..sk.bind_count()).flat_map(|b| sk.affine_inverse_bind(b)).collect();
-        let mut skin = json!({ "name": "skin", "joints": joints, "skeleton": root });
-        if !ibm.is_empty() {
-            skin["inverseBindMatrices"] = json!(b.mat4(&ibm));
+            children[p as usize].push(base + j);
         }
-        skins.push(skin);
+    }
+    for (j, kids) in children.iter().enumerate() {
+        let mut n = json!({
+            "name": sk.names[j],
+            "translation": sk.translations[j].map(f),
+            "rotation": unit_quat(sk.rotations[j]).map(f),
+            "scale": sk.scales[j].map(f),
+        });
+        if !kids.is_empty() {
+            n["children"] = json!(kids);
+        }
+        nodes.push(n);
+    }
+    // One skin joint per bind; a joint bound twice (two source skins, or a rigid bind on a
+    // joint) gets an identity child node for its second inverse bind, as glTF joints are unique.
+    let mut used = vec![false; joint_count];
+    let mut joints = Vec::with_capacity(sk.bind_count());
+    for (bi, &j) in sk.bind_joints.iter().enumerate() {
+        let j = j as usize;
+        if !used[j] {
+            used[j] = true;
+            joints.push(base + j);
+        } else {
+            let extra = nodes.len();
+            nodes.push(json!({ "name": format!("{} bind {bi}", sk.names[j]) }));
+            let kids = nodes[base + j].get("children").cloned().unwrap_or(json!([]));
+            let mut kids: Vec<Value> = kids.as_array().cloned().unwrap_or_default();
+            kids.push(json!(extra));
+            nodes[base + j]["children"] = json!(kids);
+            joints.push(extra);
+        }
+    }
+    // A common root for the joints: the skeleton's only root, or a new identity root.
+    let root = if roots.len() == 1 {
+        roots[0]
+    } else {
+        let r = nodes.len();
+        nodes.push(json!({ "name": "skeleton root", "children": roots }));
+        r
+    };
+    scene_nodes.push(root);
+    // Exactly affine (the decoder accepts rounding in the bottom row; glTF does not).
+    let ibm: Vec<f32> = (0..sk.bind_count()).flat_map(|b| sk.affine_inverse_bind(b)).collect();
+    let mut skin = json!({ "name": "skin", "joints": joints, "skeleton": root });
+    if !ibm.is_empty() {
+        skin["inverseBindMatrices"] = json!(b.mat4(&ibm));
+    }
+    skins.push(skin);
+    base
+}
 
-        for clip in input.clips.map(|c| c.clips.as_slice()).unwrap_or_default() {
-            let mut samplers = Vec::new();
-            let mut channels = Vec::new();
-            let mut seen = std::collections::HashSet::new();
-            let mut skipped = 0usize;
-            for ch in &clip.channels {
-                let (joint, path) = match ch.target {
-                    ChannelTarget::Translation(j) | ChannelTarget::Rotation(j) | ChannelTarget::Scale(j) => {
-                        (j as usize, ch.target.path_name())
-                    }
-                    ChannelTarget::MorphWeights(_) => {
-                        skipped += 1;
-                        continue;
-                    }
-                };
-                if joint >= joint_count || !seen.insert((joint, path)) {
+/// Adds one animation per clip with a joint channel, targeting the joint nodes from `joint_base`
+/// (of `joint_count` joints); notes the channels left out (morph weights, repeated properties).
+fn add_clips(
+    doc: &mut Document,
+    clips: Option<&AnimationClips>,
+    joint_base: usize,
+    joint_count: usize,
+    notes: &mut Vec<String>,
+) {
+    let Document { b, animations, .. } = doc;
+    let base = joint_base;
+    for clip in clips.map(|c| c.clips.as_slice()).unwrap_or_default() {
+        let mut samplers = Vec::new();
+        let mut channels = Vec::new();
+        let mut seen = std::collections::HashSet::new();
+        let mut skipped = 0usize;
+        for ch in &clip.channels {
+            let (joint, path) = match ch.target {
+                ChannelTarget::Translation(j) | ChannelTarget::Rotation(j) | ChannelTarget::Scale(j) => {
+                    (j as usize, ch.target.path_name())
+                }
+                ChannelTarget::MorphWeights(_) => {
                     skipped += 1;
                     continue;
                 }
-                let comps = ch.components as usize;
-                let mut interpolation = ch.interpolation;
-                let mut values = ch.values.clone();
-                // glTF needs two keys for a cubic spline; one key is a constant.
-                if interpolation == Interpolation::CubicSpline && ch.times_s.len() < 2 {
-                    interpolation = Interpolation::Step;
-                    values = values[comps..2 * comps].to_vec();
+            };
+            if joint >= joint_count || !seen.insert((joint, path)) {
+                skipped += 1;
+                continue;
+            }
+            let comps = ch.components as usize;
+            let mut interpolation = ch.interpolation;
+            let mut values = ch.values.clone();
+            // glTF needs two keys for a cubic spline; one key is a constant.
+            if interpolation == Interpolation::CubicSpline && ch.times_s.len() < 2 {
+                interpolation = Interpolation::Step;
+                values = values[comps..2 * comps].to_vec();
+            }
+            if path == "rotation" && interpolation != Interpolation::CubicSpline {
+                for q in values.chunks_exact_mut(4) {
+                    q.copy_from_slice(&unit_quat([q[0], q[1], q[2], q[3]]));
                 }
-                if path == "rotation" && interpolation != Interpolation::CubicSpline {
-                    for q in values.chunks_exact_mut(4) {
-                        q.copy_from_slice(&unit_quat([q[0], q[1], q[2], q[3]]));
-                    }
-                }
-                let input_acc = b.floats(&ch.times_s, 1, true, true);
-                let output_acc = b.floats(&values, comps, true, false);
-                samplers
-                    .push(json!({ "input": input_acc, "output": output_acc, "interpolation": interpolation.name() }));
-                channels
-                    .push(json!({ "sampler": samplers.len() - 1, "target": { "node": base + joint, "path": path } }));
             }
-            if skipped > 0 {
-                notes.push(format!(
-                    "clip {:?}: {skipped} channel(s) not exported (morph weights, or a repeated joint property)",
-                    clip.name
-                ));
-            }
-            if !channels.is_empty() {
-                animations.push(json!({ "name": clip.name, "samplers": samplers, "channels": channels }));
-            }
+            let input_acc = b.floats(&ch.times_s, 1, true, true);
+            let output_acc = b.floats(&values, comps, true, false);
+            samplers.push(json!({ "input": input_acc, "output": output_acc, "interpolation": interpolation.name() }));
+            channels.push(json!({ "sampler": samplers.len() - 1, "target": { "node": base + joint, "path": path } }));
+        }
+        if skipped > 0 {
+            notes.push(format!(
+                "clip {:?}: {skipped} channel(s) not exported (morph weights, or a repeated joint property)",
+                clip.name
+            ));
+        }
+        if !channels.is_empty() {
+            animations.push(json!({ "name": clip.name, "samplers": samplers, "channels": channels }));
         }
     }
+}
 
+/// Writes the document's JSON (asset, scene, the non-empty arrays and the samplers the textures
+/// use) and packs it with the binary chunk into the GLB container.
+fn finish_document(doc: Document, input: &Input<'_>, layers: u32, fins_exported: bool) -> Result<Vec<u8>, ExportError> {
+    let Document { b, nodes, meshes, materials, textures, images, scene_nodes, skins, animations } = doc;
+    // Samplers: 0 repeats both ways (shells), 1 repeats along the fin and clamps across it.
+    let samplers = json!([
+        { "magFilter": 9729, "minFilter": 9987, "wrapS": 10497, "wrapT": 10497 },
+        { "magFilter": 9729, "minFilter": 9987, "wrapS": 10497, "wrapT": 33071 },
+    ]);
     let mut extras = json!({
-        "fur_length_m": fur_m,
-        "atlas_layers": atlas_layers,
+        "fur_length_m": input.shells.fur_length_m,
+        "atlas_layers": input.shells.layers() as u32,
         "exported_layers": layers,
         "shell_resolution": input.shells.params.resolution,
         "uv_repeat_m": input.uv_map.repeat_m,
@@ -691,7 +744,36 @@ fn gltf_influences(w: &SkinWeights) -> (Vec<u16>, Vec<f32>) {
 
 impl Shared {
     fn with_bind_count(self, binds: usize) -> Shared {
-        if binds == 0 { Shared { influences: None, skin: None } } else { self }
+        if binds == 0 { Shared { influences: None, skin: None, ..self } } else { self }
+    }
+
+    /// Adds the skinning attributes of `vertex_of` (welded vertex per exported vertex).
+    fn skin_attributes(&self, b: &mut Builder, attributes: &mut serde_json::Map<String, Value>, vertex_of: &[u32]) {
+        let Some((k, binds, weights)) = &self.influences else { return };
+        let bind_count = self.bind_count;
+        for set in 0..k / 4 {
+            let mut j = Vec::with_capacity(vertex_of.len() * 4);
+            let mut wt = Vec::with_capacity(vertex_of.len() * 4);
+            for &v in vertex_of {
+                let at = v as usize * k + set * 4;
+                j.extend_from_slice(&binds[at..at + 4]);
+                wt.extend_from_slice(&weights[at..at + 4]);
+            }
+            attributes.insert(format!("JOINTS_{set}"), json!(b.joints(&j, bind_count)));
+            attributes.insert(format!("WEIGHTS_{set}"), json!(b.floats(&wt, 4, false, false)));
+        }
+    }
+
+    /// A node drawing mesh `mesh`, skinned when the pack is, with `extras`.
+    fn mesh_node(&self, name: &str, mesh: usize, extras: Option<Value>) -> Value {
+        let mut n = json!({ "name": name, "mesh": mesh });
+        if let Some(s) = self.skin {
+            n["skin"] = json!(s);
+        }
+        if let Some(e) = extras {
+            n["extras"] = e;
+        }
+        n
     }
 }
 

@@ -9,6 +9,7 @@ use std::path::Path;
 
 use gltf::json;
 use gltf::json::accessor::{ComponentType, GenericComponentType, IndexComponentType, Type};
+use gltf::json::mesh::Semantic;
 use gltf::json::validation::Checked;
 
 use crate::limits::MAX_ACCESSOR_ELEMENTS;
@@ -235,5 +236,19 @@ impl AccessorReader<'_> {
         }
         let e = self.read("indices", index, &[Type::Scalar])?;
         Ok(e.values.into_iter().map(|v| v as u32).collect())
+    }
+}
+
+/// The string a glTF file uses for a semantic (`POSITION`, `COLOR_0`, `_FUR`).
+pub(crate) fn semantic_name(s: &Semantic) -> String {
+    match s {
+        Semantic::Positions => "POSITION".to_string(),
+        Semantic::Normals => "NORMAL".to_string(),
+        Semantic::Tangents => "TANGENT".to_string(),
+        Semantic::Colors(n) => format!("COLOR_{n}"),
+        Semantic::TexCoords(n) => format!("TEXCOORD_{n}"),
+        Semantic::Joints(n) => format!("JOINTS_{n}"),
+        Semantic::Weights(n) => format!("WEIGHTS_{n}"),
+        Semantic::Extras(name) => format!("_{name}"),
     }
 }

@@ -30,7 +30,7 @@ use gltf::json::accessor::Type;
 use gltf::json::animation::{Interpolation as GltfInterpolation, Property};
 use gltf::json::validation::Checked;
 
-use crate::accessor::AccessorReader;
+use crate::accessor::{AccessorReader, semantic_name};
 use crate::error::AnimationRef;
 use crate::limits::{MAX_CHANNELS, MAX_CLIPS, MAX_JOINTS, MAX_KEYS, MAX_MORPH_DELTAS, MAX_MORPH_TARGETS};
 use crate::source::Asset;
@@ -265,7 +265,7 @@ impl Rig {
         let at = || AnimationRef::Primitive(reader.at.clone());
         let find = |name: &str| {
             primitive.attributes.iter().find_map(|(s, a)| match s {
-                Checked::Valid(s) if crate::scene::semantic_name(s) == name => Some(a.value()),
+                Checked::Valid(s) if semantic_name(s) == name => Some(a.value()),
                 _ => None,
             })
         };

@@ -16,8 +16,8 @@ use gltf::json::accessor::Type;
 use gltf::json::mesh::{Mode, Semantic};
 use gltf::json::validation::Checked;
 
-use crate::accessor::{AccessorReader, Elements};
-use crate::animation::{Influences, NO_GROUP, Rig};
+use crate::accessor::{AccessorReader, Elements, semantic_name};
+use crate::animation::{Influences, MAX_INFLUENCES, NO_GROUP, Rig};
 use crate::external::ExternalFiles;
 
 use crate::limits::{MAX_INSTANCED_VERTICES, MAX_NODE_DEPTH, MAX_NODE_VISITS, MAX_RAW_TRIANGLES, MAX_RAW_VERTICES};
@@ -71,20 +71,6 @@ enum Binding {
     Rigid(u32),
 }
 
-/// The string a glTF file uses for a semantic (`POSITION`, `COLOR_0`, `_FUR`).
-pub(crate) fn semantic_name(s: &Semantic) -> String {
-    match s {
-        Semantic::Positions => "POSITION".to_string(),
-        Semantic::Normals => "NORMAL".to_string(),
-        Semantic::Tangents => "TANGENT".to_string(),
-        Semantic::Colors(n) => format!("COLOR_{n}"),
-        Semantic::TexCoords(n) => format!("TEXCOORD_{n}"),
-        Semantic::Joints(n) => format!("JOINTS_{n}"),
-        Semantic::Weights(n) => format!("WEIGHTS_{n}"),
-        Semantic::Extras(name) => format!("_{name}"),
-    }
-}
-
 /// Splits an index list into triangles for `mode` (glTF 2.0 §3.7.2.1 topology types).
 fn triangulate(mode: Mode, idx: &[u32]) -> Vec<[u32; 3]> {
     match mode {
@@ -121,6 +107,52 @@ fn local_transform(node: &json::scene::Node) -> DMat4 {
     // A non-unit quaternion is normalised; a zero one becomes NaN and is reported by the caller.
     let q = q.normalize();
     DMat4::from_scale_rotation_translation(DVec3::from(s), q, DVec3::from(t))
+}
+
+/// A primitive's vertex attributes, read and checked: every count is `POSITION`'s, every value
+/// finite (normals may be unusable: they are regenerated).
+struct PrimitiveAttributes {
+    /// The vertex count.
+    n: usize,
+    positions: Elements,
+    normals: Option<Elements>,
+    colors: Option<Elements>,
+    uvs: Option<Elements>,
+    /// The fur-mask attribute, when the mask source is one and the primitive has it.
+    mask: Option<Elements>,
+}
+
+/// A primitive's material as its vertices use it.
+struct PrimitiveMaterial {
+    /// The base colour factor (white without a material).
+    factor: [f32; 4],
+    name: Option<String>,
+    /// The `TEXCOORD` set the base colour texture is sampled at, when it is sampled.
+    texture_uvs: Option<Elements>,
+    /// The base colour texture (glTF texture index) when its image decoded.
+    texture: Option<usize>,
+}
+
+/// A node's world transform as a primitive's vertices take it: positions by `world`, morph
+/// position deltas by its 3×3 part `linear`, normals by the inverse transpose of that, computed
+/// as the cofactor matrix (columns c1×c2, c2×c0, c0×c1) times sign(det), which stays defined for
+/// singular matrices. A negative determinant mirrors: the winding flips.
+struct NodeTransform {
+    world: DMat4,
+    linear: DMat3,
+    normal_matrix: DMat3,
+    mirrors: bool,
+}
+
+impl NodeTransform {
+    /// The transform of a primitive under `world`.
+    fn of(world: DMat4) -> NodeTransform {
+        let m3 = DMat3::from_mat4(world);
+        let det = m3.determinant();
+        let (c0, c1, c2) = (m3.x_axis, m3.y_axis, m3.z_axis);
+        let normal_matrix = DMat3::from_cols(c1.cross(c2), c2.cross(c0), c0.cross(c1)) * det.signum();
+        NodeTransform { world, linear: m3, normal_matrix, mirrors: det < 0.0 }
+    }
 }
 
 /// Walks the scene graph and gathers every triangle primitive into a [`Soup`].
@@ -391,6 +423,8 @@ impl<'a> SceneWalker<'a> {
         Ok(Some(e))
     }
 
+    /// Imports one primitive into the soup: one stage per part, in the order the checks must
+    /// run (the first problem found is the error reported).
     fn import_primitive(
         &mut self,
         primitive: &json::mesh::Primitive,
@@ -399,13 +433,32 @@ impl<'a> SceneWalker<'a> {
         binding: &Binding,
         morph: Option<(u32, usize)>,
     ) -> Result<(), ImportError> {
-        let asset = self.asset;
-        let file = self.file;
+        let Some(mode) = self.triangle_mode(primitive, at)? else { return Ok(()) };
+        let (asset, file) = (self.asset, self.file);
+        let reader = AccessorReader { root: &asset.root, buffers: &asset.buffers, file, at };
+        let transform = NodeTransform::of(world);
+        let attributes = self.read_attributes(&reader, primitive)?;
+        let (referenced, triangles) = self.read_triangles(&reader, primitive, mode, attributes.n, &transform)?;
+        let material = self.read_material(&reader, primitive, attributes.n)?;
+        self.add_rig_data(&reader, primitive, &referenced, binding, morph, &transform)?;
+        let base = self.add_vertices(at, &attributes, &material, &transform)?;
+        let fur = self.fur_mask(at, &attributes, material.name.as_ref(), &triangles);
+        self.add_triangles(base, &triangles, fur);
+        Ok(())
+    }
+
+    /// The primitive's mode when it has triangles; a point or line primitive is counted, warned
+    /// about and skipped (`None`).
+    fn triangle_mode(
+        &mut self,
+        primitive: &json::mesh::Primitive,
+        at: &PrimitiveRef,
+    ) -> Result<Option<Mode>, ImportError> {
         let mode = match primitive.mode {
             Checked::Valid(m) => m,
             Checked::Invalid => {
                 return Err(ImportError::InvalidGltf {
-                    file: file.to_path_buf(),
+                    file: self.file.to_path_buf(),
                     message: format!("{at}: invalid primitive mode"),
                 });
             }
@@ -413,9 +466,19 @@ impl<'a> SceneWalker<'a> {
         if !matches!(mode, Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan) {
             self.soup.skipped_primitives += 1;
             self.warn(format!("{at}: skipped, mode {} has no triangles", mode_name(mode)));
-            return Ok(());
+            return Ok(None);
         }
-        let reader = AccessorReader { root: &asset.root, buffers: &asset.buffers, file, at };
+        Ok(Some(mode))
+    }
+
+    /// Reads and checks the vertex attributes: `POSITION` (finite, within the scene's vertex
+    /// limit), `NORMAL`, `COLOR_0`, `TEXCOORD_0` and the fur-mask attribute when the mask is one.
+    fn read_attributes(
+        &self,
+        reader: &AccessorReader<'_>,
+        primitive: &json::mesh::Primitive,
+    ) -> Result<PrimitiveAttributes, ImportError> {
+        let (file, at) = (self.file, reader.at);
         let Some(pos_acc) = primitive.attributes.get(&Checked::Valid(Semantic::Positions)) else {
             return Err(ImportError::MissingPosition { file: file.to_path_buf(), at: at.clone() });
         };
@@ -433,20 +496,35 @@ impl<'a> SceneWalker<'a> {
                 limit: MAX_RAW_VERTICES,
             });
         }
-        let normals = self.read_optional(&reader, primitive, "NORMAL", &[Type::Vec3], n)?;
-        let colors = self.read_optional(&reader, primitive, "COLOR_0", &[Type::Vec3, Type::Vec4], n)?;
-        let uvs = self.read_optional(&reader, primitive, "TEXCOORD_0", &[Type::Vec2], n)?;
-        let mask_attr = match self.mask {
+        let normals = self.read_optional(reader, primitive, "NORMAL", &[Type::Vec3], n)?;
+        let colors = self.read_optional(reader, primitive, "COLOR_0", &[Type::Vec3, Type::Vec4], n)?;
+        let uvs = self.read_optional(reader, primitive, "TEXCOORD_0", &[Type::Vec2], n)?;
+        let mask = match self.mask {
             FurMaskSource::Attribute { name, .. } => {
                 let full = if name.starts_with('_') { name.clone() } else { format!("_{name}") };
-                match self.read_optional(&reader, primitive, &full, &[Type::Scalar], n)? {
+                match self.read_optional(reader, primitive, &full, &[Type::Scalar], n)? {
                     Some(e) => Some(e),
-                    None => self.read_optional(&reader, primitive, name, &[Type::Scalar], n)?,
+                    None => self.read_optional(reader, primitive, name, &[Type::Scalar], n)?,
                 }
             }
             _ => None,
         };
+        Ok(PrimitiveAttributes { n, positions, normals, colors, uvs, mask })
+    }
 
+    /// Reads the indices (checked against the `n` vertices; all vertices in order without an
+    /// index accessor) and triangulates them for `mode` within the scene's triangle limit, wound
+    /// for `transform`. Returns which vertices the indices reference, and the triangles
+    /// (primitive-local vertex indices).
+    fn read_triangles(
+        &mut self,
+        reader: &AccessorReader<'_>,
+        primitive: &json::mesh::Primitive,
+        mode: Mode,
+        n: usize,
+        transform: &NodeTransform,
+    ) -> Result<(Vec<bool>, Vec<[u32; 3]>), ImportError> {
+        let (file, at) = (self.file, reader.at);
         let indices: Vec<u32> = match primitive.indices {
             Some(acc) => {
                 let idx = reader.read_indices(acc.value())?;
@@ -487,57 +565,74 @@ impl<'a> SceneWalker<'a> {
                 limit: MAX_RAW_TRIANGLES,
             });
         }
+        if transform.mirrors {
+            for t in &mut local {
+                t.swap(1, 2);
+            }
+        }
+        let mut referenced = vec![false; n];
+        for &i in &indices {
+            referenced[i as usize] = true;
+        }
+        Ok((referenced, local))
+    }
 
-        // Material: base colour factor and name.
+    /// Reads the material's base colour factor and name, and its base colour texture with the
+    /// `TEXCOORD` set it is sampled at (thesis §3.2: the fur takes the skin's colour), decoding
+    /// the image on first use; records the material's name as used.
+    fn read_material(
+        &mut self,
+        reader: &AccessorReader<'_>,
+        primitive: &json::mesh::Primitive,
+        n: usize,
+    ) -> Result<PrimitiveMaterial, ImportError> {
+        let (asset, file) = (self.asset, self.file);
         let material = primitive.material.and_then(|m| asset.root.materials.get(m.value()));
         let factor = material.map_or([1.0; 4], |m| m.pbr_metallic_roughness.base_color_factor.0);
-        let material_name = material.and_then(|m| m.name.clone());
-        // Base colour texture, sampled per vertex at its TEXCOORD set (thesis §3.2: the fur takes
-        // the skin's colour).
+        let name = material.and_then(|m| m.name.clone());
         let texture_info = material.and_then(|m| m.pbr_metallic_roughness.base_color_texture.as_ref());
         let texture_uvs = match texture_info {
             Some(info) if self.sample_textures => {
                 let name = format!("TEXCOORD_{}", info.tex_coord);
-                self.read_optional(&reader, primitive, &name, &[Type::Vec2], n)?
+                self.read_optional(reader, primitive, &name, &[Type::Vec2], n)?
             }
             _ => None,
         };
         let texture = match (texture_info, &texture_uvs) {
             (Some(info), Some(_)) => {
-                self.textures.get(asset, file, self.external, info.index.value(), &mut self.warnings)?
+                let index = info.index.value();
+                self.textures.get(asset, file, self.external, index, &mut self.warnings)?.map(|_| index)
             }
             _ => None,
         };
-        if let Some(name) = &material_name {
+        if let Some(name) = &name {
             self.used_materials.insert(name.clone());
         }
+        Ok(PrimitiveMaterial { factor, name, texture_uvs, texture })
+    }
 
-        // Transforms: positions by `world`; normals by the inverse transpose of its 3×3 part,
-        // computed as the cofactor matrix (columns c1×c2, c2×c0, c0×c1) times sign(det), which
-        // stays defined for singular matrices. A negative determinant mirrors: flip the winding.
-        let m3 = DMat3::from_mat4(world);
-        let det = m3.determinant();
-        let (c0, c1, c2) = (m3.x_axis, m3.y_axis, m3.z_axis);
-        let normal_matrix = DMat3::from_cols(c1.cross(c2), c2.cross(c0), c0.cross(c1)) * det.signum();
-        if det < 0.0 {
-            for t in &mut local {
-                t.swap(1, 2);
-            }
-        }
-
-        // Skin influences and morph deltas per raw vertex (glTF 2.0 "Skins", "Morph Targets").
-        let mut referenced = vec![false; n];
-        for &i in &indices {
-            referenced[i as usize] = true;
-        }
+    /// Adds the skin influences and morph deltas of the primitive's raw vertices to the soup
+    /// (glTF 2.0 "Skins", "Morph Targets"; the skin's weights are checked on the `referenced`
+    /// vertices only).
+    fn add_rig_data(
+        &mut self,
+        reader: &AccessorReader<'_>,
+        primitive: &json::mesh::Primitive,
+        referenced: &[bool],
+        binding: &Binding,
+        morph: Option<(u32, usize)>,
+        transform: &NodeTransform,
+    ) -> Result<(), ImportError> {
+        let file = self.file;
+        let n = referenced.len();
         match binding {
             Binding::None => {}
             Binding::Skin { skin, binds } => {
-                let inf = self.rig.read_influences(&reader, primitive, n, binds, &referenced, *skin)?;
+                let inf = self.rig.read_influences(reader, primitive, n, binds, referenced, *skin)?;
                 self.soup.influences.extend(inf);
             }
             Binding::Rigid(b) => {
-                let mut one: Influences = [(0, 0.0); crate::animation::MAX_INFLUENCES];
+                let mut one: Influences = [(0, 0.0); MAX_INFLUENCES];
                 one[0] = (*b, 1.0);
                 self.soup.influences.extend(std::iter::repeat_n(one, n));
                 self.rig.stats.rigid_vertices += n as u32;
@@ -545,7 +640,8 @@ impl<'a> SceneWalker<'a> {
         }
         match morph {
             Some((group, t)) => {
-                let deltas = Rig::read_morph_deltas(&reader, primitive, n, t, m3, normal_matrix)?;
+                let deltas =
+                    Rig::read_morph_deltas(reader, primitive, n, t, transform.linear, transform.normal_matrix)?;
                 let start = self.soup.morph_deltas.len();
                 if start + deltas.len() > u32::MAX as usize {
                     return Err(ImportError::TooLarge {
@@ -570,7 +666,24 @@ impl<'a> SceneWalker<'a> {
                 self.soup.morph_at.extend(std::iter::repeat_n(0, n));
             }
         }
+        Ok(())
+    }
 
+    /// Adds the primitive's vertices to the soup: positions and normals moved by `transform`
+    /// (checked finite in f32 and within the coordinate limit), colours `COLOR_0 ×
+    /// baseColorFactor × texture` clamped to [0, 1], texture coordinates; warns about replaced
+    /// normals and clamped colours. Returns the soup index of the primitive's first vertex.
+    fn add_vertices(
+        &mut self,
+        at: &PrimitiveRef,
+        attributes: &PrimitiveAttributes,
+        material: &PrimitiveMaterial,
+        transform: &NodeTransform,
+    ) -> Result<u32, ImportError> {
+        let PrimitiveAttributes { n, positions, normals, colors, uvs, .. } = attributes;
+        let (n, world, normal_matrix, factor) = (*n, transform.world, transform.normal_matrix, material.factor);
+        let texture = material.texture.and_then(|t| self.textures.decoded(self.asset, t));
+        let texture_uvs = &material.texture_uvs;
         let base = self.soup.positions.len() as u32;
         let mut bad_normals = 0usize;
         let mut clamped_colors = 0usize;
@@ -600,7 +713,7 @@ impl<'a> SceneWalker<'a> {
                 let c = e.get(v);
                 [c[0] as f32, c[1] as f32, c[2] as f32, if c.len() > 3 { c[3] as f32 } else { 1.0 }]
             });
-            let texel = match (texture, &texture_uvs) {
+            let texel = match (texture, texture_uvs) {
                 (Some(img), Some(uv)) => img.sample([uv.get(v)[0] as f32, uv.get(v)[1] as f32]),
                 _ => [1.0; 4],
             };
@@ -633,14 +746,24 @@ impl<'a> SceneWalker<'a> {
         }
         self.soup.had_vertex_colors |= colors.is_some();
         self.soup.all_have_texcoords &= uvs.is_some();
+        Ok(base)
+    }
 
-        // Per-triangle fur mask from the corners' raw values.
+    /// The fur mask of each triangle (1 furry, 0 bare) from the mask source: the mean of its
+    /// corners' raw values against the threshold, or its material's name.
+    fn fur_mask(
+        &mut self,
+        at: &PrimitiveRef,
+        attributes: &PrimitiveAttributes,
+        material_name: Option<&String>,
+        local: &[[u32; 3]],
+    ) -> Vec<u8> {
         let mean = |t: &[u32; 3], f: &dyn Fn(usize) -> f64| t.iter().map(|&i| f(i as usize)).sum::<f64>() / 3.0;
-        let furry: Vec<u8> = match self.mask {
+        match self.mask {
             FurMaskSource::All => vec![1; local.len()],
             FurMaskSource::VertexColor { channel, threshold } => {
                 let ch = channel.index();
-                match &colors {
+                match &attributes.colors {
                     Some(e) => {
                         self.mask_source_found = true;
                         let value = |v: usize| e.get(v).get(ch).copied().unwrap_or(1.0);
@@ -652,7 +775,7 @@ impl<'a> SceneWalker<'a> {
                     }
                 }
             }
-            FurMaskSource::Attribute { name, threshold } => match &mask_attr {
+            FurMaskSource::Attribute { name, threshold } => match &attributes.mask {
                 Some(e) => {
                     self.mask_source_found = true;
                     let value = |v: usize| e.get(v)[0];
@@ -664,15 +787,18 @@ impl<'a> SceneWalker<'a> {
                 }
             },
             FurMaskSource::Materials { names } => {
-                let furry = material_name.as_ref().is_some_and(|m| names.contains(m));
+                let furry = material_name.is_some_and(|m| names.contains(m));
                 vec![u8::from(furry); local.len()]
             }
-        };
+        }
+    }
 
+    /// Adds the primitive's triangles (local indices offset by `base`) and their fur mask to the
+    /// soup, and counts the primitive.
+    fn add_triangles(&mut self, base: u32, local: &[[u32; 3]], fur: Vec<u8>) {
         self.soup.triangles.extend(local.iter().map(|t| [t[0] + base, t[1] + base, t[2] + base]));
-        self.soup.fur.extend(furry);
+        self.soup.fur.extend(fur);
         self.soup.primitives += 1;
-        Ok(())
     }
 
     fn note_mask_fallback(&mut self, at: &PrimitiveRef, what: &str) {

@@ -100,6 +100,13 @@ impl TextureCache {
         }
         Ok(self.images.get(&image).and_then(Option::as_ref))
     }
+
+    /// The image of texture `texture` when [`TextureCache::get`] decoded it (`None` when it was
+    /// not asked for or could not be used); never decodes.
+    pub fn decoded(&self, asset: &Asset, texture: usize) -> Option<&LinearImage> {
+        let image = asset.root.textures.get(texture)?.source.value();
+        self.images.get(&image).and_then(Option::as_ref)
+    }
 }
 
 /// Why an image is not used.

@@ -24,7 +24,6 @@ use wgpu::util::DeviceExt;
 use crate::culling::{BLOCK, BLOCKS_AT, BladeLods, CullUniforms, GrassCulling, LISTS_AT};
 #[cfg(feature = "testing")]
 use crate::culling::{CullLists, MAX_LODS};
-pub use crate::shaders::BLADES_WGSL;
 use crate::shaders::FrameUniforms;
 use crate::{PipelineCache, RenderError, TargetDesc};
 
@@ -1207,7 +1206,7 @@ impl BladeRenderer {
     /// the indirect draw arguments (with culling off: LOD 0's list, every blade); waits for the
     /// GPU. For tests and tools.
     pub fn read_culling(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<CullLists, RenderError> {
-        let read = |buffer, count, what| crate::headless::read_buffer::<u32>(device, queue, buffer, count, what);
+        let read = |buffer, count, what| crate::blocking::read_buffer::<u32>(device, queue, buffer, count, what);
         let lists =
             read(&self.own.views[0].instances, LISTS_AT + 3 * self.blade_count as u64, "culling instance lists")?;
         let mut out = CullLists::default();
@@ -1246,7 +1245,7 @@ impl BladeRenderer {
             return Ok(Vec::new());
         }
         let words: Vec<[f32; 4]> =
-            crate::headless::read_buffer(device, queue, positions, n, "blade positions readback")?;
+            crate::blocking::read_buffer(device, queue, positions, n, "blade positions readback")?;
         let out = words.iter().map(|p| [p[0], p[1], p[2]]).collect();
         Ok(out)
     }
@@ -1264,5 +1263,56 @@ mod tests {
         assert_eq!((w, e), (vec![0x7f00_01fe, 0x0000_0005], 4));
         let (w, e) = pack_payload(&Displacements::F32(vec![1.5]));
         assert_eq!((w, e), (vec![1.5f32.to_bits()], 0));
+    }
+
+    /// The grass structs mirror their WGSL declarations (see `crate::shaders`'s layout tests).
+    #[test]
+    fn blade_structs_match_the_shaders() {
+        use std::mem::{offset_of, size_of};
+
+        use crate::shaders::tests::check_layout;
+        type B = BladeUniforms;
+        let pad = offset_of!(B, pad);
+        let params = [
+            ("color", offset_of!(B, color)),
+            ("blade_count", offset_of!(B, blade_count)),
+            ("vertex_count", offset_of!(B, vertex_count)),
+            ("stored_vectors", offset_of!(B, stored_vectors)),
+            ("stored_angles", offset_of!(B, stored_angles)),
+            ("magnitudes", offset_of!(B, magnitudes)),
+            ("angles", offset_of!(B, angles)),
+            ("mirror_x", offset_of!(B, mirror_x)),
+            ("mirror_z", offset_of!(B, mirror_z)),
+            ("magnitude_per_force", offset_of!(B, magnitude_per_force)),
+            ("angle_per_radian", offset_of!(B, angle_per_radian)),
+            ("scale", offset_of!(B, scale)),
+            ("encoding", offset_of!(B, encoding)),
+            ("interpolation", offset_of!(B, interpolation)),
+            ("lambert", offset_of!(B, lambert)),
+            ("delayed_sources", offset_of!(B, delayed_sources)),
+            ("corner_count", offset_of!(B, corner_count)),
+            ("cells_x", offset_of!(B, cells_x)),
+            ("seed", offset_of!(B, seed)),
+            ("shading", offset_of!(B, shading)),
+            ("pad0", pad),
+            ("tip_color", offset_of!(B, tip_color)),
+            ("shade", offset_of!(B, shade)),
+            ("gloss", offset_of!(B, gloss)),
+        ];
+        // grass_pose.wgsl, prepended to the draw and to the culling passes.
+        assert_eq!(check_layout("BladeUniforms", size_of::<B>(), &params), 2);
+        let blade = [
+            ("root", offset_of!(BladeGpu, root)),
+            ("yaw", offset_of!(BladeGpu, yaw)),
+            ("cluster", offset_of!(BladeGpu, cluster)),
+            ("pad", offset_of!(BladeGpu, pad)),
+            ("weights", offset_of!(BladeGpu, weights)),
+        ];
+        assert_eq!(check_layout("Blade", size_of::<BladeGpu>(), &blade), 2, "grass_common.wgsl, in both");
+        let delayed = [
+            ("position_power", offset_of!(DelayedSourceGpu, position_power)),
+            ("params", offset_of!(DelayedSourceGpu, params)),
+        ];
+        assert_eq!(check_layout("DelayedSource", size_of::<DelayedSourceGpu>(), &delayed), 2);
     }
 }

@@ -3,7 +3,8 @@
 //! them: it writes buffers with `Queue::write_buffer` (staged, lands before the host's next
 //! submission; WebGPU specification, "writeBuffer") and records into the host's encoder or pass.
 //! Only constructors (error scopes), the headless host ([`crate::headless::RenderTarget`] frames,
-//! [`crate::headless::read_back`]) and test readbacks come here.
+//! [`crate::headless::read_back`]) and test readbacks come here, and the buffer readbacks that
+//! wait ([`map_for_reading`], `read_buffer`) live here.
 //!
 //! Each call is counted per thread ([`blocking_calls_on_this_thread`]), so a test can run host
 //! frames and check that the count did not move; the unit test below checks that no other file
@@ -47,6 +48,50 @@ pub(crate) fn block_on<F: std::future::Future>(future: F) -> F::Output {
 #[cfg(feature = "testing")]
 pub fn blocking_calls_on_this_thread() -> u64 {
     CALLS.with(Cell::get)
+}
+
+#[cfg(feature = "testing")]
+/// Copies the first `count` elements of `source` (a `COPY_SRC` buffer) into a staging buffer,
+/// submits, waits and returns them; `what` names the readback in errors. For tests and tools.
+pub(crate) fn read_buffer<T: bytemuck::Pod>(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    source: &wgpu::Buffer,
+    count: u64,
+    what: &str,
+) -> Result<Vec<T>, RenderError> {
+    let bytes = count * std::mem::size_of::<T>() as u64;
+    let staging = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(what),
+        size: bytes,
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+        mapped_at_creation: false,
+    });
+    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(what) });
+    encoder.copy_buffer_to_buffer(source, 0, &staging, 0, bytes);
+    submit(queue, [encoder.finish()]);
+    map_for_reading(device, &staging, what)?;
+    let out = {
+        let view = staging.get_mapped_range(..).map_err(|e| RenderError::Gpu { what: e.to_string() })?;
+        bytemuck::cast_slice(&view).to_vec()
+    };
+    staging.unmap();
+    Ok(out)
+}
+
+/// Maps `buffer` (a `MAP_READ` buffer whose copy was already submitted) and waits until the map
+/// completes; `what` names the readback in errors.
+pub(crate) fn map_for_reading(device: &wgpu::Device, buffer: &wgpu::Buffer, what: &str) -> Result<(), RenderError> {
+    let (tx, rx) = std::sync::mpsc::channel();
+    buffer.map_async(wgpu::MapMode::Read, .., move |r| {
+        let _ = tx.send(r);
+    });
+    wait(device)?;
+    match rx.recv() {
+        Ok(Ok(())) => Ok(()),
+        Ok(Err(e)) => Err(RenderError::Gpu { what: format!("{what}: mapping failed: {e}") }),
+        Err(_) => Err(RenderError::Gpu { what: format!("{what}: mapping never completed") }),
+    }
 }
 
 #[cfg(test)]

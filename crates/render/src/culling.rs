@@ -515,4 +515,32 @@ mod tests {
         let below = (0..1_000_000u32).filter(|&b| blade_random(b, SALT_THINNING) < 0.25).count();
         assert!((below as f64 - 250_000.0).abs() < 2_000.0, "{below}");
     }
+
+    /// `CullUniforms` mirrors its WGSL declaration (see `crate::shaders`'s layout tests).
+    #[test]
+    fn cull_uniforms_match_the_shaders() {
+        use std::mem::{offset_of, size_of};
+
+        use crate::shaders::tests::check_layout;
+        type C = CullUniforms;
+        let cull = [
+            ("planes", offset_of!(C, planes)),
+            ("eye", offset_of!(C, eye)),
+            ("lod", offset_of!(C, lod)),
+            ("distance", offset_of!(C, distance)),
+            ("shape", offset_of!(C, shape)),
+            ("index_count", offset_of!(C, index_count)),
+            ("first_index", offset_of!(C, first_index)),
+            ("counts", offset_of!(C, counts)),
+        ];
+        assert_eq!(check_layout("CullUniforms", size_of::<C>(), &cull), 2, "grass_common.wgsl, in both");
+    }
+
+    /// The culling passes' workgroups are one block wide (the dispatch sizes computed here).
+    #[test]
+    fn the_culling_workgroups_are_one_block() {
+        for name in ["cs_cull_blades", "cs_scan_blocks", "cs_compact", "cs_pose_all"] {
+            assert_eq!(crate::shaders::tests::workgroup_width(name), Some(BLOCK), "{name}");
+        }
+    }
 }

@@ -11,20 +11,15 @@
 use furbake_runtime::Pack;
 
 use crate::{
-    BladeRenderSettings, BladeRenderer, FurAsset, FurRenderer, PipelineCache, RenderError, RenderSettings, TargetDesc,
-    View,
+    BladeRenderSettings, BladeRenderer, FurAsset, FurRenderer, PipelineCache, RenderError, RenderSettings, View,
 };
 
 pub use crate::scene::SceneObject;
+pub use crate::target::{COLOR_FORMAT, DEPTH_FORMAT, RenderTarget};
 
 /// The command that installs a software Vulkan driver on Debian/Ubuntu machines without a GPU.
 pub const LAVAPIPE_HINT: &str =
     "apt-get update && apt-get install -y --no-install-recommends mesa-vulkan-drivers libvulkan1";
-
-/// Colour format of [`RenderTarget`]s (sRGB-encoded 8-bit RGBA; shaders write linear colour).
-pub const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
-/// Depth format of [`RenderTarget`]s.
-pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
 /// A device and queue created without a window. wgpu's default reaction to an error outside an
 /// error scope is a panic, and a lost device only logs; this host records both instead, and
@@ -130,116 +125,6 @@ impl HeadlessGpu {
     }
 }
 
-/// An offscreen colour + depth target of a given size: the headless host's pass.
-pub struct RenderTarget {
-    /// Colour texture ([`COLOR_FORMAT`], copyable to a buffer).
-    pub color: wgpu::Texture,
-    /// Depth texture ([`DEPTH_FORMAT`]).
-    pub depth: wgpu::Texture,
-    /// Width in pixels.
-    pub width: u32,
-    /// Height in pixels.
-    pub height: u32,
-}
-
-impl RenderTarget {
-    /// The pass every render target makes: [`COLOR_FORMAT`] with straight alpha blending,
-    /// [`DEPTH_FORMAT`] compared `LessEqual`, one sample. Renderers drawn by this host are built
-    /// for it.
-    pub fn desc() -> TargetDesc {
-        TargetDesc::new(COLOR_FORMAT).with_depth(DEPTH_FORMAT, wgpu::CompareFunction::LessEqual)
-    }
-
-    /// Creates a `width × height` target; fails when a side is 0 or above the device's limit.
-    pub fn new(device: &wgpu::Device, width: u32, height: u32) -> Result<RenderTarget, RenderError> {
-        let max = device.limits().max_texture_dimension_2d;
-        if width == 0 || height == 0 || width > max || height > max {
-            return Err(RenderError::Parameter {
-                what: format!("target size {width}×{height} (each side in 1..={max})"),
-            });
-        }
-        crate::gpu_scope(device, &format!("creating a {width}×{height} render target"), || {
-            Ok(Self::create(device, width, height))
-        })
-    }
-
-    fn create(device: &wgpu::Device, width: u32, height: u32) -> RenderTarget {
-        let size = wgpu::Extent3d { width, height, depth_or_array_layers: 1 };
-        let make = |label, format, usage| {
-            device.create_texture(&wgpu::TextureDescriptor {
-                label: Some(label),
-                size,
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format,
-                usage,
-                view_formats: &[],
-            })
-        };
-        let color = make(
-            "furbake color target",
-            COLOR_FORMAT,
-            wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-        );
-        let depth = make("furbake depth target", DEPTH_FORMAT, wgpu::TextureUsages::RENDER_ATTACHMENT);
-        RenderTarget { color, depth, width, height }
-    }
-
-    /// Width / height.
-    pub fn aspect(&self) -> f32 {
-        self.width as f32 / self.height as f32
-    }
-
-    /// Begins a render pass into this target's colour and depth textures: cleared to the linear
-    /// RGBA `clear` (depth to 1), or, with `None`, over what earlier passes left.
-    pub fn begin_pass<'e>(
-        &self,
-        encoder: &'e mut wgpu::CommandEncoder,
-        label: &str,
-        clear: Option<[f32; 4]>,
-    ) -> wgpu::RenderPass<'e> {
-        let color_view = self.color.create_view(&Default::default());
-        let depth_view = self.depth.create_view(&Default::default());
-        let (color_load, depth_load) = match clear {
-            Some(c) => {
-                let [r, g, b, a] = c.map(f64::from);
-                (wgpu::LoadOp::Clear(wgpu::Color { r, g, b, a }), wgpu::LoadOp::Clear(1.0))
-            }
-            None => (wgpu::LoadOp::Load, wgpu::LoadOp::Load),
-        };
-        encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some(label),
-            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                view: &color_view,
-                depth_slice: None,
-                resolve_target: None,
-                ops: wgpu::Operations { load: color_load, store: wgpu::StoreOp::Store },
-            })],
-            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                view: &depth_view,
-                depth_ops: Some(wgpu::Operations { load: depth_load, store: wgpu::StoreOp::Store }),
-                stencil_ops: None,
-            }),
-            timestamp_writes: None,
-            occlusion_query_set: None,
-            multiview_mask: None,
-        })
-    }
-
-    /// Refuses a renderer built for another pass than this host's.
-    pub(crate) fn check_renderer(&self, renderer_target: &TargetDesc) -> Result<(), RenderError> {
-        if *renderer_target != Self::desc() {
-            return Err(RenderError::Parameter {
-                what: format!(
-                    "a renderer built for {renderer_target:?} drawn into a headless RenderTarget (built for RenderTarget::desc())"
-                ),
-            });
-        }
-        Ok(())
-    }
-}
-
 impl FurRenderer {
     /// The headless host's frame: prepares this renderer with `view` (identity model), clears
     /// `target` to [`RenderSettings::background`], renders, and submits. Returns once the work is
@@ -340,7 +225,7 @@ pub fn read_back_texture(
         wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
     );
     crate::blocking::submit(queue, [encoder.finish()]);
-    map_for_reading(device, &buffer, "image readback")?;
+    crate::blocking::map_for_reading(device, &buffer, "image readback")?;
     let mut pixels = Vec::with_capacity(row as usize * h as usize);
     {
         let view = buffer.get_mapped_range(..).map_err(|e| RenderError::Gpu { what: e.to_string() })?;
@@ -512,48 +397,4 @@ fn rest_pose(pack: &Pack) -> Result<Option<RestPose>, RenderError> {
     let morph_input = morphs.as_deref().map(|m| (m, pose.morph_weights.as_slice()));
     morph_and_skin(&mesh, weights.as_deref(), morph_input, &skinning, &mut positions, &mut normals).map_err(invalid)?;
     Ok(Some(RestPose { skinning, morph_weights: pose.morph_weights, positions, normals }))
-}
-
-#[cfg(feature = "testing")]
-/// Copies the first `count` elements of `source` (a `COPY_SRC` buffer) into a staging buffer,
-/// submits, waits and returns them; `what` names the readback in errors. For tests and tools.
-pub(crate) fn read_buffer<T: bytemuck::Pod>(
-    device: &wgpu::Device,
-    queue: &wgpu::Queue,
-    source: &wgpu::Buffer,
-    count: u64,
-    what: &str,
-) -> Result<Vec<T>, RenderError> {
-    let bytes = count * std::mem::size_of::<T>() as u64;
-    let staging = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some(what),
-        size: bytes,
-        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-        mapped_at_creation: false,
-    });
-    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(what) });
-    encoder.copy_buffer_to_buffer(source, 0, &staging, 0, bytes);
-    crate::blocking::submit(queue, [encoder.finish()]);
-    map_for_reading(device, &staging, what)?;
-    let out = {
-        let view = staging.get_mapped_range(..).map_err(|e| RenderError::Gpu { what: e.to_string() })?;
-        bytemuck::cast_slice(&view).to_vec()
-    };
-    staging.unmap();
-    Ok(out)
-}
-
-/// Maps `buffer` (a `MAP_READ` buffer whose copy was already submitted) and waits until the map
-/// completes; `what` names the readback in errors.
-pub(crate) fn map_for_reading(device: &wgpu::Device, buffer: &wgpu::Buffer, what: &str) -> Result<(), RenderError> {
-    let (tx, rx) = std::sync::mpsc::channel();
-    buffer.map_async(wgpu::MapMode::Read, .., move |r| {
-        let _ = tx.send(r);
-    });
-    crate::blocking::wait(device)?;
-    match rx.recv() {
-        Ok(Ok(())) => Ok(()),
-        Ok(Err(e)) => Err(RenderError::Gpu { what: format!("{what}: mapping failed: {e}") }),
-        Err(_) => Err(RenderError::Gpu { what: format!("{what}: mapping never completed") }),
-    }
 }

@@ -129,6 +129,7 @@ mod blocking;
 mod culling;
 pub mod headless;
 mod lod;
+mod mips;
 mod pipelines;
 mod renderer;
 mod scene;

@@ -14,14 +14,14 @@
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex, OnceLock};
 
-use crate::blades::BLADES_WGSL;
 use crate::shaders::{
-    FIN_ATTRIBUTES, FIN_WGSL, FinVertex, SHELL_WGSL, SILHOUETTE_WGSL, SKIN_WGSL, SURFACE_ATTRIBUTES, SurfaceVertex,
+    BLADES_WGSL, FIN_ATTRIBUTES, FIN_WGSL, FinVertex, SHELL_WGSL, SILHOUETTE_WGSL, SKIN_WGSL, SURFACE_ATTRIBUTES,
+    SurfaceVertex,
 };
-use crate::{RenderError, RenderSettings, ShellBlend, TargetDesc};
+use crate::{RenderError, TargetDesc};
 
 /// The shader switches (WGSL `override` constants) of a fur pipeline, decided by the
-/// [`RenderSettings`] and whether the asset is animated.
+/// [`crate::RenderSettings`] and whether the asset is animated (`fur_switches` in `renderer.rs`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub(crate) struct FurSwitches {
     pub lambert: bool,
@@ -32,25 +32,10 @@ pub(crate) struct FurSwitches {
     pub shear: bool,
     pub alpha_blend: bool,
     /// Alpha to coverage for the alpha-tested shells and fins
-    /// ([`RenderSettings::alpha_to_coverage`]; only on multisampled targets).
+    /// ([`crate::RenderSettings::alpha_to_coverage`]; only on multisampled targets).
     pub alpha_to_coverage: bool,
-    /// Lights the shading evaluates ([`RenderSettings::light_slots`]).
+    /// Lights the shading evaluates ([`crate::RenderSettings::light_slots`]).
     pub light_slots: u32,
-}
-
-impl FurSwitches {
-    pub(crate) fn new(settings: &RenderSettings, skinned: bool) -> FurSwitches {
-        FurSwitches {
-            lambert: settings.lambert,
-            shadow: settings.self_shadow,
-            skinned,
-            strand: settings.shading.enabled,
-            shear: settings.shearing,
-            alpha_blend: settings.blend == ShellBlend::AlphaBlend,
-            alpha_to_coverage: settings.blend == ShellBlend::AlphaTest && settings.alpha_to_coverage,
-            light_slots: settings.light_slots,
-        }
-    }
 }
 
 /// The three fur stages (fur thesis §3.2: skin, shells, fins), and the silhouette fins

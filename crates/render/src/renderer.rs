@@ -24,7 +24,8 @@ use furbake_runtime::ShellVertexLayout;
 use glam::{Mat4, Vec3};
 use wgpu::util::DeviceExt;
 
-use crate::asset::{FurAsset, mip_chain};
+use crate::asset::FurAsset;
+use crate::mips::mip_chain;
 use crate::pipelines::{FurPipelines, FurSwitches};
 use crate::shaders::{FrameUniforms, FurUniforms, SkinnedVertex, SurfaceVertex};
 #[cfg(feature = "testing")]
@@ -55,6 +56,21 @@ pub(crate) fn check_view_count(views: u32, setting: &str) -> Result<(), RenderEr
 /// count was chosen).
 pub(crate) fn view_out_of_range(view: usize, count: usize, setting: &str) -> RenderError {
     RenderError::Parameter { what: format!("view {view} of a renderer built for {count} ({setting})") }
+}
+
+/// The shader switches of a fur pipeline drawn with `settings`, for an animated (`skinned`) asset
+/// or not.
+fn fur_switches(settings: &RenderSettings, skinned: bool) -> FurSwitches {
+    FurSwitches {
+        lambert: settings.lambert,
+        shadow: settings.self_shadow,
+        skinned,
+        strand: settings.shading.enabled,
+        shear: settings.shearing,
+        alpha_blend: settings.blend == ShellBlend::AlphaBlend,
+        alpha_to_coverage: settings.blend == ShellBlend::AlphaTest && settings.alpha_to_coverage,
+        light_slots: settings.light_slots,
+    }
 }
 
 /// Rendering parameters of one asset.
@@ -474,7 +490,7 @@ impl FurRenderer {
                 what: "the shared GPU asset was uploaded from another asset or with other fin settings".into(),
             });
         }
-        let switches = FurSwitches::new(settings, asset.is_animated());
+        let switches = fur_switches(settings, asset.is_animated());
         let silhouette = settings.silhouette_fins && gpu.silhouette.is_some();
         let stage_pipelines = pipelines.fur(target, switches, silhouette)?;
         let device = pipelines.device();
@@ -854,8 +870,8 @@ impl FurRenderer {
         if let Some(e) = crate::blocking::block_on(scope.pop()) {
             return Err(RenderError::Gpu { what: e.to_string() });
         }
-        crate::headless::map_for_reading(device, &args, "silhouette args readback")?;
-        crate::headless::map_for_reading(device, &instances, "silhouette instances readback")?;
+        crate::blocking::map_for_reading(device, &args, "silhouette args readback")?;
+        crate::blocking::map_for_reading(device, &instances, "silhouette instances readback")?;
         let count = {
             let view = args.get_mapped_range(..).map_err(|e| RenderError::Gpu { what: e.to_string() })?;
             bytemuck::cast_slice::<u8, u32>(&view)[1] as usize
@@ -1086,7 +1102,7 @@ impl FurRenderer {
             return Err(RenderError::Gpu { what: e.to_string() });
         }
         let read = |buffer: &wgpu::Buffer, what| -> Result<Vec<[f32; 3]>, RenderError> {
-            crate::headless::map_for_reading(device, buffer, what)?;
+            crate::blocking::map_for_reading(device, buffer, what)?;
             let out = {
                 let view = buffer.get_mapped_range(..).map_err(|e| RenderError::Gpu { what: e.to_string() })?;
                 let words: &[[f32; 4]] = bytemuck::cast_slice(&view);

@@ -30,8 +30,8 @@ use furbake_grass::{ForceField, ForceScene};
 use furbake_runtime::{Camera, Lighting, RenderOptions, Scene, ShellVertexLayout, World};
 use glam::{Mat4, Vec3};
 
-use crate::headless::RenderTarget;
 use crate::shaders::FrameUniforms;
+use crate::target::RenderTarget;
 use crate::{
     BladeRenderSettings, BladeRenderer, FurAsset, FurGpuAsset, FurRenderer, PipelineCache, RenderError, RenderSettings,
     TargetDesc, View,

@@ -338,7 +338,7 @@ pub const FIN_ATTRIBUTES: [wgpu::VertexAttribute; 9] = wgpu::vertex_attr_array![
 ];
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     fn validated(name: &str, source: &str) -> (naga::Module, naga::valid::ModuleInfo) {
@@ -414,12 +414,17 @@ mod tests {
         );
         // The dispatch sizes the Rust side computes from.
         let size = |name: &str| entry_points.iter().find(|(n, _)| n == name).map(|(_, s)| s[0]);
-        let block = crate::culling::BLOCK;
         assert_eq!(size("cs_blades"), Some(64));
         assert_eq!(size("cs_cull_clusters"), Some(64));
-        for name in ["cs_cull_blades", "cs_scan_blocks", "cs_compact", "cs_pose_all"] {
-            assert_eq!(size(name), Some(block), "{name}");
-        }
+        // The culling passes' widths: culling.rs's tests (the_culling_workgroups_are_one_block).
+    }
+
+    /// The workgroup width of entry point `name` in the first shader that has it.
+    pub(crate) fn workgroup_width(name: &str) -> Option<u32> {
+        SHADERS.iter().find_map(|(file, source)| {
+            let (module, _) = validated(file, source);
+            module.entry_points.iter().find(|e| e.name == name).map(|e| e.workgroup_size[0])
+        })
     }
 
     /// (size, member names and offsets) of the WGSL struct `name`, from naga's layout.
@@ -432,7 +437,9 @@ mod tests {
         })
     }
 
-    fn check_layout(name: &str, size: usize, rust: &[(&str, usize)]) -> usize {
+    /// Checks the WGSL struct `name` against its Rust mirror (`size` bytes, `rust` members and
+    /// offsets) in every shader that declares it; returns how many do.
+    pub(crate) fn check_layout(name: &str, size: usize, rust: &[(&str, usize)]) -> usize {
         let mut checked = 0;
         for (file, source) in SHADERS {
             let (module, _) = validated(file, source);
@@ -489,48 +496,7 @@ mod tests {
             ("pad0", offset_of!(SkinningUniforms, pad0)),
         ];
         assert_eq!(check_layout("SkinningUniforms", size_of::<SkinningUniforms>(), &params), 1, "in skinning.wgsl");
-        use crate::blades::BladeUniforms as B;
-        let pad = offset_of!(B, pad);
-        let params = [
-            ("color", offset_of!(B, color)),
-            ("blade_count", offset_of!(B, blade_count)),
-            ("vertex_count", offset_of!(B, vertex_count)),
-            ("stored_vectors", offset_of!(B, stored_vectors)),
-            ("stored_angles", offset_of!(B, stored_angles)),
-            ("magnitudes", offset_of!(B, magnitudes)),
-            ("angles", offset_of!(B, angles)),
-            ("mirror_x", offset_of!(B, mirror_x)),
-            ("mirror_z", offset_of!(B, mirror_z)),
-            ("magnitude_per_force", offset_of!(B, magnitude_per_force)),
-            ("angle_per_radian", offset_of!(B, angle_per_radian)),
-            ("scale", offset_of!(B, scale)),
-            ("encoding", offset_of!(B, encoding)),
-            ("interpolation", offset_of!(B, interpolation)),
-            ("lambert", offset_of!(B, lambert)),
-            ("delayed_sources", offset_of!(B, delayed_sources)),
-            ("corner_count", offset_of!(B, corner_count)),
-            ("cells_x", offset_of!(B, cells_x)),
-            ("seed", offset_of!(B, seed)),
-            ("shading", offset_of!(B, shading)),
-            ("pad0", pad),
-            ("tip_color", offset_of!(B, tip_color)),
-            ("shade", offset_of!(B, shade)),
-            ("gloss", offset_of!(B, gloss)),
-        ];
-        // grass_pose.wgsl, prepended to the draw and to the culling passes.
-        assert_eq!(check_layout("BladeUniforms", size_of::<B>(), &params), 2);
-        use crate::culling::CullUniforms as C;
-        let cull = [
-            ("planes", offset_of!(C, planes)),
-            ("eye", offset_of!(C, eye)),
-            ("lod", offset_of!(C, lod)),
-            ("distance", offset_of!(C, distance)),
-            ("shape", offset_of!(C, shape)),
-            ("index_count", offset_of!(C, index_count)),
-            ("first_index", offset_of!(C, first_index)),
-            ("counts", offset_of!(C, counts)),
-        ];
-        assert_eq!(check_layout("CullUniforms", size_of::<C>(), &cull), 2, "grass_common.wgsl, in both");
+        // The grass structs (BladeUniforms, CullUniforms): blades.rs's and culling.rs's tests.
     }
 
     #[test]
@@ -541,41 +507,7 @@ mod tests {
         // Written by skinning.wgsl, read by the three fur shaders (fur_common.wgsl) and the
         // silhouette selection.
         assert_eq!(check_layout("SkinnedVertex", size_of::<SkinnedVertex>(), &skinned), 5);
-        use crate::silhouette::{SilhouetteEdge, SilhouetteParams};
-        let edge = [
-            ("a", offset_of!(SilhouetteEdge, a)),
-            ("b", offset_of!(SilhouetteEdge, b)),
-            ("c", offset_of!(SilhouetteEdge, c)),
-            ("d", offset_of!(SilhouetteEdge, d)),
-            ("corner_a", offset_of!(SilhouetteEdge, corner_a)),
-            ("corner_b", offset_of!(SilhouetteEdge, corner_b)),
-            ("flags", offset_of!(SilhouetteEdge, flags)),
-            ("pad0", offset_of!(SilhouetteEdge, pad0)),
-        ];
-        // Read by the selection (silhouette.wgsl) and the silhouette fin draw (fin.wgsl).
-        assert_eq!(check_layout("SilhouetteEdge", size_of::<SilhouetteEdge>(), &edge), 2);
-        let params = [
-            ("camera_obj", offset_of!(SilhouetteParams, camera_obj)),
-            ("band", offset_of!(SilhouetteParams, band)),
-            ("edge_count", offset_of!(SilhouetteParams, edge_count)),
-            ("pad0", offset_of!(SilhouetteParams, pad0)),
-            ("pad1", offset_of!(SilhouetteParams, pad1)),
-        ];
-        assert_eq!(check_layout("SilhouetteParams", size_of::<SilhouetteParams>(), &params), 1);
-        use crate::blades::{BladeGpu, DelayedSourceGpu};
-        let blade = [
-            ("root", offset_of!(BladeGpu, root)),
-            ("yaw", offset_of!(BladeGpu, yaw)),
-            ("cluster", offset_of!(BladeGpu, cluster)),
-            ("pad", offset_of!(BladeGpu, pad)),
-            ("weights", offset_of!(BladeGpu, weights)),
-        ];
-        assert_eq!(check_layout("Blade", size_of::<BladeGpu>(), &blade), 2, "grass_common.wgsl, in both");
-        let delayed = [
-            ("position_power", offset_of!(DelayedSourceGpu, position_power)),
-            ("params", offset_of!(DelayedSourceGpu, params)),
-        ];
-        assert_eq!(check_layout("DelayedSource", size_of::<DelayedSourceGpu>(), &delayed), 2);
+        // The silhouette and grass storage structs: silhouette.rs's and blades.rs's tests.
     }
 
     #[test]

@@ -357,4 +357,32 @@ mod tests {
         m.fur_mask[1] = 0;
         assert!(interior_edges(&m, None).is_empty(), "a fur/bare edge carries an always-on fin");
     }
+
+    /// The silhouette structs mirror their WGSL declarations (see `crate::shaders`'s layout tests).
+    #[test]
+    fn silhouette_structs_match_the_shaders() {
+        use std::mem::{offset_of, size_of};
+
+        use crate::shaders::tests::check_layout;
+        let edge = [
+            ("a", offset_of!(SilhouetteEdge, a)),
+            ("b", offset_of!(SilhouetteEdge, b)),
+            ("c", offset_of!(SilhouetteEdge, c)),
+            ("d", offset_of!(SilhouetteEdge, d)),
+            ("corner_a", offset_of!(SilhouetteEdge, corner_a)),
+            ("corner_b", offset_of!(SilhouetteEdge, corner_b)),
+            ("flags", offset_of!(SilhouetteEdge, flags)),
+            ("pad0", offset_of!(SilhouetteEdge, pad0)),
+        ];
+        // Read by the selection (silhouette.wgsl) and the silhouette fin draw (fin.wgsl).
+        assert_eq!(check_layout("SilhouetteEdge", size_of::<SilhouetteEdge>(), &edge), 2);
+        let params = [
+            ("camera_obj", offset_of!(SilhouetteParams, camera_obj)),
+            ("band", offset_of!(SilhouetteParams, band)),
+            ("edge_count", offset_of!(SilhouetteParams, edge_count)),
+            ("pad0", offset_of!(SilhouetteParams, pad0)),
+            ("pad1", offset_of!(SilhouetteParams, pad1)),
+        ];
+        assert_eq!(check_layout("SilhouetteParams", size_of::<SilhouetteParams>(), &params), 1);
+    }
 }

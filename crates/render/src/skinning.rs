@@ -370,7 +370,7 @@ impl SkinningPass {
             crate::blocking::submit(queue, [encoder.finish()]);
             Ok(readback)
         })?;
-        crate::headless::map_for_reading(device, &readback, "skinned vertex readback")?;
+        crate::blocking::map_for_reading(device, &readback, "skinned vertex readback")?;
         let out = {
             let view = readback.get_mapped_range(..).map_err(|e| RenderError::Gpu { what: e.to_string() })?;
             let vertices: &[SkinnedVertex] = bytemuck::cast_slice(&view);

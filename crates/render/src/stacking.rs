@@ -37,10 +37,10 @@ const E_MAX: f32 = 64.0;
 pub(crate) fn stacking_table(atlas: &ShellAtlas, length_texels: f32) -> Vec<f32> {
     let res = atlas.params.resolution.max(1) as usize;
     let layers = atlas.layers().max(1);
-    // Mips per slice, as the GPU's (crate::asset::mip_chain), up to MIP_BINS levels.
+    // Mips per slice, as the GPU's (crate::mips::mip_chain), up to MIP_BINS levels.
     let mips: Vec<Vec<(usize, Vec<u8>)>> = (0..layers)
         .map(|s| {
-            crate::asset::mip_chain(res as u32, res as u32, atlas.layer(s))
+            crate::mips::mip_chain(res as u32, res as u32, atlas.layer(s))
                 .into_iter()
                 .take(MIP_BINS)
                 .map(|(w, _, t)| (w as usize, t))

@@ -10,6 +10,9 @@
 //! (WebGPU specification, "Texture Format Capabilities"; wgpu's
 //! `TextureFormat::guaranteed_format_features`, or the adapter's own table when the device was
 //! created with `Features::TEXTURE_ADAPTER_SPECIFIC_FORMAT_FEATURES`).
+//!
+//! [`RenderTarget`] is the headless host's own pass (`crate::headless`): textures of fixed formats
+//! matching [`RenderTarget::desc`], here below the host and the scene frames that draw into it.
 
 use crate::RenderError;
 
@@ -178,5 +181,120 @@ impl TargetDesc {
             write_mask: wgpu::ColorWrites::empty(),
         });
         std::iter::once(first).chain(rest).map(Some).collect()
+    }
+}
+
+/// Colour format of [`RenderTarget`]s (sRGB-encoded 8-bit RGBA; shaders write linear colour).
+pub const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
+/// Depth format of [`RenderTarget`]s.
+pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+
+/// An offscreen colour + depth target of a given size: the headless host's pass.
+pub struct RenderTarget {
+    /// Colour texture ([`COLOR_FORMAT`], copyable to a buffer).
+    pub color: wgpu::Texture,
+    /// Depth texture ([`DEPTH_FORMAT`]).
+    pub depth: wgpu::Texture,
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+}
+
+impl RenderTarget {
+    /// The pass every render target makes: [`COLOR_FORMAT`] with straight alpha blending,
+    /// [`DEPTH_FORMAT`] compared `LessEqual`, one sample. Renderers drawn by this host are built
+    /// for it.
+    pub fn desc() -> TargetDesc {
+        TargetDesc::new(COLOR_FORMAT).with_depth(DEPTH_FORMAT, wgpu::CompareFunction::LessEqual)
+    }
+
+    /// Creates a `width × height` target; fails when a side is 0 or above the device's limit.
+    pub fn new(device: &wgpu::Device, width: u32, height: u32) -> Result<RenderTarget, RenderError> {
+        let max = device.limits().max_texture_dimension_2d;
+        if width == 0 || height == 0 || width > max || height > max {
+            return Err(RenderError::Parameter {
+                what: format!("target size {width}×{height} (each side in 1..={max})"),
+            });
+        }
+        crate::gpu_scope(device, &format!("creating a {width}×{height} render target"), || {
+            Ok(Self::create(device, width, height))
+        })
+    }
+
+    fn create(device: &wgpu::Device, width: u32, height: u32) -> RenderTarget {
+        let size = wgpu::Extent3d { width, height, depth_or_array_layers: 1 };
+        let make = |label, format, usage| {
+            device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(label),
+                size,
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage,
+                view_formats: &[],
+            })
+        };
+        let color = make(
+            "furbake color target",
+            COLOR_FORMAT,
+            wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+        );
+        let depth = make("furbake depth target", DEPTH_FORMAT, wgpu::TextureUsages::RENDER_ATTACHMENT);
+        RenderTarget { color, depth, width, height }
+    }
+
+    /// Width / height.
+    pub fn aspect(&self) -> f32 {
+        self.width as f32 / self.height as f32
+    }
+
+    /// Begins a render pass into this target's colour and depth textures: cleared to the linear
+    /// RGBA `clear` (depth to 1), or, with `None`, over what earlier passes left.
+    pub fn begin_pass<'e>(
+        &self,
+        encoder: &'e mut wgpu::CommandEncoder,
+        label: &str,
+        clear: Option<[f32; 4]>,
+    ) -> wgpu::RenderPass<'e> {
+        let color_view = self.color.create_view(&Default::default());
+        let depth_view = self.depth.create_view(&Default::default());
+        let (color_load, depth_load) = match clear {
+            Some(c) => {
+                let [r, g, b, a] = c.map(f64::from);
+                (wgpu::LoadOp::Clear(wgpu::Color { r, g, b, a }), wgpu::LoadOp::Clear(1.0))
+            }
+            None => (wgpu::LoadOp::Load, wgpu::LoadOp::Load),
+        };
+        encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some(label),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: &color_view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations { load: color_load, store: wgpu::StoreOp::Store },
+            })],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: &depth_view,
+                depth_ops: Some(wgpu::Operations { load: depth_load, store: wgpu::StoreOp::Store }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        })
+    }
+
+    /// Refuses a renderer built for another pass than this host's.
+    pub(crate) fn check_renderer(&self, renderer_target: &TargetDesc) -> Result<(), RenderError> {
+        if *renderer_target != Self::desc() {
+            return Err(RenderError::Parameter {
+                what: format!(
+                    "a renderer built for {renderer_target:?} drawn into a headless RenderTarget (built for RenderTarget::desc())"
+                ),
+            });
+        }
+        Ok(())
     }
 }

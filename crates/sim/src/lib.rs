@@ -35,6 +35,7 @@ mod groups;
 mod link_graph;
 pub mod meshes;
 mod model;
+mod sentinel;
 pub mod shell;
 mod simulator;
 pub mod skin;

@@ -12,7 +12,7 @@ use std::collections::VecDeque;
 use furbake_formats::sections::spring_topology::SpringTopology;
 
 use crate::SimError;
-use crate::model::NONE;
+use crate::sentinel::NONE;
 
 /// One undirected link: a spring, or a stick (rigid in the stick solver; `k` is then unused).
 #[derive(Clone, Copy, Debug)]

@@ -21,7 +21,8 @@
 use glam::{Mat3, Mat4, Vec3, Vec3A};
 use rayon::prelude::*;
 
-use crate::model::{NONE, SimModel};
+use crate::model::SimModel;
+use crate::sentinel::NONE;
 
 /// How one shell vertex moves from its bind pose to the pose of now: a position `p` of the bind
 /// pose goes to `matrix · (p + morph_offset_m)` (glTF morph targets, then linear blend skinning

@@ -6,7 +6,8 @@
 
 use super::fused::{Mode, group_step};
 use super::{Step, StepOutcome};
-use crate::model::{NONE, SimModel};
+use crate::model::SimModel;
+use crate::sentinel::NONE;
 
 /// The largest stable explicit step (with safety factor `safety`) for the links in the model's
 /// adjacency: a Gershgorin bound `λ` on the eigenvalues of `M^{-1/2} K M^{-1/2}` and `γ` on the

@@ -15,17 +15,17 @@
 //! no update ([`Mode::Finish`]) to end their step. Chunks are fixed and their outcomes combined
 //! in chunk order, so the result is bit-identical for any thread count.
 
-use glam::Vec3A;
+use glam::{DVec3, Vec3A};
 use rayon::prelude::*;
 
 use super::chunks::PARALLEL_MIN;
 use super::lanes::{Avx, Lanes, Sc, V3, at, dot3, map3, present};
-use super::reference::CgRow;
-use super::stick::{place_on_stick, project_sticks};
+use super::projection::{place_on_stick, project_sticks};
 use super::{Step, StepOutcome};
 use crate::forces::ForceEval;
 use crate::groups::GROUP;
-use crate::model::{NONE, SimModel};
+use crate::model::SimModel;
+use crate::sentinel::NONE;
 use crate::shell::{GuardOutcome, GuardState};
 
 /// Which update the lane-group kernel applies.
@@ -48,6 +48,22 @@ impl Mode {
             2 => Mode::Implicit,
             _ => Mode::Finish,
         }
+    }
+}
+
+/// Per free mass an f64 state: position and velocity (the reference solver's state, `reference.rs`,
+/// which [`Mode::Finish`] rounds into the outputs).
+#[derive(Clone, Copy, Default)]
+pub(super) struct CgRow {
+    pub x: DVec3,
+    pub v: DVec3,
+}
+
+impl CgRow {
+    /// True when `(x, v)` is this state's f32 rounding.
+    #[inline]
+    pub(super) fn rounds_to(&self, x: Vec3A, v: Vec3A) -> bool {
+        self.x.as_vec3a() == x && self.v.as_vec3a() == v
     }
 }
 

@@ -36,7 +36,8 @@ use super::{Step, StepOutcome};
 use super::{external, restoring};
 use crate::clusters::{ClusterSystem, Clusters, MAX_CLUSTER};
 use crate::forces::{restoring_force_f64, restoring_stiffness_spd};
-use crate::model::{NONE, SimModel};
+use crate::model::SimModel;
+use crate::sentinel::NONE;
 
 /// Symmetric 3×3 matrix `[xx, yy, zz, xy, xz, yz]`.
 #[derive(Clone, Copy, Debug, Default)]

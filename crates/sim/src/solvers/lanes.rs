@@ -8,9 +8,8 @@ use std::ops::{Add, Div, Mul, Sub};
 
 use glam::Vec3A;
 
-use super::rotation::rotation_step;
 use crate::groups::GROUP;
-use crate::model::NONE;
+use crate::sentinel::NONE;
 
 /// Eight `f32` lanes and the operations the per-mass kernels need. [`Sc`] is portable (plain
 /// arrays, which the compiler vectorises as it can); [`Avx`] is an AVX register, used only after
@@ -394,3 +393,19 @@ pub(super) fn dot3<V: Lanes>(a: &V3<V>, b: &V3<V>) -> V {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 pub(super) use map3;
+
+/// The `h` with `v h + a h² = reach` (speed `v`, acceleration `a`, finite `reach`): one mass's
+/// rotation-limited step (`rotation.rs`), here below both its users, [`Lanes::rot_min`] and
+/// `rotation.rs`.
+#[inline(always)]
+pub(super) fn rotation_step(v: f64, a: f64, reach: f64) -> f64 {
+    if !reach.is_finite() {
+        f64::INFINITY
+    } else if a > 0.0 {
+        2.0 * reach / (v + (v * v + 4.0 * a * reach).sqrt())
+    } else if v > 0.0 {
+        reach / v
+    } else {
+        f64::INFINITY
+    }
+}

@@ -40,7 +40,8 @@ use super::fused::finish_step;
 use super::ldlt::Ldlt;
 use super::{Step, StepOutcome, external, restoring};
 use crate::SimError;
-use crate::model::{NONE, SimModel};
+use crate::model::SimModel;
+use crate::sentinel::NONE;
 
 /// The local/global solver's matrix pattern, factor and per-step buffers (kept between steps).
 #[derive(Debug, Default)]

@@ -6,8 +6,8 @@
 //!   Jacobian of eq. 3.29: one sweep (the thesis's first iterate of eq. 3.34) or, for two or more
 //!   iterations, preconditioned conjugate gradient from that sweep with the sweep's matrix as
 //!   preconditioner (monotone convergence to the system's solution).
-//! - [`stick`]: the stick solver of §3.4.1 ("orientation only") and the stick projection every
-//!   solver applies after its step.
+//! - [`stick`]: the stick solver of §3.4.1 ("orientation only").
+//! - [`projection`]: the stick projection every solver applies after its step.
 //! - [`reference`]: backward Euler linearised per step with the exact Jacobian of every force,
 //!   solved by BiCGSTAB in f64 with an f64 state kept between steps (Baraff & Witkin 1998): the
 //!   accuracy report measures everyone else against it.
@@ -23,7 +23,8 @@
 //!   the wrong-side guard of §3.4.3 and the next rotation limit fused in.
 //! - [`lanes`]: the eight-lane SIMD layer the fused pass is written in (AVX2 + FMA after runtime
 //!   detection, portable arrays otherwise).
-//! - [`rotation`]: the implicit solvers' rotation-limited step.
+//! - [`rotation`]: the implicit solvers' rotation-limited step (its per-mass formula,
+//!   `rotation_step`, sits in [`lanes`] with the lane operations that evaluate it).
 //! - [`chunks`]: fixed-chunk parallel loops and sums, so every result is bit-identical for any
 //!   rayon thread count.
 //!
@@ -40,6 +41,7 @@ mod implicit;
 mod lanes;
 mod ldlt;
 mod local_global;
+mod projection;
 mod reference;
 mod rotation;
 mod stick;
@@ -48,16 +50,18 @@ mod xpbd;
 use glam::Vec3A;
 
 use crate::forces::{ForceEval, restoring_force};
-use crate::model::{NONE, SimModel};
+use crate::model::SimModel;
+use crate::sentinel::NONE;
 use crate::shell::{GuardOutcome, GuardSettings, GuardState};
 
 pub(crate) use chunks::{CHUNK, PARALLEL_MIN, sum_over};
 pub(crate) use explicit::{explicit_step, stable_step};
 pub(crate) use implicit::{ImplicitScratch, Sym3, implicit_step};
 pub(crate) use local_global::{LocalGlobalScratch, local_global_step};
+pub(crate) use projection::project_sticks;
 pub(crate) use reference::{ReferenceScratch, reference_step};
 pub(crate) use rotation::rotation_limit;
-pub(crate) use stick::{project_sticks, stick_step};
+pub(crate) use stick::stick_step;
 pub(crate) use xpbd::{XpbdScratch, xpbd_step};
 
 /// One step of size `h` from `(x, v)` to `(x_out, v_out)`: what every solver step reads, where

@@ -23,11 +23,12 @@ use glam::{DMat3, DVec3, Vec3A};
 use rayon::prelude::*;
 
 use super::chunks::{CHUNK, PARALLEL_MIN, chunk_sum, for_free};
-use super::fused::{Mode, finish_step, group_step};
-use super::stick::project_sticks;
+use super::fused::{CgRow, Mode, finish_step, group_step};
+use super::projection::project_sticks;
 use super::{Step, StepOutcome};
 use crate::forces::{outer, restoring_force_f64};
-use crate::model::{NONE, SimModel};
+use crate::model::SimModel;
+use crate::sentinel::NONE;
 
 /// The most negative transverse stiffness of a compressed link, as a fraction of its lighter
 /// end's mass over `h²`: below it linearised backward Euler with the exact Jacobian is unstable
@@ -35,21 +36,6 @@ use crate::model::{NONE, SimModel};
 /// energy), so the Jacobian is floored there. Mild compression (`h² k (L/l − 1) ≤ m/2`) keeps
 /// the exact Jacobian.
 pub(crate) const COMPRESSION_FLOOR: f64 = 0.5;
-
-/// Per free mass an f64 state: position and velocity.
-#[derive(Clone, Copy, Default)]
-pub(super) struct CgRow {
-    pub x: DVec3,
-    pub v: DVec3,
-}
-
-impl CgRow {
-    /// True when `(x, v)` is this state's f32 rounding.
-    #[inline]
-    fn rounds_to(&self, x: Vec3A, v: Vec3A) -> bool {
-        self.x.as_vec3a() == x && self.v.as_vec3a() == v
-    }
-}
 
 /// Per free mass its row of the system: right-hand side, diagonal block and its inverse.
 #[derive(Clone, Copy, Default)]

@@ -12,7 +12,7 @@ use rayon::prelude::*;
 use super::chunks::{CHUNK, PARALLEL_MIN};
 use super::external;
 #[cfg(target_arch = "x86_64")]
-use super::lanes::{Avx, Lanes, dot3, map3};
+use super::lanes::{Avx, Lanes, dot3, map3, rotation_step};
 use crate::forces::ForceEval;
 #[cfg(target_arch = "x86_64")]
 use crate::groups::GROUP;
@@ -36,20 +36,6 @@ pub(super) fn rotation_limit_of(
     let f = external(model, fe, k, x[k], v[k]);
     let a = (f.length() + 4.0 * fe.restoring_w) as f64 / model.mass[k] as f64;
     rotation_step(v[k].length() as f64, a, reach)
-}
-
-/// The `h` with `v h + a h² = reach` (speed `v`, acceleration `a`, finite `reach`).
-#[inline(always)]
-pub(super) fn rotation_step(v: f64, a: f64, reach: f64) -> f64 {
-    if !reach.is_finite() {
-        f64::INFINITY
-    } else if a > 0.0 {
-        2.0 * reach / (v + (v * v + 4.0 * a * reach).sqrt())
-    } else if v > 0.0 {
-        reach / v
-    } else {
-        f64::INFINITY
-    }
 }
 
 /// The smallest [`rotation_limit_of`] over the masses `k0..k1` with only uniform forces, eight

@@ -43,7 +43,8 @@ use rayon::prelude::*;
 use super::chunks::{CHUNK, PARALLEL_MIN};
 use super::fused::finish_step;
 use super::{Step, StepOutcome, external, restoring};
-use crate::model::{NONE, SimModel};
+use crate::model::SimModel;
+use crate::sentinel::NONE;
 
 /// One link as XPBD sees it: `a` is free and `a < b` when both are free (the orientation it is
 /// projected in); `b` may be anchored.
