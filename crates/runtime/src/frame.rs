@@ -20,7 +20,7 @@
 //! conservatively.
 
 use furbake_grass::ForceScene;
-use furbake_sim::{FrameMotion, LocalForce, WindForce};
+use furbake_sim::{ForceSet, FrameMotion, LocalForce, WindForce};
 use glam::{Mat4, Quat, Vec2, Vec3};
 
 use crate::scene::{Collider, Effect, Effects, Interaction, WindSource};
@@ -103,6 +103,15 @@ pub(crate) fn path_motion(path: impl Fn(f64) -> Mat4, t: f64, h: f64) -> PathMot
         angular_velocity: omega(q0, q2, 2.0 * hf),
         angular_acceleration: (w_fwd - w_back) / hf,
     }
+}
+
+/// The weight of the restoring force (fur thesis eq. 3.37; the scene's
+/// `wrong_side_guard.restoring_weight_n`, or furbake-sim's default without a guard), a force in
+/// newtons, in the mesh's units: divided by the scale like every force, so fur in a centimetre
+/// mesh placed at scale 0.01 stands up as the same fur in metres does.
+pub(crate) fn restoring_weight(effects: &Effects, frame: &MeshFrame) -> f32 {
+    let newtons = effects.wrong_side_guard.map_or(ForceSet::default().restoring_weight_n, |g| g.restoring_weight_n);
+    newtons / frame.scale
 }
 
 /// The inertial frame motion of furbake-sim (mesh frame at `frame`), scaled by `inertia_scale`.

@@ -352,7 +352,8 @@ impl World {
                 None => None,
             };
             let fur = if roles[i].fur {
-                let mut fur = build_fur(&scene, &pack, planned(StageKind::FurSolver), options)?;
+                let scale = MeshFrame::of(sp.model_at(0.0)).scale;
+                let mut fur = build_fur(&scene, &pack, planned(StageKind::FurSolver), options, scale)?;
                 if let Some(a) = &anim {
                     // The fur starts in the bind pose: the first pose is a cut (speed 0).
                     fur.follow(a, scene.time_step_s as f64, 0.0, &sp.path)?;
@@ -739,6 +740,7 @@ impl World {
             StageKind::FurSolver => {
                 let path = &p.scene.path;
                 let err = |source: SimError| RuntimeError::Simulation { path: path.clone(), source };
+                sim.forces.restoring_weight_n = frame::restoring_weight(effects, &mesh_frame);
                 sim.simulator.set_forces(sim.forces.clone()).map_err(err)?;
                 sim.last = sim.simulator.step(dt).map_err(err)?;
             }
@@ -769,7 +771,16 @@ impl World {
 
 /// Reads what one fur pack needs: its skin mesh (rest normals), and when a solver stage is
 /// planned, the one topology the scene calls for and a simulator over it.
-fn build_fur(scene: &Scene, pack: &Pack, simulate: bool, options: WorldOptions) -> Result<FurState, RuntimeError> {
+/// The fur of `pack`, simulated when `simulate`; `scale` is the pack's uniform scale at time 0
+/// (the guard's impulse, a speed in world metres per second, is brought into the mesh's units
+/// with it, as the per-step forces are with the scale of their step: `crate::frame`).
+fn build_fur(
+    scene: &Scene,
+    pack: &Pack,
+    simulate: bool,
+    options: WorldOptions,
+    scale: f32,
+) -> Result<FurState, RuntimeError> {
     let mesh = pack.skin_mesh()?;
     let per_vertex: Vec<[f32; 3]> = mesh.normals.clone();
     if !simulate {
@@ -806,7 +817,9 @@ fn build_fur(scene: &Scene, pack: &Pack, simulate: bool, options: WorldOptions) 
     check_consistency(pack.sections(), &sections).map_err(|e| e.with_path(&pack.display_path()))?;
     debug_assert!(topology.shell_vertex_masses.iter().all(|m| (m[0] == NO_MASS) == (m[1] == NO_MASS)));
     let guard = match scene.effects.wrong_side_guard {
-        Some(g) => GuardSettings { enabled: true, max_angle_deg: g.max_angle_deg, impulse_m_per_s: g.impulse_m_per_s },
+        Some(g) => {
+            GuardSettings { enabled: true, max_angle_deg: g.max_angle_deg, impulse_m_per_s: g.impulse_m_per_s / scale }
+        }
         None => GuardSettings { enabled: false, ..GuardSettings::default() },
     };
     let defaults = SolverSettings::of(choose_solver(kind, scene.solver.kind));
@@ -822,14 +835,9 @@ fn build_fur(scene: &Scene, pack: &Pack, simulate: bool, options: WorldOptions) 
     };
     let sim_err = |source| RuntimeError::Simulation { path: pack.display_path(), source };
     let simulator = Simulator::new(&topology, settings).map_err(sim_err)?;
-    // Every force stage overwrites its own term each step; a term without a stage stays off.
-    let forces = ForceSet {
-        restoring_weight_n: scene
-            .effects
-            .wrong_side_guard
-            .map_or(ForceSet::default().restoring_weight_n, |g| g.restoring_weight_n),
-        ..ForceSet::none()
-    };
+    // Every force stage overwrites its own term each step; a term without a stage stays off. The
+    // restoring weight is set by the solver stage, in the mesh's units of its step.
+    let forces = ForceSet::none();
     let mut scale_vectors = simulator.scale_vectors();
     fill_rest(&mut scale_vectors, &rest);
     let corner_vertices: Vec<u32> =

@@ -529,3 +529,39 @@ fn a_world_plan_opens_each_file_once_reads_only_what_its_world_reads_and_counts_
         .sum();
     assert_eq!(memory[0].bytes - memory[1].bytes, held);
 }
+
+/// Fur in a centimetre mesh placed at scale 0.01 moves as the same fur in metres does
+/// (docs/design.md "Runtime: scenes and stages": forces, accelerations and speeds are brought
+/// into the mesh's units): gravity bends it against the restoring force, and the guard pushes
+/// back the hairs that fall past its angle, alike in both.
+#[test]
+fn fur_in_centimetres_moves_as_the_same_fur_in_metres() {
+    let dir = tempfile::tempdir().unwrap();
+    let metres = bake_pack(dir.path(), "m.fbk", &testmesh::uv_sphere(6, 8, 0.5).gltf, &["sticks"], None);
+    let centimetres = bake_pack(dir.path(), "cm.fbk", &testmesh::uv_sphere(6, 8, 50.0).gltf, &["sticks"], None);
+    // Sticks bend against the restoring force alone; a weak one lets gravity lay the fur down,
+    // past the guard's angle below the equator.
+    let effects = "[effects.gravity]\n[effects.wrong_side_guard]\nrestoring_weight_n = 0.0001\nmax_angle_deg = 45.0\n";
+    let run = |pack: &Path, scale: f32| {
+        let text = format!(
+            "time_step_s = 0.02\n[[packs]]\nname = \"p\"\npath = {:?}\nscale = {scale}\n{effects}",
+            pack.file_name().unwrap().to_str().unwrap()
+        );
+        let mut world = World::new(Scene::from_toml_str(&text, Path::new("units.toml"), dir.path()).unwrap()).unwrap();
+        let rest = world.fur(0).unwrap().scale_vectors.to_vec();
+        let mut triggers = 0;
+        for _ in 0..25 {
+            world.step().unwrap();
+            triggers += world.fur(0).unwrap().last_step.guard_triggers;
+        }
+        (rest, world.fur(0).unwrap().scale_vectors.to_vec(), triggers)
+    };
+    let distance = |a: &[f32; 3], b: &[f32; 3]| (0..3).map(|i| (a[i] - b[i]).powi(2)).sum::<f32>().sqrt();
+    let worst = |a: &[[f32; 3]], b: &[[f32; 3]]| a.iter().zip(b).map(|(p, q)| distance(p, q)).fold(0.0f32, f32::max);
+    let (rest, m, m_triggers) = run(&metres, 1.0);
+    let (_, cm, cm_triggers) = run(&centimetres, 0.01);
+    assert!(worst(&rest, &m) > 0.3, "gravity bends the fur in metres: {}", worst(&rest, &m));
+    assert!(m_triggers > 0, "the guard acts in metres");
+    assert_eq!(cm_triggers, m_triggers, "the guard acts alike");
+    assert!(worst(&m, &cm) < 1e-3, "centimetres and metres differ by {}", worst(&m, &cm));
+}
