@@ -741,7 +741,7 @@ impl World {
                 let path = &p.scene.path;
                 let err = |source: SimError| RuntimeError::Simulation { path: path.clone(), source };
                 sim.forces.restoring_weight_n = frame::restoring_weight(effects, &mesh_frame);
-                sim.simulator.set_forces(sim.forces.clone()).map_err(err)?;
+                sim.simulator.set_forces_from(&sim.forces).map_err(err)?;
                 sim.last = sim.simulator.step(dt).map_err(err)?;
             }
             StageKind::FurScaleVectors => {

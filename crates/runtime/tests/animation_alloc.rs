@@ -99,3 +99,40 @@ fn an_animator_update_and_a_host_effects_edit_allocate_nothing() {
     let allocated = ALLOCATIONS.with(Cell::get) - before;
     assert_eq!(allocated, 0, "ten frames of animation and effect edits allocated {allocated} times");
 }
+
+/// A world step of a moving, furry pack under every fur force allocates nothing once the world
+/// runs: the force stages write the fur's force set in place, the solver copies it into its own
+/// (`Simulator::set_forces_from`) and reads the local forces where it evaluates them, the solver
+/// and the scale vectors reuse their buffers.
+#[test]
+fn a_world_step_of_moving_fur_allocates_nothing() {
+    use furbake_bake::{BakeSettings, NoProgress, bake};
+    use furbake_import::{import_gltf_slice, testmesh};
+    use furbake_runtime::{Scene, World};
+    let sphere = testmesh::uv_sphere(6, 8, 0.5);
+    let mesh = import_gltf_slice(&sphere.gltf, "sphere.gltf", None, &ImportSettings::default()).unwrap();
+    let mut settings = BakeSettings::preset("fur").unwrap();
+    (settings.volume.resolution, settings.volume.layers) = (16, 4);
+    settings.topologies = vec!["prisms".into()];
+    let dir = tempfile::tempdir().unwrap();
+    bake(&mesh, "sphere.gltf", &settings.plan().unwrap(), &mut NoProgress)
+        .unwrap()
+        .to_writer()
+        .write_atomic(&dir.path().join("ball.fbk"))
+        .unwrap();
+    let text = "time_step_s = 0.02\n[[packs]]\nname = \"ball\"\npath = \"ball.fbk\"\n\
+                [[packs.motion]]\ntime_s = 0.0\n[[packs.motion]]\ntime_s = 1.0\ntranslation = [1.0, 0.0, 0.0]\n\
+                rotation_deg = [0.0, 90.0, 0.0]\n\
+                [effects.gravity]\n[effects.wind]\nvelocity_m_per_s = [1.0, 0.0, 0.5]\ngust_amplitude = 0.3\n\
+                [effects.object_motion]\n[effects.wrong_side_guard]\n\
+                [effects.interaction]\nposition = [0.4, 0.0, 0.0]\nradius_m = 0.3\nstrength_n = 0.001\n";
+    let mut world = World::new(Scene::from_toml_str(text, "t.toml".as_ref(), dir.path()).unwrap()).unwrap();
+    world.step().unwrap();
+    let before = ALLOCATIONS.with(Cell::get);
+    for _ in 0..20 {
+        world.step().unwrap();
+    }
+    let allocated = ALLOCATIONS.with(Cell::get) - before;
+    assert_eq!(allocated, 0, "twenty world steps allocated {allocated} times");
+    assert!(world.fur(0).unwrap().scale_vectors.iter().flatten().all(|c| c.is_finite()));
+}

@@ -69,7 +69,7 @@ pub struct FrameMotion {
 }
 
 /// Every external force acting on the free masses.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct ForceSet {
     /// Gravity, m/s² (mesh frame). Default (0, −9.81, 0).
@@ -93,6 +93,28 @@ impl Default for ForceSet {
             motion: FrameMotion::default(),
             local: Vec::new(),
         }
+    }
+}
+
+impl Clone for ForceSet {
+    fn clone(&self) -> Self {
+        ForceSet {
+            gravity_m_per_s2: self.gravity_m_per_s2,
+            restoring_weight_n: self.restoring_weight_n,
+            wind: self.wind.clone(),
+            motion: self.motion.clone(),
+            local: self.local.clone(),
+        }
+    }
+
+    /// Copies `source` keeping this set's list of local forces (no allocation once it is as long
+    /// as `source`'s): what a host that rewrites its forces every step wants.
+    fn clone_from(&mut self, source: &Self) {
+        self.gravity_m_per_s2 = source.gravity_m_per_s2;
+        self.restoring_weight_n = source.restoring_weight_n;
+        self.wind.clone_from(&source.wind);
+        self.motion.clone_from(&source.motion);
+        self.local.clone_from(&source.local);
     }
 }
 
@@ -140,22 +162,23 @@ impl ForceSet {
 
 /// The force set prepared for one evaluation time: vectors converted, flags for the costly terms.
 #[derive(Clone, Debug)]
-pub(crate) struct ForceEval {
+pub(crate) struct ForceEval<'a> {
     /// Mass-proportional acceleration: gravity − frame linear acceleration.
     pub accel: Vec3A,
     pub rotating: bool,
     pub omega: Vec3A,
     pub alpha: Vec3A,
     pub wind: Option<(Vec3A, f32, f32, f32, f32)>,
-    pub local: Vec<(Vec3A, f32, f32)>,
+    /// The local forces, read where evaluated (no copy per evaluation time).
+    pub local: &'a [LocalForce],
     pub restoring_w: f32,
     time_s: f32,
     /// The evaluation time in f64 (the reference solver's forces).
     time_s64: f64,
 }
 
-impl ForceEval {
-    pub fn new(f: &ForceSet, time_s: f64) -> ForceEval {
+impl ForceEval<'_> {
+    pub fn new(f: &ForceSet, time_s: f64) -> ForceEval<'_> {
         let omega = Vec3A::from(f.motion.angular_velocity_rad_per_s);
         let alpha = Vec3A::from(f.motion.angular_accel_rad_per_s2);
         ForceEval {
@@ -167,7 +190,7 @@ impl ForceEval {
                 let d = Vec3A::from(w.direction).try_normalize()?;
                 Some((d, w.force_n, w.gust_amplitude, w.gust_frequency_hz, 1.0 / w.gust_wavelength_m))
             }),
-            local: f.local.iter().map(|l| (Vec3A::from(l.point_m), l.radius_m, l.strength_n)).collect(),
+            local: &f.local,
             restoring_w: f.restoring_weight_n,
             time_s: time_s as f32,
             time_s64: time_s,
@@ -192,7 +215,8 @@ impl ForceEval {
             let phase = std::f32::consts::TAU * (freq * self.time_s - d.dot(rest) * inv_wl);
             f += d * (force * (1.0 + amp * phase.sin()));
         }
-        for &(p, r, s) in &self.local {
+        for l in self.local {
+            let (p, r, s) = (Vec3A::from(l.point_m), l.radius_m, l.strength_n);
             let delta = x - p;
             let dist = delta.length();
             if dist < r && dist > 1e-12 {
@@ -204,7 +228,7 @@ impl ForceEval {
     }
 }
 
-impl ForceEval {
+impl ForceEval<'_> {
     /// [`ForceEval::external`] in f64 with its exact Jacobians `(F, ∂F/∂x, ∂F/∂v)` (the reference
     /// solver): the inertial forces of a rotating frame depend on position and velocity, a local
     /// force on position; gravity and the wind (phase from the rest position) on neither.
@@ -222,7 +246,8 @@ impl ForceEval {
             let phase = std::f64::consts::TAU * (freq as f64 * self.time_s64 - d.dot(rest) as f64 * inv_wl as f64);
             f += d.as_dvec3() * (force as f64 * (1.0 + amp as f64 * phase.sin()));
         }
-        for &(p, r, s) in &self.local {
+        for l in self.local {
+            let (p, r, s) = (Vec3A::from(l.point_m), l.radius_m, l.strength_n);
             let (r, s) = (r as f64, s as f64);
             let delta = x - p.as_dvec3();
             let dist = delta.length();

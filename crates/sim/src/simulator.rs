@@ -304,6 +304,16 @@ impl Simulator {
         Ok(())
     }
 
+    /// [`Simulator::set_forces`] from a borrowed set, copied into this simulator's own without
+    /// allocating once its list of local forces is long enough (a host's per-step update).
+    pub fn set_forces_from(&mut self, forces: &ForceSet) -> Result<(), SimError> {
+        forces.validate()?;
+        self.forces.clone_from(forces);
+        self.rotation_next = None;
+        self.fresh = true;
+        Ok(())
+    }
+
     /// The current force set.
     pub fn forces(&self) -> &ForceSet {
         &self.forces

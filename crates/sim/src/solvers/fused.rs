@@ -70,7 +70,7 @@ impl CgRow {
 /// Everything the lane-group kernel reads.
 struct GroupCtx<'a> {
     model: &'a SimModel,
-    fe: &'a ForceEval,
+    fe: &'a ForceEval<'a>,
     h: f32,
     x: &'a [Vec3A],
     v: &'a [Vec3A],

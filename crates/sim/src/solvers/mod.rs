@@ -69,7 +69,7 @@ pub(crate) use xpbd::{XpbdScratch, xpbd_step};
 pub(crate) struct Step<'a> {
     pub model: &'a SimModel,
     /// The forces at the start of the step.
-    pub fe: &'a ForceEval,
+    pub fe: &'a ForceEval<'a>,
     /// Step length, seconds.
     pub h: f32,
     /// Positions (m) and velocities (m/s) at the start, in the model's internal order.
