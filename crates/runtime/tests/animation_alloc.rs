@@ -60,21 +60,23 @@ fn a_frame_of_animation_allocates_nothing() {
     assert!(before > 0, "the counter counts (the import allocated)");
 }
 
-#[test]
-fn an_animator_update_and_a_host_effects_edit_allocate_nothing() {
+/// Bakes `mesh` into `pack` with small atlases (16² × 4 layers) and the prisms topology.
+fn bake_small_prisms(mesh: &furbake_import::ImportedMesh, pack: &std::path::Path) {
     use furbake_bake::{BakeSettings, NoProgress, bake};
-    use furbake_runtime::{Scene, World, scene::Collider};
-    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/real/Fox.glb");
-    let fox = import_gltf(&path, &ImportSettings::default()).unwrap();
     let mut settings = BakeSettings::preset("fur").unwrap();
     (settings.volume.resolution, settings.volume.layers) = (16, 4);
     settings.topologies = vec!["prisms".into()];
+    let name = pack.file_name().unwrap().to_str().unwrap();
+    bake(mesh, name, &settings.plan().unwrap(), &mut NoProgress).unwrap().to_writer().write_atomic(pack).unwrap();
+}
+
+#[test]
+fn an_animator_update_and_a_host_effects_edit_allocate_nothing() {
+    use furbake_runtime::{Scene, World, scene::Collider};
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/real/Fox.glb");
+    let fox = import_gltf(&path, &ImportSettings::default()).unwrap();
     let dir = tempfile::tempdir().unwrap();
-    bake(&fox, "Fox.glb", &settings.plan().unwrap(), &mut NoProgress)
-        .unwrap()
-        .to_writer()
-        .write_atomic(&dir.path().join("fox.fbk"))
-        .unwrap();
+    bake_small_prisms(&fox, &dir.path().join("fox.fbk"));
     let text = "[[packs]]\nname = \"fox\"\npath = \"fox.fbk\"\nanimation = { clip = \"Run\" }\n\
                 [effects.wind]\nvelocity_m_per_s = [1.0, 0.0, 0.0]\n[[effects.collisions]]\nshape = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius_m = 0.5\n";
     let mut world = World::new(Scene::from_toml_str(text, "t.toml".as_ref(), dir.path()).unwrap()).unwrap();
@@ -106,20 +108,12 @@ fn an_animator_update_and_a_host_effects_edit_allocate_nothing() {
 /// and the scale vectors reuse their buffers.
 #[test]
 fn a_world_step_of_moving_fur_allocates_nothing() {
-    use furbake_bake::{BakeSettings, NoProgress, bake};
     use furbake_import::{import_gltf_slice, testmesh};
     use furbake_runtime::{Scene, World};
     let sphere = testmesh::uv_sphere(6, 8, 0.5);
     let mesh = import_gltf_slice(&sphere.gltf, "sphere.gltf", None, &ImportSettings::default()).unwrap();
-    let mut settings = BakeSettings::preset("fur").unwrap();
-    (settings.volume.resolution, settings.volume.layers) = (16, 4);
-    settings.topologies = vec!["prisms".into()];
     let dir = tempfile::tempdir().unwrap();
-    bake(&mesh, "sphere.gltf", &settings.plan().unwrap(), &mut NoProgress)
-        .unwrap()
-        .to_writer()
-        .write_atomic(&dir.path().join("ball.fbk"))
-        .unwrap();
+    bake_small_prisms(&mesh, &dir.path().join("ball.fbk"));
     let text = "time_step_s = 0.02\n[[packs]]\nname = \"ball\"\npath = \"ball.fbk\"\n\
                 [[packs.motion]]\ntime_s = 0.0\n[[packs.motion]]\ntime_s = 1.0\ntranslation = [1.0, 0.0, 0.0]\n\
                 rotation_deg = [0.0, 90.0, 0.0]\n\
