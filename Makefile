@@ -92,8 +92,15 @@ api-check:
 # profile settings, so nothing is shared with target/debug). Then the `furbake` built from the
 # packaged CLI crate bakes and verifies a bundled model. The .crate files land in
 # target/package-build/package/.
+# Cargo unpacks the packages it verifies into $(CARGO_HOME)/registry/src/-<hash>/ (a folder per
+# local registry, its name starting with '-') and reuses an unpacked copy of the same name and
+# version from an earlier run without looking at it again: since every run packages version
+# 0.1.0, the verification would build the previous run's sources. The furbake copies there are
+# removed first; crates.io's folder (index.crates.io-*) is never touched.
 PACKAGE_TARGET := target/package-build
+CARGO_HOME_DIR := $(or $(CARGO_HOME),$(HOME)/.cargo)
 package:
+	rm -rf $(CARGO_HOME_DIR)/registry/src/-*/furbake-*
 	CARGO_TARGET_DIR=$(PACKAGE_TARGET) $(CARGO) package --workspace --exclude furbake-fuzz
 	$(PACKAGE_TARGET)/debug/furbake --version
 	$(PACKAGE_TARGET)/debug/furbake bake fixtures/real/Box.glb -o $(PACKAGE_TARGET)/box.fbk --preset fur --quiet
