@@ -94,11 +94,22 @@ pub(crate) struct SimModel {
     pub sticks_to_anchors: bool,
     /// The springs that act as springs in this model, internal indices (energy).
     pub springs: Vec<([u32; 2], f32, f32)>,
+    /// Bumped whenever link rest lengths change ([`SimModel::set_adj_rest`]), so solvers that
+    /// copy them know to copy again.
+    pub rest_version: u64,
     pub spring_count: usize,
     pub stick_count: usize,
 }
 
 impl SimModel {
+    /// Sets the rest length of adjacency entry `e` of free mass `k`, in the adjacency and in the
+    /// lane groups that mirror it (the caller bumps `rest_version` once it is done).
+    pub fn set_adj_rest(&mut self, k: usize, e: usize, rest: f32) {
+        self.adj[e].rest = rest;
+        let slot = self.groups.start[k / GROUP] as usize + (e - self.adj_start[k] as usize);
+        self.groups.slots[slot].rest[k % GROUP] = rest;
+    }
+
     /// Builds the model. With `springs_as_sticks` (the stick solver), every spring from an
     /// anchored root to its free child becomes a rigid stick of its rest length (orientation
     /// only, thesis §3.4.1). Springs between free masses (chain segments above the first, prism
@@ -161,6 +172,7 @@ impl SimModel {
             shortest_link,
             groups: GroupData::default(),
             springs,
+            rest_version: 0,
             spring_count: t.spring_ends.len(),
             stick_count: t.stick_ends.len(),
         };

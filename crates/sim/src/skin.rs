@@ -11,6 +11,13 @@
 //!   so the skin drags the fur through its springs and their damping;
 //! - the rest positions and rest directions of free masses (the restoring force of eq. 3.37, the
 //!   wrong-side guard of §3.4.3, the scale vectors' fallback) follow the posed skin;
+//! - a link between two hairs (a prism edge from one hair's tip to its neighbour's) keeps its
+//!   bind strain: its rest length is scaled by how much the posed skin stretched the distance
+//!   between its ends' rest positions. A link's rest length is the hairs' spacing on the skin,
+//!   not a property of the hair; with bind lengths a bending knee or a stretching flank strained
+//!   those links by 15 % (130 % at worst) on the walking Fox and laid its fur over (the guard
+//!   froze a tenth of its hairs every step; `docs/performance.md`, "Animated characters").
+//!   Links within one hair keep their length: the skin does not stretch the hair;
 //! - a skin that moves faster than the caller's cut speed (a cut in the animation, a root that
 //!   jumps metres in one frame) carries its fur along instead: each free mass moves with its own
 //!   rest position and the anchors take no velocity, as a teleport does.
@@ -87,6 +94,21 @@ pub(crate) struct BindPose {
     tip_n: Vec<Vec3A>,
     /// Per internal mass: its posed rest position (scratch reused every pose).
     posed: Vec<Vec3A>,
+    /// The links between masses that hang from different shell vertices (prism edges between
+    /// hairs): their rest lengths follow the skin's stretch between their ends.
+    between: Vec<BetweenLink>,
+}
+
+/// A link between two hairs: its ends, its bind rest length, the bind distance of its ends' rest
+/// positions, and where its rest length is kept — the adjacency entries of its free ends (as
+/// `(free mass, entry)`) and its energy spring (NONE where absent).
+#[derive(Clone, Copy, Debug)]
+struct BetweenLink {
+    ends: [u32; 2],
+    rest: f32,
+    bind_distance: f32,
+    adj: [(u32, u32); 2],
+    spring: u32,
 }
 
 /// Masses per parallel task when posing.
@@ -123,7 +145,37 @@ impl BindPose {
                 attach[k] = attach[p as usize];
             }
         }
+        let hangs_apart = |a: usize, b: usize| attach[a] != NONE && attach[b] != NONE && attach[a] != attach[b];
+        let entry = |k: usize, other: usize| -> (u32, u32) {
+            if k >= nf {
+                return (NONE, NONE);
+            }
+            let start = model.adj_start[k] as usize;
+            match model.adj_of(k).iter().position(|l| l.other as usize == other) {
+                Some(i) => (k as u32, (start + i) as u32),
+                None => (NONE, NONE),
+            }
+        };
+        // One entry per spring (every force link between two hairs is a spring; sticks join a
+        // hair's own masses).
+        let between: Vec<BetweenLink> = model
+            .springs
+            .iter()
+            .enumerate()
+            .filter(|(_, ([a, b], _, _))| hangs_apart(*a as usize, *b as usize))
+            .map(|(s, &([a, b], rest, _))| {
+                let (a, b) = (a as usize, b as usize);
+                BetweenLink {
+                    ends: [a as u32, b as u32],
+                    rest,
+                    bind_distance: model.rest[a].distance(model.rest[b]),
+                    adj: [entry(a, b), entry(b, a)],
+                    spring: s as u32,
+                }
+            })
+            .collect();
         BindPose {
+            between,
             attach,
             rest: model.rest.clone(),
             rest_n: model.rest_n.clone(),
@@ -189,6 +241,25 @@ impl BindPose {
             let vel = if cut { Vec3A::ZERO } else { (p - x[k]) * inv_dt };
             (x[k], x_next[k], v[k], v_next[k]) = (p, p, vel, vel);
             model.rest[k] = p;
+        }
+        // Links between hairs keep their bind strain: the skin's stretch between their ends
+        // stretches their rest length alike, so a bending joint does not pull the tips sideways.
+        if !self.between.is_empty() {
+            for b in &self.between {
+                let [i, j] = b.ends.map(|e| e as usize);
+                let rest = if b.bind_distance > 0.0 {
+                    b.rest * (self.posed[i].distance(self.posed[j]) / b.bind_distance)
+                } else {
+                    b.rest
+                };
+                for (k, e) in b.adj {
+                    if k != NONE {
+                        model.set_adj_rest(k as usize, e as usize, rest);
+                    }
+                }
+                model.springs[b.spring as usize].1 = rest;
+            }
+            model.rest_version += 1;
         }
         // Directions: the restoring links of free masses and the tips.
         let dir = |s: u32, n: Vec3A| {

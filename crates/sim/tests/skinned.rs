@@ -214,6 +214,39 @@ fn a_cut_carries_the_fur_along() {
     assert!(sim.max_displacement_m() > 9.9, "free masses stayed where they were");
 }
 
+/// The links between hairs (prism edges) stretch with the skin between their ends: a skin
+/// stretched half as long again leaves every hair standing along its normal, where links of
+/// bind length would pull the tips towards each other and lay the fur down.
+#[test]
+fn links_between_hairs_follow_a_stretching_skin() {
+    let mesh = meshes::icosphere(1, 0.1);
+    for kind in [TopologyKind::PRISMS, TopologyKind::CHAIN] {
+        let params = TopologyParams { chain_layers: 3, ..TopologyParams::default() };
+        let topo = build_topology(&mesh, kind, &params).expect("builds");
+        let base = shell_positions(&mesh, kind);
+        for solver in [SolverKind::Implicit, SolverKind::Xpbd, SolverKind::LocalGlobal, SolverKind::Reference] {
+            let mut sim = Simulator::new(&topo, SolverSettings::of(solver)).expect("simulates");
+            sim.set_forces(ForceSet::none()).expect("valid");
+            // Every shell vertex moves by half its x: the skin is 1.5 times as long along x.
+            let tr: Vec<SkinTransform> = base
+                .iter()
+                .map(|p| SkinTransform::new(Mat4::from_translation(Vec3::new(0.5 * p.x, 0.0, 0.0)), Vec3::ZERO))
+                .collect();
+            sim.pose_skin(&tr, 1.0 / 60.0, 0.0).expect("finite"); // a cut: the fur is carried
+            for _ in 0..60 {
+                sim.pose_skin(&tr, 1.0 / 60.0, f32::INFINITY).expect("finite");
+                sim.step(1.0 / 60.0).expect("stable");
+            }
+            for (s, nrm) in sim.scale_vectors().iter().zip(sim.shell_normals()) {
+                if nrm != [0.0; 3] {
+                    let c = Vec3::from(*s).normalize().dot(Vec3::from(nrm));
+                    assert!(c > 0.9995, "{kind} / {}: a hair leans {:.2}° off its normal", solver.name(), c.acos().to_degrees());
+                }
+            }
+        }
+    }
+}
+
 #[test]
 fn bad_poses_are_refused_and_change_nothing() {
     let mesh = meshes::icosphere(1, 0.1);

@@ -52,6 +52,8 @@ use crate::sentinel::NONE;
 struct Link {
     a: u32,
     b: u32,
+    /// The adjacency entry of `a` it was made from (its rest length follows that entry's).
+    e: u32,
     rest: f32,
     /// Compliance `1/k` (zero for a stick; infinite for a link without stiffness).
     compliance: f32,
@@ -90,6 +92,8 @@ pub(crate) struct XpbdScratch {
     lambda_damp: Vec<Vec3A>,
     /// The step the links' per-step coefficients are for (NaN before the first).
     h: f32,
+    /// The model's `rest_version` the links' rest lengths were copied at.
+    rest_version: u64,
     /// The displacement iterate `Δx`, updated in place colour by colour.
     dx: Vec<Vec3A>,
 }
@@ -100,7 +104,7 @@ impl XpbdScratch {
         let nf = model.n_free;
         let mut links = Vec::new();
         for k in 0..nf {
-            for a in model.adj_of(k) {
+            for (i, a) in model.adj_of(k).iter().enumerate() {
                 let j = a.other as usize;
                 if j < nf && j <= k {
                     continue; // listed from its lower end
@@ -119,6 +123,7 @@ impl XpbdScratch {
                 links.push(Link {
                     a: k as u32,
                     b: a.other,
+                    e: model.adj_start[k] + i as u32,
                     rest: a.rest,
                     compliance,
                     c: a.c,
@@ -187,6 +192,7 @@ impl XpbdScratch {
             links: ordered,
             colour_start,
             h: f32::NAN,
+            rest_version: model.rest_version,
             dx: vec![Vec3A::ZERO; nf],
         }
     }
@@ -203,6 +209,10 @@ pub(crate) fn xpbd_step(step: Step, iterations: u32, s: &mut XpbdScratch) -> Ste
     if s.h.to_bits() != h.to_bits() {
         s.links.iter_mut().for_each(|l| l.set_step(h));
         s.h = h;
+    }
+    if s.rest_version != model.rest_version {
+        s.links.iter_mut().for_each(|l| l.rest = model.adj[l.e as usize].rest);
+        s.rest_version = model.rest_version;
     }
     // 2. Project, colour by colour, in place.
     let colours = s.colour_start.len().saturating_sub(1);
