@@ -22,6 +22,7 @@ use furbake_sim::{
     StepStats, TopologyKind,
 };
 use glam::{Mat4, Vec3};
+use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::animation::Animator;
@@ -228,6 +229,19 @@ struct WorldPack {
     /// Model matrix and mesh frame at the start of the current step (computed once per step,
     /// read by every fur stage).
     step_frame: (Mat4, MeshFrame),
+    /// This pack's planned stages in run order: the index in [`World::stages`], the kind, runs
+    /// and total wall time.
+    stage_runs: Vec<(usize, StageKind, u64, Duration)>,
+    /// The error this pack's stages ended the current step with (reported by [`World::step`] in
+    /// pack order, so the same error whichever worker ran first).
+    failed: Option<RuntimeError>,
+}
+
+/// What a pack's stages read besides their own pack: the same for every pack in a step.
+struct StepInputs<'a> {
+    effects: &'a Effects,
+    on: ForcesOn,
+    interaction_point_m: Option<Vec3>,
 }
 
 impl WorldPack {
@@ -251,7 +265,6 @@ pub struct World {
     scene: Scene,
     packs: Vec<WorldPack>,
     stages: Vec<PlannedStage>,
-    stats: Vec<(u64, Duration)>,
     /// The scene's events in time order (stable among equal times); `next_event` is the first
     /// not yet applied.
     events: Vec<Event>,
@@ -381,6 +394,8 @@ impl World {
             };
             let model = sp.model_at(0.0);
             let step_frame = (model, MeshFrame::of(model));
+            let stage_runs =
+                stages.iter().enumerate().filter(|(_, s)| s.pack == i).map(|(k, s)| (k, s.kind, 0, Duration::ZERO)).collect();
             world_packs.push(WorldPack {
                 scene: sp,
                 host: None,
@@ -390,10 +405,11 @@ impl World {
                 grass,
                 anim,
                 step_frame,
+                stage_runs,
+                failed: None,
             });
         }
         let interaction_point_m = scene.effects.interaction.and_then(|i| i.position).map(Vec3::from);
-        let stats = vec![(0, Duration::ZERO); stages.len()];
         let mut events = scene.events.clone();
         events.sort_by(|a, b| a.at_s().total_cmp(&b.at_s()));
         let effects_backup = scene.effects.clone();
@@ -401,7 +417,6 @@ impl World {
             scene,
             packs: world_packs,
             stages,
-            stats,
             events,
             next_event: 0,
             forces_on: ForcesOn::ALL,
@@ -411,8 +426,13 @@ impl World {
             steps: 0,
         };
         world.apply_events(0.0)?;
-        for i in 0..world.packs.len() {
-            world.update_grass(i, 0.0);
+        let inputs = StepInputs {
+            effects: &world.scene.effects,
+            on: world.forces_on,
+            interaction_point_m: world.interaction_point_m,
+        };
+        for p in &mut world.packs {
+            update_grass(p, &inputs, 0.0);
         }
         Ok(world)
     }
@@ -436,12 +456,12 @@ impl World {
     pub fn stage_stats(&self) -> Vec<StageStats> {
         self.stages
             .iter()
-            .zip(&self.stats)
-            .map(|(s, &(runs, total))| StageStats {
-                name: s.kind.name(),
-                pack: self.packs[s.pack].scene.name.clone(),
-                runs,
-                total,
+            .enumerate()
+            .map(|(k, s)| {
+                let p = &self.packs[s.pack];
+                let (runs, total) =
+                    p.stage_runs.iter().find(|r| r.0 == k).map_or((0, Duration::ZERO), |r| (r.2, r.3));
+                StageStats { name: s.kind.name(), pack: p.scene.name.clone(), runs, total }
             })
             .collect()
     }
@@ -626,23 +646,44 @@ impl World {
     }
 
     /// Advances the scene by one `time_step_s`: applies the events due at the step's start,
-    /// then runs every planned stage once. After an error (a simulation that refuses its step or
-    /// turns non-finite) the world is left mid-step and should be dropped.
+    /// then runs every planned stage once. A scene of several packs steps them side by side on
+    /// the current rayon thread pool (call it inside a host's own pool with `pool.install`); the
+    /// results are the same for any number of threads, and nothing is allocated per step. After
+    /// an error (a simulation that refuses its step or turns non-finite) the world is left
+    /// mid-step and should be dropped; the error is the first pack's, in scene order.
     pub fn step(&mut self) -> Result<(), RuntimeError> {
         let dt = self.scene.time_step_s as f64;
         let t = self.time_s;
         self.apply_events(t)?;
-        for p in &mut self.packs {
+        let inputs = StepInputs {
+            effects: &self.scene.effects,
+            on: self.forces_on,
+            interaction_point_m: self.interaction_point_m,
+        };
+        let run = |p: &mut WorldPack| {
             let model = p.model_at(t);
             p.step_frame = (model, MeshFrame::of(model));
+            for i in 0..p.stage_runs.len() {
+                let started = Instant::now();
+                if let Err(e) = run_stage(p, &inputs, p.stage_runs[i].1, t, dt) {
+                    p.failed = Some(e);
+                    return;
+                }
+                let r = &mut p.stage_runs[i];
+                r.2 += 1;
+                r.3 += started.elapsed();
+            }
+        };
+        // A step's stages read nothing of another pack, so the packs step side by side, one per
+        // worker (the characters of a crowd scale with the cores); each pack's arithmetic is the
+        // same on any worker, so the results are identical for any thread count.
+        if self.packs.len() > 1 {
+            self.packs.par_iter_mut().for_each(run);
+        } else {
+            self.packs.iter_mut().for_each(run);
         }
-        for k in 0..self.stages.len() {
-            let (kind, pack) = (self.stages[k].kind, self.stages[k].pack);
-            let started = Instant::now();
-            self.run_stage(kind, pack, t, dt)?;
-            let s = &mut self.stats[k];
-            s.0 += 1;
-            s.1 += started.elapsed();
+        if let Some(e) = self.packs.iter_mut().find_map(|p| p.failed.take()) {
+            return Err(e);
         }
         self.time_s = (self.steps + 1) as f64 * dt;
         self.steps += 1;
@@ -687,85 +728,82 @@ impl World {
         Ok(())
     }
 
-    fn run_stage(&mut self, kind: StageKind, index: usize, t: f64, dt: f64) -> Result<(), RuntimeError> {
-        if kind == StageKind::GrassForces {
-            self.update_grass(index, t + dt);
-            return Ok(());
-        }
-        if kind == StageKind::Animation {
-            let p = &mut self.packs[index];
-            let Some(anim) = p.anim.as_mut() else { return Ok(()) };
-            anim.advance(dt as f32);
-            let path = p.pack.display_path();
-            anim.update().map_err(|source| RuntimeError::Animation { path, source })?;
-            // The cut speed is in world metres per second; the skin moves in the mesh frame,
-            // which the pack's uniform scale maps to the world.
-            let cut = p.scene.animation.as_ref().map_or(f32::INFINITY, |a| a.cut_speed_m_per_s) / p.step_frame.1.scale;
-            if let Some(fur) = p.fur.as_mut() {
-                fur.follow(anim, dt, cut, &p.scene.path)?;
-            }
-            return Ok(());
-        }
-        let (effects, on) = (&self.scene.effects, self.forces_on);
-        let p = &mut self.packs[index];
-        let (model, mesh_frame) = p.step_frame;
-        let path = (kind == StageKind::FurObjectMotion).then(|| frame::path_motion(|t| p.motion_at(t), t, dt));
-        // Only fur stages remain; the planner builds them only for packs with a simulation.
-        let Some(fur) = p.fur.as_mut() else { return Ok(()) };
-        let Some(sim) = fur.sim.as_mut() else { return Ok(()) };
-        match kind {
-            StageKind::FurObjectMotion => {
-                sim.forces.motion = match (effects.object_motion, on.has(Effect::ObjectMotion), path) {
-                    (Some(m), true, Some(motion)) => frame::frame_motion(&motion, &mesh_frame, m.inertia_scale),
-                    _ => FrameMotion::default(),
-                };
-            }
-            StageKind::FurGravity => {
-                let g =
-                    effects.gravity.filter(|_| on.has(Effect::Gravity)).map_or([0.0; 3], |g| g.acceleration_m_per_s2);
-                sim.forces.gravity_m_per_s2 = mesh_frame.vector(Vec3::from(g)).to_array();
-            }
-            StageKind::FurWind => {
-                let origin = model.transform_point3(Vec3::ZERO);
-                sim.forces.wind = Some(frame::fur_wind(effects, on, origin, &mesh_frame));
-            }
-            StageKind::FurInteraction => {
-                sim.forces.local.clear();
-                if let (Some(it), Some(point), true) =
-                    (effects.interaction, self.interaction_point_m, on.has(Effect::Interaction))
-                {
-                    sim.forces.local.push(frame::interaction_force(&it, point, &mesh_frame));
-                }
-            }
-            StageKind::FurSolver => {
-                let path = &p.scene.path;
-                let err = |source: SimError| RuntimeError::Simulation { path: path.clone(), source };
-                sim.forces.restoring_weight_n = frame::restoring_weight(effects, &mesh_frame);
-                sim.simulator.set_forces_from(&sim.forces).map_err(err)?;
-                sim.last = sim.simulator.step(dt).map_err(err)?;
-            }
-            StageKind::FurScaleVectors => {
-                let path = &p.scene.path;
-                let err = |source: SimError| RuntimeError::Simulation { path: path.clone(), source };
-                sim.simulator.write_scale_vectors(&mut fur.scale_vectors).map_err(err)?;
-                fill_rest(&mut fur.scale_vectors, &fur.rest);
-            }
-            StageKind::GrassForces | StageKind::Animation => unreachable!("handled above"),
-        }
-        Ok(())
-    }
+}
 
-    /// Recomputes the grass field of pack `index` for time `t` (no-op without a grass stage).
-    fn update_grass(&mut self, index: usize, t: f64) {
-        let (effects, on) = (&self.scene.effects, self.forces_on);
-        let p = &mut self.packs[index];
-        let model = p.model_at(t);
-        let Some(g) = p.grass.as_mut() else { return };
-        frame::grass_force_scene(effects, on, t, &MeshFrame::of(model), &mut g.scene);
-        g.field.update(&g.scene);
-        for (out, f) in g.corner_forces.iter_mut().zip(&g.field.corner_forces) {
-            *out = f.to_array();
+/// Runs one stage of pack `p` for the step from `t` to `t + dt`.
+fn run_stage(p: &mut WorldPack, inputs: &StepInputs, kind: StageKind, t: f64, dt: f64) -> Result<(), RuntimeError> {
+    if kind == StageKind::GrassForces {
+        update_grass(p, inputs, t + dt);
+        return Ok(());
+    }
+    if kind == StageKind::Animation {
+        let Some(anim) = p.anim.as_mut() else { return Ok(()) };
+        anim.advance(dt as f32);
+        let path = p.pack.display_path();
+        anim.update().map_err(|source| RuntimeError::Animation { path, source })?;
+        // The cut speed is in world metres per second; the skin moves in the mesh frame,
+        // which the pack's uniform scale maps to the world.
+        let cut = p.scene.animation.as_ref().map_or(f32::INFINITY, |a| a.cut_speed_m_per_s) / p.step_frame.1.scale;
+        if let Some(fur) = p.fur.as_mut() {
+            fur.follow(anim, dt, cut, &p.scene.path)?;
         }
+        return Ok(());
+    }
+    let (effects, on) = (inputs.effects, inputs.on);
+    let (model, mesh_frame) = p.step_frame;
+    let path = (kind == StageKind::FurObjectMotion).then(|| frame::path_motion(|t| p.motion_at(t), t, dt));
+    // Only fur stages remain; the planner builds them only for packs with a simulation.
+    let Some(fur) = p.fur.as_mut() else { return Ok(()) };
+    let Some(sim) = fur.sim.as_mut() else { return Ok(()) };
+    match kind {
+        StageKind::FurObjectMotion => {
+            sim.forces.motion = match (effects.object_motion, on.has(Effect::ObjectMotion), path) {
+                (Some(m), true, Some(motion)) => frame::frame_motion(&motion, &mesh_frame, m.inertia_scale),
+                _ => FrameMotion::default(),
+            };
+        }
+        StageKind::FurGravity => {
+            let g = effects.gravity.filter(|_| on.has(Effect::Gravity)).map_or([0.0; 3], |g| g.acceleration_m_per_s2);
+            sim.forces.gravity_m_per_s2 = mesh_frame.vector(Vec3::from(g)).to_array();
+        }
+        StageKind::FurWind => {
+            let origin = model.transform_point3(Vec3::ZERO);
+            sim.forces.wind = Some(frame::fur_wind(effects, on, origin, &mesh_frame));
+        }
+        StageKind::FurInteraction => {
+            sim.forces.local.clear();
+            if let (Some(it), Some(point), true) =
+                (effects.interaction, inputs.interaction_point_m, on.has(Effect::Interaction))
+            {
+                sim.forces.local.push(frame::interaction_force(&it, point, &mesh_frame));
+            }
+        }
+        StageKind::FurSolver => {
+            let path = &p.scene.path;
+            let err = |source: SimError| RuntimeError::Simulation { path: path.clone(), source };
+            sim.forces.restoring_weight_n = frame::restoring_weight(effects, &mesh_frame);
+            sim.simulator.set_forces_from(&sim.forces).map_err(err)?;
+            sim.last = sim.simulator.step(dt).map_err(err)?;
+        }
+        StageKind::FurScaleVectors => {
+            let path = &p.scene.path;
+            let err = |source: SimError| RuntimeError::Simulation { path: path.clone(), source };
+            sim.simulator.write_scale_vectors(&mut fur.scale_vectors).map_err(err)?;
+            fill_rest(&mut fur.scale_vectors, &fur.rest);
+        }
+        StageKind::GrassForces | StageKind::Animation => unreachable!("handled above"),
+    }
+    Ok(())
+}
+
+/// Recomputes the grass field of pack `p` for time `t` (no-op without a grass stage).
+fn update_grass(p: &mut WorldPack, inputs: &StepInputs, t: f64) {
+    let model = p.model_at(t);
+    let Some(g) = p.grass.as_mut() else { return };
+    frame::grass_force_scene(inputs.effects, inputs.on, t, &MeshFrame::of(model), &mut g.scene);
+    g.field.update(&g.scene);
+    for (out, f) in g.corner_forces.iter_mut().zip(&g.field.corner_forces) {
+        *out = f.to_array();
     }
 }
 
