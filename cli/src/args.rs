@@ -101,7 +101,9 @@ const BATCH_HELP: &str = "The batch file (paths relative to it):
 
 An asset is skipped when its pack's manifest records this furbake version, the same resolved
 settings and the same bytes for every file the bake read (--force bakes anyway). Every asset's
-settings are checked before anything is baked (exit 2). Exit codes: 0 all baked or skipped,
+settings are checked before anything is baked (exit 2). `--shard K/N` then bakes only the assets
+whose output path (as the batch file spells it) hashes to slice K of N: run it with K = 1..N on N
+machines and together they bake the whole batch. Exit codes: 0 all baked or skipped,
 1 some asset failed (the others are still written) or the batch file is bad, 2 bad flags or
 settings.";
 
@@ -116,6 +118,12 @@ pub struct BatchArgs {
     /// Bake every asset, even those whose pack is up to date.
     #[arg(long)]
     pub force: bool,
+    /// Bake only shard K of N (1 ≤ K ≤ N), e.g. `--shard 2/4` on the second of four machines:
+    /// an asset's shard follows from its output path alone (relative to the batch file), so it
+    /// stays put when other assets are added, removed or reordered, and the N shards together
+    /// bake every asset once. The whole batch is still checked first.
+    #[arg(long, value_name = "K/N", value_parser = parse_shard)]
+    pub shard: Option<Shard>,
 }
 
 /// `furbake bake`
@@ -436,6 +444,24 @@ xvfb-run -a furbake view SCENE.toml --frames 30 --screenshot shot.png
 
 Exit codes: 0 success, 1 bad input or invalid file (the message names the file and the problem), or no display or
 GPU, 2 usage error.";
+
+/// One slice of a batch: shard `index` (1-based) of `count`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Shard {
+    pub index: u64,
+    pub count: u64,
+}
+
+/// `K/N` with `1 ≤ K ≤ N` → a [`Shard`].
+pub fn parse_shard(s: &str) -> Result<Shard, String> {
+    let bad = || format!("{s:?} is not K/N with 1 ≤ K ≤ N (e.g. 2/4)");
+    let (k, n) = s.split_once('/').ok_or_else(bad)?;
+    let (index, count): (u64, u64) = (k.trim().parse().map_err(|_| bad())?, n.trim().parse().map_err(|_| bad())?);
+    if index == 0 || index > count {
+        return Err(bad());
+    }
+    Ok(Shard { index, count })
+}
 
 /// `4096`, `64K`, `512M`, `2G` (powers of 1024) → bytes.
 pub fn parse_bytes(s: &str) -> Result<u64, String> {

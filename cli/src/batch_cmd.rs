@@ -1,10 +1,11 @@
-//! `furbake batch ASSETS.toml [-j N]`: many bakes from one file — shared defaults, per-asset
+//! `furbake batch ASSETS.toml [-j N] [--shard K/N]`: many bakes from one file — shared defaults, per-asset
 //! overrides — planned as a whole first (a bad setting anywhere exits 2 before anything is
 //! baked), then baked `-j` at a time. An asset whose pack is up to date (its manifest records the
 //! same tool version, the same resolved settings and the same bytes for every input file) is
 //! skipped. One progress bar over the assets on a terminal, then one summary line per asset in
 //! file order; exit 1 when any asset failed, after every other asset was written. Packs do not
-//! depend on `-j`.
+//! depend on `-j`. `--shard K/N` bakes one deterministic slice (by output path) after checking
+//! the whole batch, so N machines of a CI matrix or a farm split a batch between them.
 
 use std::io::{IsTerminal, Read};
 use std::path::{Path, PathBuf};
@@ -111,6 +112,9 @@ pub(crate) struct BatchFile {
 struct Planned {
     input: PathBuf,
     output: PathBuf,
+    /// The output path as the batch file spells it, relative to the batch file, with `/`
+    /// separators: what decides the asset's shard.
+    shard_key: String,
     config: Option<PathBuf>,
     asset_root: Option<PathBuf>,
     depfile: Option<PathBuf>,
@@ -145,7 +149,11 @@ pub fn run(args: BatchArgs, quiet: bool) -> Result<(), Failure> {
     if file.assets.is_empty() {
         return Err(Failure::Input(anyhow!("{}: lists no [[asset]]", args.file.display())));
     }
-    let (plans, files) = plan(&file, &base, &args.file)?;
+    let (mut plans, files) = plan(&file, &base, &args.file)?;
+    let whole = plans.len();
+    if let Some(shard) = args.shard {
+        plans.retain(|p| shard_of(&p.shard_key, shard.count) == shard.index);
+    }
     let jobs = args.jobs.map_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()), usize::from);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(jobs)
@@ -198,7 +206,8 @@ pub fn run(args: BatchArgs, quiet: bool) -> Result<(), Failure> {
         }
     }
     if !quiet || failed > 0 {
-        eprintln!("{} assets: {baked} baked, {skipped} skipped, {failed} failed", plans.len());
+        let of = args.shard.map_or_else(String::new, |s| format!(" (shard {}/{} of {whole})", s.index, s.count));
+        eprintln!("{} assets{of}: {baked} baked, {skipped} skipped, {failed} failed", plans.len());
     }
     if failed > 0 {
         return Err(Failure::Input(anyhow!("{}: {failed} of {} assets failed", args.file.display(), plans.len())));
@@ -206,12 +215,20 @@ pub fn run(args: BatchArgs, quiet: bool) -> Result<(), Failure> {
     Ok(())
 }
 
+/// The shard (1-based, of `count`) an asset with output `key` belongs to: the first eight bytes
+/// of the key's SHA-256 as a little-endian number, modulo `count` — the same on every machine and
+/// for any order of the batch file, and even in expectation.
+fn shard_of(key: &str, count: u64) -> u64 {
+    let digest = Sha256::digest(key.as_bytes());
+    let first: [u8; 8] = digest[..8].try_into().expect("a SHA-256 digest has 32 bytes");
+    u64::from_le_bytes(first) % count + 1
+}
+
 /// Resolves every asset's paths and settings before anything is baked, and checks the outputs
 /// of the whole batch ([`Files`]): no pack or depfile is the batch file, any asset's input or
 /// config, or another output (compared as resolved files), or a device, FIFO or directory.
 fn plan(file: &BatchFile, base: &Path, batch: &Path) -> Result<(Vec<Planned>, Files), Failure> {
     let d = file.defaults.common();
-    let out_dir = file.defaults.out_dir.as_ref().map_or_else(|| base.to_path_buf(), |o| base.join(o));
     let mut plans: Vec<Planned> = Vec::with_capacity(file.assets.len());
     for (i, a) in file.assets.iter().enumerate() {
         let c = a.common();
@@ -236,13 +253,17 @@ fn plan(file: &BatchFile, base: &Path, batch: &Path) -> Result<(Vec<Planned>, Fi
         }
         let settings = settings.plan().map_err(|e| anyhow!("{}: {e}", what())).usage()?;
         let input = base.join(&a.input);
-        let output = match &a.output {
-            Some(o) => base.join(o),
+        let relative_output = match &a.output {
+            Some(o) => o.clone(),
             None => {
                 let stem = a.input.file_stem().ok_or_else(|| anyhow!("{}: input has no file name", what())).usage()?;
-                out_dir.join(format!("{}.fbk", stem.to_string_lossy()))
+                let name = format!("{}.fbk", stem.to_string_lossy());
+                file.defaults.out_dir.as_ref().map_or_else(|| PathBuf::from(&name), |o| o.join(&name))
             }
         };
+        let output = base.join(&relative_output);
+        let shard_key =
+            relative_output.components().map(|c| c.as_os_str().to_string_lossy()).collect::<Vec<_>>().join("/");
         let max_memory = match c.max_memory.or(d.max_memory) {
             Some(v) => crate::args::parse_bytes(v).map_err(|e| anyhow!("{}: max_memory: {e}", what())).usage()?,
             None => crate::args::DEFAULT_MAX_MEMORY,
@@ -250,7 +271,7 @@ fn plan(file: &BatchFile, base: &Path, batch: &Path) -> Result<(Vec<Planned>, Fi
         let depfile =
             c.depfile.or(d.depfile).unwrap_or(false).then(|| PathBuf::from(format!("{}.d", output.display())));
         let asset_root = c.asset_root.as_ref().or(d.asset_root.as_ref()).map(|p| base.join(p));
-        plans.push(Planned { input, output, config, asset_root, depfile, max_memory, settings });
+        plans.push(Planned { input, output, shard_key, config, asset_root, depfile, max_memory, settings });
     }
     let mut files = Files::with_inputs(std::iter::once(batch));
     for p in &plans {

@@ -1,7 +1,7 @@
 //! `furbake batch`: every real fixture baked from one file, a second run skips them all, a
 //! changed texture or setting rebakes only its asset, packs do not depend on `-j`, a failing
-//! asset fails the batch without stopping the others, and a bad setting anywhere stops the batch
-//! before anything is baked.
+//! asset fails the batch without stopping the others, a bad setting anywhere stops the batch
+//! before anything is baked, and the shards of a batch together bake exactly the whole batch.
 
 use std::path::{Path, PathBuf};
 
@@ -139,4 +139,56 @@ fn a_bad_setting_anywhere_stops_the_batch_before_any_bake() {
     let out = furbake(&["batch", s(&dir.path().join("typo.toml"))]);
     assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
     assert!(stderr(&out).contains("typo.toml"), "{}", stderr(&out));
+}
+
+/// `--shard K/N`: the shards of a batch bake disjoint slices whose union is byte for byte the
+/// whole batch; an asset keeps its shard when the batch file lists its assets in another order
+/// (and with other assets around it); bad slices are usage errors.
+#[test]
+fn shards_bake_disjoint_slices_whose_union_is_the_whole_batch() {
+    let whole = tempfile::tempdir().unwrap();
+    let inputs = copy_fixtures(whole.path());
+    let file = batch_file(whole.path(), &inputs, "");
+    assert_ok(&furbake(&["batch", s(&file), "-q"]), "the whole batch");
+    let all = packs(whole.path());
+    let mut union: Vec<(String, Vec<u8>)> = Vec::new();
+    let mut shard_of = std::collections::BTreeMap::new();
+    for k in 1..=3 {
+        let dir = tempfile::tempdir().unwrap();
+        copy_fixtures(dir.path());
+        let file = batch_file(dir.path(), &inputs, "");
+        let out = furbake(&["batch", s(&file), "--shard", &format!("{k}/3")]);
+        assert_ok(&out, "a shard");
+        assert!(stderr(&out).contains(&format!("(shard {k}/3 of {})", inputs.len())), "{}", stderr(&out));
+        std::fs::create_dir_all(dir.path().join("packs")).unwrap();
+        for (name, bytes) in packs(dir.path()) {
+            assert!(shard_of.insert(name.clone(), k).is_none(), "{name} baked by two shards");
+            union.push((name, bytes));
+        }
+    }
+    union.sort();
+    assert_eq!(union.len(), all.len(), "every asset is in one shard");
+    assert!(union == all, "the shards' packs differ from the whole batch's");
+    assert!(shard_of.values().collect::<std::collections::BTreeSet<_>>().len() > 1, "one shard took everything");
+    // Reversed order, one asset dropped and another added: the remaining assets keep their shard.
+    let dir = tempfile::tempdir().unwrap();
+    copy_fixtures(dir.path());
+    let mut other: Vec<String> = inputs[1..].iter().rev().cloned().collect();
+    std::fs::copy(dir.path().join("Box.glb"), dir.path().join("extra.glb")).unwrap();
+    other.insert(2, "extra.glb".into());
+    let file = batch_file(dir.path(), &other, "");
+    for k in 1..=3 {
+        let _ = std::fs::remove_dir_all(dir.path().join("packs"));
+        assert_ok(&furbake(&["batch", s(&file), "-q", "--shard", &format!("{k}/3")]), "a shard of the reordered batch");
+        std::fs::create_dir_all(dir.path().join("packs")).unwrap();
+        for (name, _) in packs(dir.path()) {
+            if let Some(&was) = shard_of.get(&name) {
+                assert_eq!(was, k, "{name} moved from shard {was} to {k}");
+            }
+        }
+    }
+    for bad in ["0/3", "4/3", "1/0", "2", "a/b", "-1/3"] {
+        let out = furbake(&["batch", s(&file), "--shard", bad]);
+        assert_eq!(out.status.code(), Some(2), "--shard {bad}: {}", stderr(&out));
+    }
 }
