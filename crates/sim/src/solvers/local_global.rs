@@ -35,7 +35,7 @@
 
 use glam::{DVec3, Vec3A};
 
-use super::chunks::{CHUNK, chunk_for_each};
+use super::chunks::{CHUNK, PARALLEL_MIN, chunk_for_each};
 use super::fused::finish_step;
 use super::ldlt::Ldlt;
 use super::{Step, StepOutcome, external, restoring};
@@ -153,10 +153,19 @@ pub(crate) fn local_global_step(
         local_step(model, x, h2, s);
         let LocalGlobalScratch { ldlt, rhs, sol: [s0, s1, s2], work: [w0, w1, w2], .. } = &mut *s;
         let (ldlt, rhs) = (&*ldlt, &*rhs);
-        rayon::join(
-            || ldlt.solve(|i| rhs[i].x, s0, w0),
-            || rayon::join(|| ldlt.solve(|i| rhs[i].y, s1, w1), || ldlt.solve(|i| rhs[i].z, s2, w2)),
-        );
+        if nf < PARALLEL_MIN {
+            // A small model: handing three short solves to the pool costs more than they do
+            // (measured on the walking Fox, 290 free masses: most of the step was the caller
+            // sleeping and waking).
+            ldlt.solve(|i| rhs[i].x, s0, w0);
+            ldlt.solve(|i| rhs[i].y, s1, w1);
+            ldlt.solve(|i| rhs[i].z, s2, w2);
+        } else {
+            rayon::join(
+                || ldlt.solve(|i| rhs[i].x, s0, w0),
+                || rayon::join(|| ldlt.solve(|i| rhs[i].y, s1, w1), || ldlt.solve(|i| rhs[i].z, s2, w2)),
+            );
+        }
         for (k, u) in s.u[..nf].iter_mut().enumerate() {
             *u = DVec3::new(s.sol[0][k], s.sol[1][k], s.sol[2][k]);
         }
