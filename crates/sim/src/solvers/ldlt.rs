@@ -12,6 +12,8 @@
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
+use glam::DVec3;
+
 /// Marks "no parent" in the elimination tree.
 const ROOT: u32 = u32::MAX;
 
@@ -168,6 +170,38 @@ impl Ldlt {
         for j in 0..n {
             let wj = work[j];
             if wj != 0.0 {
+                for p in self.l_start[j] as usize..self.l_start[j + 1] as usize {
+                    work[self.l_row[p] as usize] -= self.l_val[p] * wj;
+                }
+            }
+        }
+        for j in 0..n {
+            work[j] /= self.d[j];
+        }
+        for j in (0..n).rev() {
+            let mut s = work[j];
+            for p in self.l_start[j] as usize..self.l_start[j + 1] as usize {
+                s -= self.l_val[p] * work[self.l_row[p] as usize];
+            }
+            work[j] = s;
+        }
+        for k in 0..n {
+            x[self.perm[k] as usize] = work[k];
+        }
+    }
+
+    /// [`Ldlt::solve`] for three right-hand sides at once (`b[i]`'s x, y and z), reading the
+    /// factor once: per coordinate the same operations in the same order as three `solve`s,
+    /// except that a column is applied to all three when any of them is non-zero (subtracting
+    /// `l · 0`, which can turn a `−0.0` into `+0.0` and changes nothing else).
+    pub fn solve3(&self, b: &[DVec3], x: &mut [DVec3], work: &mut [DVec3]) {
+        let n = self.n;
+        for k in 0..n {
+            work[k] = b[self.perm[k] as usize];
+        }
+        for j in 0..n {
+            let wj = work[j];
+            if wj != DVec3::ZERO {
                 for p in self.l_start[j] as usize..self.l_start[j + 1] as usize {
                     work[self.l_row[p] as usize] -= self.l_val[p] * wj;
                 }
@@ -386,6 +420,16 @@ mod tests {
                 ax += val[p] * x[col[p] as usize];
             }
             assert!((ax - b[i]).abs() < 1e-12, "row {i}: {ax} vs {}", b[i]);
+        }
+        // Three right-hand sides at once: the same solutions, bit for bit.
+        let b3: Vec<DVec3> = (0..n).map(|i| DVec3::new(b[i], (i as f64).cos() * 3.0, -(i as f64) * 0.25)).collect();
+        let (mut x3, mut w3) = (vec![DVec3::ZERO; n], vec![DVec3::ZERO; n]);
+        f.solve3(&b3, &mut x3, &mut w3);
+        for axis in 0..3 {
+            f.solve(|i| b3[i][axis], &mut x, &mut w);
+            for i in 0..n {
+                assert_eq!(x3[i][axis].to_bits(), x[i].to_bits(), "axis {axis}, unknown {i}");
+            }
         }
         // Not positive definite: refused.
         let bad: Vec<f64> = val.iter().map(|v| -v).collect();

@@ -56,10 +56,13 @@ pub(crate) struct LocalGlobalScratch {
     /// Per free mass: the constant part of the right-hand side, and the displacement iterate.
     base: Vec<DVec3>,
     u: Vec<DVec3>,
-    /// Per free mass the right-hand side; per coordinate the solution and the solver's scratch.
+    /// Per free mass the right-hand side; per coordinate the solution and the solver's scratch
+    /// (models above the parallel cut-off solve the coordinates side by side), or the scratch of
+    /// the three solved together (`work3`, below it).
     rhs: Vec<DVec3>,
     sol: [Vec<f64>; 3],
     work: [Vec<f64>; 3],
+    work3: Vec<DVec3>,
 }
 
 impl LocalGlobalScratch {
@@ -84,6 +87,7 @@ impl LocalGlobalScratch {
             rhs: vec![DVec3::ZERO; nf],
             sol: std::array::from_fn(|_| vec![0.0; nf]),
             work: std::array::from_fn(|_| vec![0.0; nf]),
+            work3: vec![DVec3::ZERO; nf],
         }
     }
 
@@ -151,21 +155,19 @@ pub(crate) fn local_global_step(
     }
     for _ in 0..iterations {
         local_step(model, x, h2, s);
+        if nf < PARALLEL_MIN {
+            // A small model: the three coordinates in one pass over the factor (handing three
+            // short solves to the pool cost more than they do: on the walking Fox, 290 free
+            // masses, most of the step was the caller sleeping and waking).
+            s.ldlt.solve3(&s.rhs, &mut s.u[..nf], &mut s.work3);
+            continue;
+        }
         let LocalGlobalScratch { ldlt, rhs, sol: [s0, s1, s2], work: [w0, w1, w2], .. } = &mut *s;
         let (ldlt, rhs) = (&*ldlt, &*rhs);
-        if nf < PARALLEL_MIN {
-            // A small model: handing three short solves to the pool costs more than they do
-            // (measured on the walking Fox, 290 free masses: most of the step was the caller
-            // sleeping and waking).
-            ldlt.solve(|i| rhs[i].x, s0, w0);
-            ldlt.solve(|i| rhs[i].y, s1, w1);
-            ldlt.solve(|i| rhs[i].z, s2, w2);
-        } else {
-            rayon::join(
-                || ldlt.solve(|i| rhs[i].x, s0, w0),
-                || rayon::join(|| ldlt.solve(|i| rhs[i].y, s1, w1), || ldlt.solve(|i| rhs[i].z, s2, w2)),
-            );
-        }
+        rayon::join(
+            || ldlt.solve(|i| rhs[i].x, s0, w0),
+            || rayon::join(|| ldlt.solve(|i| rhs[i].y, s1, w1), || ldlt.solve(|i| rhs[i].z, s2, w2)),
+        );
         for (k, u) in s.u[..nf].iter_mut().enumerate() {
             *u = DVec3::new(s.sol[0][k], s.sol[1][k], s.sol[2][k]);
         }
