@@ -18,8 +18,10 @@
 //! 6. check its size against what is needed (a buffer's declared `byteLength`, or the import's
 //!    size limit for an image) before reading, and read through `take(needed)`.
 //!
-//! The asset roots are the glTF's own directory and, when the caller names one (the CLI's
-//! `--asset-root DIR`), a wider directory for pipelines that keep textures in shared folders.
+//! The asset roots are the glTF's own directory, the directory it really lives in when the path
+//! given is a symlink to it (build sandboxes link every input: Bazel's `linux-sandbox`), and, when
+//! the caller names one (the CLI's `--asset-root DIR`), a wider directory for pipelines that keep
+//! textures in shared folders.
 
 use std::fmt;
 use std::fs::{File, OpenOptions};
@@ -172,6 +174,11 @@ pub(crate) struct ExternalFiles<'a> {
     pub base_dir: Option<&'a Path>,
     /// A wider asset root named by the caller (`--asset-root`).
     pub extra_root: Option<&'a Path>,
+    /// The directory the glTF really lives in when it was reached through a symlink (a build
+    /// system's sandbox or symlink forest links every input into a directory of its own): an
+    /// asset root too, so the glTF's own buffers and images, linked beside it the same way, are
+    /// read. The file system's layout is the user's; only the glTF's content is untrusted.
+    pub real_dir: Option<&'a Path>,
 }
 
 impl ExternalFiles<'_> {
@@ -202,6 +209,9 @@ impl ExternalFiles<'_> {
         let mut roots = vec![base.clone()];
         if let Some(extra) = self.extra_root {
             roots.push(canonical(extra)?);
+        }
+        if let Some(real) = self.real_dir {
+            roots.push(canonical(real)?);
         }
         let outside = |resolved: PathBuf| UriProblem::OutsideRoot { resolved, roots: roots.clone() };
         let lexical = join_lexically(&base, relative);

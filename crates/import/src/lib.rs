@@ -140,7 +140,12 @@ fn import_file(path: &Path, extra_root: Option<&Path>, settings: &ImportSettings
         Some(dir) if !dir.as_os_str().is_empty() => dir,
         _ => Path::new("."),
     };
-    import(&bytes, path, true, external::ExternalFiles { base_dir: Some(base_dir), extra_root }, settings)
+    let real_dir = std::fs::symlink_metadata(path)
+        .is_ok_and(|m| m.file_type().is_symlink())
+        .then(|| std::fs::canonicalize(path).ok()?.parent().map(Path::to_path_buf))
+        .flatten();
+    let files = external::ExternalFiles { base_dir: Some(base_dir), extra_root, real_dir: real_dir.as_deref() };
+    import(&bytes, path, true, files, settings)
 }
 
 /// The external files (buffers and images) the glTF at `path` names, joined to its directory,
@@ -162,7 +167,7 @@ pub fn open_recorded_input(
     asset_root: Option<&Path>,
     name: &str,
 ) -> Result<(std::fs::File, u64), UriProblem> {
-    let files = external::ExternalFiles { base_dir: Some(gltf_dir), extra_root: asset_root };
+    let files = external::ExternalFiles { base_dir: Some(gltf_dir), extra_root: asset_root, real_dir: None };
     files.open_name(name).map(|(file, len, _)| (file, len))
 }
 
@@ -175,7 +180,13 @@ pub fn import_gltf_slice(
     base_dir: Option<&Path>,
     settings: &ImportSettings,
 ) -> Result<ImportedMesh, ImportError> {
-    import(bytes, Path::new(name_for_errors), false, external::ExternalFiles { base_dir, extra_root: None }, settings)
+    import(
+        bytes,
+        Path::new(name_for_errors),
+        false,
+        external::ExternalFiles { base_dir, extra_root: None, real_dir: None },
+        settings,
+    )
 }
 
 /// `on_disk`: `file` is the path the bytes were read from (else only a name for messages).

@@ -286,6 +286,45 @@ mod unix {
         assert_eq!(checked, 4);
     }
 
+    /// A build sandbox (Bazel's `linux-sandbox`) links every declared input into a directory of
+    /// its own: a glTF reached through a symlink also reads the files beside the glTF it really
+    /// is, and still nothing else — not a symlink beside either of them that points elsewhere.
+    #[test]
+    fn a_symlinked_gltf_reads_the_files_beside_the_real_one_and_nothing_else() {
+        let tree = Tree::new();
+        std::fs::write(tree.models().join("data.bin"), SECRET).unwrap();
+        let real = tree.write_gltf(&with_external_buffer("data.bin", SECRET.len()));
+        let sandbox = tree.dir.path().join("sandbox");
+        std::fs::create_dir(&sandbox).unwrap();
+        symlink(&real, sandbox.join("m.gltf")).unwrap();
+        symlink(tree.models().join("data.bin"), sandbox.join("data.bin")).unwrap();
+        let mesh = import_gltf(&sandbox.join("m.gltf"), &ImportSettings::default()).unwrap();
+        assert_eq!(mesh.input_bytes, std::fs::metadata(&real).unwrap().len() + SECRET.len() as u64);
+        // The same glTF copied (not linked) into the sandbox: its buffer's link points outside.
+        std::fs::remove_file(sandbox.join("m.gltf")).unwrap();
+        std::fs::copy(&real, sandbox.join("m.gltf")).unwrap();
+        let problem = refusal(
+            import_gltf(&sandbox.join("m.gltf"), &ImportSettings::default()),
+            ExternalRef::Buffer(1),
+            "data.bin",
+        );
+        assert_eq!(kind(&problem), "outside");
+        // A linked glTF whose buffer's link leaves both directories: refused.
+        std::fs::remove_file(sandbox.join("m.gltf")).unwrap();
+        symlink(&real, sandbox.join("m.gltf")).unwrap();
+        std::fs::remove_file(sandbox.join("data.bin")).unwrap();
+        symlink(tree.dir.path().join("outside/secret.bin"), sandbox.join("data.bin")).unwrap();
+        let problem = refusal(
+            import_gltf(&sandbox.join("m.gltf"), &ImportSettings::default()),
+            ExternalRef::Buffer(1),
+            "data.bin",
+        );
+        assert!(
+            matches!(&problem, UriProblem::OutsideRoot { resolved, .. } if resolved.ends_with("outside/secret.bin")),
+            "{problem}"
+        );
+    }
+
     #[test]
     fn dev_zero_through_a_symlink_is_refused_even_inside_a_root() {
         let tree = Tree::new();
