@@ -36,6 +36,10 @@ deps:
 		echo "installing Xvfb (the furbake view test opens a window on a virtual X server)"; \
 		$(SUDO) apt-get update -qq && $(SUDO) apt-get install -y -qq --no-install-recommends xvfb xauth; \
 	fi
+	@if ! command -v bazel >/dev/null 2>&1 || ! command -v nginx >/dev/null 2>&1; then \
+		echo "installing Bazel and nginx (the bake-farm test bakes under Bazel with an HTTP remote cache)"; \
+		$(SUDO) apt-get update -qq && $(SUDO) apt-get install -y -qq --no-install-recommends bazel-bootstrap nginx-light; \
+	fi
 
 # The demo uses the dev profile (our crates at opt-level 1, dependencies at 2; see Cargo.toml):
 # it shares its build with `make test`, and a release build of wgpu takes ~10 minutes on 2 cores.

@@ -6,6 +6,7 @@ use std::path::Path;
 
 mod animation;
 mod batch;
+mod bazel;
 mod closed_stdout;
 mod common;
 mod confinement;

@@ -394,8 +394,12 @@ impl World {
             };
             let model = sp.model_at(0.0);
             let step_frame = (model, MeshFrame::of(model));
-            let stage_runs =
-                stages.iter().enumerate().filter(|(_, s)| s.pack == i).map(|(k, s)| (k, s.kind, 0, Duration::ZERO)).collect();
+            let stage_runs = stages
+                .iter()
+                .enumerate()
+                .filter(|(_, s)| s.pack == i)
+                .map(|(k, s)| (k, s.kind, 0, Duration::ZERO))
+                .collect();
             world_packs.push(WorldPack {
                 scene: sp,
                 host: None,
@@ -459,8 +463,7 @@ impl World {
             .enumerate()
             .map(|(k, s)| {
                 let p = &self.packs[s.pack];
-                let (runs, total) =
-                    p.stage_runs.iter().find(|r| r.0 == k).map_or((0, Duration::ZERO), |r| (r.2, r.3));
+                let (runs, total) = p.stage_runs.iter().find(|r| r.0 == k).map_or((0, Duration::ZERO), |r| (r.2, r.3));
                 StageStats { name: s.kind.name(), pack: p.scene.name.clone(), runs, total }
             })
             .collect()
@@ -727,7 +730,6 @@ impl World {
         }
         Ok(())
     }
-
 }
 
 /// Runs one stage of pack `p` for the step from `t` to `t + dt`.

@@ -240,7 +240,12 @@ fn links_between_hairs_follow_a_stretching_skin() {
             for (s, nrm) in sim.scale_vectors().iter().zip(sim.shell_normals()) {
                 if nrm != [0.0; 3] {
                     let c = Vec3::from(*s).normalize().dot(Vec3::from(nrm));
-                    assert!(c > 0.9995, "{kind} / {}: a hair leans {:.2}° off its normal", solver.name(), c.acos().to_degrees());
+                    assert!(
+                        c > 0.9995,
+                        "{kind} / {}: a hair leans {:.2}° off its normal",
+                        solver.name(),
+                        c.acos().to_degrees()
+                    );
                 }
             }
         }
