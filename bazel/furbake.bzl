@@ -32,6 +32,8 @@ def _furbake_pack_impl(ctx):
     args.add("-o", out)
     args.add("--preset", ctx.attr.preset)
     args.add("--quiet")
+    # A buffer or texture missing from `srcs` is then an error naming it, never a pack without it.
+    args.add("--strict-inputs")
     inputs = [ctx.file.src] + ctx.files.srcs
     if ctx.file.config:
         args.add("--config", ctx.file.config)

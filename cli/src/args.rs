@@ -182,6 +182,12 @@ pub struct BakeArgs {
     /// refused (exit 1).
     #[arg(long, value_name = "DIR")]
     pub asset_root: Option<PathBuf>,
+    /// Every external file the glTF names must be read: a missing or unreadable image is an
+    /// error naming the file (exit 1) instead of a warning and a pack without it. For build
+    /// systems, where a texture left out of an action's declared inputs must fail the action.
+    /// Changes no pack that is written.
+    #[arg(long)]
+    pub strict_inputs: bool,
     /// Most memory the bake may take, estimated from the settings and the imported mesh before
     /// any stage runs (bytes, or with a K, M or G suffix: powers of 1024). A plan above it exits 2
     /// naming the setting that drives most of it. Default 2G.

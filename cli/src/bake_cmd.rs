@@ -54,6 +54,7 @@ pub fn plan(args: &BakeArgs) -> Result<BakePlan, Failure> {
         settings =
             settings.with_overrides(&dotted_override(s).usage()?).map_err(|e| anyhow!("{e} (in --set {s})")).usage()?;
     }
+    settings.import.strict_inputs = args.strict_inputs;
     let plan = settings.plan().usage()?;
     check_output_paths(args)?;
     Ok(plan)

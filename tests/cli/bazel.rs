@@ -1,10 +1,11 @@
 //! Bake farms under a real Bazel (Debian's `bazel-bootstrap`; `make deps` installs it): a test
 //! workspace loads `bazel/furbake.bzl` and bakes bundled fixtures — a glTF with external buffers
 //! and textures among them — with `--spawn_strategy=sandboxed`; the packs are byte-identical to
-//! `furbake bake` of the same inputs; an action that leaves its buffer undeclared fails; changing
-//! one texture rebakes one pack; and a second, clean workspace pointed at the same remote cache
-//! (Bazel's HTTP cache protocol served by a real nginx with WebDAV on the loopback address,
-//! started and stopped here) gets every pack from the cache without running furbake.
+//! `furbake bake` of the same inputs; an action that leaves its textures undeclared fails naming
+//! the texture (the rules bake with `--strict-inputs`); changing one texture rebakes one pack;
+//! and a second, clean workspace pointed at the same remote cache (Bazel's HTTP cache protocol
+//! served by a real nginx with WebDAV on the loopback address, started and stopped here) gets
+//! every pack from the cache without running furbake.
 
 use std::net::TcpListener;
 use std::path::{Path, PathBuf};
@@ -52,10 +53,11 @@ furbake_pack(
     settings = {"volume.resolution": "16", "volume.layers": "4"},
 )
 
-# The same asset without its buffer and textures declared: the sandbox has no such files.
+# The same asset with its textures left undeclared: the sandbox has no such files.
 furbake_pack(
     name = "plane_undeclared",
     src = "TwoSidedPlane/TwoSidedPlane.gltf",
+    srcs = ["TwoSidedPlane/TwoSidedPlane.bin"],
     furbake = "//tools:furbake",
 )
 "#,
@@ -208,7 +210,7 @@ fn bazel_bakes_sandboxed_packs_rebakes_one_texture_and_shares_them_through_a_rem
         .output()
         .unwrap();
     assert!(!undeclared.status.success(), "an undeclared buffer was read: {}", stderr(&undeclared));
-    assert!(stderr(&undeclared).contains("TwoSidedPlane.bin"), "{}", stderr(&undeclared));
+    assert!(stderr(&undeclared).contains("\"TwoSidedPlane_BaseColor.png\""), "{}", stderr(&undeclared));
 
     // Nothing changed: nothing runs. One texture changed: only its pack is baked again.
     let again = bazel_build(&first, &root, &[&remote]);

@@ -151,6 +151,25 @@ fn a_directory_and_a_short_buffer_file_exit_1() {
     assert!(stderr(&out).contains("holds 10 bytes but the buffer declares byteLength 64"), "{}", stderr(&out));
 }
 
+/// A missing texture is a warning and a pack without it — unless `--strict-inputs` asks for
+/// every named file (build systems): then exit 1 naming the file, and no pack. A texture that is
+/// there bakes the same pack with and without the flag.
+#[test]
+fn strict_inputs_makes_a_missing_texture_an_error_and_changes_no_pack() {
+    let tree = Tree::new();
+    let doc = with_image("fur.png");
+    let lenient = tree.bake(&doc, &[]);
+    assert_ok(&lenient, "bake with a missing texture");
+    std::fs::remove_file(tree.pack()).unwrap();
+    let strict = tree.bake(&doc, &["--strict-inputs"]);
+    tree.assert_refused(&strict, "fur.png");
+    write_png(&tree.models().join("fur.png"));
+    assert_ok(&tree.bake(&doc, &[]), "bake with the texture");
+    let plain = std::fs::read(tree.pack()).unwrap();
+    assert_ok(&tree.bake(&doc, &["--strict-inputs"]), "strict bake with the texture");
+    assert!(std::fs::read(tree.pack()).unwrap() == plain, "--strict-inputs changed the pack");
+}
+
 #[test]
 fn asset_root_reads_a_texture_from_a_sibling_shared_folder() {
     let tree = Tree::new();

@@ -179,6 +179,8 @@ pub(crate) struct ExternalFiles<'a> {
     /// asset root too, so the glTF's own buffers and images, linked beside it the same way, are
     /// read. The file system's layout is the user's; only the glTF's content is untrusted.
     pub real_dir: Option<&'a Path>,
+    /// A missing or unreadable image is an error, not a warning ([`crate::ImportSettings::strict_inputs`]).
+    pub strict: bool,
 }
 
 impl ExternalFiles<'_> {

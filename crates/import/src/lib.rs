@@ -144,7 +144,12 @@ fn import_file(path: &Path, extra_root: Option<&Path>, settings: &ImportSettings
         .is_ok_and(|m| m.file_type().is_symlink())
         .then(|| std::fs::canonicalize(path).ok()?.parent().map(Path::to_path_buf))
         .flatten();
-    let files = external::ExternalFiles { base_dir: Some(base_dir), extra_root, real_dir: real_dir.as_deref() };
+    let files = external::ExternalFiles {
+        base_dir: Some(base_dir),
+        extra_root,
+        real_dir: real_dir.as_deref(),
+        strict: settings.strict_inputs,
+    };
     import(&bytes, path, true, files, settings)
 }
 
@@ -167,7 +172,8 @@ pub fn open_recorded_input(
     asset_root: Option<&Path>,
     name: &str,
 ) -> Result<(std::fs::File, u64), UriProblem> {
-    let files = external::ExternalFiles { base_dir: Some(gltf_dir), extra_root: asset_root, real_dir: None };
+    let files =
+        external::ExternalFiles { base_dir: Some(gltf_dir), extra_root: asset_root, real_dir: None, strict: true };
     files.open_name(name).map(|(file, len, _)| (file, len))
 }
 
@@ -184,7 +190,7 @@ pub fn import_gltf_slice(
         bytes,
         Path::new(name_for_errors),
         false,
-        external::ExternalFiles { base_dir, extra_root: None, real_dir: None },
+        external::ExternalFiles { base_dir, extra_root: None, real_dir: None, strict: settings.strict_inputs },
         settings,
     )
 }

@@ -26,6 +26,13 @@ pub struct ImportSettings {
     /// Multiply each vertex colour by the material's base colour texture sampled at the vertex
     /// (so a textured model's fur takes the texture's colour). Default true.
     pub base_color_texture: bool,
+    /// A missing or unreadable external image is an error ([`crate::ImportError::ExternalFile`])
+    /// instead of a warning (the fur then takes the base colour factor). A run option, not a
+    /// setting of the pack: it changes no pack that is written, so it is neither serialised nor
+    /// recorded (build systems set it, so that an input left out of a sandboxed action fails it).
+    #[serde(skip)]
+    #[cfg_attr(feature = "schema", schemars(skip))]
+    pub strict_inputs: bool,
 }
 
 impl Default for ImportSettings {
@@ -34,6 +41,7 @@ impl Default for ImportSettings {
             fur_mask: FurMaskSource::default(),
             weld_tolerance: WeldTolerance::default(),
             base_color_texture: true,
+            strict_inputs: false,
         }
     }
 }

@@ -4,7 +4,8 @@
 //! wrapping, sRGB decoded to linear). Images come from a buffer view (GLB), a base64 `data:` URI
 //! or a relative file inside the asset roots; PNG and JPEG decode, anything else is a warning and
 //! the factor alone. A file URI that is refused (an escape from the asset roots, a FIFO, …) is
-//! an error, like a refused buffer URI; a missing or unreadable image file stays a warning.
+//! an error, like a refused buffer URI; a missing or unreadable image file stays a warning (an
+//! error with `ImportSettings::strict_inputs`, `furbake bake --strict-inputs`).
 
 use std::collections::HashMap;
 use std::path::Path;
@@ -88,6 +89,21 @@ impl TextureCache {
                         problem: Box::new(problem),
                     });
                 }
+                Err(ImageProblem::Unreadable { uri, problem }) if external.strict => {
+                    return Err(ImportError::ExternalFile {
+                        file: file.to_path_buf(),
+                        referrer: ExternalRef::Image(image),
+                        uri,
+                        problem: Box::new(problem),
+                    });
+                }
+                Err(ImageProblem::Unreadable { uri, problem }) => {
+                    warnings.push(format!(
+                        "{}: base colour image {image} not used (uri {uri:?} {problem}); the fur takes the base colour factor",
+                        file.display()
+                    ));
+                    None
+                }
                 Err(ImageProblem::Unusable(why)) => {
                     warnings.push(format!(
                         "{}: base colour image {image} not used ({why}); the fur takes the base colour factor",
@@ -113,7 +129,10 @@ impl TextureCache {
 enum ImageProblem {
     /// Its file URI was refused: an error.
     Refused { uri: Box<str>, problem: crate::UriProblem },
-    /// Anything else (cannot decode, missing file, …): a warning.
+    /// Its file could not be read (missing, unreadable): a warning, or an error with
+    /// `strict_inputs`.
+    Unreadable { uri: Box<str>, problem: crate::UriProblem },
+    /// Anything else (cannot decode, no source, …): a warning.
     Unusable(String),
 }
 
@@ -156,7 +175,7 @@ fn image_bytes(
     let (bytes, name) = match files.read(uri, Need::Whole { limit: MAX_FILE_BYTES }) {
         Ok(read) => read,
         Err(problem) if problem.is_refusal() => return Err(ImageProblem::Refused { uri: uri.into(), problem }),
-        Err(problem) => return Err(format!("uri {uri:?} {problem}").into()),
+        Err(problem) => return Err(ImageProblem::Unreadable { uri: uri.into(), problem }),
     };
     external.push((name, bytes.clone()));
     Ok(bytes)
