@@ -163,29 +163,11 @@ impl Ldlt {
     /// Solves `A x = b` with the last factor: `b(i)` the right-hand side in the original order,
     /// `x` written in the original order, `work` (one per unknown) as scratch.
     pub fn solve(&self, b: impl Fn(usize) -> f64, x: &mut [f64], work: &mut [f64]) {
-        let n = self.n;
-        for k in 0..n {
-            work[k] = b(self.perm[k] as usize);
+        for (k, w) in work[..self.n].iter_mut().enumerate() {
+            *w = b(self.perm[k] as usize);
         }
-        for j in 0..n {
-            let wj = work[j];
-            if wj != 0.0 {
-                for p in self.l_start[j] as usize..self.l_start[j + 1] as usize {
-                    work[self.l_row[p] as usize] -= self.l_val[p] * wj;
-                }
-            }
-        }
-        for j in 0..n {
-            work[j] /= self.d[j];
-        }
-        for j in (0..n).rev() {
-            let mut s = work[j];
-            for p in self.l_start[j] as usize..self.l_start[j + 1] as usize {
-                s -= self.l_val[p] * work[self.l_row[p] as usize];
-            }
-            work[j] = s;
-        }
-        for k in 0..n {
+        self.substitute(work);
+        for k in 0..self.n {
             x[self.perm[k] as usize] = work[k];
         }
     }
@@ -195,13 +177,26 @@ impl Ldlt {
     /// except that a column is applied to all three when any of them is non-zero (subtracting
     /// `l · 0`, which can turn a `−0.0` into `+0.0` and changes nothing else).
     pub fn solve3(&self, b: &[DVec3], x: &mut [DVec3], work: &mut [DVec3]) {
-        let n = self.n;
-        for k in 0..n {
-            work[k] = b[self.perm[k] as usize];
+        for (k, w) in work[..self.n].iter_mut().enumerate() {
+            *w = b[self.perm[k] as usize];
         }
+        self.substitute(work);
+        for k in 0..self.n {
+            x[self.perm[k] as usize] = work[k];
+        }
+    }
+
+    /// `L D Lᵀ` solved in place on `work` (permuted order): forward substitution (a column is
+    /// skipped when its value is zero), the diagonal, back substitution.
+    fn substitute<T>(&self, work: &mut [T])
+    where
+        T: Copy + Default + PartialEq + std::ops::SubAssign + std::ops::DivAssign<f64>,
+        f64: std::ops::Mul<T, Output = T>,
+    {
+        let n = self.n;
         for j in 0..n {
             let wj = work[j];
-            if wj != DVec3::ZERO {
+            if wj != T::default() {
                 for p in self.l_start[j] as usize..self.l_start[j + 1] as usize {
                     work[self.l_row[p] as usize] -= self.l_val[p] * wj;
                 }
@@ -216,9 +211,6 @@ impl Ldlt {
                 s -= self.l_val[p] * work[self.l_row[p] as usize];
             }
             work[j] = s;
-        }
-        for k in 0..n {
-            x[self.perm[k] as usize] = work[k];
         }
     }
 }
