@@ -772,14 +772,16 @@ fn render_markdown(s: &AccuracySettings, scenes: &[SceneReport], timings: &[Timi
          (at dt alone it would still be ~1e-5 m on the stiff net, above the explicit solver's error). Positions read \
          as {positions}. The reference itself is checked by `crates/sim/tests/reference_check.rs` against two \
          independent integrators written in the test: classic RK4 in f64 at 1e-6 s (the reference converges at first \
-         order: its error falls 1.75–1.98× per halving of dt) and backward Euler by dense elimination (agreement to \
-         about 1e-9 m over 1 s).\n\
+         order: its error falls 1.75–1.98× per halving of dt) and backward Euler by dense elimination (over 1 s, RMS: \
+         5e-10–1e-9 m at 1/30 s and 1/300 s, except the stiff net at 1/30 s, 1.5e-5 m, where the reference's \
+         compression floor acts).\n\
          - **XPBD's energy**: at low iteration counts XPBD leaves part of each step's stretch unresolved, so its stored \
          spring energy can exceed the work done on the fur (the hard-case tests measure up to 0.99 of the peak energy \
          on stiff chains at 8 iterations, none at 32): its errors here are what a user gets, its stability is not \
          the implicit solvers'.\n\
          - **Floor**: the reference's self-check, per scene: the difference between R from (dt, 2·dt) and R from \
-         (2·dt, 4·dt) — about 3× R's own error, so conservative — and, for comparison, the plain backward-Euler \
+         (2·dt, 4·dt) — an upper bound of R's own error, by a factor not measured here (an independent check found \
+         1.6–2.5×) — and, for comparison, the plain backward-Euler \
          difference between dt and 2·dt. A cell marked ‡ is within 2× the RMS floor: its error is the reference's \
          as much as the solver's, and the true error may be smaller.\n\
          - **Machine**: {machine}. Times move with machine load.\n",
