@@ -98,7 +98,7 @@ fn processes(out: &Output, kind: &str) -> usize {
 
 /// Bake actions that ran a process on this machine (sandboxed, whichever sandbox Bazel chose).
 fn local_bakes(out: &Output) -> usize {
-    processes(out, "linux-sandbox") + processes(out, "processwrapper-sandbox") + processes(out, "sandbox")
+    processes(out, "linux-sandbox") + processes(out, "processwrapper-sandbox")
 }
 
 /// A real nginx serving a WebDAV folder on the loopback address (what a team's HTTP cache is:

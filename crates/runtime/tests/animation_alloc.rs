@@ -70,6 +70,16 @@ fn a_frame_of_animation_allocates_nothing() {
     assert!(before > 0, "the counter counts (the import allocated)");
 }
 
+/// A temporary folder holding `ball.fbk`: a small UV sphere baked by [`bake_small_prisms`].
+fn ball_pack() -> tempfile::TempDir {
+    use furbake_import::{import_gltf_slice, testmesh};
+    let sphere = testmesh::uv_sphere(6, 8, 0.5);
+    let mesh = import_gltf_slice(&sphere.gltf, "sphere.gltf", None, &ImportSettings::default()).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    bake_small_prisms(&mesh, &dir.path().join("ball.fbk"));
+    dir
+}
+
 /// Bakes `mesh` into `pack` with small atlases (16² × 4 layers) and the prisms topology.
 fn bake_small_prisms(mesh: &furbake_import::ImportedMesh, pack: &std::path::Path) {
     use furbake_bake::{BakeSettings, NoProgress, bake};
@@ -118,12 +128,8 @@ fn an_animator_update_and_a_host_effects_edit_allocate_nothing() {
 /// and the scale vectors reuse their buffers.
 #[test]
 fn a_world_step_of_moving_fur_allocates_nothing() {
-    use furbake_import::{import_gltf_slice, testmesh};
     use furbake_runtime::{Scene, World};
-    let sphere = testmesh::uv_sphere(6, 8, 0.5);
-    let mesh = import_gltf_slice(&sphere.gltf, "sphere.gltf", None, &ImportSettings::default()).unwrap();
-    let dir = tempfile::tempdir().unwrap();
-    bake_small_prisms(&mesh, &dir.path().join("ball.fbk"));
+    let dir = ball_pack();
     let text = "time_step_s = 0.02\n[[packs]]\nname = \"ball\"\npath = \"ball.fbk\"\n\
                 [[packs.motion]]\ntime_s = 0.0\n[[packs.motion]]\ntime_s = 1.0\ntranslation = [1.0, 0.0, 0.0]\n\
                 rotation_deg = [0.0, 90.0, 0.0]\n\
@@ -146,12 +152,8 @@ fn a_world_step_of_moving_fur_allocates_nothing() {
 /// workers of a pool of its own, whatever other tests do meanwhile).
 #[test]
 fn a_world_step_of_packs_side_by_side_allocates_nothing_on_any_worker() {
-    use furbake_import::{import_gltf_slice, testmesh};
     use furbake_runtime::{Scene, World};
-    let sphere = testmesh::uv_sphere(6, 8, 0.5);
-    let mesh = import_gltf_slice(&sphere.gltf, "sphere.gltf", None, &ImportSettings::default()).unwrap();
-    let dir = tempfile::tempdir().unwrap();
-    bake_small_prisms(&mesh, &dir.path().join("ball.fbk"));
+    let dir = ball_pack();
     let mut text = String::from("time_step_s = 0.02\n");
     for i in 0..4 {
         text += &format!(
