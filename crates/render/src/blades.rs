@@ -25,6 +25,7 @@ use crate::culling::{BLOCK, BLOCKS_AT, BladeLods, CullUniforms, GrassCulling, LI
 #[cfg(feature = "testing")]
 use crate::culling::{CullLists, MAX_LODS};
 use crate::shaders::FrameUniforms;
+use crate::upload::{ExactLen, Upload};
 use crate::{PipelineCache, RenderError, TargetDesc};
 
 /// The `BladeUniforms` uniform of `blades.wgsl` (binding 1).
@@ -81,6 +82,27 @@ pub struct BladeUniforms {
     /// x gloss, y gloss exponent, z normal rounding, w edge darkening.
     pub gloss: [f32; 4],
 }
+
+/// One grass field's forces for this frame.
+#[derive(Clone, Copy, Debug)]
+pub enum BladeForces<'a> {
+    /// Cluster corner forces `(x, z)`, one per grid corner ([`BladeRenderer::set_corner_forces`]).
+    Corners(&'a [[f32; 2]]),
+    /// A CPU force field over the blade field's grid ([`BladeRenderer::set_force_field`]; its
+    /// delayed-attenuation sources are dropped: use [`BladeForces::Scene`] for those).
+    Field(&'a ForceField),
+    /// A force field updated from `scene` plus the scene's delayed-attenuation sources, evaluated
+    /// per blade on the GPU ([`BladeRenderer::set_force_scene`]).
+    Scene {
+        /// The field (`ForceField::update(scene)` already called).
+        field: &'a ForceField,
+        /// The scene it was updated from.
+        scene: &'a furbake_grass::ForceScene,
+    },
+}
+
+/// Bytes of one [`DelayedSourceGpu`].
+const DELAYED_SOURCE_BYTES: usize = std::mem::size_of::<DelayedSourceGpu>();
 
 /// One wind source with delayed attenuation as `blades.wgsl` reads it (`DelayedSource`,
 /// binding 7).
@@ -866,19 +888,19 @@ impl BladeRenderer {
     /// Writes this frame's cluster corner forces `(x, z)` (one per grid corner, force units, in
     /// the pack frame) and turns delayed-attenuation sources off for the frame.
     pub fn set_corner_forces(&self, queue: &wgpu::Queue, forces: &[[f32; 2]]) -> Result<(), RenderError> {
-        self.write_corner_forces(queue, forces.iter().copied())?;
-        self.write_delayed_count(queue, 0);
-        Ok(())
+        self.check_corner_forces(forces.iter().copied())?;
+        self.write_forces(&mut Upload::Queue(queue), BladeForces::Corners(forces))
     }
 
     /// Writes `BladeUniforms::delayed_sources` when it changes (most frames it stays 0: one upload
     /// fewer per frame).
-    fn write_delayed_count(&self, queue: &wgpu::Queue, count: u32) {
-        if self.delayed_count.swap(count, std::sync::atomic::Ordering::Relaxed) == count {
+    /// (Every frame when the frame's writes are collected: see [`Upload::collected`].)
+    fn write_delayed_count(&self, upload: &mut Upload<'_>, count: u32) {
+        if self.delayed_count.swap(count, std::sync::atomic::Ordering::Relaxed) == count && !upload.collected() {
             return;
         }
         let offset = std::mem::offset_of!(BladeUniforms, delayed_sources) as u64;
-        queue.write_buffer(&self.own.params, offset, bytemuck::bytes_of(&count));
+        upload.write(&self.own.params, offset, bytemuck::bytes_of(&count));
     }
 
     /// Most delayed-attenuation sources [`BladeRenderer::set_force_scene`] accepts on this device.
@@ -899,59 +921,111 @@ impl BladeRenderer {
         field: &ForceField,
         scene: &furbake_grass::ForceScene,
     ) -> Result<(), RenderError> {
-        if *field.grid() != self.grid {
-            return Err(RenderError::Parameter { what: "the force field's grid is not the blade field's".into() });
-        }
-        let delayed: Vec<_> = scene.sources.iter().filter(|s| s.delayed).collect();
-        if delayed.len() > self.own.delayed_capacity as usize {
-            return Err(RenderError::Parameter {
-                what: format!(
-                    "{} delayed wind sources, at most {} on this device",
-                    delayed.len(),
-                    self.own.delayed_capacity
-                ),
-            });
-        }
-        let bad = |v: &[f32]| v.iter().any(|c| !c.is_finite());
-        if delayed.iter().any(|s| bad(&s.position_m.to_array()) || bad(&[s.power, s.falloff_exponent]))
-            || bad(&[scene.sample_height_m, scene.min_distance_m])
-        {
-            return Err(RenderError::Parameter { what: "delayed wind sources must be finite".into() });
-        }
-        self.write_corner_forces(queue, field.corner_forces.iter().map(|f| f.to_array()))?;
-        let corners = self.corner_count as usize;
-        let mut directions = Vec::with_capacity(delayed.len() * corners);
-        let mut sources = Vec::with_capacity(delayed.len());
-        for s in &delayed {
-            for i in 0..corners {
-                let [x, z] = self.grid.corner_position(i as u32);
-                let p = glam::Vec3::new(x, scene.sample_height_m, z);
-                let xz = glam::Vec2::new(p.x, p.z);
-                let d = if scene.blockers.iter().any(|b| b.contains(xz)) {
-                    glam::Vec2::ZERO
-                } else {
-                    let wp = p - s.position_m;
-                    glam::Vec2::new(wp.x, wp.z).normalize_or_zero()
-                };
-                directions.push(d.to_array());
+        self.check_forces(BladeForces::Scene { field, scene })?;
+        self.write_forces(&mut Upload::Queue(queue), BladeForces::Scene { field, scene })
+    }
+
+    /// Writes the corner forces of `field` (its `corner_forces`) with no delayed-attenuation
+    /// sources; a field with delayed sources needs [`BladeRenderer::set_force_scene`].
+    pub fn set_force_field(&self, queue: &wgpu::Queue, field: &ForceField) -> Result<(), RenderError> {
+        self.check_forces(BladeForces::Field(field))?;
+        self.write_forces(&mut Upload::Queue(queue), BladeForces::Field(field))
+    }
+
+    /// The checks of [`BladeRenderer::set_corner_forces`], [`BladeRenderer::set_force_field`] and
+    /// [`BladeRenderer::set_force_scene`].
+    pub(crate) fn check_forces(&self, forces: BladeForces<'_>) -> Result<(), RenderError> {
+        match forces {
+            BladeForces::Corners(f) => self.check_corner_forces(f.iter().copied()),
+            BladeForces::Field(field) => self.check_corner_forces(field.corner_forces.iter().map(|f| f.to_array())),
+            BladeForces::Scene { field, scene } => {
+                if *field.grid() != self.grid {
+                    return Err(RenderError::Parameter {
+                        what: "the force field's grid is not the blade field's".into(),
+                    });
+                }
+                let delayed = scene.sources.iter().filter(|s| s.delayed);
+                if delayed.clone().count() > self.own.delayed_capacity as usize {
+                    return Err(RenderError::Parameter {
+                        what: format!(
+                            "{} delayed wind sources, at most {} on this device",
+                            delayed.count(),
+                            self.own.delayed_capacity
+                        ),
+                    });
+                }
+                let bad = |v: &[f32]| v.iter().any(|c| !c.is_finite());
+                if delayed.clone().any(|s| bad(&s.position_m.to_array()) || bad(&[s.power, s.falloff_exponent]))
+                    || bad(&[scene.sample_height_m, scene.min_distance_m])
+                {
+                    return Err(RenderError::Parameter { what: "delayed wind sources must be finite".into() });
+                }
+                self.check_corner_forces(field.corner_forces.iter().map(|f| f.to_array()))
             }
-            let w = s.position_m;
-            sources.push(DelayedSourceGpu {
-                position_power: [w.x, w.y, w.z, s.power],
-                params: [s.falloff_exponent, scene.min_distance_m, 0.0, 0.0],
-            });
         }
-        if !sources.is_empty() {
-            queue.write_buffer(&self.own.delayed, 0, bytemuck::cast_slice(&sources));
-            queue.write_buffer(&self.own.directions, 0, bytemuck::cast_slice(&directions));
+    }
+
+    /// Writes checked forces ([`BladeRenderer::check_forces`]) through `upload`: the corner
+    /// forces, and for a scene its delayed-attenuation sources with their per-corner directions
+    /// (computed as `ForceField::update` does: unit horizontal direction from the source to the
+    /// corner at `scene.sample_height_m`, zero inside a windless area), straight into the staging
+    /// memory.
+    pub(crate) fn write_forces(&self, upload: &mut Upload<'_>, forces: BladeForces<'_>) -> Result<(), RenderError> {
+        let to_bytes = |f: [f32; 2]| bytemuck::cast::<[f32; 2], [u8; 8]>(f);
+        match forces {
+            BladeForces::Corners(f) => {
+                upload.write_chunks(&self.own.forces, 0, f.iter().map(|&f| to_bytes(f)), "corner force")?;
+                self.write_delayed_count(upload, 0);
+            }
+            BladeForces::Field(field) => {
+                let f = field.corner_forces.iter().map(|f| to_bytes(f.to_array()));
+                upload.write_chunks(&self.own.forces, 0, f, "corner force")?;
+                self.write_delayed_count(upload, 0);
+            }
+            BladeForces::Scene { field, scene } => {
+                let f = field.corner_forces.iter().map(|f| to_bytes(f.to_array()));
+                upload.write_chunks(&self.own.forces, 0, f, "corner force")?;
+                let delayed = scene.sources.iter().filter(|s| s.delayed);
+                let count = delayed.clone().count();
+                if count > 0 {
+                    let sources = delayed.clone().map(|s| {
+                        let w = s.position_m;
+                        bytemuck::cast::<DelayedSourceGpu, [u8; DELAYED_SOURCE_BYTES]>(DelayedSourceGpu {
+                            position_power: [w.x, w.y, w.z, s.power],
+                            params: [s.falloff_exponent, scene.min_distance_m, 0.0, 0.0],
+                        })
+                    });
+                    upload.write_chunks(&self.own.delayed, 0, ExactLen(sources, count), "delayed wind source")?;
+                    let corners = self.corner_count as usize;
+                    let directions = delayed.flat_map(|s| {
+                        (0..corners).map(move |i| {
+                            let [x, z] = self.grid.corner_position(i as u32);
+                            let p = glam::Vec3::new(x, scene.sample_height_m, z);
+                            let xz = glam::Vec2::new(p.x, p.z);
+                            let d = if scene.blockers.iter().any(|b| b.contains(xz)) {
+                                glam::Vec2::ZERO
+                            } else {
+                                let wp = p - s.position_m;
+                                glam::Vec2::new(wp.x, wp.z).normalize_or_zero()
+                            };
+                            to_bytes(d.to_array())
+                        })
+                    });
+                    upload.write_chunks(
+                        &self.own.directions,
+                        0,
+                        ExactLen(directions, count * corners),
+                        "wind direction",
+                    )?;
+                }
+                self.write_delayed_count(upload, count as u32);
+            }
         }
-        self.write_delayed_count(queue, sources.len() as u32);
         Ok(())
     }
 
-    /// Checks and uploads one `(x, z)` force per grid corner, straight into the staging memory
-    /// (no allocation per frame).
-    fn write_corner_forces<I>(&self, queue: &wgpu::Queue, forces: I) -> Result<(), RenderError>
+    /// Checks one `(x, z)` force per grid corner, all finite.
+    fn check_corner_forces<I>(&self, forces: I) -> Result<(), RenderError>
     where
         I: ExactSizeIterator<Item = [f32; 2]> + Clone,
     {
@@ -960,25 +1034,9 @@ impl BladeRenderer {
                 what: format!("{} corner forces for {} grid corners", forces.len(), self.corner_count),
             });
         }
-        if forces.clone().flatten().any(|c| !c.is_finite()) {
+        if forces.flatten().any(|c| !c.is_finite()) {
             return Err(RenderError::Parameter { what: "corner forces must be finite".into() });
         }
-        const FORCE_BYTES: usize = 8;
-        let Some(size) = wgpu::BufferSize::new((forces.len() * FORCE_BYTES) as u64) else { return Ok(()) };
-        let Some(mut view) = queue.write_buffer_with(&self.own.forces, 0, size) else {
-            return Err(RenderError::Gpu { what: "the corner force upload was refused".into() });
-        };
-        for (i, f) in forces.enumerate() {
-            view.slice(i * FORCE_BYTES..(i + 1) * FORCE_BYTES).copy_from_slice(bytemuck::bytes_of(&f));
-        }
-        Ok(())
-    }
-
-    /// Writes the corner forces of `field` (its `corner_forces`) with no delayed-attenuation
-    /// sources; a field with delayed sources needs [`BladeRenderer::set_force_scene`].
-    pub fn set_force_field(&self, queue: &wgpu::Queue, field: &ForceField) -> Result<(), RenderError> {
-        self.write_corner_forces(queue, field.corner_forces.iter().map(|f| f.to_array()))?;
-        self.write_delayed_count(queue, 0);
         Ok(())
     }
 
@@ -1096,7 +1154,8 @@ impl BladeRenderer {
     /// `BladeRenderer::read_positions` (feature `testing`) stays in the pack frame. Does not submit, wait or
     /// allocate.
     pub fn prepare(&self, queue: &wgpu::Queue, encoder: &mut wgpu::CommandEncoder, frame: &FrameUniforms) {
-        self.prepare_slot(queue, encoder, 0, frame);
+        self.write_frame(&mut Upload::Queue(queue), 0, frame);
+        self.record(encoder, 0);
     }
 
     /// Writes the uniforms of view `view` (1 ≤ `view` < [`BladeRenderSettings::views`]; view 0 is
@@ -1112,7 +1171,8 @@ impl BladeRenderer {
         frame: &FrameUniforms,
     ) -> Result<(), RenderError> {
         self.check_view(view)?;
-        self.prepare_slot(queue, encoder, view, frame);
+        self.write_frame(&mut Upload::Queue(queue), view, frame);
+        self.record(encoder, view);
         Ok(())
     }
 
@@ -1123,24 +1183,29 @@ impl BladeRenderer {
         Err(crate::renderer::view_out_of_range(view, self.groups.len(), "BladeRenderSettings::views"))
     }
 
-    fn prepare_slot(
-        &self,
-        queue: &wgpu::Queue,
-        encoder: &mut wgpu::CommandEncoder,
-        view: usize,
-        frame: &FrameUniforms,
-    ) {
+    /// The writes of [`BladeRenderer::prepare_view`]: view `view`'s uniforms (with culling on,
+    /// together with the frame's culling parameters).
+    pub(crate) fn write_frame(&self, upload: &mut Upload<'_>, view: usize, frame: &FrameUniforms) {
         let buffers = &self.own.views[view];
-        if self.blade_count == 0 || self.lods.index_count[0] == 0 {
-            queue.write_buffer(&buffers.frame, 0, bytemuck::bytes_of(frame));
-            return;
-        }
-        if self.culling.enabled {
+        if self.culling.enabled && !self.draws_nothing() {
             let both = FrameAndCull { frame: *frame, pad: [0.0; CULL_PAD], cull: self.cull_params(frame) };
-            queue.write_buffer(&buffers.frame, 0, bytemuck::bytes_of(&both));
+            upload.write(&buffers.frame, 0, bytemuck::bytes_of(&both));
         } else {
             // The culling parameters (culling off) were written by `new` or `set_culling`.
-            queue.write_buffer(&buffers.frame, 0, bytemuck::bytes_of(frame));
+            upload.write(&buffers.frame, 0, bytemuck::bytes_of(frame));
+        }
+    }
+
+    /// Whether there is nothing to pose or draw (no blades, or a blade without triangles).
+    fn draws_nothing(&self) -> bool {
+        self.blade_count == 0 || self.lods.index_count[0] == 0
+    }
+
+    /// The commands of [`BladeRenderer::prepare_view`], after its writes: view `view`'s culling
+    /// (or posing) pass.
+    pub(crate) fn record(&self, encoder: &mut wgpu::CommandEncoder, view: usize) {
+        if self.draws_nothing() {
+            return;
         }
         let max = self.own.max_groups;
         let grid = |groups: u32| if groups <= max { (groups, 1) } else { (max, groups.div_ceil(max)) };
@@ -1186,7 +1251,7 @@ impl BladeRenderer {
     }
 
     fn draw(&self, pass: &mut wgpu::RenderPass<'_>, view: usize) {
-        if self.blade_count == 0 || self.lods.index_count[0] == 0 {
+        if self.draws_nothing() {
             return;
         }
         pass.set_pipeline(&self.draw_pipeline);

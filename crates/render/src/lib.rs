@@ -141,6 +141,7 @@ mod stacking;
 mod target;
 #[cfg(feature = "testing")]
 pub mod testing;
+mod upload;
 
 use furbake_runtime::{Camera, Lighting, RuntimeError};
 use glam::Vec3;
@@ -148,12 +149,12 @@ use headless::LAVAPIPE_HINT;
 use scene::RENDERER_OVERHEAD_BYTES;
 
 pub use asset::FurAsset;
-pub use blades::{BladeRenderSettings, BladeRenderer, BladeShading};
+pub use blades::{BladeForces, BladeRenderSettings, BladeRenderer, BladeShading};
 pub use culling::GrassCulling;
 pub use lod::ShellLod;
 pub use pipelines::PipelineCache;
 pub use renderer::{FurGpuAsset, FurRenderer, RenderSettings, ShellBlend};
-pub use scene::{BladeForces, PackInput, PackRenderers, SceneFrame, SceneRenderer};
+pub use scene::{PackInput, PackRenderers, SceneFrame, SceneRenderer};
 pub use shaders::FrameUniforms;
 pub use shading::FurShading;
 pub use target::{ColorTarget, DepthTarget, TargetDesc};

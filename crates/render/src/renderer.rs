@@ -31,6 +31,7 @@ use crate::shaders::{FrameUniforms, FurUniforms, SkinnedVertex, SurfaceVertex};
 #[cfg(feature = "testing")]
 use crate::shaders::{ProbeVertex, SHELL_WGSL};
 use crate::skinning::SkinningPass;
+use crate::upload::Upload;
 use crate::{FurShading, PipelineCache, RenderError, TargetDesc};
 
 /// How shell and fin fragments combine with what is behind them.
@@ -645,11 +646,30 @@ impl FurRenderer {
         skinning_matrices: &[Mat4],
         morph_weights: &[f32],
     ) -> Result<(), RenderError> {
+        self.check_pose(skinning_matrices, morph_weights)?;
+        self.write_pose(&mut Upload::Queue(queue), skinning_matrices, morph_weights)
+    }
+
+    /// The checks of [`FurRenderer::set_pose`].
+    pub(crate) fn check_pose(&self, skinning_matrices: &[Mat4], morph_weights: &[f32]) -> Result<(), RenderError> {
         match &self.skinning {
-            Some(pass) => pass.set_pose(queue, skinning_matrices, morph_weights),
+            Some(pass) => pass.check_pose(skinning_matrices, morph_weights),
             None => Err(RenderError::Parameter {
                 what: "set_pose on a static asset (the pack has no skin weights or morph targets)".into(),
             }),
+        }
+    }
+
+    /// Writes a checked pose through `upload`.
+    pub(crate) fn write_pose(
+        &self,
+        upload: &mut Upload<'_>,
+        skinning_matrices: &[Mat4],
+        morph_weights: &[f32],
+    ) -> Result<(), RenderError> {
+        match &self.skinning {
+            Some(pass) => pass.write_pose(upload, skinning_matrices, morph_weights),
+            None => Ok(()),
         }
     }
 
@@ -684,6 +704,16 @@ impl FurRenderer {
         scale_vectors: &[[f32; 3]],
         layout: ShellVertexLayout,
     ) -> Result<(), RenderError> {
+        self.check_shell_scale_vectors(scale_vectors, layout)?;
+        self.write_shell_scale_vectors(&mut Upload::Queue(queue), scale_vectors, layout)
+    }
+
+    /// The checks of [`FurRenderer::set_shell_scale_vectors`]: the count and finite values.
+    pub(crate) fn check_shell_scale_vectors(
+        &self,
+        scale_vectors: &[[f32; 3]],
+        layout: ShellVertexLayout,
+    ) -> Result<(), RenderError> {
         let (expected, what) = match layout {
             ShellVertexLayout::PerVertex => (self.gpu.vertex_count as usize, "vertices"),
             ShellVertexLayout::PerCorner => (3 * self.gpu.triangle_count as usize, "triangle corners"),
@@ -696,24 +726,24 @@ impl FurRenderer {
         if scale_vectors.iter().flatten().any(|c| !c.is_finite()) {
             return Err(RenderError::Parameter { what: "scale vectors must be finite".into() });
         }
-        let code = layout_code(layout);
-        if self.scale_layout.swap(code, Ordering::Relaxed) != code {
-            let fur = FurUniforms { scale_layout: code, ..self.fur_uniforms };
-            queue.write_buffer(&self.fur_buffer, 0, bytemuck::bytes_of(&fur));
-        }
-        // Straight into the staging memory, padded to vec4 (no allocation per frame).
-        const VECTOR_BYTES: usize = 16;
-        let Some(size) = wgpu::BufferSize::new((scale_vectors.len() * VECTOR_BYTES) as u64) else {
-            return Ok(());
-        };
-        let Some(mut view) = queue.write_buffer_with(&self.scale_buffer, 0, size) else {
-            return Err(RenderError::Gpu { what: "the scale vector upload was refused".into() });
-        };
-        for (i, s) in scale_vectors.iter().enumerate() {
-            view.slice(i * VECTOR_BYTES..(i + 1) * VECTOR_BYTES)
-                .copy_from_slice(bytemuck::bytes_of(&[s[0], s[1], s[2], 0.0f32]));
-        }
         Ok(())
+    }
+
+    /// Writes checked scale vectors through `upload`, padded to vec4, and the layout into the fur
+    /// uniforms (when it changed, or on every collected frame).
+    pub(crate) fn write_shell_scale_vectors(
+        &self,
+        upload: &mut Upload<'_>,
+        scale_vectors: &[[f32; 3]],
+        layout: ShellVertexLayout,
+    ) -> Result<(), RenderError> {
+        let code = layout_code(layout);
+        if self.scale_layout.swap(code, Ordering::Relaxed) != code || upload.collected() {
+            let fur = FurUniforms { scale_layout: code, ..self.fur_uniforms };
+            upload.write(&self.fur_buffer, 0, bytemuck::bytes_of(&fur));
+        }
+        let vectors = scale_vectors.iter().map(|s| bytemuck::cast::<[f32; 4], [u8; 16]>([s[0], s[1], s[2], 0.0]));
+        upload.write_chunks(&self.scale_buffer, 0, vectors, "scale vector")
     }
 
     /// The layout of the scale vectors last written (initially [`ShellVertexLayout::PerVertex`],
@@ -788,10 +818,22 @@ impl FurRenderer {
     /// submission. Does not submit or wait, and allocates nothing of its own (wgpu
     /// allocates inside its calls; docs/performance.md).
     pub fn prepare(&self, queue: &wgpu::Queue, encoder: &mut wgpu::CommandEncoder, frame: &FrameUniforms) {
+        self.write_frame(&mut Upload::Queue(queue), frame);
+        self.record(encoder);
+    }
+
+    /// The writes of [`FurRenderer::prepare`]: view 0's uniforms and silhouette camera.
+    pub(crate) fn write_frame(&self, upload: &mut Upload<'_>, frame: &FrameUniforms) {
+        self.views[0].write(upload, frame, self.shell_level(frame));
+    }
+
+    /// The commands of [`FurRenderer::prepare`], after its writes: the skinning dispatch and
+    /// view 0's silhouette selection.
+    pub(crate) fn record(&self, encoder: &mut wgpu::CommandEncoder) {
         if let Some(skinning) = &self.skinning {
             skinning.encode(encoder);
         }
-        self.views[0].prepare(queue, encoder, frame, self.shell_level(frame));
+        self.views[0].record(encoder);
     }
 
     /// The shells a view of `frame` draws: its level of detail ([`RenderSettings::lod`]) from the
@@ -819,7 +861,9 @@ impl FurRenderer {
         view: usize,
         frame: &FrameUniforms,
     ) -> Result<(), RenderError> {
-        self.view_slot(view)?.prepare(queue, encoder, frame, self.shell_level(frame));
+        let slot = self.view_slot(view)?;
+        slot.write(&mut Upload::Queue(queue), frame, self.shell_level(frame));
+        slot.record(encoder);
         Ok(())
     }
 
@@ -864,7 +908,8 @@ impl FurRenderer {
         if let Some(skinning) = &self.skinning {
             skinning.encode(&mut encoder);
         }
-        silhouette.encode(queue, &mut encoder, object_eye(frame));
+        silhouette.write_camera(&mut Upload::Queue(queue), object_eye(frame));
+        silhouette.record(&mut encoder);
         silhouette.copy_out(&mut encoder, &args, &instances);
         crate::blocking::submit(queue, [encoder.finish()]);
         if let Some(e) = crate::blocking::block_on(scope.pop()) {
@@ -1119,25 +1164,27 @@ impl FurRenderer {
 /// What the shell probe reads back: shell positions and hair directions, layer-major.
 type ShellProbe = (Vec<[f32; 3]>, Vec<[f32; 3]>);
 
-/// The eye of `frame` in the object frame (the inverse model matrix applied to it), where the
-/// silhouette selection compares it with the posed vertices.
 impl ViewSlot {
-    fn prepare(
-        &self,
-        queue: &wgpu::Queue,
-        encoder: &mut wgpu::CommandEncoder,
-        frame: &FrameUniforms,
-        level: crate::lod::ShellLevel,
-    ) {
+    /// Writes this view's uniforms (with its level of detail) and silhouette camera.
+    fn write(&self, upload: &mut Upload<'_>, frame: &FrameUniforms, level: crate::lod::ShellLevel) {
         self.layers.store(level.layers, Ordering::Relaxed);
         let frame = FrameUniforms { shells: level.uniform(), ..*frame };
-        queue.write_buffer(&self.frame, 0, bytemuck::bytes_of(&frame));
+        upload.write(&self.frame, 0, bytemuck::bytes_of(&frame));
         if let Some(silhouette) = &self.silhouette {
-            silhouette.encode(queue, encoder, object_eye(&frame));
+            silhouette.write_camera(upload, object_eye(&frame));
+        }
+    }
+
+    /// Records this view's silhouette fin selection.
+    fn record(&self, encoder: &mut wgpu::CommandEncoder) {
+        if let Some(silhouette) = &self.silhouette {
+            silhouette.record(encoder);
         }
     }
 }
 
+/// The eye of `frame` in the object frame (the inverse model matrix applied to it), where the
+/// silhouette selection compares it with the posed vertices.
 fn object_eye(frame: &FrameUniforms) -> Vec3 {
     let eye = Vec3::new(frame.camera_pos[0], frame.camera_pos[1], frame.camera_pos[2]);
     frame.model().inverse().transform_point3(eye)

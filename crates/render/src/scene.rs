@@ -17,7 +17,9 @@
 //!   for one [`TargetDesc`]. As middleware in a host's frame, [`SceneRenderer::prepare_world`]
 //!   uploads the world's current state — model matrices, skin poses, fur scale vectors in the
 //!   world's layout, grass corner forces plus the per-blade wind of delayed-attenuation sources
-//!   (grass thesis §4.2) — and records the skinning dispatches into the host's encoder, and
+//!   (grass thesis §4.2) — in one `queue.write_buffer` for all packs, copied into place by
+//!   commands it records into the host's encoder before the frame's compute passes (skinning,
+//!   silhouette fin selection, blade culling; docs/design.md "One upload per frame"), and
 //!   [`SceneRenderer::render`] draws every pack into the host's pass; neither submits or waits
 //!   ([`SceneRenderer::prepare`] takes explicit per-pack [`PackInput`]s instead of a world).
 //!   [`SceneRenderer::render_world`] and [`SceneRenderer::render_frame`] are the headless host of
@@ -26,15 +28,15 @@
 use std::path::PathBuf;
 
 use furbake_formats::SectionKind;
-use furbake_grass::{ForceField, ForceScene};
 use furbake_runtime::{Camera, Lighting, RenderOptions, Scene, ShellVertexLayout, World};
 use glam::{Mat4, Vec3};
 
 use crate::shaders::FrameUniforms;
 use crate::target::RenderTarget;
+use crate::upload::{FrameUpload, Upload};
 use crate::{
-    BladeRenderSettings, BladeRenderer, FurAsset, FurGpuAsset, FurRenderer, PipelineCache, RenderError, RenderSettings,
-    TargetDesc, View,
+    BladeForces, BladeRenderSettings, BladeRenderer, FurAsset, FurGpuAsset, FurRenderer, PipelineCache, RenderError,
+    RenderSettings, TargetDesc, View,
 };
 
 /// The fixed GPU (or, on lavapipe, host) memory of one fur or blade renderer beyond its data —
@@ -45,24 +47,6 @@ use crate::{
 /// 0.84 MiB per entry from 50 to 500, all of its data included; 500 Fox plus 500 grass-patch
 /// entries (1,500 renderers) took 585 MB. One MiB per renderer bounds that.
 pub const RENDERER_OVERHEAD_BYTES: u64 = 1 << 20;
-
-/// One grass field's forces for this frame.
-#[derive(Clone, Copy, Debug)]
-pub enum BladeForces<'a> {
-    /// Cluster corner forces `(x, z)`, one per grid corner ([`BladeRenderer::set_corner_forces`]).
-    Corners(&'a [[f32; 2]]),
-    /// A CPU force field over the blade field's grid ([`BladeRenderer::set_force_field`]; its
-    /// delayed-attenuation sources are dropped: use [`BladeForces::Scene`] for those).
-    Field(&'a ForceField),
-    /// A force field updated from `scene` plus the scene's delayed-attenuation sources, evaluated
-    /// per blade on the GPU ([`BladeRenderer::set_force_scene`]).
-    Scene {
-        /// The field (`ForceField::update(scene)` already called).
-        field: &'a ForceField,
-        /// The scene it was updated from.
-        scene: &'a ForceScene,
-    },
-}
 
 /// One object of a scene frame.
 pub enum SceneObject<'a> {
@@ -316,6 +300,11 @@ pub struct SceneRenderer {
     packs: Vec<PackRenderers>,
     /// The pass every pack's renderers draw into.
     target: TargetDesc,
+    /// The device the renderers live on (the frame upload's buffer is made and grown on it).
+    device: wgpu::Device,
+    /// The frame's writes for all packs, uploaded at once (docs/design.md "One upload per
+    /// frame"); behind a lock because `prepare_world` takes `&self`, never contended in a frame.
+    upload: std::sync::Mutex<FrameUpload>,
 }
 
 impl SceneRenderer {
@@ -452,7 +441,13 @@ impl SceneRenderer {
                 clip_bounds,
             });
         }
-        Ok(SceneRenderer { frame: SceneFrame::from_scene(scene), packs, target: target.clone() })
+        Ok(SceneRenderer {
+            frame: SceneFrame::from_scene(scene),
+            packs,
+            target: target.clone(),
+            device: pipelines.device().clone(),
+            upload: Default::default(),
+        })
     }
 
     /// The GPU memory [`SceneRenderer::new`] would allocate for `world` — each distinct fur
@@ -539,11 +534,14 @@ impl SceneRenderer {
     /// [`View::uniforms`]); its model matrix places the whole scene in the host's world
     /// (identity: scene frame = world frame), each pack drawn at `frame.model × pack model`.
     /// `world` must be the one this renderer was built from (same packs, same order). Call once
-    /// per frame before the host's render pass; then [`SceneRenderer::render`]. Uploads with
-    /// `queue.write_buffer*` only: does not submit or wait, and allocates nothing of its own
-    /// (except to build the message of an error; a frame with delayed-attenuation wind sources
-    /// allocates their per-corner directions). A bad input (a degenerate model matrix, wrong
-    /// counts, non-finite values) fails with earlier packs already uploaded; drop the encoder.
+    /// per frame before the host's render pass; then [`SceneRenderer::render`]. Every pack's data
+    /// of the frame goes up in one `queue.write_buffer`, copied into place by commands recorded
+    /// into `encoder` ahead of the frame's compute passes (docs/design.md "One upload per
+    /// frame"), so the host must submit `encoder` for the frame to reach the GPU. Does not submit
+    /// or wait, and allocates nothing of its own once the first frames have sized its staging
+    /// memory (except to build the message of an error). Every input is checked before anything
+    /// is written: a bad one (a degenerate model matrix, wrong counts, non-finite values) fails
+    /// with nothing uploaded or recorded.
     pub fn prepare_world(
         &self,
         queue: &wgpu::Queue,
@@ -552,12 +550,13 @@ impl SceneRenderer {
         frame: &FrameUniforms,
     ) -> Result<(), RenderError> {
         self.check_world(world)?;
-        for (i, drawn) in self.packs.iter().enumerate() {
+        let input = |i: usize| {
+            let drawn = &self.packs[i];
             let fur = world.fur(i).filter(|_| drawn.fur.is_some());
             let grass = world.grass(i).filter(|_| drawn.blades.is_some());
             let skinned = drawn.fur.as_ref().is_some_and(|f| f.is_animated());
             let pose = world.animation(i).filter(|_| skinned).map(|a| (a.skinning_matrices(), a.morph_weights()));
-            let input = PackInput {
+            PackInput {
                 pose,
                 model: Some(world.model_matrix(i)),
                 scale_vectors: fur.map(|f| f.scale_vectors),
@@ -569,10 +568,9 @@ impl SceneRenderer {
                         BladeForces::Corners(g.corner_forces)
                     }
                 }),
-            };
-            prepare_pack(queue, encoder, drawn, &input, frame)?;
-        }
-        Ok(())
+            }
+        };
+        self.prepare_all(queue, encoder, input, frame)
     }
 
     /// [`SceneRenderer::prepare_world`] with explicit inputs: `inputs[i]` belongs to `packs[i]`
@@ -590,8 +588,32 @@ impl SceneRenderer {
                 what: format!("{} pack inputs for {} scene packs", inputs.len(), self.packs.len()),
             });
         }
+        self.prepare_all(queue, encoder, |i| inputs.get(i).copied().unwrap_or_default(), frame)
+    }
+
+    /// Checks every pack's input, writes them all into the frame's one upload, flushes it into
+    /// `encoder`, then records every pack's compute passes (which read what was uploaded).
+    fn prepare_all<'a>(
+        &self,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+        input: impl Fn(usize) -> PackInput<'a>,
+        frame: &FrameUniforms,
+    ) -> Result<(), RenderError> {
         for (i, pack) in self.packs.iter().enumerate() {
-            prepare_pack(queue, encoder, pack, &inputs.get(i).copied().unwrap_or_default(), frame)?;
+            check_pack(pack, &input(i), frame)?;
+        }
+        let mut upload = self.upload.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        let staged = (0..self.packs.len())
+            .try_for_each(|i| write_pack(&mut Upload::Frame(&mut upload), &self.packs[i], &input(i), frame));
+        if let Err(e) = staged {
+            upload.discard();
+            return Err(e);
+        }
+        upload.flush(&self.device, queue, encoder);
+        drop(upload);
+        for pack in &self.packs {
+            record_pack(encoder, pack);
         }
         Ok(())
     }
@@ -674,48 +696,68 @@ fn pack_options(scene: &Scene, i: usize, overrides: &RenderOptions) -> RenderOpt
     overrides.over(&scene.packs()[i].render.over(scene.render()))
 }
 
-/// Uploads one pack's inputs and records its work (see [`SceneRenderer::prepare_world`]).
-fn prepare_pack(
-    queue: &wgpu::Queue,
-    encoder: &mut wgpu::CommandEncoder,
-    pack: &PackRenderers,
-    input: &PackInput<'_>,
-    frame: &FrameUniforms,
-) -> Result<(), RenderError> {
-    let model = frame.model() * input.model.unwrap_or(pack.model);
-    check_model(&model)?;
-    let uniforms = frame.with_model(model);
+/// The checks of one pack's inputs (see [`SceneRenderer::prepare_world`]): its model matrix, and
+/// its pose, scale vectors and blade forces against its renderers.
+fn check_pack(pack: &PackRenderers, input: &PackInput<'_>, frame: &FrameUniforms) -> Result<(), RenderError> {
+    check_model(&(frame.model() * input.model.unwrap_or(pack.model)))?;
     match &pack.fur {
         Some(renderer) => {
             if let Some((matrices, weights)) = input.pose {
-                renderer.set_pose(queue, matrices, weights)?;
+                renderer.check_pose(matrices, weights)?;
             }
             if let Some(s) = input.scale_vectors {
-                renderer.set_shell_scale_vectors(queue, s, input.scale_layout)?;
+                renderer.check_shell_scale_vectors(s, input.scale_layout)?;
             }
-            renderer.prepare(queue, encoder, &uniforms);
         }
         None if input.scale_vectors.is_some() => {
             return Err(RenderError::Parameter { what: format!("scale vectors for pack {:?} without fur", pack.name) });
         }
         None => {}
     }
-    match &pack.blades {
-        Some(renderer) => {
-            match input.blade_forces {
-                Some(BladeForces::Corners(f)) => renderer.set_corner_forces(queue, f)?,
-                Some(BladeForces::Field(f)) => renderer.set_force_field(queue, f)?,
-                Some(BladeForces::Scene { field, scene }) => renderer.set_force_scene(queue, field, scene)?,
-                None => {}
-            }
-            renderer.prepare(queue, encoder, &uniforms);
-        }
-        None if input.blade_forces.is_some() => {
+    match (&pack.blades, input.blade_forces) {
+        (Some(renderer), Some(forces)) => renderer.check_forces(forces)?,
+        (None, Some(_)) => {
             return Err(RenderError::Parameter {
                 what: format!("blade forces for pack {:?} without blades", pack.name),
             });
         }
-        None => {}
+        _ => {}
     }
     Ok(())
+}
+
+/// Writes one pack's checked inputs and frame uniforms through `upload`.
+fn write_pack(
+    upload: &mut Upload<'_>,
+    pack: &PackRenderers,
+    input: &PackInput<'_>,
+    frame: &FrameUniforms,
+) -> Result<(), RenderError> {
+    let uniforms = frame.with_model(frame.model() * input.model.unwrap_or(pack.model));
+    if let Some(renderer) = &pack.fur {
+        if let Some((matrices, weights)) = input.pose {
+            renderer.write_pose(upload, matrices, weights)?;
+        }
+        if let Some(s) = input.scale_vectors {
+            renderer.write_shell_scale_vectors(upload, s, input.scale_layout)?;
+        }
+        renderer.write_frame(upload, &uniforms);
+    }
+    if let Some(renderer) = &pack.blades {
+        if let Some(forces) = input.blade_forces {
+            renderer.write_forces(upload, forces)?;
+        }
+        renderer.write_frame(upload, 0, &uniforms);
+    }
+    Ok(())
+}
+
+/// Records one pack's compute passes (skinning, silhouette fin selection, blade culling).
+fn record_pack(encoder: &mut wgpu::CommandEncoder, pack: &PackRenderers) {
+    if let Some(renderer) = &pack.fur {
+        renderer.record(encoder);
+    }
+    if let Some(renderer) = &pack.blades {
+        renderer.record(encoder, 0);
+    }
 }

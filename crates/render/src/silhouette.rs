@@ -31,6 +31,7 @@ use furbake_formats::sections::skin_mesh::SkinMesh;
 use glam::Vec3;
 
 use crate::RenderError;
+use crate::upload::Upload;
 
 /// Invocations per workgroup of `cs_silhouette`.
 const WORKGROUP_SIZE: u32 = 64;
@@ -266,9 +267,9 @@ impl SilhouettePass {
         })
     }
 
-    /// Writes this frame's camera (object frame) and records the counter reset and the selection
-    /// dispatch into `encoder`. No submission, no wait.
-    pub(crate) fn encode(&self, queue: &wgpu::Queue, encoder: &mut wgpu::CommandEncoder, camera_obj: Vec3) {
+    /// Writes this frame's camera (object frame) through `upload`; [`SilhouettePass::record`]
+    /// then selects with it.
+    pub(crate) fn write_camera(&self, upload: &mut Upload<'_>, camera_obj: Vec3) {
         let params = SilhouetteParams {
             camera_obj: [camera_obj.x, camera_obj.y, camera_obj.z, 1.0],
             band: self.band,
@@ -276,7 +277,12 @@ impl SilhouettePass {
             pad0: 0,
             pad1: 0,
         };
-        queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
+        upload.write(&self.params, 0, bytemuck::bytes_of(&params));
+    }
+
+    /// Records the counter reset and the selection dispatch into `encoder`. No submission, no
+    /// wait.
+    pub(crate) fn record(&self, encoder: &mut wgpu::CommandEncoder) {
         // instance_count (bytes 4..8 of DrawIndirectArgs) back to 0; vertex_count stays 6.
         encoder.clear_buffer(&self.args, 4, Some(4));
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {

@@ -23,6 +23,7 @@ use wgpu::util::DeviceExt;
 
 use crate::RenderError;
 use crate::shaders::{SKINNING_WGSL, SkinnedVertex, SkinningUniforms};
+use crate::upload::Upload;
 
 /// Vertices per workgroup of `cs_skin` (its `@workgroup_size`).
 const WORKGROUP_SIZE: u32 = 64;
@@ -264,6 +265,7 @@ impl SkinningPass {
         }
     }
 
+    #[cfg(feature = "testing")]
     /// Writes this frame's pose: `skinning_matrices`, one per bind (`world(joint) ×
     /// inverseBind`, e.g. from `furbake_runtime::animation::skinning_matrices`; empty for a pack
     /// without skin weights), and `morph_weights`, one per morph target (empty for a pack without
@@ -276,6 +278,12 @@ impl SkinningPass {
         skinning_matrices: &[Mat4],
         morph_weights: &[f32],
     ) -> Result<(), RenderError> {
+        self.check_pose(skinning_matrices, morph_weights)?;
+        self.write_pose(&mut Upload::Queue(queue), skinning_matrices, morph_weights)
+    }
+
+    /// The checks of [`SkinningPass::set_pose`]: counts and finite values.
+    pub(crate) fn check_pose(&self, skinning_matrices: &[Mat4], morph_weights: &[f32]) -> Result<(), RenderError> {
         let bad = |what: String| Err(RenderError::Parameter { what });
         if skinning_matrices.len() != self.bind_count as usize {
             return bad(format!("{} skinning matrices for {} binds", skinning_matrices.len(), self.bind_count));
@@ -289,21 +297,21 @@ impl SkinningPass {
         if let Some(i) = morph_weights.iter().position(|w| !w.is_finite()) {
             return bad(format!("morph weight {i} is not finite"));
         }
-        if !skinning_matrices.is_empty() {
-            const MATRIX_BYTES: usize = 64;
-            let size = wgpu::BufferSize::new((skinning_matrices.len() * MATRIX_BYTES) as u64)
-                .expect("checked non-empty above");
-            let Some(mut view) = queue.write_buffer_with(&self.matrices, 0, size) else {
-                return Err(RenderError::Gpu { what: "the skinning matrix upload was refused".into() });
-            };
-            // Column-major, as WGSL's mat4x4<f32> and glam's to_cols_array.
-            for (i, m) in skinning_matrices.iter().enumerate() {
-                view.slice(i * MATRIX_BYTES..(i + 1) * MATRIX_BYTES)
-                    .copy_from_slice(bytemuck::bytes_of(&m.to_cols_array()));
-            }
-        }
+        Ok(())
+    }
+
+    /// Writes a checked pose ([`SkinningPass::check_pose`]) through `upload`.
+    pub(crate) fn write_pose(
+        &self,
+        upload: &mut Upload<'_>,
+        skinning_matrices: &[Mat4],
+        morph_weights: &[f32],
+    ) -> Result<(), RenderError> {
+        // Column-major, as WGSL's mat4x4<f32> and glam's to_cols_array.
+        let matrices = skinning_matrices.iter().map(|m| bytemuck::cast::<[f32; 16], [u8; 64]>(m.to_cols_array()));
+        upload.write_chunks(&self.matrices, 0, matrices, "skinning matrix")?;
         if !morph_weights.is_empty() {
-            queue.write_buffer(&self.morph_weights, 0, bytemuck::cast_slice(morph_weights));
+            upload.write(&self.morph_weights, 0, bytemuck::cast_slice(morph_weights));
         }
         Ok(())
     }

@@ -1,20 +1,23 @@
 //! Per-frame CPU cost of the middleware path on the demo scene: the packs baked as the Makefile's
 //! `demo` target bakes them (the Fox with the `fur` preset and prism topology, the grass patch with
 //! the `grass` preset, 400 blades/m² and prism topology), the scene
-//! `fixtures/scenes/demo_fox_and_grass.toml` stepped by a `furbake_runtime::World`, and each frame
-//! `SceneRenderer::prepare_world` + `SceneRenderer::render` into a host's encoder and pass, timed
-//! and watched by a counting global allocator (per thread, as in
-//! `crates/runtime/tests/animation_alloc.rs`). The world's step, the host's pass, submission and
-//! wait are outside the measurement. Prints the figures (`--nocapture`) for docs/performance.md and
-//! checks that furbake neither submits nor waits during the frames and that the allocations per
-//! frame stay at the measured level; a second test (release builds only) takes a backtrace of every
-//! allocation of one frame and checks that each happens inside a wgpu call: furbake's own code
-//! allocates nothing.
+//! `fixtures/scenes/demo_fox_and_grass.toml`, and each frame the whole of furbake's part: the
+//! `furbake_runtime::World`'s step (on a thread pool of the test's own, as a host runs it),
+//! `SceneRenderer::prepare_world` and `SceneRenderer::render` into a host's encoder and pass,
+//! timed and watched by a counting global allocator (per thread, as in
+//! `crates/runtime/tests/animation_alloc.rs`, and on every worker of that pool). The host's pass,
+//! submission and wait are outside the measurement. Prints the figures (`--nocapture`) for
+//! docs/performance.md and checks that furbake neither submits nor waits during the frames, that
+//! the world's step allocates nothing on any thread and that the allocations per frame stay at the
+//! measured level; a second test (release builds only) takes a backtrace of every allocation of
+//! one frame and checks that each happens inside a wgpu call: furbake's own code allocates
+//! nothing.
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::backtrace::Backtrace;
 use std::cell::{Cell, RefCell};
 use std::path::Path;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
 use furbake_bake::settings::dotted_override;
@@ -34,10 +37,22 @@ thread_local! {
     /// Set while a backtrace is being recorded (its own allocations are not traced).
     static IN_TRACE: Cell<bool> = const { Cell::new(false) };
     static TRACES: RefCell<Vec<Backtrace>> = const { RefCell::new(Vec::new()) };
+    /// Set on the workers of the demo's thread pool, whose allocations count in
+    /// `WORKER_ALLOCATIONS`.
+    static DEMO_WORKER: Cell<bool> = const { Cell::new(false) };
 }
+
+/// Allocations on the workers of every demo's thread pool (only one demo runs at a time: the
+/// tests that build one hold `DEMO_LOCK`).
+static WORKER_ALLOCATIONS: AtomicU64 = AtomicU64::new(0);
+static DEMO_LOCK: std::sync::Mutex<()> = std::sync::Mutex::new(());
 
 /// Counts an allocation, and records its backtrace while tracing.
 fn note_allocation() {
+    if DEMO_WORKER.try_with(Cell::get).unwrap_or(false) {
+        WORKER_ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        return;
+    }
     let _ = ALLOCATIONS.try_with(|c| c.set(c.get() + 1));
     let tracing = TRACING.try_with(Cell::get).unwrap_or(false);
     if tracing && !IN_TRACE.try_with(Cell::get).unwrap_or(true) {
@@ -70,8 +85,9 @@ unsafe impl GlobalAlloc for Counting {
 #[global_allocator]
 static GLOBAL: Counting = Counting;
 
+/// Allocations so far on this thread and on the demo's workers.
 fn allocations() -> u64 {
-    ALLOCATIONS.with(Cell::get)
+    ALLOCATIONS.with(Cell::get) + WORKER_ALLOCATIONS.load(Ordering::Relaxed)
 }
 
 /// Bakes `gltf` (relative to the workspace) with `preset` and the `--set`-style `sets` into
@@ -97,10 +113,19 @@ struct Demo {
     gpu: HeadlessGpu,
     renderer: SceneRenderer,
     target: RenderTarget,
+    /// The host's thread pool the world steps on (two workers: the packs run side by side).
+    pool: rayon::ThreadPool,
+    _lock: std::sync::MutexGuard<'static, ()>,
 }
 
 impl Demo {
     fn new() -> Demo {
+        let lock = DEMO_LOCK.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(2)
+            .start_handler(|_| DEMO_WORKER.with(|w| w.set(true)))
+            .build()
+            .unwrap();
         let dir = tempfile::tempdir().unwrap();
         let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
         bake_pack(dir.path(), "fixtures/real/Fox.glb", "fur", &[r#"topologies=["prisms"]"#], "fox.fbk");
@@ -118,16 +143,18 @@ impl Demo {
         let pipelines = PipelineCache::new(&gpu.device);
         let renderer = SceneRenderer::for_target(&pipelines, &gpu.queue, &world, &RenderTarget::desc()).unwrap();
         let target = RenderTarget::new(&gpu.device, 320, 240).unwrap();
-        Demo { _dir: dir, world, gpu, renderer, target }
+        Demo { _dir: dir, world, gpu, renderer, target, pool, _lock: lock }
     }
 
-    /// Steps the world and runs one host frame; `measure` wraps furbake's part of it (the view,
-    /// `prepare_world`, and — with the host's pass begun — `render`).
-    fn frame(&mut self, mut measure: impl FnMut(&mut dyn FnMut())) {
-        self.world.step().unwrap();
+    /// Runs one host frame; `measure` wraps each of furbake's parts of it, told which: the
+    /// world's step (on the demo's pool), then the view and `prepare_world`, then — with the
+    /// host's pass begun — `render`.
+    fn frame(&mut self, mut measure: impl FnMut(Part, &mut dyn FnMut())) {
+        let (pool, world) = (&self.pool, &mut self.world);
+        measure(Part::Step, &mut || pool.install(|| world.step().unwrap()));
         let (gpu, renderer, world, target) = (&self.gpu, &self.renderer, &self.world, &self.target);
         let mut encoder = gpu.device.create_command_encoder(&Default::default());
-        measure(&mut || {
+        measure(Part::Draw, &mut || {
             let view = renderer.world_view(world);
             renderer
                 .prepare_world(&gpu.queue, &mut encoder, world, &view.uniforms(target.width, target.height))
@@ -135,31 +162,47 @@ impl Demo {
         });
         {
             let mut pass = target.begin_pass(&mut encoder, "host pass", Some(renderer.frame().background));
-            measure(&mut || renderer.render(&mut pass));
+            measure(Part::Draw, &mut || renderer.render(&mut pass));
         }
         gpu.queue.submit([encoder.finish()]);
         gpu.device.poll(wgpu::PollType::wait_indefinitely()).unwrap();
     }
 }
 
+/// A part of furbake's frame.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Part {
+    /// `World::step`.
+    Step,
+    /// `world_view`, `prepare_world` and `render`.
+    Draw,
+}
+
 #[test]
 fn demo_scene_frame_cost_and_allocations() {
     let mut demo = Demo::new();
-    let (mut times_us, mut counts) = (Vec::new(), Vec::new());
+    let (mut times_us, mut counts, mut step_times_us) = (Vec::new(), Vec::new(), Vec::new());
+    let mut step_allocations = 0;
     for frame in 0..WARM_UP_FRAMES + FRAMES {
         let calls = blocking_calls_on_this_thread();
         let (mut elapsed, mut count) = (std::time::Duration::ZERO, 0);
-        demo.frame(|work| {
+        let (mut step_elapsed, mut step_count) = (std::time::Duration::ZERO, 0);
+        demo.frame(|part, work| {
             let (start, before) = (Instant::now(), allocations());
             work();
-            elapsed += start.elapsed();
-            count += allocations() - before;
+            let (time, n) = (start.elapsed(), allocations() - before);
+            match part {
+                Part::Step => (step_elapsed, step_count) = (time, n),
+                Part::Draw => (elapsed, count) = (elapsed + time, count + n),
+            }
         });
         // The host's submit and wait above are the test's; only furbake's part must not move it.
         assert_eq!(blocking_calls_on_this_thread(), calls, "frame {frame}: furbake submitted or waited");
         if frame >= WARM_UP_FRAMES {
             times_us.push(elapsed.as_secs_f64() * 1e6);
+            step_times_us.push(step_elapsed.as_secs_f64() * 1e6);
             counts.push(count);
+            step_allocations += step_count;
         }
     }
     let Demo { gpu, target, renderer, .. } = &demo;
@@ -183,18 +226,21 @@ fn demo_scene_frame_cost_and_allocations() {
     gpu.queue.submit([]);
 
     times_us.sort_by(f64::total_cmp);
+    step_times_us.sort_by(f64::total_cmp);
     let median = times_us[times_us.len() / 2];
     let mean = times_us.iter().sum::<f64>() / times_us.len() as f64;
     let (lo, hi) = (counts.iter().min().unwrap(), counts.iter().max().unwrap());
     println!(
-        "demo scene, {} packs ({}): world_view + prepare_world + render over {FRAMES} frames: median {median:.0} µs, \
-         mean {mean:.0} µs, p90 {:.0} µs; allocations per frame {lo}–{hi}; wgpu allocates {per_write:.1} per \
-         queue.write_buffer",
+        "demo scene, {} packs ({}), over {FRAMES} frames: world step on 2 workers median {:.0} µs, {step_allocations} \
+         allocations in all; world_view + prepare_world + render median {median:.0} µs, mean {mean:.0} µs, p90 {:.0} µs, \
+         allocations per frame {lo}–{hi}; wgpu allocates {per_write:.1} per queue.write_buffer",
         renderer.packs().len(),
         if cfg!(debug_assertions) { "debug build" } else { "release build" },
+        step_times_us[step_times_us.len() / 2],
         times_us[times_us.len() * 9 / 10],
     );
     assert_eq!(counts.len(), FRAMES);
+    assert_eq!(step_allocations, 0, "the world's step allocated");
     assert!(*hi <= MAX_ALLOCATIONS_PER_FRAME, "{hi} allocations in a frame (bound {MAX_ALLOCATIONS_PER_FRAME})");
 }
 
@@ -214,9 +260,9 @@ const MAX_ALLOCATIONS_PER_FRAME: u64 = 120;
 fn every_allocation_of_a_frame_is_inside_wgpu() {
     let mut demo = Demo::new();
     for _ in 0..WARM_UP_FRAMES {
-        demo.frame(|work| work());
+        demo.frame(|_, work| work());
     }
-    demo.frame(|work| {
+    demo.frame(|_, work| {
         TRACING.with(|t| t.set(true));
         work();
         TRACING.with(|t| t.set(false));

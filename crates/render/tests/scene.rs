@@ -306,6 +306,38 @@ fn bad_frame_inputs_are_refused() {
     assert!(renderer.render_frame(&g.device, &g.queue, &target, &[PackInput::default(); 2]).is_ok());
 }
 
+/// A frame refused for one pack's input writes nothing for any pack (every input is checked
+/// before the frame's one upload): after a refused frame that would have laid the fur flat, the
+/// next frame (which keeps the last inputs) draws exactly what the last accepted frame drew.
+#[test]
+fn a_refused_frame_uploads_nothing() {
+    let (_, scene) = scene();
+    let g = gpu();
+    let renderer = SceneRenderer::new(&g.device, &g.queue, &World::new(scene.clone()).unwrap()).unwrap();
+    let target = RenderTarget::new(&g.device, 64, 64).unwrap();
+    let fur = renderer.packs()[0].fur.as_ref().unwrap();
+    let corners = renderer.packs()[1].blades.as_ref().unwrap().corner_count() as usize;
+    // Sheared sideways, then (refused) flat along +X with non-finite blade forces beside it.
+    let sheared = vec![Vec3::new(0.7, 0.7, 0.0).normalize().to_array(); fur.vertex_count() as usize];
+    let flat = vec![[1.0f32, 0.0, 0.0]; fur.vertex_count() as usize];
+    let bad = vec![[f32::NAN, 0.0]; corners];
+    let keep = [PackInput::default(); 2];
+    let draw = |inputs: &[PackInput<'_>]| {
+        renderer.render_frame(&g.device, &g.queue, &target, inputs)?;
+        Ok::<_, furbake_render::RenderError>(read_back(&g.device, &g.queue, &target).unwrap())
+    };
+    let accepted = draw(&[PackInput { scale_vectors: Some(&sheared), ..Default::default() }]).unwrap();
+    let refused = [
+        PackInput { scale_vectors: Some(&flat), ..Default::default() },
+        PackInput { blade_forces: Some(BladeForces::Corners(&bad)), ..Default::default() },
+    ];
+    assert!(draw(&refused).is_err(), "non-finite corner forces were accepted");
+    assert_eq!(draw(&keep).unwrap(), accepted, "the refused frame changed what is drawn");
+    // The flat fur draws differently, so the comparison above can fail.
+    let flat_frame = draw(&[PackInput { scale_vectors: Some(&flat), ..Default::default() }]).unwrap();
+    assert_ne!(flat_frame, accepted, "flat and sheared fur draw alike: the test sees nothing");
+}
+
 /// A grass-only scene around the test patch (`grass.fbk`): a global breeze and one point wind
 /// source 0.4 m beside the patch, with or without delayed attenuation (grass thesis §4.2).
 fn source_scene(dir: &Path, delayed: bool) -> Scene {

@@ -741,8 +741,8 @@ fn run_stage(p: &mut WorldPack, inputs: &StepInputs, kind: StageKind, t: f64, dt
     if kind == StageKind::Animation {
         let Some(anim) = p.anim.as_mut() else { return Ok(()) };
         anim.advance(dt as f32);
-        let path = p.pack.display_path();
-        anim.update().map_err(|source| RuntimeError::Animation { path, source })?;
+        // The path is built only for an error: a step allocates nothing.
+        anim.update().map_err(|source| RuntimeError::Animation { path: p.pack.display_path(), source })?;
         // The cut speed is in world metres per second; the skin moves in the mesh frame,
         // which the pack's uniform scale maps to the world.
         let cut = p.scene.animation.as_ref().map_or(f32::INFINITY, |a| a.cut_speed_m_per_s) / p.step_frame.1.scale;
