@@ -71,6 +71,9 @@ pub enum ReportError {
         /// The cause (boxed: the import error is large).
         source: Box<furbake_import::ImportError>,
     },
+    /// The walking Fox's clip could not be played.
+    #[error("fur accuracy report, the walking Fox: {0}")]
+    Animation(furbake_runtime::AnimationError),
     /// The grass measurements failed.
     #[error("grass accuracy report: {0}")]
     Grass(#[from] furbake_grass::GrassError),

@@ -491,6 +491,21 @@ pub fn morph_and_skin(
     Ok(())
 }
 
+/// The sections an [`Animator`] plays: a skin mesh and what animates it.
+#[derive(Clone, Debug)]
+pub struct AnimatedSkin {
+    /// The welded skin.
+    pub mesh: Arc<SkinMesh>,
+    /// Its clips.
+    pub clips: Arc<AnimationClips>,
+    /// The joint hierarchy and bind palette, when the skin has skin weights.
+    pub skeleton: Option<Arc<Skeleton>>,
+    /// Influences per skin vertex.
+    pub weights: Option<Arc<SkinWeights>>,
+    /// Morph targets per skin vertex.
+    pub morphs: Option<Arc<MorphTargets>>,
+}
+
 /// One pack's animation as a [`crate::World`] runs it: the pack's animation sections, a clip
 /// player, and every buffer of a frame — pose, joint and skinning matrices, a [`SkinTransform`]
 /// per skin vertex (what the fur simulation poses its masses with) and the skinned positions and
@@ -526,10 +541,31 @@ impl Animator {
             .animation_clips()?
             .ok_or_else(|| AnimationError::UnknownClip { name: clip.to_string(), known: "no clips".into() });
         let clips = clips.map_err(|source| crate::RuntimeError::Animation { path: pack.display_path(), source })?;
-        let (skeleton, weights, morphs) = (pack.skeleton()?, pack.skin_weights()?, pack.morph_targets()?);
-        let mesh = pack.skin_mesh()?;
-        let player = AnimationPlayer::new(&clips, clip, speed, looping, skeleton.as_deref(), morphs.as_deref())
-            .map_err(|source| crate::RuntimeError::Animation { path: pack.display_path(), source })?;
+        let sections = AnimatedSkin {
+            mesh: pack.skin_mesh()?,
+            clips,
+            skeleton: pack.skeleton()?,
+            weights: pack.skin_weights()?,
+            morphs: pack.morph_targets()?,
+        };
+        // The sections were checked against each other when decoded (`check_consistency`); a
+        // mismatch here is reported, not assumed away.
+        Animator::from_sections(sections, clip, speed, looping, start_s)
+            .map_err(|source| crate::RuntimeError::Animation { path: pack.display_path(), source })
+    }
+
+    /// [`Animator::new`] from sections already in memory (an imported glTF's, say), checked
+    /// against each other here: the skin weights and morph targets must have one entry per
+    /// skin vertex and the skeleton one bind per skinning matrix.
+    pub fn from_sections(
+        sections: AnimatedSkin,
+        clip: &str,
+        speed: f32,
+        looping: bool,
+        start_s: f32,
+    ) -> Result<Animator, AnimationError> {
+        let AnimatedSkin { mesh, clips, skeleton, weights, morphs } = sections;
+        let player = AnimationPlayer::new(&clips, clip, speed, looping, skeleton.as_deref(), morphs.as_deref())?;
         let pose = Pose::rest(skeleton.as_deref(), morphs.as_deref());
         let joints = skeleton.as_ref().map_or(0, |s| s.joint_count());
         let binds = skeleton.as_ref().map_or(0, |s| s.bind_count());
@@ -548,18 +584,14 @@ impl Animator {
             player,
             pose,
         };
-        // The sections were checked against each other when decoded (`check_consistency`); a
-        // mismatch here is reported, not assumed away.
-        let err = |source| crate::RuntimeError::Animation { path: pack.display_path(), source };
         check_skin_inputs(
             &a.mesh,
             a.weights.as_deref(),
             a.morphs.as_deref().map(|m| (m, a.pose.morph_weights.as_slice())),
             &a.skinning,
-        )
-        .map_err(err)?;
+        )?;
         a.player.seek(&a.clips, start_s);
-        a.update().map_err(err)?;
+        a.update()?;
         Ok(a)
     }
 

@@ -92,7 +92,7 @@ use std::path::PathBuf;
 use furbake_formats::FormatError;
 use furbake_sim::{SimError, TopologyKind};
 
-pub use animation::{AnimationError, AnimationPlayer, Animator, ClipPlayback, Pose};
+pub use animation::{AnimatedSkin, AnimationError, AnimationPlayer, Animator, ClipPlayback, Pose};
 pub use frame::{
     FUR_GUST_WAVELENGTH_M, FUR_WIND_N_PER_M_PER_S, GRASS_COLLIDER_FALLOFF, GRASS_COLLIDER_STRENGTH,
     GRASS_FORCE_PER_M_PER_S,
