@@ -247,8 +247,10 @@ fn default_time_step() -> f32 {
 #[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(rename_all = "snake_case")]
 pub enum SolverChoice {
-    /// Chosen from the topology: the stick solver for sticks and separable sticks (rigid links),
-    /// implicit Euler for every spring topology (`crate::stages::choose_solver`).
+    /// Chosen from the topology and the pack: the stick solver for sticks and separable sticks
+    /// (rigid links); for a spring topology on a pack that plays an animation, XPBD with one
+    /// iteration per step (`xpbd_iterations` applies only to `kind = "xpbd"`); implicit Euler
+    /// for every other spring topology (`crate::stages::choose_solver`).
     #[default]
     Auto,
     /// Explicit Euler (eq. 3.20–3.25).

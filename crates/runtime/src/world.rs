@@ -29,8 +29,8 @@ use crate::animation::Animator;
 use crate::frame::{self, ForcesOn, MeshFrame};
 use crate::scene::{Effect, Effects, Event, Scene, ScenePack};
 use crate::stages::{
-    NON_SEPARABLE_PREFERENCE, PackRole, PlannedStage, SEPARABLE_PREFERENCE, StageKind, StageStats, choose_solver,
-    choose_topology,
+    AUTO_ANIMATED_XPBD_ITERATIONS, NON_SEPARABLE_PREFERENCE, PackRole, PlannedStage, SEPARABLE_PREFERENCE, StageKind,
+    StageStats, choose_solver, choose_topology,
 };
 use crate::{Pack, RuntimeError, WorldPlan};
 
@@ -366,7 +366,8 @@ impl World {
             };
             let fur = if roles[i].fur {
                 let scale = MeshFrame::of(sp.model_at(0.0)).scale;
-                let mut fur = build_fur(&scene, &pack, planned(StageKind::FurSolver), options, scale)?;
+                let animated = sp.animation.is_some();
+                let mut fur = build_fur(&scene, &pack, planned(StageKind::FurSolver), animated, options, scale)?;
                 if let Some(a) = &anim {
                     // The fur starts in the bind pose: the first pose is a cut (speed 0).
                     fur.follow(a, scene.time_step_s as f64, 0.0, &sp.path)?;
@@ -818,6 +819,7 @@ fn build_fur(
     scene: &Scene,
     pack: &Pack,
     simulate: bool,
+    animated: bool,
     options: WorldOptions,
     scale: f32,
 ) -> Result<FurState, RuntimeError> {
@@ -862,13 +864,15 @@ fn build_fur(
         }
         None => GuardSettings { enabled: false, ..GuardSettings::default() },
     };
-    let defaults = SolverSettings::of(choose_solver(kind, scene.solver.kind));
+    let solver = choose_solver(kind, scene.solver.kind, animated);
+    let auto_xpbd = scene.solver.kind == crate::SolverChoice::Auto && solver == SolverKind::Xpbd;
+    let defaults = SolverSettings::of(solver);
     let masses = topology.mass_kg.len().max(1) as u64;
     let settings = SolverSettings {
         guard,
         track_energy: options.step_statistics,
         implicit_iterations: scene.solver.implicit_iterations,
-        xpbd_iterations: scene.solver.xpbd_iterations,
+        xpbd_iterations: if auto_xpbd { AUTO_ANIMATED_XPBD_ITERATIONS } else { scene.solver.xpbd_iterations },
         local_global_iterations: scene.solver.local_global_iterations,
         max_substeps: (MAX_MASS_UPDATES_PER_STEP / masses).clamp(1, defaults.max_substeps as u64) as u32,
         ..defaults
