@@ -1,11 +1,13 @@
 //! How far a walking Fox's fur lags behind its skin, and how it settles when the Fox stops: the
 //! angle between one hair's scale vector (where the physics holds it) and the posed skin normal
-//! (where it stands at rest), every step, for each solver given. The Fox plays `Walk` for 2 s,
-//! then cross-fades in 0.25 s into `Survey` (it stands and looks round) for 2 s more, under
-//! gravity, at the game step of 0.02 s.
+//! (where it stands at rest), every step, for each solver given, in the scene
+//! `fixtures/scenes/fox_walk_stop.toml`: the Fox plays `Walk` for 2 s, then cross-fades in 0.25 s
+//! into `Survey` (it stands and looks round) for 2 s more, under gravity, at the game step of
+//! 0.02 s.
 //!
 //! `cargo run --release -p furbake-runtime --example fur_lag -- [OUT.svg] [SOLVER ...]`
-//! (SOLVER: auto, implicit, xpbd, local_global, …; default auto xpbd local_global). Prints one CSV
+//! (SOLVER: auto, implicit, xpbd, local_global, …, or KIND:N with N iterations; default auto
+//! implicit). Prints one CSV
 //! row per step (time, then one angle in degrees per solver) and writes the chart to OUT.svg
 //! (default `fur_lag.svg`).
 //!
@@ -30,7 +32,7 @@ fn main() {
     let out = args.iter().find(|a| a.ends_with(".svg")).map_or_else(|| PathBuf::from("fur_lag.svg"), PathBuf::from);
     let mut solvers: Vec<String> = args.iter().filter(|a| !a.ends_with(".svg")).cloned().collect();
     if solvers.is_empty() {
-        solvers = vec!["auto".into(), "xpbd".into(), "local_global".into()];
+        solvers = vec!["auto".into(), "implicit".into()];
     }
     let dir = tempfile::tempdir().expect("a temporary folder");
     let fox = bake_fox(dir.path());
@@ -47,7 +49,12 @@ fn main() {
             angles.push(s.angle_between(n).to_degrees() as f64);
         }
         let name = world.fur(0).and_then(|f| f.simulation).map_or(solver.clone(), |(_, k)| k.name().to_owned());
-        series.push((if solver == "auto" { format!("auto ({name})") } else { name }, angles));
+        let name = match solver.split_once(':') {
+            Some((_, n)) => format!("{name} ×{n}"),
+            None if solver == "auto" => format!("auto ({name})"),
+            None => name,
+        };
+        series.push((name, angles));
     }
     println!("time_s,{}", series.iter().map(|(n, _)| n.as_str()).collect::<Vec<_>>().join(","));
     for k in 0..STEPS {
@@ -58,14 +65,16 @@ fn main() {
     eprintln!("wrote {} (hair at skin vertex {vertex})", out.display());
 }
 
-/// The Fox walking, then standing, under gravity (no wind: what moves the hair is the skin).
+/// `fixtures/scenes/fox_walk_stop.toml` with `[solver] kind = solver`.
 fn lag_scene(solver: &str) -> String {
-    format!(
-        "time_step_s = {STEP_S}\n[solver]\nkind = \"{solver}\"\n[effects.gravity]\n\
-         [[packs]]\nname = \"fox\"\npath = \"fox.fbk\"\nscale = 0.01\n\
-         animation = {{ clip = \"Walk\", speed = 1.0, loop = true }}\n\
-         [[events]]\nkind = \"play_clip\"\nat_s = 2.0\npack = \"fox\"\nclip = \"Survey\"\nfade_s = 0.25\n"
-    )
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/scenes/fox_walk_stop.toml");
+    let text = std::fs::read_to_string(&path).expect("the scene fixture");
+    // `kind:N` also sets the kind's iteration count.
+    let (kind, iterations) = match solver.split_once(':') {
+        Some((kind, n)) => (kind, format!("{kind}_iterations = {n}\n")),
+        None => (solver, String::new()),
+    };
+    format!("{text}\n[solver]\nkind = \"{kind}\"\n{iterations}")
 }
 
 /// Bakes the Fox into `dir/fox.fbk` and returns its welded skin (the scale vectors' order).
