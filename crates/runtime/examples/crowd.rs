@@ -11,11 +11,11 @@
 //! game runs). Prints, per crowd and thread count: mean and 90th-percentile step time, time per
 //! Fox, the speed-up over one worker, and the median substeps of the last step over the Foxes.
 
-use std::path::{Path, PathBuf};
+#[path = "common/fox.rs"]
+mod fox;
+
 use std::time::Instant;
 
-use furbake_bake::{BakeSettings, NoProgress, bake};
-use furbake_import::{ImportSettings, import_gltf};
 use furbake_runtime::{Scene, World, WorldOptions};
 
 fn main() {
@@ -28,7 +28,7 @@ fn main() {
         vec![1, 10, 100]
     };
     let dir = tempfile::tempdir().expect("a temporary folder");
-    bake_fox(dir.path());
+    fox::bake_fox(dir.path());
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     println!("solver {solver}, {steps} steps of 0.02 s after 10 warm-up steps, {cores} cores");
     println!("foxes threads  mean ms/step  p90 ms/step  µs per fox  speed-up  substeps (median)");
@@ -87,13 +87,4 @@ fn crowd_scene(n: usize, solver: &str) -> String {
         );
     }
     s
-}
-
-fn bake_fox(dir: &Path) {
-    let fox = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/real/Fox.glb");
-    let imported = import_gltf(&fox, &ImportSettings::default()).expect("the bundled Fox imports");
-    let mut settings = BakeSettings::preset("fur").expect("the fur preset");
-    settings.topologies = vec!["prisms".into()];
-    let baked = bake(&imported, "Fox.glb", &settings.plan().expect("valid settings"), &mut NoProgress).expect("bakes");
-    baked.to_writer().write_atomic(&dir.join("fox.fbk")).expect("writes the pack");
 }

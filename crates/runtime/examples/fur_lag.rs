@@ -15,12 +15,13 @@
 //! moves fastest). The Fox (fixtures/real/Fox.glb) is baked as `make demo` bakes it (`--preset
 //! fur --topology prisms`) into a temporary folder.
 
-use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+#[path = "common/fox.rs"]
+mod fox;
 
-use furbake_bake::{BakeSettings, NoProgress, bake};
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
 use furbake_formats::sections::skin_mesh::SkinMesh;
-use furbake_import::{ImportSettings, import_gltf};
 use furbake_runtime::{Scene, World};
 use glam::Vec3;
 
@@ -35,7 +36,7 @@ fn main() {
         solvers = vec!["auto".into(), "implicit".into()];
     }
     let dir = tempfile::tempdir().expect("a temporary folder");
-    let fox = bake_fox(dir.path());
+    let fox = fox::bake_fox(dir.path());
     let vertex = lowest_furry_vertex(&fox);
     let mut series: Vec<(String, Vec<f64>)> = Vec::new();
     for solver in &solvers {
@@ -75,17 +76,6 @@ fn lag_scene(solver: &str) -> String {
         None => (solver, String::new()),
     };
     format!("{text}\n[solver]\nkind = \"{kind}\"\n{iterations}")
-}
-
-/// Bakes the Fox into `dir/fox.fbk` and returns its welded skin (the scale vectors' order).
-fn bake_fox(dir: &Path) -> SkinMesh {
-    let fox = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/real/Fox.glb");
-    let imported = import_gltf(&fox, &ImportSettings::default()).expect("the bundled Fox imports");
-    let mut settings = BakeSettings::preset("fur").expect("the fur preset");
-    settings.topologies = vec!["prisms".into()];
-    let baked = bake(&imported, "Fox.glb", &settings.plan().expect("valid settings"), &mut NoProgress).expect("bakes");
-    baked.to_writer().write_atomic(&dir.join("fox.fbk")).expect("writes the pack");
-    imported.mesh
 }
 
 /// The vertex of a furry triangle with the lowest bind-pose height.
