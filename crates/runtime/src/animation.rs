@@ -519,6 +519,9 @@ pub struct Animator {
     mesh: Arc<SkinMesh>,
     player: AnimationPlayer,
     pose: Pose,
+    /// Whether the pose comes from the host ([`Animator::set_joint_matrices`]) instead of the
+    /// clip player.
+    host_pose: bool,
     world: Vec<Mat4>,
     skinning: Vec<Mat4>,
     transforms: Vec<SkinTransform>,
@@ -583,6 +586,7 @@ impl Animator {
             mesh,
             player,
             pose,
+            host_pose: false,
         };
         check_skin_inputs(
             &a.mesh,
@@ -633,13 +637,53 @@ impl Animator {
         self.player.play(&self.clips, name, fade_s)
     }
 
-    /// Poses the skin at the player's current time: pose, joint and skinning matrices, vertex
-    /// transforms, skinned positions and normals.
+    /// Poses the skin from the host's animation system instead of the clip player, from the next
+    /// [`Animator::update`] on (a `World` step's `animation` stage), until
+    /// [`Animator::resume_clips`]: `joint_matrices` has one matrix per skeleton joint, in the
+    /// skeleton's joint order (`Skeleton::names`), each the joint's transform in the skinned mesh's
+    /// frame (glTF: the joint node's global transform with the mesh node's taken out, before the
+    /// inverse bind — what [`Animator::joint_matrices`] gives for the clips' poses), and
+    /// `morph_weights` one weight per morph target. The skin, the fur's anchors and the skinning
+    /// matrices a renderer reads follow exactly as they follow the clips: the same matrices give
+    /// the same state. Fails, changing nothing, on a wrong count or a non-finite value. Allocates
+    /// nothing.
+    pub fn set_joint_matrices(&mut self, joint_matrices: &[Mat4], morph_weights: &[f32]) -> Result<(), AnimationError> {
+        check_len("joint matrices", self.world.len(), joint_matrices.len())?;
+        check_len("morph weights", self.pose.morph_weights.len(), morph_weights.len())?;
+        if let Some(v) = joint_matrices.iter().flat_map(|m| m.to_cols_array()).find(|v| !v.is_finite()) {
+            return Err(AnimationError::Value { what: "joint matrix element", value: v });
+        }
+        if let Some(&w) = morph_weights.iter().find(|w| !w.is_finite()) {
+            return Err(AnimationError::Value { what: "morph weight", value: w });
+        }
+        self.world.copy_from_slice(joint_matrices);
+        self.pose.morph_weights.copy_from_slice(morph_weights);
+        self.host_pose = true;
+        Ok(())
+    }
+
+    /// Poses the skin from the clip player again after [`Animator::set_joint_matrices`] (the
+    /// clip's time has gone on meanwhile).
+    pub fn resume_clips(&mut self) {
+        self.host_pose = false;
+    }
+
+    /// Whether the host poses the skin ([`Animator::set_joint_matrices`]).
+    pub fn is_host_posed(&self) -> bool {
+        self.host_pose
+    }
+
+    /// Poses the skin at the player's current time, or from the host's joint matrices: pose,
+    /// joint and skinning matrices, vertex transforms, skinned positions and normals.
     pub fn update(&mut self) -> Result<(), AnimationError> {
-        let groups = self.morphs.as_ref().map_or(&[][..], |m| m.groups.as_slice());
-        self.player.pose(&self.clips, groups, &mut self.pose)?;
+        if !self.host_pose {
+            let groups = self.morphs.as_ref().map_or(&[][..], |m| m.groups.as_slice());
+            self.player.pose(&self.clips, groups, &mut self.pose)?;
+        }
         if let Some(s) = &self.skeleton {
-            joint_world_matrices(s, &self.pose, &mut self.world)?;
+            if !self.host_pose {
+                joint_world_matrices(s, &self.pose, &mut self.world)?;
+            }
             skinning_matrices(s, &self.world, &mut self.skinning)?;
         }
         let weights = self.weights.as_deref();
@@ -663,6 +707,7 @@ impl Animator {
         };
         let mut bounds = grow((Vec3::INFINITY, Vec3::NEG_INFINITY), &self.positions);
         let mut sweep = self.clone();
+        sweep.host_pose = false;
         let duration = self.clips.clips.get(self.player.current().clip).map_or(0.0, |c| c.duration_s);
         for k in 0..samples {
             sweep.player.seek(&sweep.clips, duration * k as f32 / samples as f32);
@@ -695,6 +740,13 @@ impl Animator {
     /// Skinned unit normals per skin vertex, mesh frame.
     pub fn normals(&self) -> &[[f32; 3]] {
         &self.normals
+    }
+
+    /// Joint matrices of the current pose, one per skeleton joint: each joint's transform in the
+    /// skinned mesh's frame (what [`Animator::set_joint_matrices`] takes); empty without a
+    /// skeleton.
+    pub fn joint_matrices(&self) -> &[Mat4] {
+        &self.world
     }
 
     /// Skinning matrices (`world(joint) × inverseBind`, one per bind) of the current pose; empty

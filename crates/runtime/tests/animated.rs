@@ -206,6 +206,45 @@ fn the_automatic_solver_of_an_animated_pack_is_xpbd() {
     assert_eq!(w.fur(0).unwrap().last_step.substeps, 1);
 }
 
+/// A host that animates the character itself hands the World its joint matrices: given the
+/// matrices the World's own clip player makes, the fur's state is bit-identical, step after step;
+/// bad matrices are refused, changing nothing; and the clips take over again when released.
+#[test]
+fn host_joint_matrices_pose_the_skin_as_the_clips_do() {
+    let body = "[packs.animation]\nclip = \"Walk\"\n[effects.gravity]\n[effects.wrong_side_guard]\n";
+    let (mut clips, mut host) = (world(body), world(body));
+    // The host's character stands in the Survey clip's first pose: only the host's matrices move it.
+    host.animation_mut(0).unwrap().play("Survey", 0.0).unwrap();
+    for step in 0..40 {
+        clips.step().unwrap();
+        let anim = clips.animation(0).unwrap();
+        let (joints, weights) = (anim.joint_matrices().to_vec(), anim.morph_weights().to_vec());
+        assert!(!joints.is_empty(), "the Fox has a skeleton");
+        host.animation_mut(0).unwrap().set_joint_matrices(&joints, &weights).unwrap();
+        host.step().unwrap();
+        let (a, b) = (clips.fur(0).unwrap(), host.fur(0).unwrap());
+        let bits = |v: &[[f32; 3]]| v.iter().flatten().map(|c| c.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(a.scale_vectors), bits(b.scale_vectors), "step {step}: scale vectors");
+        let (sa, sb) = (clips.pack_state(0).unwrap(), host.pack_state(0).unwrap());
+        assert_eq!(bits(&sa.skin_positions_m), bits(&sb.skin_positions_m), "step {step}: skin");
+        assert_eq!(clips.animation(0).unwrap().skinning_matrices(), host.animation(0).unwrap().skinning_matrices());
+    }
+    let a = host.animation_mut(0).unwrap();
+    assert!(a.is_host_posed());
+    let n = a.joint_matrices().len();
+    let before = a.joint_matrices().to_vec();
+    let mut nan = before.clone();
+    nan[3].x_axis.y = f32::NAN;
+    assert!(a.set_joint_matrices(&before[..n - 1], &[]).is_err(), "too few joint matrices");
+    assert!(a.set_joint_matrices(&nan, &[]).is_err(), "a NaN joint matrix");
+    assert!(a.set_joint_matrices(&before, &[0.5]).is_err(), "a weight for a morph target the Fox lacks");
+    assert_eq!(a.joint_matrices(), &before[..], "a refused pose changes nothing");
+    // Released, the clip player (Survey, 40 steps on) poses the skin again.
+    a.resume_clips();
+    host.step().unwrap();
+    assert_ne!(host.animation(0).unwrap().joint_matrices(), &before[..]);
+}
+
 #[test]
 fn clip_time_speed_and_start_are_the_scenes() {
     // Speed 0 holds the clip at start_s: the pose of a chosen clip time.
