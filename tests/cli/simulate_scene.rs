@@ -235,7 +235,13 @@ fn every_fixture_scene_runs_in_the_one_runtime() {
     ran.sort();
     assert_eq!(
         ran,
-        ["demo_fox_and_grass.toml", "fur_wind_gust.toml", "runtime_everything.toml", "runtime_fox_in_wind.toml"]
+        [
+            "demo_fox_and_grass.toml",
+            "fox_walk_stop.toml",
+            "fur_wind_gust.toml",
+            "runtime_everything.toml",
+            "runtime_fox_in_wind.toml"
+        ]
     );
 }
 

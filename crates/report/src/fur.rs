@@ -467,7 +467,8 @@ fn walk_motion(imported: &furbake_import::ImportedMesh, path: &std::path::Path) 
         weights: a.skin_weights.clone().map(Arc::new),
         morphs: a.morph_targets.clone().map(Arc::new),
     };
-    let animator = Animator::from_sections(sections, WALK_CLIP, 1.0, true, 0.0).map_err(ReportError::Animation)?;
+    let animator =
+        Animator::from_sections(sections, Some(WALK_CLIP), 1.0, true, 0.0).map_err(ReportError::Animation)?;
     Ok(Motion { animator, scale: FOX_SCALE })
 }
 

@@ -256,7 +256,11 @@ pub struct AnimationPlayer {
 fn clip_index(clips: &AnimationClips, name: &str) -> Result<usize, AnimationError> {
     clips.clips.iter().position(|c| c.name == name).ok_or_else(|| AnimationError::UnknownClip {
         name: name.to_string(),
-        known: clips.clips.iter().map(|c| c.name.as_str()).collect::<Vec<_>>().join(", "),
+        known: if clips.clips.is_empty() {
+            "no clips".into()
+        } else {
+            clips.clips.iter().map(|c| c.name.as_str()).collect::<Vec<_>>().join(", ")
+        },
     })
 }
 
@@ -280,6 +284,19 @@ impl AnimationPlayer {
             scratch_b: rest.clone(),
             rest,
         })
+    }
+
+    /// A player of no clip: it poses the rest pose of `skeleton` and `morphs` until
+    /// [`AnimationPlayer::play`] starts one (its [`ClipPlayback::clip`] names none).
+    pub fn at_rest(skeleton: Option<&Skeleton>, morphs: Option<&MorphTargets>) -> Self {
+        let rest = Pose::rest(skeleton, morphs);
+        AnimationPlayer {
+            current: ClipPlayback { clip: usize::MAX, time_s: 0.0, speed: 1.0, looping: true },
+            fading: None,
+            scratch_a: rest.clone(),
+            scratch_b: rest.clone(),
+            rest,
+        }
     }
 
     /// The clip playing now.
@@ -496,7 +513,7 @@ pub fn morph_and_skin(
 pub struct AnimatedSkin {
     /// The welded skin.
     pub mesh: Arc<SkinMesh>,
-    /// Its clips.
+    /// Its clips (none: an empty set).
     pub clips: Arc<AnimationClips>,
     /// The joint hierarchy and bind palette, when the skin has skin weights.
     pub skeleton: Option<Arc<Skeleton>>,
@@ -531,22 +548,20 @@ pub struct Animator {
 
 impl Animator {
     /// Reads `pack`'s skin mesh and animation sections and starts clip `clip` at `start_s` with
-    /// `speed` and `looping`, posed at once. Fails when the pack has no clips or none named
-    /// `clip` (the caller's error, [`AnimationError::UnknownClip`]), or on a bad section.
+    /// `speed` and `looping`, posed at once; with no `clip`, the skin stands in its rest pose
+    /// until the host poses it ([`Animator::set_joint_matrices`]) or a clip is played. Fails when
+    /// the pack has no clip named `clip` (the caller's error, [`AnimationError::UnknownClip`]),
+    /// or on a bad section.
     pub fn new(
         pack: &crate::Pack,
-        clip: &str,
+        clip: Option<&str>,
         speed: f32,
         looping: bool,
         start_s: f32,
     ) -> Result<Animator, crate::RuntimeError> {
-        let clips = pack
-            .animation_clips()?
-            .ok_or_else(|| AnimationError::UnknownClip { name: clip.to_string(), known: "no clips".into() });
-        let clips = clips.map_err(|source| crate::RuntimeError::Animation { path: pack.display_path(), source })?;
         let sections = AnimatedSkin {
             mesh: pack.skin_mesh()?,
-            clips,
+            clips: pack.animation_clips()?.unwrap_or_default(),
             skeleton: pack.skeleton()?,
             weights: pack.skin_weights()?,
             morphs: pack.morph_targets()?,
@@ -562,13 +577,16 @@ impl Animator {
     /// skin vertex and the skeleton one bind per skinning matrix.
     pub fn from_sections(
         sections: AnimatedSkin,
-        clip: &str,
+        clip: Option<&str>,
         speed: f32,
         looping: bool,
         start_s: f32,
     ) -> Result<Animator, AnimationError> {
         let AnimatedSkin { mesh, clips, skeleton, weights, morphs } = sections;
-        let player = AnimationPlayer::new(&clips, clip, speed, looping, skeleton.as_deref(), morphs.as_deref())?;
+        let player = match clip {
+            Some(clip) => AnimationPlayer::new(&clips, clip, speed, looping, skeleton.as_deref(), morphs.as_deref())?,
+            None => AnimationPlayer::at_rest(skeleton.as_deref(), morphs.as_deref()),
+        };
         let pose = Pose::rest(skeleton.as_deref(), morphs.as_deref());
         let joints = skeleton.as_ref().map_or(0, |s| s.joint_count());
         let binds = skeleton.as_ref().map_or(0, |s| s.bind_count());

@@ -853,8 +853,12 @@ impl FurShading {
 #[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(deny_unknown_fields)]
 pub struct PackAnimation {
-    /// Name of a clip in the pack (`furbake inspect` lists them).
-    pub clip: String,
+    /// Name of a clip in the pack (`furbake inspect` lists them). Without one
+    /// (`animation = {}`), the pack's skin stands in its rest pose until the host poses it with
+    /// its own joint matrices (`Animator::set_joint_matrices`, through `World::animation_mut`):
+    /// a character animated by the host's animation system, whose pack may have no clips at all.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub clip: Option<String>,
     /// Playback speed, in [-100, 100] (1 = real time; negative plays backwards). Default 1.
     #[serde(default = "one")]
     pub speed: f32,
@@ -879,13 +883,13 @@ impl PackAnimation {
     /// `clip` played from its start at normal speed, looping (what `animation = { clip = "…" }`
     /// reads as).
     pub fn new(clip: impl Into<String>) -> PackAnimation {
-        PackAnimation {
-            clip: clip.into(),
-            speed: one(),
-            looping: yes(),
-            start_s: 0.0,
-            cut_speed_m_per_s: default_cut_speed(),
-        }
+        PackAnimation { clip: Some(clip.into()), ..PackAnimation::posed_by_host() }
+    }
+
+    /// No clip: the skin stands in its rest pose until the host poses it (what `animation = {}`
+    /// reads as).
+    pub fn posed_by_host() -> PackAnimation {
+        PackAnimation { clip: None, speed: one(), looping: yes(), start_s: 0.0, cut_speed_m_per_s: default_cut_speed() }
     }
 }
 
@@ -1718,8 +1722,8 @@ impl Scene {
             }
             if let Some(a) = &p.animation {
                 let g = |k: &str| format!("packs[{i}].animation.{k}");
-                if a.clip.is_empty() {
-                    return Err((g("clip"), "must name a clip".into()));
+                if a.clip.as_deref().is_some_and(str::is_empty) {
+                    return Err((g("clip"), "must name a clip (leave it out for a skin the host poses)".into()));
                 }
                 range(a.speed, -100.0, 100.0, &g("speed"))?;
                 range(a.start_s, 0.0, 1e6, &g("start_s"))?;

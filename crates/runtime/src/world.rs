@@ -349,7 +349,7 @@ impl World {
             let planned = |k: StageKind| stages.iter().any(|s| s.pack == i && s.kind == k);
             let anim = match &sp.animation {
                 Some(a) => {
-                    let animator = Animator::new(&pack, &a.clip, a.speed, a.looping, a.start_s)?;
+                    let animator = Animator::new(&pack, a.clip.as_deref(), a.speed, a.looping, a.start_s)?;
                     // Every clip an event switches to must exist now, not mid-run.
                     for e in &scene.events {
                         if let Event::PlayClip { pack: name, clip, .. } = e {

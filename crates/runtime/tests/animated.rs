@@ -207,27 +207,37 @@ fn the_automatic_solver_of_an_animated_pack_is_xpbd() {
 }
 
 /// A host that animates the character itself hands the World its joint matrices: given the
-/// matrices the World's own clip player makes, the fur's state is bit-identical, step after step;
-/// bad matrices are refused, changing nothing; and the clips take over again when released.
+/// matrices the World's own clip player makes, the fur's state is bit-identical, step after step
+/// (the host's World holds its clip still, so only the host's matrices move it); bad matrices
+/// are refused, changing nothing; the clips take over again when released; and a pack animated
+/// with no clip at all (`animation = {}`) stands at rest until the host poses it, its skin then
+/// exactly the clip player's.
 #[test]
 fn host_joint_matrices_pose_the_skin_as_the_clips_do() {
     let body = "[packs.animation]\nclip = \"Walk\"\n[effects.gravity]\n[effects.wrong_side_guard]\n";
     let (mut clips, mut host) = (world(body), world(body));
-    // The host's character stands in the Survey clip's first pose: only the host's matrices move it.
-    host.animation_mut(0).unwrap().play("Survey", 0.0).unwrap();
+    host.animation_mut(0).unwrap().set_speed(0.0).unwrap();
+    let mut no_clip = world("animation = {}\n[effects.gravity]\n[effects.wrong_side_guard]\n");
+    assert!(!no_clip.animation(0).unwrap().is_host_posed());
+    let bits = |v: &[[f32; 3]]| v.iter().flatten().map(|c| c.to_bits()).collect::<Vec<_>>();
+    let rest = no_clip.animation(0).unwrap().positions().to_vec();
+    assert_ne!(bits(&rest), bits(clips.animation(0).unwrap().positions()), "the rest pose is not Walk's");
     for step in 0..40 {
         clips.step().unwrap();
         let anim = clips.animation(0).unwrap();
         let (joints, weights) = (anim.joint_matrices().to_vec(), anim.morph_weights().to_vec());
         assert!(!joints.is_empty(), "the Fox has a skeleton");
-        host.animation_mut(0).unwrap().set_joint_matrices(&joints, &weights).unwrap();
-        host.step().unwrap();
+        for w in [&mut host, &mut no_clip] {
+            w.animation_mut(0).unwrap().set_joint_matrices(&joints, &weights).unwrap();
+            w.step().unwrap();
+        }
         let (a, b) = (clips.fur(0).unwrap(), host.fur(0).unwrap());
-        let bits = |v: &[[f32; 3]]| v.iter().flatten().map(|c| c.to_bits()).collect::<Vec<_>>();
         assert_eq!(bits(a.scale_vectors), bits(b.scale_vectors), "step {step}: scale vectors");
         let (sa, sb) = (clips.pack_state(0).unwrap(), host.pack_state(0).unwrap());
         assert_eq!(bits(&sa.skin_positions_m), bits(&sb.skin_positions_m), "step {step}: skin");
         assert_eq!(clips.animation(0).unwrap().skinning_matrices(), host.animation(0).unwrap().skinning_matrices());
+        let posed = no_clip.animation(0).unwrap().positions();
+        assert_eq!(bits(posed), bits(clips.animation(0).unwrap().positions()), "step {step}: clipless skin");
     }
     let a = host.animation_mut(0).unwrap();
     assert!(a.is_host_posed());
@@ -239,10 +249,14 @@ fn host_joint_matrices_pose_the_skin_as_the_clips_do() {
     assert!(a.set_joint_matrices(&nan, &[]).is_err(), "a NaN joint matrix");
     assert!(a.set_joint_matrices(&before, &[0.5]).is_err(), "a weight for a morph target the Fox lacks");
     assert_eq!(a.joint_matrices(), &before[..], "a refused pose changes nothing");
-    // Released, the clip player (Survey, 40 steps on) poses the skin again.
+    // Released, the clip player (Walk, held at its start) poses the skin again.
     a.resume_clips();
     host.step().unwrap();
     assert_ne!(host.animation(0).unwrap().joint_matrices(), &before[..]);
+    // Released with no clip: back to the rest pose.
+    no_clip.animation_mut(0).unwrap().resume_clips();
+    no_clip.step().unwrap();
+    assert_eq!(bits(no_clip.animation(0).unwrap().positions()), bits(&rest));
 }
 
 #[test]
