@@ -172,6 +172,12 @@ fn values_outside_their_documented_ranges_are_rejected() {
     let mut s = skeleton();
     s.bind_joints[1] = 5;
     cases.push(("bind joints", Skeleton::decode(&s.encode()).map(|_| ())));
+    let mut s = skeleton();
+    s.nodes.pop();
+    cases.push(("joint nodes", Skeleton::decode(&s.encode()).map(|_| ())));
+    let mut s = skeleton();
+    s.nodes = vec![4, 4];
+    cases.push(("two joints", Skeleton::decode(&s.encode()).map(|_| ())));
     let mut w = weights();
     w.weights[9] = 0.5;
     cases.push(("sum to 1", SkinWeights::decode(&w.encode()).map(|_| ())));
@@ -205,7 +211,35 @@ fn values_outside_their_documented_ranges_are_rejected() {
         assert!(err.is_bad_file() && err.to_string().contains(what), "{what}: {err}");
         rejected += 1;
     }
-    assert_eq!(rejected, 13);
+    assert_eq!(rejected, 15);
+}
+
+/// The skeleton's layout 2 records each joint's glTF node; layout 1 (a pack baked before) reads
+/// with none.
+#[test]
+fn skeleton_layout_1_reads_without_joint_nodes() {
+    let s = skeleton();
+    assert_eq!(Skeleton::decode(&s.encode()).unwrap(), s, "layout 2 round trip");
+    // Layout 1: the same record without array 6.
+    #[derive(serde::Serialize)]
+    struct MetaV1 {
+        joint_count: u32,
+        bind_count: u32,
+        skin_root: Option<u32>,
+        names: Vec<String>,
+    }
+    let meta = MetaV1 { joint_count: 2, bind_count: 2, skin_root: s.skin_root, names: s.names.clone() };
+    let v1 = furbake_formats::record::RecordWriter::new(&meta)
+        .array::<u32>(&s.parents)
+        .array::<f32>(s.translations.as_flattened())
+        .array::<f32>(s.rotations.as_flattened())
+        .array::<f32>(s.scales.as_flattened())
+        .array::<u32>(&s.bind_joints)
+        .array::<f32>(s.inverse_binds.as_flattened())
+        .finish();
+    let read = Skeleton::decode(&v1).unwrap();
+    assert!(read.nodes.is_empty());
+    assert_eq!(Skeleton { nodes: s.nodes.clone(), ..read }, s);
 }
 
 #[test]

@@ -615,6 +615,7 @@ impl Rig {
             for &(_, n) in &needed {
                 let node = &root.nodes[n];
                 sk.names.push(cut_name(node.name.as_deref().unwrap_or("")));
+                sk.nodes.push(n as u32);
                 sk.parents.push(parent[n].and_then(|p| joint_of_node.get(&p).copied()).unwrap_or(Skeleton::NO_PARENT));
                 let (t, r, s) = local_trs(node);
                 if let Some(m) = node.matrix {

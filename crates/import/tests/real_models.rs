@@ -210,3 +210,34 @@ fn fox_takes_its_colour_from_the_base_colour_texture() {
     assert!(plain.colors.iter().all(|c| *c == [1.0; 4]), "without the texture every vertex is the white factor");
     assert_eq!(plain.positions, textured.positions, "colour sampling leaves the geometry alone");
 }
+
+/// Each joint records its glTF node: the node of that index in the file's own JSON (read here
+/// from the GLB's JSON chunk, not through the importer) carries the joint's name, and every node
+/// a skin lists as a joint is one of them.
+#[test]
+fn skeleton_joints_record_their_gltf_nodes() {
+    for name in ["Fox.glb", "Quaternius_Wolf.glb"] {
+        let imported = import(name);
+        let sk = imported.animation.skeleton.as_ref().unwrap_or_else(|| panic!("{name} is skinned"));
+        assert_eq!(sk.nodes.len(), sk.joint_count(), "{name}");
+        let bytes = std::fs::read(fixture(name)).unwrap();
+        let json_len = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+        assert_eq!(&bytes[16..20], b"JSON", "{name}: the GLB's first chunk is its JSON");
+        let json: serde_json::Value = serde_json::from_slice(&bytes[20..20 + json_len]).unwrap();
+        let nodes = json["nodes"].as_array().unwrap();
+        for (j, &n) in sk.nodes.iter().enumerate() {
+            let node_name = nodes[n as usize]["name"].as_str().unwrap_or("");
+            assert_eq!(
+                node_name.get(..128.min(node_name.len())).unwrap_or(node_name),
+                sk.names[j],
+                "{name}: joint {j}"
+            );
+        }
+        for skin in json["skins"].as_array().unwrap() {
+            for joint in skin["joints"].as_array().unwrap() {
+                let n = joint.as_u64().unwrap() as u32;
+                assert!(sk.nodes.contains(&n), "{name}: skin joint node {n} is not a skeleton joint");
+            }
+        }
+    }
+}

@@ -658,7 +658,8 @@ impl Animator {
     /// Poses the skin from the host's animation system instead of the clip player, from the next
     /// [`Animator::update`] on (a `World` step's `animation` stage), until
     /// [`Animator::resume_clips`]: `joint_matrices` has one matrix per skeleton joint, in the
-    /// skeleton's joint order (`Skeleton::names`), each the joint's transform in the skinned mesh's
+    /// skeleton's joint order ([`Animator::joint_nodes`] gives each joint's glTF node,
+    /// [`Animator::joint_names`] its name), each the joint's transform in the skinned mesh's
     /// frame (glTF: the joint node's global transform with the mesh node's taken out, before the
     /// inverse bind — what [`Animator::joint_matrices`] gives for the clips' poses), and
     /// `morph_weights` one weight per morph target. The skin, the fur's anchors and the skinning
@@ -758,6 +759,24 @@ impl Animator {
     /// Skinned unit normals per skin vertex, mesh frame.
     pub fn normals(&self) -> &[[f32; 3]] {
         &self.normals
+    }
+
+    /// The skeleton's joint names (the glTF node names, empty when unnamed), in the order
+    /// [`Animator::set_joint_matrices`] takes; empty without a skeleton.
+    pub fn joint_names(&self) -> &[String] {
+        self.skeleton.as_deref().map_or(&[], |s| s.names.as_slice())
+    }
+
+    /// The glTF node index of each joint, in the same order: how an engine that imported the same
+    /// glTF maps its skeleton onto this one without relying on names. Empty without a skeleton,
+    /// or for a pack baked before joints recorded their nodes (its joints are matched by name).
+    pub fn joint_nodes(&self) -> &[u32] {
+        self.skeleton.as_deref().map_or(&[], |s| s.nodes.as_slice())
+    }
+
+    /// The joint that glTF node `node` is, if any.
+    pub fn joint_of_node(&self, node: u32) -> Option<usize> {
+        self.joint_nodes().iter().position(|&n| n == node)
     }
 
     /// Joint matrices of the current pose, one per skeleton joint: each joint's transform in the

@@ -241,6 +241,11 @@ fn host_joint_matrices_pose_the_skin_as_the_clips_do() {
     }
     let a = host.animation_mut(0).unwrap();
     assert!(a.is_host_posed());
+    // An engine maps its joints by glTF node: every joint names its node, and back.
+    assert_eq!(a.joint_nodes().len(), a.joint_matrices().len());
+    assert_eq!(a.joint_names().len(), a.joint_matrices().len());
+    assert!(a.joint_nodes().iter().enumerate().all(|(j, &n)| a.joint_of_node(n) == Some(j)));
+    assert_eq!(a.joint_of_node(u32::MAX), None);
     let n = a.joint_matrices().len();
     let before = a.joint_matrices().to_vec();
     let mut nan = before.clone();

@@ -51,6 +51,10 @@ pub struct Skeleton {
     /// The glTF skin's `skeleton` node (the common root of its joints), when the file names one
     /// and it is part of the hierarchy.
     pub skin_root: Option<u32>,
+    /// The glTF node index of each joint (`joint_count` entries), so that an engine that imported
+    /// the same file maps its skeleton onto this one without names; empty in a pack written
+    /// before they were recorded (layout 1).
+    pub nodes: Vec<u32>,
 }
 
 impl Skeleton {
@@ -108,7 +112,7 @@ pub(crate) fn check_unit_quaternions(values: &[f32], what: &str) -> Result<()> {
 
 impl Section for Skeleton {
     const KIND: SectionKind = SectionKind::SKELETON;
-    const VERSION: u16 = 1;
+    const VERSION: u16 = 2;
 
     fn encode(&self) -> Vec<u8> {
         let meta = Meta {
@@ -124,9 +128,11 @@ impl Section for Skeleton {
             .array::<f32>(self.scales.as_flattened())
             .array::<u32>(&self.bind_joints)
             .array::<f32>(self.inverse_binds.as_flattened())
+            .array::<u32>(&self.nodes)
             .finish()
     }
 
+    /// Reads layout 2, or layout 1 (the same without array 6, the joints' glTF nodes).
     fn decode(payload: &[u8]) -> Result<Self> {
         let r = Record::parse(payload)?;
         let m: Meta = r.meta()?;
@@ -173,6 +179,15 @@ impl Section for Skeleton {
         if let Some(root) = m.skin_root.filter(|&r| r as usize >= j) {
             return Err(FormatError::invalid(format!("skin_root = {root} is out of range (must be below {j})")));
         }
+        let nodes = if r.array_count() > 6 { r.array::<u32>(6)?.into_owned() } else { Vec::new() };
+        if !(nodes.is_empty() || nodes.len() == j) {
+            return Err(FormatError::invalid(format!("{} joint nodes for {j} joints", nodes.len())));
+        }
+        let mut sorted = nodes.clone();
+        sorted.sort_unstable();
+        if let Some(w) = sorted.windows(2).find(|w| w[0] == w[1]) {
+            return Err(FormatError::invalid(format!("glTF node {} is two joints", w[0])));
+        }
         Ok(Skeleton {
             names: m.names,
             parents: parents.into_owned(),
@@ -182,6 +197,7 @@ impl Section for Skeleton {
             bind_joints: bind_joints.into_owned(),
             inverse_binds,
             skin_root: m.skin_root,
+            nodes,
         })
     }
 

@@ -32,5 +32,6 @@ pub fn skeleton() -> Skeleton {
         bind_joints: vec![0, 1],
         inverse_binds: vec![IDENTITY, shifted],
         skin_root: Some(0),
+        nodes: vec![0, 1],
     }
 }
