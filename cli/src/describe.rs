@@ -299,8 +299,10 @@ fn table(doc: &Value) -> String {
 fn compact(v: &Value) -> String {
     match v {
         Value::Array(a) if a.iter().all(|x| x.is_number()) => {
-            let items: Vec<String> =
-                a.iter().map(|x| x.as_f64().map_or(x.to_string(), |f| format!("{f:.3}"))).collect();
+            let items: Vec<String> = a
+                .iter()
+                .map(|x| if x.is_f64() { format!("{:.3}", x.as_f64().unwrap_or(0.0)) } else { x.to_string() })
+                .collect();
             format!("[{}]", items.join(" "))
         }
         Value::Number(n) if n.is_f64() => format!("{:.6}", n.as_f64().unwrap_or(0.0)),

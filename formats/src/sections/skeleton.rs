@@ -209,6 +209,7 @@ impl Section for Skeleton {
             "root_joints": roots,
             "skin_root": self.skin_root,
             "joint_names": self.names,
+            "joint_nodes": self.nodes,
         })
     }
 }
