@@ -10,7 +10,7 @@ FURBAKE := target/debug/furbake
 OUT := out/demo
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-.PHONY: demo test build deps bench fmt clippy golden clean-out report fuzz package doc api api-check
+.PHONY: demo test build deps bench fmt clippy golden clean-out report fuzz package doc api api-check capi capi-header
 
 # The renderer needs a Vulkan driver; on machines without a GPU that is Mesa's lavapipe. The
 # `furbake view` test needs a virtual X server (Xvfb).
@@ -35,6 +35,10 @@ deps:
 	@if ! command -v xvfb-run >/dev/null 2>&1; then \
 		echo "installing Xvfb (the furbake view test opens a window on a virtual X server)"; \
 		$(SUDO) apt-get update -qq && $(SUDO) apt-get install -y -qq --no-install-recommends xvfb xauth; \
+	fi
+	@if ! command -v cc >/dev/null 2>&1 || ! command -v pkg-config >/dev/null 2>&1; then \
+		echo "installing a C compiler and pkg-config (the C interface's tests build a C host)"; \
+		$(SUDO) apt-get update -qq && $(SUDO) apt-get install -y -qq --no-install-recommends gcc libc6-dev pkg-config; \
 	fi
 	@if ! command -v bazel >/dev/null 2>&1 || ! command -v nginx >/dev/null 2>&1; then \
 		echo "installing Bazel and nginx (the bake-farm test bakes under Bazel with an HTTP remote cache)"; \
@@ -109,6 +113,24 @@ package:
 	$(PACKAGE_TARGET)/debug/furbake --version
 	$(PACKAGE_TARGET)/debug/furbake bake fixtures/real/Box.glb -o $(PACKAGE_TARGET)/box.fbk --preset fur --quiet
 	$(PACKAGE_TARGET)/debug/furbake verify $(PACKAGE_TARGET)/box.fbk
+
+# furbake's C interface as a package under target/capi (docs/c-api.md): include/furbake.h,
+# lib/libfurbake_capi.a and .so, lib/pkgconfig/furbake.pc (prefix = that folder; install
+# elsewhere with `make capi CAPI_PREFIX=/usr/local` as root). Release build.
+CAPI_PREFIX ?= $(CURDIR)/target/capi
+capi:
+	$(CARGO) build --release -p furbake-capi
+	mkdir -p $(CAPI_PREFIX)/include $(CAPI_PREFIX)/lib/pkgconfig
+	cp crates/capi/include/furbake.h $(CAPI_PREFIX)/include/
+	cp target/release/libfurbake_capi.a target/release/libfurbake_capi.so $(CAPI_PREFIX)/lib/
+	sed -e 's|@PREFIX@|$(CAPI_PREFIX)|' -e "s|@VERSION@|$$(sed -n 's/^version = \"\(.*\)\"/\1/p' Cargo.toml | head -1)|" \
+		crates/capi/furbake.pc.in > $(CAPI_PREFIX)/lib/pkgconfig/furbake.pc
+	@echo "C interface in $(CAPI_PREFIX): PKG_CONFIG_PATH=$(CAPI_PREFIX)/lib/pkgconfig pkg-config --cflags --libs furbake"
+
+# Regenerate crates/capi/include/furbake.h with cbindgen after an intended change to the C
+# interface (the crate's `header` test fails while the checked-in copy is stale).
+capi-header:
+	FURBAKE_BLESS=1 $(CARGO) test -p furbake-capi --test capi header
 
 fmt:
 	$(CARGO) fmt --all

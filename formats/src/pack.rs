@@ -139,6 +139,16 @@ impl Pack {
         Ok(Pack::assemble(None, header.minor, len, entries, Source::Memory(AlignedBytes::copy_from(bytes))))
     }
 
+    /// [`Pack::from_bytes`] for bytes that came from somewhere with a name (an archive entry, an
+    /// engine's asset id): errors and [`Pack::display_path`] carry `name`, and [`Pack::path`]
+    /// returns it.
+    pub fn from_bytes_named(bytes: &[u8], name: impl Into<PathBuf>) -> Result<Pack> {
+        let name = name.into();
+        let mut pack = Pack::from_bytes(bytes).map_err(|e| e.with_path(&name))?;
+        pack.path = Some(name);
+        Ok(pack)
+    }
+
     /// Reads the whole container at `path` into memory and validates it as
     /// [`Pack::from_bytes`] does; errors carry the path. Only a regular file is read, never
     /// blocking; its header (the size it declares) is checked against the file's length before
@@ -162,7 +172,8 @@ impl Pack {
         Pack { path, minor, file_size, entries, source, state: Mutex::new(state) }
     }
 
-    /// The path the pack was opened or read from (`None` for [`Pack::from_bytes`]).
+    /// The path the pack was opened or read from, or the name given to
+    /// [`Pack::from_bytes_named`] (`None` for [`Pack::from_bytes`]).
     pub fn path(&self) -> Option<&Path> {
         self.path.as_deref()
     }

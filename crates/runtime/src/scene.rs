@@ -1450,6 +1450,28 @@ impl SceneBuilder {
         self.scene.grass_culling = culling;
         self
     }
+    /// A builder holding the values of scene TOML, which may leave `[[packs]]` out for the host
+    /// to add ([`SceneBuilder::pack`]); `name` labels errors. The text's keys are read (parse
+    /// errors name the key, as [`Scene::from_toml_str`]'s do); [`SceneBuilder::build`] validates
+    /// the values. Pack paths stay as written.
+    pub fn from_toml_str(text: &str, name: &Path) -> Result<SceneBuilder, SceneError> {
+        let without_packs = toml::from_str::<toml::Table>(text).is_ok_and(|t| !t.contains_key("packs"));
+        if !without_packs {
+            return Ok(SceneBuilder { scene: Scene::parse(text, name)? });
+        }
+        // `packs` is a required key of a scene file; a placeholder entry appended after the
+        // text (a table header may follow anything) keeps every line and column of the text's
+        // own errors where they are, and is dropped again.
+        let mut scene = Scene::parse(&format!("{text}\n[[packs]]\nname = \"\"\npath = \"\"\n"), name)?;
+        scene.packs.clear();
+        Ok(SceneBuilder { scene })
+    }
+
+    /// The packs added so far.
+    pub fn packs(&self) -> &[ScenePack] {
+        &self.scene.packs
+    }
+
     /// Validates the scene: the first value out of range is a [`SceneError::Invalid`] naming its
     /// dotted key.
     pub fn build(self) -> Result<Scene, SceneError> {
@@ -1550,6 +1572,19 @@ impl Scene {
     /// Parses and validates scene TOML. `name` labels errors; `base_dir` resolves relative pack
     /// paths.
     pub fn from_toml_str(text: &str, name: &Path, base_dir: &Path) -> Result<Scene, SceneError> {
+        let mut scene = Scene::parse(text, name)?;
+        scene.validate().map_err(|(field, what)| SceneError::Invalid { path: name.into(), field, what })?;
+        for p in &mut scene.packs {
+            if p.path.is_relative() {
+                p.path = base_dir.join(&p.path);
+            }
+        }
+        Ok(scene)
+    }
+
+    /// Reads scene TOML into a scene not yet validated (the key-naming parse errors of
+    /// [`Scene::from_toml_str`]; pack paths as written).
+    fn parse(text: &str, name: &Path) -> Result<Scene, SceneError> {
         if let Ok(table) = toml::from_str::<toml::Table>(text) {
             check_outdated(&table).map_err(|(field, what)| SceneError::Outdated { path: name.into(), field, what })?;
         }
@@ -1558,17 +1593,10 @@ impl Scene {
             message: parse_message(text, &e, key),
         };
         let de = toml::Deserializer::parse(text).map_err(|e| parse(e, ""))?;
-        let mut scene: Scene = serde_path_to_error::deserialize(de).map_err(|e| {
+        serde_path_to_error::deserialize(de).map_err(|e| {
             let key = e.path().to_string();
             parse(e.into_inner(), &key)
-        })?;
-        scene.validate().map_err(|(field, what)| SceneError::Invalid { path: name.into(), field, what })?;
-        for p in &mut scene.packs {
-            if p.path.is_relative() {
-                p.path = base_dir.join(&p.path);
-            }
-        }
-        Ok(scene)
+        })
     }
 
     /// What the scene is lit by: its `[[lights]]` and `[ambient]`, or its `[light]` shorthand,

@@ -384,3 +384,25 @@ fn a_scene_built_in_code_is_the_scene_its_file_reads_as_and_is_validated_the_sam
     }]);
     assert_eq!(invalid_field(from_nowhere.build()), "events[0].pack");
 }
+
+/// A host's settings without `[[packs]]` read into a builder (the C interface's world settings):
+/// errors keep the text's own lines and name the key; packs added afterwards make a valid scene.
+#[test]
+fn settings_without_packs_read_into_a_builder() {
+    use furbake_runtime::SceneBuilder;
+    let name = Path::new("game/fur.toml");
+    let text = "time_step_s = 0.01\n[effects.gravity]\n[effects.wind]\nvelocity_m_per_s = [2.0, 0.0, 0.0]\n";
+    let builder = SceneBuilder::from_toml_str(text, name).unwrap();
+    assert!(builder.packs().is_empty());
+    let scene = builder.pack(ScenePack::new("fox", "fox.fbk")).build().unwrap();
+    assert_eq!(scene.time_step_s(), 0.01);
+    assert_eq!(scene.effects().wind.unwrap().velocity_m_per_s, [2.0, 0.0, 0.0]);
+    let bad = "time_step_s = 0.01\n[effects.wind]\nvelocity_m_per_s = \"east\"\n";
+    let message = SceneBuilder::from_toml_str(bad, name).unwrap_err().to_string();
+    assert!(message.contains("game/fur.toml") && message.contains("effects.wind.velocity_m_per_s"), "{message}");
+    assert!(message.contains("line 3"), "the text's own line: {message}");
+    // Without packs the builder refuses to build; a text with packs keeps them.
+    assert!(SceneBuilder::from_toml_str(text, name).unwrap().build().is_err());
+    let with = format!("{text}[[packs]]\nname = \"a\"\npath = \"a.fbk\"\n");
+    assert_eq!(SceneBuilder::from_toml_str(&with, name).unwrap().packs().len(), 1);
+}
