@@ -36,6 +36,10 @@ deps:
 		echo "installing Xvfb (the furbake view test opens a window on a virtual X server)"; \
 		$(SUDO) apt-get update -qq && $(SUDO) apt-get install -y -qq --no-install-recommends xvfb xauth; \
 	fi
+	@if ! command -v spirv-val >/dev/null 2>&1 || ! command -v glslangValidator >/dev/null 2>&1; then \
+		echo "installing spirv-tools and glslang-tools (the shader export test validates SPIR-V and GLSL)"; \
+		$(SUDO) apt-get update -qq && $(SUDO) apt-get install -y -qq --no-install-recommends spirv-tools glslang-tools; \
+	fi
 	@if ! command -v cc >/dev/null 2>&1 || ! command -v pkg-config >/dev/null 2>&1; then \
 		echo "installing a C compiler and pkg-config (the C interface's tests build a C host)"; \
 		$(SUDO) apt-get update -qq && $(SUDO) apt-get install -y -qq --no-install-recommends gcc libc6-dev pkg-config; \
@@ -142,10 +146,12 @@ clean-out:
 	rm -rf out
 
 # Regenerate the golden pack checksums and the committed v1 pack, and the renderer's golden
-# images (crates/render/tests/reference/golden_*.png, compared by FLIP), after an intended change.
+# images (crates/render/tests/reference/golden_*.png, compared by FLIP) and the HLSL and MSL
+# snapshots of `furbake shaders` (tests/cli/reference/shaders/), after an intended change.
 golden:
 	FURBAKE_BLESS=1 $(CARGO) test -p furbake-cli --test cli golden
 	FURBAKE_BLESS=1 $(CARGO) test -p furbake-render --test render golden_images::
+	FURBAKE_BLESS=1 $(CARGO) test -p furbake-cli --test cli shaders::hlsl_and_msl
 
 # Regenerate docs/accuracy.md and its SVG charts from measurements (release build; a few minutes
 # on 2 cores). It runs the report crate's example — the same library call as `furbake report

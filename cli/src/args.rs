@@ -71,6 +71,12 @@ pub enum Command {
     /// it (docs/schemas/).
     #[command(after_help = EXIT_CODES)]
     Schema(SchemaArgs),
+    /// Write the renderer's shaders for another graphics API — every entry point and switch
+    /// combination, translated by naga into SPIR-V, GLSL 4.50, HLSL or MSL — and manifest.json:
+    /// each file's bindings (with what the C interface gives for each), vertex inputs, switches,
+    /// and the layouts of its structs (docs/c-api.md "Shaders").
+    #[command(after_help = EXIT_CODES)]
+    Shaders(ShadersArgs),
 }
 
 /// What `--max-memory` defaults to, in bytes (2 GiB).
@@ -569,6 +575,17 @@ pub struct SchemaArgs {
     /// `config` (a bake config, `furbake bake --config FILE`) or `batch` (`furbake batch FILE`).
     #[arg(value_parser = ["scene", "config", "batch"])]
     pub which: String,
+}
+
+/// `furbake shaders`
+#[derive(Args, Debug)]
+pub struct ShadersArgs {
+    /// The shading language.
+    #[arg(long, value_parser = ["spirv", "glsl", "hlsl", "msl"])]
+    pub target: String,
+    /// Output directory (created if missing); files of the same names are replaced.
+    #[arg(short, long)]
+    pub output: PathBuf,
 }
 
 /// The topology kind names, from the format's own list (so the CLI never drifts from it).

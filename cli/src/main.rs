@@ -16,6 +16,7 @@ mod png;
 mod preview_cmd;
 mod report_cmd;
 mod schema_cmd;
+mod shaders_cmd;
 mod simulate_cmd;
 mod stdout;
 mod view_cmd;
@@ -65,6 +66,7 @@ fn main() -> ExitCode {
         Command::Extract(a) => extract_cmd::run(a, cli.quiet),
         Command::Export(a) => export_cmd::run(a, cli.quiet),
         Command::Schema(a) => schema_cmd::run(a),
+        Command::Shaders(a) => shaders_cmd::run(a, cli.quiet),
         Command::View(a) => view_cmd::run(a, cli.quiet),
     };
     match result {

@@ -24,6 +24,7 @@ mod pipeline;
 mod plan_first;
 mod preview_scene;
 mod schemas;
+mod shaders;
 mod simulate_scene;
 mod verify_first;
 mod view;

@@ -1,7 +1,9 @@
 //! furbake-render: draws baked fur and grass with wgpu — skin, shells innermost to outermost with
 //! the eq. 3.36 shearing in the vertex shader, and fins (fur thesis §3.2, §3.4.2), and instanced
 //! grass blades that select and decode their keyframe on the GPU (grass thesis §4.2–4.4,
-//! [`BladeRenderer`]) — as middleware inside a host's renderer, or headless into an image. Nothing else:
+//! [`BladeRenderer`]) — as middleware inside a host's renderer, or headless into an image; and
+//! the same shaders for engines that draw with their own graphics API ([`export_shaders`]:
+//! SPIR-V, GLSL, HLSL, MSL, with a manifest of their bindings). Nothing else:
 //! packs are opened by `furbake-runtime`, physics lives in `furbake-sim`, the grass CPU reference
 //! in `furbake-grass`.
 //!
@@ -127,6 +129,7 @@ mod asset;
 mod blades;
 mod blocking;
 mod culling;
+mod export;
 pub mod headless;
 mod lod;
 mod mips;
@@ -151,6 +154,7 @@ use scene::RENDERER_OVERHEAD_BYTES;
 pub use asset::FurAsset;
 pub use blades::{BladeForces, BladeRenderSettings, BladeRenderer, BladeShading};
 pub use culling::GrassCulling;
+pub use export::{ExportedShader, ShaderExport, ShaderTarget, export_shaders};
 pub use lod::ShellLod;
 pub use pipelines::PipelineCache;
 pub use renderer::{FurGpuAsset, FurRenderer, RenderSettings, ShellBlend};
