@@ -37,7 +37,7 @@
 // The pack holds skin weights ([`FurbakeSkinWeightsView`]).
 #define FURBAKE_HAS_SKIN_WEIGHTS (1 << 7)
 
-// The pack holds morph targets.
+// The pack holds morph targets ([`FurbakeMorphTargetsView`]).
 #define FURBAKE_HAS_MORPH_TARGETS (1 << 8)
 
 // The pack holds animation clips ([`FurbakeClipInfo`]).
@@ -329,6 +329,23 @@ typedef struct FurbakeSkinWeightsView {
   const float *weights;
 } FurbakeSkinWeightsView;
 
+// Morph targets (glTF 2.0 "Morph Targets"): per target a position and a normal delta for every
+// welded skin vertex, applied before skinning (`p + Σ wᵢ·Δpᵢ`, normals renormalised).
+typedef struct FurbakeMorphTargetsView {
+  // `sizeof(FurbakeMorphTargetsView)`, set by the caller.
+  uint32_t size;
+  // Targets.
+  uint32_t target_count;
+  // Welded skin vertices each target displaces.
+  uint32_t vertex_count;
+  // `target_count × vertex_count × 3` floats: position deltas, target-major, metres.
+  const float *position_deltas;
+  // Normal deltas in the same order; null when no target moves normals.
+  const float *normal_deltas;
+  // `target_count` floats: the default weights.
+  const float *default_weights;
+} FurbakeMorphTargetsView;
+
 // One animation clip of a pack.
 typedef struct FurbakeClipInfo {
   // `sizeof(FurbakeClipInfo)`, set by the caller.
@@ -580,6 +597,13 @@ enum FurbakeResult furbake_pack_joint_name(const struct FurbakePack *pack,
 // As `furbake_pack_skin_mesh`.
 enum FurbakeResult furbake_pack_skin_weights(const struct FurbakePack *pack,
                                              struct FurbakeSkinWeightsView *view);
+
+// Fills `*view` with the pack's morph targets.
+//
+// # Safety
+// As `furbake_pack_skin_mesh`.
+enum FurbakeResult furbake_pack_morph_targets(const struct FurbakePack *pack,
+                                              struct FurbakeMorphTargetsView *view);
 
 // Fills `*info` with clip `index`'s name and length.
 //

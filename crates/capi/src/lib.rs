@@ -18,6 +18,24 @@
 //! valid until the next call that changes the world). A host that animates its characters
 //! itself gives each pack its joint matrices ([`furbake_world_set_joint_matrices`]), matched to
 //! its own skeleton by glTF node ([`furbake_pack_skeleton`]).
+//!
+//! The calls as a C host makes them, here from Rust (`crates/capi/tests/c/walking_fox.c` is a
+//! whole host in C):
+//!
+//! ```
+//! use std::ffi::{CStr, CString};
+//! use furbake_capi::*;
+//!
+//! assert_eq!(furbake_abi_version(), FURBAKE_ABI_VERSION);
+//! let path = CString::new("no/such/fox.fbk")?;
+//! let mut pack = std::ptr::null_mut();
+//! let result = unsafe { furbake_pack_open_file(path.as_ptr(), &mut pack) };
+//! assert_eq!(result, FurbakeResult::Io);
+//! let message = unsafe { CStr::from_ptr(furbake_last_error()) }.to_str()?;
+//! assert!(message.starts_with("no/such/fox.fbk: "), "{message}");
+//! assert!(pack.is_null());
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
 #![deny(missing_docs)]
 

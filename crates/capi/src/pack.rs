@@ -382,6 +382,30 @@ pub unsafe extern "C" fn furbake_pack_skin_weights(
     })
 }
 
+/// Fills `*view` with the pack's morph targets.
+///
+/// # Safety
+/// As `furbake_pack_skin_mesh`.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn furbake_pack_morph_targets(
+    pack: *const FurbakePack,
+    view: *mut FurbakeMorphTargetsView,
+) -> FurbakeResult {
+    guard(|| {
+        let p = &pack_ref("pack", pack)?.pack;
+        let m = p.morph_targets()?.ok_or_else(|| missing(p, SectionKind::MORPH_TARGETS))?;
+        let value = FurbakeMorphTargetsView {
+            size: 0,
+            target_count: m.target_count() as u32,
+            vertex_count: m.vertex_count,
+            position_deltas: m.position_deltas.as_ptr().cast(),
+            normal_deltas: if m.normal_deltas.is_empty() { std::ptr::null() } else { m.normal_deltas.as_ptr().cast() },
+            default_weights: m.default_weights.as_ptr(),
+        };
+        write_view("view", view, value)
+    })
+}
+
 /// Fills `*info` with clip `index`'s name and length.
 ///
 /// # Safety

@@ -28,7 +28,7 @@ pub const FURBAKE_HAS_KEYFRAME_TABLE: u32 = 1 << 5;
 pub const FURBAKE_HAS_SKELETON: u32 = 1 << 6;
 /// The pack holds skin weights ([`FurbakeSkinWeightsView`]).
 pub const FURBAKE_HAS_SKIN_WEIGHTS: u32 = 1 << 7;
-/// The pack holds morph targets.
+/// The pack holds morph targets ([`FurbakeMorphTargetsView`]).
 pub const FURBAKE_HAS_MORPH_TARGETS: u32 = 1 << 8;
 /// The pack holds animation clips ([`FurbakeClipInfo`]).
 pub const FURBAKE_HAS_CLIPS: u32 = 1 << 9;
@@ -253,6 +253,25 @@ pub struct FurbakeSkinWeightsView {
     pub binds: *const u16,
     /// `vertex_count × influences_per_vertex` weights, summing to 1 per vertex.
     pub weights: *const f32,
+}
+
+/// Morph targets (glTF 2.0 "Morph Targets"): per target a position and a normal delta for every
+/// welded skin vertex, applied before skinning (`p + Σ wᵢ·Δpᵢ`, normals renormalised).
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct FurbakeMorphTargetsView {
+    /// `sizeof(FurbakeMorphTargetsView)`, set by the caller.
+    pub size: u32,
+    /// Targets.
+    pub target_count: u32,
+    /// Welded skin vertices each target displaces.
+    pub vertex_count: u32,
+    /// `target_count × vertex_count × 3` floats: position deltas, target-major, metres.
+    pub position_deltas: *const f32,
+    /// Normal deltas in the same order; null when no target moves normals.
+    pub normal_deltas: *const f32,
+    /// `target_count` floats: the default weights.
+    pub default_weights: *const f32,
 }
 
 /// One animation clip of a pack.

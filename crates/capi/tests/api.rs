@@ -504,3 +504,40 @@ fn a_scene_file_opens_as_a_world_with_grass_forces() {
     assert_eq!(unsafe { furbake_world_open_scene(missing.as_ptr(), 0, &mut w) }, FurbakeResult::Io);
     assert!(last_error().contains("nope.toml"), "{}", last_error());
 }
+
+#[test]
+fn morph_targets_are_viewed_and_weighted_by_the_host() {
+    let path = packs().join("strip.fbk");
+    let rust = Pack::open(&path).unwrap();
+    let morphs = rust.morph_targets().unwrap().unwrap();
+    let pack = open(&path);
+    let mut m: FurbakeMorphTargetsView = sized();
+    // SAFETY: live handle, sized view.
+    assert_eq!(unsafe { furbake_pack_morph_targets(pack, &mut m) }, FurbakeResult::Ok, "{}", last_error());
+    assert_eq!((m.target_count as usize, m.vertex_count), (morphs.target_count(), morphs.vertex_count));
+    assert!(!m.normal_deltas.is_null(), "the strip's target moves normals");
+    // SAFETY: as the view states.
+    let deltas = unsafe { floats(m.position_deltas, 3 * (m.target_count * m.vertex_count) as usize) };
+    assert_eq!(deltas, morphs.position_deltas.as_flattened());
+    // A host-posed strip at weight 0.5 moves its lifted row half way (+0.5 in z).
+    let w = world("time_step_s = 0.01\n[effects.gravity]\n", 0);
+    add(w, pack, "strip", FURBAKE_ANIMATION_HOST, None, 1.0);
+    step(w);
+    let (joints, rest) = pose(w, 0);
+    let weight = [0.5f32];
+    // SAFETY: live handle; the arrays hold the counts given.
+    let r = unsafe {
+        furbake_world_set_joint_matrices(w, 0, joints.as_ptr(), (joints.len() / 16) as u32, weight.as_ptr(), 1)
+    };
+    assert_eq!(r, FurbakeResult::Ok, "{}", last_error());
+    step(w);
+    let (_, posed) = pose(w, 0);
+    let moved: Vec<f32> = posed.iter().zip(&rest).map(|(a, b)| f32::from_bits(*a) - f32::from_bits(*b)).collect();
+    let lifted = moved.chunks(3).filter(|d| (d[2] - 0.005).abs() < 1e-6 || (d[2] - 0.5).abs() < 1e-5).count();
+    assert!(lifted > 0, "some vertices rise by half the target's delta: {moved:?}");
+    // SAFETY: live handles, released once.
+    unsafe {
+        furbake_world_release(w);
+        furbake_pack_release(pack);
+    }
+}

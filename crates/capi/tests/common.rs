@@ -12,7 +12,8 @@ pub fn root() -> PathBuf {
 }
 
 /// A directory holding `fox.fbk` (the bundled Fox, CC-BY 4.0, fur with a prisms topology, small
-/// atlas) and `grass.fbk` (the grass patch with 400 blades/m²), baked once.
+/// atlas), `grass.fbk` (the grass patch with 400 blades/m²) and `strip.fbk` (a skinned strip
+/// with a morph target), baked once.
 pub fn packs() -> &'static Path {
     static DIR: OnceLock<tempfile::TempDir> = OnceLock::new();
     DIR.get_or_init(|| {
@@ -21,6 +22,10 @@ pub fn packs() -> &'static Path {
         bake_into(dir.path(), "fixtures/real/Fox.glb", "fur", &small, "fox.fbk");
         let grass = [&small[..], &["blades.field.density_per_m2=400"]].concat();
         bake_into(dir.path(), "fixtures/generated/grass_patch.gltf", "grass", &grass, "grass.fbk");
+        // A skinned strip with a morph target (furbake_import::testmesh::SkinnedStrip).
+        let strip = dir.path().join("strip.gltf");
+        std::fs::write(&strip, furbake_import::testmesh::SkinnedStrip::default().to_gltf()).unwrap();
+        bake_into(dir.path(), strip.to_str().unwrap(), "fur", &small, "strip.fbk");
         dir
     })
     .path()

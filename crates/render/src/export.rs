@@ -122,7 +122,9 @@ fn source_of(module: &str, variable: &str) -> &'static str {
         ("skinning", "influence_weights") => "furbake_pack_skin_weights().weights",
         ("skinning", "skinning_matrices") => "furbake_world_skin_pose().skinning_matrices",
         ("skinning", "morph_weights") => "furbake_world_skin_pose().morph_weights",
-        ("skinning", "morph_deltas") => "the pack's morph target deltas (not yet a C view)",
+        ("skinning", "morph_deltas") => {
+            "furbake_pack_morph_targets position deltas, then normal deltas (with MORPH_NORMALS)"
+        }
         ("skinning", "params") => "host: vertex, influence and morph counts (struct SkinningUniforms)",
         ("skinning", "skinned_out") => "output: this frame's posed welded vertices",
         (_, "edges" | "sil_edges") => {
