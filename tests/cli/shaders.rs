@@ -100,6 +100,19 @@ fn every_target_writes_what_its_manifest_lists_the_same_every_run() {
         assert!(scale["source"].as_str().unwrap().contains("furbake_world_fur_frame"), "{scale}");
         assert_eq!(scale["stride"], 16);
         assert_eq!(manifest["structs"]["Frame"]["members"][0]["name"], "view_proj");
+        if target == "glsl" {
+            // OpenGL binding points are shared by a program's stages: within a module each WGSL
+            // resource has one GLSL binding in every file.
+            let mut seen = std::collections::BTreeMap::new();
+            for f in manifest["files"].as_array().unwrap() {
+                for b in f["bindings"].as_array().unwrap() {
+                    let key = (f["module"].to_string(), b["group"].as_u64(), b["binding"].as_u64());
+                    let glsl = b["glsl_binding"].clone();
+                    let first = seen.entry(key.clone()).or_insert_with(|| glsl.clone());
+                    assert_eq!(*first, glsl, "{key:?} in {}", f["file"]);
+                }
+            }
+        }
     }
 }
 

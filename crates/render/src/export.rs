@@ -308,6 +308,9 @@ fn translate(
     entry: &str,
     constants: &BTreeMap<String, f64>,
 ) -> Result<Vec<u8>, String> {
+    // Numbered on the whole module: resolving the overrides for one entry point drops the
+    // resources it does not use, and the stages of one program must agree.
+    let glsl_map = glsl_bindings(module);
     let pipeline_constants: naga::back::PipelineConstants = constants.iter().map(|(k, v)| (k.clone(), *v)).collect();
     let (module, info) =
         naga::back::pipeline_constants::process_overrides(module, info, Some((stage, entry)), &pipeline_constants)
@@ -328,10 +331,7 @@ fn translate(
             Ok(words.iter().flat_map(|w| w.to_le_bytes()).collect())
         }
         ShaderTarget::Glsl => {
-            let binding_map = glsl_bindings(&module, &info, ep)
-                .into_iter()
-                .map(|(binding, (_, slot))| (binding, slot as u8))
-                .collect();
+            let binding_map = glsl_map.into_iter().map(|(binding, (_, slot))| (binding, slot as u8)).collect();
             let options = glsl::Options {
                 version: glsl::Version::Desktop(450),
                 writer_flags: glsl::WriterFlags::empty(),
@@ -407,24 +407,21 @@ fn used_resources<'a>(
 }
 
 /// GLSL binding numbers: one counter per OpenGL binding namespace (uniform blocks, shader
-/// storage blocks, texture units), in (group, binding) order.
-fn glsl_bindings(
-    module: &naga::Module,
-    info: &ModuleInfo,
-    ep: &naga::EntryPoint,
-) -> BTreeMap<naga::ResourceBinding, (&'static str, u32)> {
+/// storage blocks, texture units), over every resource of the module in (group, binding) order,
+/// so the stages of one program agree (OpenGL binding points are shared by the linked stages).
+fn glsl_bindings(module: &naga::Module) -> BTreeMap<naga::ResourceBinding, (&'static str, u32)> {
+    let mut resources: Vec<_> = module.global_variables.iter().filter_map(|(_, v)| v.binding.map(|b| (b, v))).collect();
+    resources.sort_by_key(|(b, _)| (b.group, b.binding));
     let mut next = BTreeMap::new();
     let mut map = BTreeMap::new();
-    for (binding, var) in used_resources(module, info, ep) {
+    for (binding, var) in resources {
         let space = match resource_kind(module, var) {
             "uniform_buffer" => "uniform_block",
             "storage_buffer_read" | "storage_buffer_read_write" => "shader_storage_block",
-            // Samplers merge with their texture into one GLSL sampler on the texture's unit.
+            // A sampler merges with its texture into one GLSL sampler on the texture's unit.
+            "sampler" => continue,
             _ => "texture_unit",
         };
-        if resource_kind(module, var) == "sampler" {
-            continue;
-        }
         let slot = next.entry(space).or_insert(0u32);
         map.insert(binding, (space, *slot));
         *slot += 1;
@@ -466,7 +463,7 @@ fn bindings(
     info: &ModuleInfo,
     ep: &naga::EntryPoint,
 ) -> Vec<Value> {
-    let glsl = glsl_bindings(module, info, ep);
+    let glsl = glsl_bindings(module);
     let (msl, _) = msl_bindings(module, info, ep);
     used_resources(module, info, ep)
         .into_iter()
