@@ -40,6 +40,10 @@ deps:
 		echo "installing spirv-tools and glslang-tools (the shader export test validates SPIR-V and GLSL)"; \
 		$(SUDO) apt-get update -qq && $(SUDO) apt-get install -y -qq --no-install-recommends spirv-tools glslang-tools; \
 	fi
+	@if [ ! -f /usr/include/EGL/egl.h ] || [ ! -f /usr/include/GL/glcorearb.h ] || ! ldconfig -p | grep -q 'libOpenGL.so ' || ! ldconfig -p | grep -q 'libEGL_mesa.so.0 '; then \
+		echo "installing EGL, OpenGL and Mesa's llvmpipe (the OpenGL host test draws headless)"; \
+		$(SUDO) apt-get update -qq && $(SUDO) apt-get install -y -qq --no-install-recommends libegl-dev libgl-dev libopengl-dev libegl-mesa0 libgl1-mesa-dri; \
+	fi
 	@if ! command -v cc >/dev/null 2>&1 || ! command -v pkg-config >/dev/null 2>&1; then \
 		echo "installing a C compiler and pkg-config (the C interface's tests build a C host)"; \
 		$(SUDO) apt-get update -qq && $(SUDO) apt-get install -y -qq --no-install-recommends gcc libc6-dev pkg-config; \

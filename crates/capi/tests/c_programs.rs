@@ -20,7 +20,7 @@ fn compiler() -> String {
 
 /// Installs the header, one of the libraries (`libfurbake_capi.a` or `.so`) and `furbake.pc`
 /// (from `furbake.pc.in`, as `make capi` fills it) under `prefix`, as a package would.
-fn install(prefix: &Path, library: &str) {
+pub fn install(prefix: &Path, library: &str) {
     let crate_dir = Path::new(env!("CARGO_MANIFEST_DIR"));
     for sub in ["include", "lib/pkgconfig"] {
         std::fs::create_dir_all(prefix.join(sub)).unwrap();
@@ -49,6 +49,11 @@ fn pkg_config(prefix: &Path, args: &[&str]) -> Vec<String> {
 /// Compiles `source` (under tests/c) into `exe` with the flags pkg-config gives for the package
 /// under `prefix` (`--static` for the static library).
 fn build(source: &str, prefix: &Path, link_static: bool, exe: &Path) {
+    build_with(source, prefix, link_static, exe, &[]);
+}
+
+/// [`build`] with more libraries to link (`-lEGL`).
+pub fn build_with(source: &str, prefix: &Path, link_static: bool, exe: &Path, libraries: &[&str]) {
     let crate_dir = Path::new(env!("CARGO_MANIFEST_DIR"));
     let mut flags = vec!["--cflags", "--libs"];
     if link_static {
@@ -59,6 +64,7 @@ fn build(source: &str, prefix: &Path, link_static: bool, exe: &Path) {
         .args(["-fsanitize=address,undefined", "-fno-sanitize-recover=all", "-fno-omit-frame-pointer"])
         .arg(crate_dir.join("tests/c").join(source))
         .args(pkg_config(prefix, &flags))
+        .args(libraries)
         .arg("-lm") // the program's own sqrtf
         .arg("-o")
         .arg(exe)

@@ -5,4 +5,5 @@
 mod api;
 mod c_programs;
 mod common;
+mod gl_host;
 mod header;

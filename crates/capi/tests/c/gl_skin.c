@@ -1,0 +1,362 @@
+/* An OpenGL 4.5 host written in C (no Rust in it): it steps the walking Fox through furbake's C
+ * interface and draws its skin with the GLSL that `furbake shaders --target glsl` exported, on
+ * a headless EGL context (Mesa's llvmpipe on a machine without a GPU), then writes the frame as
+ * raw RGBA8 rows, top row first.
+ *
+ * Usage: gl_skin FOX.fbk SHADER_DIR OUT.rgba WIDTH HEIGHT STEPS FRAME_BINDING FUR_BINDING
+ *        SHADOW_BINDING
+ * The bindings are the GLSL binding numbers manifest.json gives the skin module's `frame` and
+ * `fur` uniform blocks and its `shadow` storage block. The camera and light are the ones the
+ * crate's test gives `furbake`'s renderer (keep them in step with tests/gl_host.rs). */
+
+#define GL_GLEXT_PROTOTYPES 1
+#include <EGL/egl.h>
+#include <EGL/eglext.h>
+#include <GL/glcorearb.h>
+
+#include "furbake.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define MUST(call)                                                                                 \
+    do {                                                                                           \
+        FurbakeResult r_ = (call);                                                                 \
+        if (r_ != FURBAKE_RESULT_OK) {                                                             \
+            fprintf(stderr, "gl_skin.c:%d: %s failed (%d): %s\n", __LINE__, #call, (int)r_,        \
+                    furbake_last_error());                                                         \
+            exit(1);                                                                               \
+        }                                                                                          \
+    } while (0)
+
+static void die(const char *what) {
+    fprintf(stderr, "gl_skin.c: %s\n", what);
+    exit(1);
+}
+
+static char *read_text(const char *dir, const char *name) {
+    char path[4096];
+    snprintf(path, sizeof path, "%s/%s", dir, name);
+    FILE *f = fopen(path, "rb");
+    if (!f) {
+        perror(path);
+        exit(1);
+    }
+    fseek(f, 0, SEEK_END);
+    long n = ftell(f);
+    fseek(f, 0, SEEK_SET);
+    char *text = malloc((size_t)n + 1);
+    if (!text || fread(text, 1, (size_t)n, f) != (size_t)n) {
+        die("cannot read a shader");
+    }
+    text[n] = 0;
+    fclose(f);
+    return text;
+}
+
+static GLuint compile(GLenum stage, const char *dir, const char *name) {
+    char *source = read_text(dir, name);
+    GLuint shader = glCreateShader(stage);
+    const char *sources[] = {source};
+    glShaderSource(shader, 1, sources, NULL);
+    glCompileShader(shader);
+    GLint ok = 0;
+    glGetShaderiv(shader, GL_COMPILE_STATUS, &ok);
+    if (!ok) {
+        char log[4096];
+        glGetShaderInfoLog(shader, sizeof log, NULL, log);
+        fprintf(stderr, "%s: %s\n", name, log);
+        exit(1);
+    }
+    free(source);
+    return shader;
+}
+
+/* Column-major 4×4 matrices, as glam (and WGSL) store them. */
+typedef struct {
+    float m[16];
+} Mat4;
+
+static Mat4 mul(Mat4 a, Mat4 b) {
+    Mat4 r;
+    for (int c = 0; c < 4; c++) {
+        for (int row = 0; row < 4; row++) {
+            float s = 0.0f;
+            for (int k = 0; k < 4; k++) {
+                s += a.m[k * 4 + row] * b.m[c * 4 + k];
+            }
+            r.m[c * 4 + row] = s;
+        }
+    }
+    return r;
+}
+
+static void normalize3(float v[3]) {
+    float l = sqrtf(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    v[0] /= l;
+    v[1] /= l;
+    v[2] /= l;
+}
+
+static void cross3(const float a[3], const float b[3], float out[3]) {
+    out[0] = a[1] * b[2] - a[2] * b[1];
+    out[1] = a[2] * b[0] - a[0] * b[2];
+    out[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+/* Right-handed look-at and a perspective with depth in [0, 1] (what glam's look_at_rh and
+ * perspective_rh compute). */
+static Mat4 look_at(const float eye[3], const float target[3], const float up[3]) {
+    float f[3] = {target[0] - eye[0], target[1] - eye[1], target[2] - eye[2]};
+    normalize3(f);
+    float s[3], u[3];
+    cross3(f, up, s);
+    normalize3(s);
+    cross3(s, f, u);
+    Mat4 m = {{s[0], u[0], -f[0], 0, s[1], u[1], -f[1], 0, s[2], u[2], -f[2], 0,
+               -(s[0] * eye[0] + s[1] * eye[1] + s[2] * eye[2]), -(u[0] * eye[0] + u[1] * eye[1] + u[2] * eye[2]),
+               f[0] * eye[0] + f[1] * eye[1] + f[2] * eye[2], 1}};
+    return m;
+}
+
+static Mat4 perspective(float fov_y, float aspect, float near, float far) {
+    float h = 1.0f / tanf(0.5f * fov_y), w = h / aspect, r = far / (near - far);
+    Mat4 m = {{w, 0, 0, 0, 0, h, 0, 0, 0, 0, r, -1, 0, 0, r * near, 0}};
+    return m;
+}
+
+/* One vertex per triangle corner, as the renderer's surface vertices (vs_skin's inputs). */
+typedef struct {
+    float position[3];
+    float normal[3];
+    float color[4];
+    float uv[2];
+    uint32_t vertex_index, flags, corner_index;
+} Corner;
+
+int main(int argc, char **argv) {
+    if (argc != 10) {
+        fprintf(stderr, "usage: %s FOX.fbk SHADER_DIR OUT.rgba WIDTH HEIGHT STEPS FRAME FUR SHADOW\n", argv[0]);
+        return 2;
+    }
+    const char *shader_dir = argv[2];
+    const int width = atoi(argv[4]), height = atoi(argv[5]), steps = atoi(argv[6]);
+    const GLuint frame_binding = (GLuint)atoi(argv[7]), fur_binding = (GLuint)atoi(argv[8]),
+                 shadow_binding = (GLuint)atoi(argv[9]);
+    if (furbake_abi_version() != FURBAKE_ABI_VERSION) {
+        die("the furbake library is not the one this host was built against");
+    }
+
+    /* The walking Fox, stepped to the frame. */
+    FurbakePack *fox = NULL;
+    MUST(furbake_pack_open_file(argv[1], &fox));
+    FurbakeWorldDesc desc;
+    memset(&desc, 0, sizeof desc);
+    desc.size = sizeof desc;
+    desc.settings_toml = "time_step_s = 0.02\n[effects.gravity]\n";
+    FurbakeWorld *world = NULL;
+    MUST(furbake_world_create(&desc, &world));
+    FurbakeEntryDesc entry;
+    memset(&entry, 0, sizeof entry);
+    entry.size = sizeof entry;
+    entry.name = "fox";
+    entry.animation = FURBAKE_ANIMATION_CLIP;
+    entry.clip = "Walk";
+    entry.speed = 1.0f;
+    entry.looping = 1;
+    entry.scale = 0.01f;
+    MUST(furbake_world_add_pack(world, fox, &entry, NULL));
+    for (int k = 0; k < steps; k++) {
+        MUST(furbake_world_step(world));
+    }
+    FurbakeSkinMeshView mesh;
+    memset(&mesh, 0, sizeof mesh);
+    mesh.size = sizeof mesh;
+    MUST(furbake_pack_skin_mesh(fox, &mesh));
+    FurbakeShellAtlasView atlas;
+    memset(&atlas, 0, sizeof atlas);
+    atlas.size = sizeof atlas;
+    MUST(furbake_pack_shell_atlas(fox, &atlas));
+    FurbakeSkinPose pose;
+    memset(&pose, 0, sizeof pose);
+    pose.size = sizeof pose;
+    MUST(furbake_world_skin_pose(world, 0, &pose));
+    Mat4 model;
+    MUST(furbake_world_model_matrix(world, 0, model.m));
+
+    /* A headless OpenGL 4.5 core context. */
+    PFNEGLGETPLATFORMDISPLAYEXTPROC get_display =
+        (PFNEGLGETPLATFORMDISPLAYEXTPROC)eglGetProcAddress("eglGetPlatformDisplayEXT");
+    if (!get_display) {
+        die("no eglGetPlatformDisplayEXT");
+    }
+    EGLDisplay display = get_display(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, NULL);
+    EGLint major = 0, minor = 0;
+    if (!eglInitialize(display, &major, &minor) || !eglBindAPI(EGL_OPENGL_API)) {
+        die("EGL does not initialise");
+    }
+    const EGLint context_attributes[] = {EGL_CONTEXT_MAJOR_VERSION, 4, EGL_CONTEXT_MINOR_VERSION, 5,
+                                         EGL_CONTEXT_OPENGL_PROFILE_MASK, EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT,
+                                         EGL_NONE};
+    EGLContext context = eglCreateContext(display, EGL_NO_CONFIG_KHR, EGL_NO_CONTEXT, context_attributes);
+    if (context == EGL_NO_CONTEXT || !eglMakeCurrent(display, EGL_NO_SURFACE, EGL_NO_SURFACE, context)) {
+        die("no OpenGL 4.5 core context");
+    }
+    fprintf(stderr, "gl_skin: %s, %s\n", (const char *)glGetString(GL_RENDERER), (const char *)glGetString(GL_VERSION));
+
+    /* The exported skin program: bind pose from the vertex attributes (the posed skin comes from
+     * the C interface), Lambert × self-shadow with one light. */
+    GLuint program = glCreateProgram();
+    glAttachShader(program, compile(GL_VERTEX_SHADER, shader_dir, "skin.vs_skin.none.vert"));
+    glAttachShader(program, compile(GL_FRAGMENT_SHADER, shader_dir, "skin.fs_skin.lambert-shadow.light_slots1.frag"));
+    glLinkProgram(program);
+    GLint linked = 0;
+    glGetProgramiv(program, GL_LINK_STATUS, &linked);
+    if (!linked) {
+        char log[4096];
+        glGetProgramInfoLog(program, sizeof log, NULL, log);
+        fprintf(stderr, "link: %s\n", log);
+        return 1;
+    }
+    glUseProgram(program);
+    GLint first_instance = glGetUniformLocation(program, "naga_vs_first_instance");
+    if (first_instance >= 0) {
+        glUniform1ui(first_instance, 0);
+    }
+
+    /* Vertices: one per triangle corner, posed by the world. */
+    size_t corners = 3 * (size_t)mesh.triangle_count;
+    Corner *vertices = calloc(corners, sizeof(Corner));
+    for (uint32_t t = 0; t < mesh.triangle_count; t++) {
+        for (uint32_t c = 0; c < 3; c++) {
+            uint32_t v = mesh.triangles[3 * t + c];
+            Corner *o = &vertices[3 * t + c];
+            memcpy(o->position, &pose.positions[3 * v], sizeof o->position);
+            memcpy(o->normal, &pose.normals[3 * v], sizeof o->normal);
+            memcpy(o->color, &mesh.colors[4 * v], sizeof o->color);
+            o->vertex_index = v;
+            o->flags = mesh.fur_mask[t];
+            o->corner_index = 3 * t + c;
+        }
+    }
+    GLuint vao, vbo;
+    glGenVertexArrays(1, &vao);
+    glBindVertexArray(vao);
+    glGenBuffers(1, &vbo);
+    glBindBuffer(GL_ARRAY_BUFFER, vbo);
+    glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)(corners * sizeof(Corner)), vertices, GL_STATIC_DRAW);
+    free(vertices);
+    const GLsizei stride = sizeof(Corner);
+    glEnableVertexAttribArray(0);
+    glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, stride, (void *)offsetof(Corner, position));
+    glEnableVertexAttribArray(1);
+    glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, stride, (void *)offsetof(Corner, normal));
+    glEnableVertexAttribArray(2);
+    glVertexAttribPointer(2, 4, GL_FLOAT, GL_FALSE, stride, (void *)offsetof(Corner, color));
+    glEnableVertexAttribArray(3);
+    glVertexAttribPointer(3, 2, GL_FLOAT, GL_FALSE, stride, (void *)offsetof(Corner, uv));
+    glEnableVertexAttribArray(4);
+    glVertexAttribIPointer(4, 1, GL_UNSIGNED_INT, stride, (void *)offsetof(Corner, vertex_index));
+    glEnableVertexAttribArray(5);
+    glVertexAttribIPointer(5, 1, GL_UNSIGNED_INT, stride, (void *)offsetof(Corner, flags));
+    glEnableVertexAttribArray(6);
+    glVertexAttribIPointer(6, 1, GL_UNSIGNED_INT, stride, (void *)offsetof(Corner, corner_index));
+
+    /* Frame uniforms (struct Frame of manifest.json: 352 bytes). */
+    const float eye[3] = {1.6f, 0.9f, 2.0f}, target[3] = {0.0f, 0.35f, 0.0f}, up[3] = {0.0f, 1.0f, 0.0f};
+    float frame[88];
+    memset(frame, 0, sizeof frame);
+    Mat4 view_proj = mul(perspective(40.0f * 3.14159265358979f / 180.0f, (float)width / (float)height, 0.05f, 50.0f),
+                         look_at(eye, target, up));
+    memcpy(&frame[0], view_proj.m, 64);
+    memcpy(&frame[16], eye, 12);
+    frame[19] = 1.0f;
+    const float sky[3] = {0.2f, 0.22f, 0.25f}, ground[3] = {0.1f, 0.09f, 0.08f};
+    memcpy(&frame[20], sky, 12);
+    memcpy(&frame[24], ground, 12);
+    const uint32_t light_count = 1;
+    memcpy(&frame[28], &light_count, 4);
+    float to_light[3] = {-0.4f, 0.8f, 0.45f}; /* minus the light's direction */
+    normalize3(to_light);
+    memcpy(&frame[32], to_light, 12);
+    const float radiance[3] = {1.0f * 1.2f, 0.95f * 1.2f, 0.9f * 1.2f};
+    memcpy(&frame[36], radiance, 12);
+    memcpy(&frame[64], model.m, 64);
+    frame[80] = (float)width;
+    frame[81] = (float)height;
+    GLuint ubo[2], shadow;
+    glGenBuffers(2, ubo);
+    glBindBuffer(GL_UNIFORM_BUFFER, ubo[0]);
+    glBufferData(GL_UNIFORM_BUFFER, sizeof frame, frame, GL_STATIC_DRAW);
+    glBindBufferBase(GL_UNIFORM_BUFFER, frame_binding, ubo[0]);
+    /* Fur uniforms (struct Fur, 128 bytes): the skin reads the tint only (white). */
+    float fur[32];
+    memset(fur, 0, sizeof fur);
+    fur[0] = fur[1] = fur[2] = fur[3] = 1.0f;
+    glBindBuffer(GL_UNIFORM_BUFFER, ubo[1]);
+    glBufferData(GL_UNIFORM_BUFFER, sizeof fur, fur, GL_STATIC_DRAW);
+    glBindBufferBase(GL_UNIFORM_BUFFER, fur_binding, ubo[1]);
+    glGenBuffers(1, &shadow);
+    glBindBuffer(GL_SHADER_STORAGE_BUFFER, shadow);
+    glBufferData(GL_SHADER_STORAGE_BUFFER, (GLsizeiptr)(atlas.layers * sizeof(float)), atlas.shadow, GL_STATIC_DRAW);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, shadow_binding, shadow);
+
+    /* An sRGB colour target and a float depth target, as the headless renderer's. */
+    GLuint fbo, color, depth;
+    glGenFramebuffers(1, &fbo);
+    glBindFramebuffer(GL_FRAMEBUFFER, fbo);
+    glGenRenderbuffers(1, &color);
+    glBindRenderbuffer(GL_RENDERBUFFER, color);
+    glRenderbufferStorage(GL_RENDERBUFFER, GL_SRGB8_ALPHA8, width, height);
+    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, color);
+    glGenRenderbuffers(1, &depth);
+    glBindRenderbuffer(GL_RENDERBUFFER, depth);
+    glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT32F, width, height);
+    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, depth);
+    if (glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE) {
+        die("the framebuffer is incomplete");
+    }
+    glViewport(0, 0, width, height);
+    glClipControl(GL_LOWER_LEFT, GL_ZERO_TO_ONE); /* WGSL's depth range */
+    glEnable(GL_FRAMEBUFFER_SRGB);
+    glEnable(GL_DEPTH_TEST);
+    glDepthFunc(GL_LEQUAL);
+    glEnable(GL_CULL_FACE);
+    glCullFace(GL_BACK);
+    glFrontFace(GL_CCW);
+    glClearColor(0.06f, 0.06f, 0.07f, 1.0f);
+    glClearDepth(1.0);
+    glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+    glDrawArrays(GL_TRIANGLES, 0, (GLsizei)corners);
+    GLenum error = glGetError();
+    if (error != GL_NO_ERROR) {
+        fprintf(stderr, "OpenGL error %#x\n", error);
+        return 1;
+    }
+
+    /* Read back, top row first. */
+    size_t row = 4 * (size_t)width;
+    unsigned char *pixels = malloc(row * (size_t)height);
+    glPixelStorei(GL_PACK_ALIGNMENT, 1);
+    glReadPixels(0, 0, width, height, GL_RGBA, GL_UNSIGNED_BYTE, pixels);
+    FILE *out = fopen(argv[3], "wb");
+    if (!out) {
+        perror(argv[3]);
+        return 1;
+    }
+    for (int y = height - 1; y >= 0; y--) {
+        fwrite(pixels + (size_t)y * row, 1, row, out);
+    }
+    fclose(out);
+    free(pixels);
+
+    eglMakeCurrent(display, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
+    eglDestroyContext(display, context);
+    eglTerminate(display);
+    furbake_world_release(world);
+    furbake_pack_release(fox);
+    printf("drew %zu corners at %dx%d after %d steps\n", corners, width, height, steps);
+    return 0;
+}

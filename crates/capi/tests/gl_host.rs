@@ -1,0 +1,138 @@
+//! A host that is not ours: `tests/c/gl_skin.c` (C, OpenGL 4.5 on a headless EGL context —
+//! Mesa's llvmpipe here) draws the walking Fox's skin with the GLSL that `furbake shaders`
+//! exports and the data the C interface hands out, and its image is compared with furbake's own
+//! renderer (`SceneRenderer::render_world`, what `furbake preview SCENE` draws) of the same scene
+//! at the same step: same camera, light, ambient, clip time, skin only.
+
+use std::path::Path;
+use std::process::Command;
+
+use furbake_render::headless::{HeadlessGpu, RenderTarget, read_back};
+use furbake_render::{SceneRenderer, ShaderTarget, export_shaders};
+use furbake_runtime::{RenderOptions, Scene, World};
+
+use crate::common::packs;
+
+const W: u32 = 160;
+const H: u32 = 120;
+const STEPS: u32 = 10;
+
+/// The scene gl_skin.c draws (its camera, light and ambient are written there too).
+const SCENE: &str = r#"
+time_step_s = 0.02
+[camera]
+eye = [1.6, 0.9, 2.0]
+target = [0.0, 0.35, 0.0]
+fov_y_deg = 40.0
+[[lights]]
+type = "directional"
+direction = [0.4, -0.8, -0.45]
+color = [1.0, 0.95, 0.9]
+intensity = 1.2
+[ambient]
+sky = [0.2, 0.22, 0.25]
+ground = [0.1, 0.09, 0.08]
+[render]
+shell_layers = 0
+fins = false
+silhouette_fins = false
+strand_shading = false
+[[packs]]
+name = "fox"
+path = "fox.fbk"
+scale = 0.01
+animation = { clip = "Walk" }
+[effects.gravity]
+"#;
+
+/// furbake's renderer: the scene stepped `STEPS` times, drawn headless (RGBA8 sRGB, top row first).
+fn reference() -> Vec<u8> {
+    let scene = Scene::from_toml_str(SCENE, Path::new("gl_host.toml"), packs()).unwrap();
+    let mut world = World::new(scene).unwrap();
+    for _ in 0..STEPS {
+        world.step().unwrap();
+    }
+    let gpu = HeadlessGpu::new().unwrap();
+    let renderer = SceneRenderer::for_target_with(
+        gpu.pipelines(),
+        &gpu.queue,
+        &world,
+        &RenderTarget::desc(),
+        &RenderOptions::default(),
+    )
+    .unwrap();
+    let target = RenderTarget::new(&gpu.device, W, H).unwrap();
+    renderer.render_world(&gpu.device, &gpu.queue, &target, &world).unwrap();
+    read_back(&gpu.device, &gpu.queue, &target).unwrap().into_raw()
+}
+
+/// The GLSL binding of the skin module's resource (group 0, `binding`) from the manifest.
+fn glsl_binding(manifest: &serde_json::Value, binding: u64) -> u64 {
+    let files = manifest["files"].as_array().unwrap();
+    let file = files.iter().find(|f| f["file"] == "skin.fs_skin.lambert-shadow.light_slots1.frag").unwrap();
+    let b = file["bindings"].as_array().unwrap().iter().find(|b| b["group"] == 0 && b["binding"] == binding).unwrap();
+    b["glsl_binding"]["binding"].as_u64().unwrap()
+}
+
+#[test]
+fn an_opengl_host_draws_the_walking_fox_skin_as_furbake_does() {
+    let dir = tempfile::tempdir().unwrap();
+    let shaders = dir.path().join("glsl");
+    std::fs::create_dir_all(&shaders).unwrap();
+    let export = export_shaders(ShaderTarget::Glsl).unwrap();
+    for f in &export.files {
+        std::fs::write(shaders.join(&f.file), &f.bytes).unwrap();
+    }
+    let (frame, fur, shadow) =
+        (glsl_binding(&export.manifest, 0), glsl_binding(&export.manifest, 1), glsl_binding(&export.manifest, 3));
+
+    let prefix = dir.path().join("prefix");
+    crate::c_programs::install(&prefix, "libfurbake_capi.a");
+    let exe = dir.path().join("gl_skin");
+    crate::c_programs::build_with("gl_skin.c", &prefix, true, &exe, &["-lEGL", "-lOpenGL"]);
+    let image = dir.path().join("gl.rgba");
+    let out = Command::new(&exe)
+        .arg(packs().join("fox.fbk"))
+        .arg(&shaders)
+        .arg(&image)
+        .args([W, H, STEPS].map(|v| v.to_string()))
+        .args([frame, fur, shadow].map(|v| v.to_string()))
+        // Leak checks need ptrace (often denied in containers), and the OpenGL driver's own
+        // allocations are not ours to judge; address and UB checks stay on.
+        .env("ASAN_OPTIONS", "detect_leaks=0")
+        .env("UBSAN_OPTIONS", "print_stacktrace=1:halt_on_error=1")
+        .output()
+        .unwrap();
+    let (stdout, stderr) = (String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    assert!(out.status.success(), "gl_skin failed ({}):\n{stdout}\n{stderr}", out.status);
+    eprintln!("{stdout}{stderr}");
+
+    let ours = std::fs::read(&image).unwrap();
+    let theirs = reference();
+    if let Some(dir) = std::env::var_os("FURBAKE_GL_HOST_IMAGES") {
+        let dir = Path::new(&dir);
+        image::save_buffer(dir.join("gl_host.png"), &ours, W, H, image::ColorType::Rgba8).unwrap();
+        image::save_buffer(dir.join("furbake.png"), &theirs, W, H, image::ColorType::Rgba8).unwrap();
+    }
+    assert_eq!(ours.len(), theirs.len());
+    let background = [theirs[0], theirs[1], theirs[2]]; // the top-left corner is the clear colour
+    let fox_pixels = theirs.chunks(4).filter(|p| p[..3].iter().zip(background).any(|(a, b)| a.abs_diff(b) > 4)).count();
+    let diffs: Vec<u8> =
+        ours.chunks(4).zip(theirs.chunks(4)).map(|(a, b)| (0..3).map(|c| a[c].abs_diff(b[c])).max().unwrap()).collect();
+    let over = |t: u8| diffs.iter().filter(|&&d| d > t).count();
+    let mean = diffs.iter().map(|&d| d as f64).sum::<f64>() / diffs.len() as f64;
+    eprintln!(
+        "OpenGL host vs furbake: {fox_pixels} fox pixels of {}; max {}, mean {mean:.3}; > 2: {}, > 8: {}, > 32: {}",
+        diffs.len(),
+        diffs.iter().max().unwrap(),
+        over(2),
+        over(8),
+        over(32)
+    );
+    assert!(
+        fox_pixels > (W * H / 20) as usize && fox_pixels < (W * H / 2) as usize,
+        "the Fox fills part of the frame ({fox_pixels} pixels)"
+    );
+    assert!(over(8) * 100 <= fox_pixels, "more than 1 % of the Fox's pixels differ by more than 8/255");
+    assert!(mean < 0.5, "mean difference {mean}");
+}
