@@ -81,7 +81,7 @@ typedef enum FurbakeResult {
   FURBAKE_RESULT_SIMULATION = 6,
   // The call came at the wrong time (a pack added to a world that has already stepped).
   FURBAKE_RESULT_STATE = 7,
-  // The header and the library disagree ([`crate::FURBAKE_ABI_VERSION`]).
+  // The header and the library disagree (`furbake_check_version`).
   FURBAKE_RESULT_VERSION = 8,
   // A bug in furbake (a caught panic); the message says where. Please report it.
   FURBAKE_RESULT_INTERNAL = 9,
@@ -466,6 +466,11 @@ extern "C" {
 
 // The C interface version of this library (see [`FURBAKE_ABI_VERSION`]).
 uint32_t furbake_abi_version(void);
+
+// Checks that the library implements the C interface the host was built against: pass the
+// header's `FURBAKE_ABI_VERSION`. Answers `FURBAKE_RESULT_VERSION`, with a message giving both
+// versions, when they differ.
+enum FurbakeResult furbake_check_version(uint32_t header_abi_version);
 
 // The library's version as a NUL-terminated UTF-8 string (`"0.1.0"`), static.
 const char *furbake_version(void);

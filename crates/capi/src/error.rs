@@ -32,7 +32,7 @@ pub enum FurbakeResult {
     Simulation = 6,
     /// The call came at the wrong time (a pack added to a world that has already stepped).
     State = 7,
-    /// The header and the library disagree ([`crate::FURBAKE_ABI_VERSION`]).
+    /// The header and the library disagree (`furbake_check_version`).
     Version = 8,
     /// A bug in furbake (a caught panic); the message says where. Please report it.
     Internal = 9,

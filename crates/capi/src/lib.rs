@@ -8,7 +8,7 @@
 //! leaves a message naming the file and the problem in [`furbake_last_error`] (per thread);
 //! every descriptor and view begins with its own `size` (the caller sets it to `sizeof`), so a
 //! later version can add fields at the end without breaking a host built against this one;
-//! [`furbake_abi_version`] is checked against the header's [`FURBAKE_ABI_VERSION`]. No panic
+//! [`furbake_check_version`] checks the header's [`FURBAKE_ABI_VERSION`] against the library's. No panic
 //! crosses the boundary: each entry point catches one and answers [`FurbakeResult::Internal`].
 //!
 //! The host owns the GPU: the library hands out views of what to upload — the baked skin,
@@ -61,6 +61,25 @@ pub const FURBAKE_ABI_VERSION: u32 = 1;
 #[unsafe(no_mangle)]
 pub extern "C" fn furbake_abi_version() -> u32 {
     FURBAKE_ABI_VERSION
+}
+
+/// Checks that the library implements the C interface the host was built against: pass the
+/// header's `FURBAKE_ABI_VERSION`. Answers `FURBAKE_RESULT_VERSION`, with a message giving both
+/// versions, when they differ.
+#[unsafe(no_mangle)]
+pub extern "C" fn furbake_check_version(header_abi_version: u32) -> FurbakeResult {
+    error::guard(|| {
+        if header_abi_version == FURBAKE_ABI_VERSION {
+            return Ok(());
+        }
+        Err(error::Error::new(
+            FurbakeResult::Version,
+            format!(
+                "furbake {} implements C interface version {FURBAKE_ABI_VERSION}; the host was built against version {header_abi_version}",
+                env!("CARGO_PKG_VERSION")
+            ),
+        ))
+    })
 }
 
 /// The library's version as a NUL-terminated UTF-8 string (`"0.1.0"`), static.

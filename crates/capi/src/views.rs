@@ -287,8 +287,8 @@ pub struct FurbakeClipInfo {
 }
 
 /// Checks an output view's `size` and writes `value` into the caller's bytes: at most the
-/// caller's `size`, at least `min` (the size of the struct's first version); the caller's `size`
-/// field is left as it was.
+/// caller's `size`, which must cover the struct's first version (today: all of it); the
+/// caller's `size` field is left as it was.
 pub(crate) fn write_view<T: Copy>(what: &str, dst: *mut T, value: T) -> Result<(), Error> {
     if dst.is_null() {
         return Err(Error::argument(format!("{what} is a null pointer")));

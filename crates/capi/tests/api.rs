@@ -49,6 +49,9 @@ fn the_library_states_its_version() {
     // SAFETY: a static NUL-terminated string.
     let version = unsafe { CStr::from_ptr(furbake_version()) }.to_str().unwrap();
     assert_eq!(version, env!("CARGO_PKG_VERSION"));
+    assert_eq!(furbake_check_version(FURBAKE_ABI_VERSION), FurbakeResult::Ok);
+    assert_eq!(furbake_check_version(FURBAKE_ABI_VERSION + 1), FurbakeResult::Version);
+    assert!(last_error().contains("built against version 2"), "{}", last_error());
 }
 
 #[test]

@@ -145,8 +145,8 @@ int main(int argc, char **argv) {
     const int width = atoi(argv[4]), height = atoi(argv[5]), steps = atoi(argv[6]);
     const GLuint frame_binding = (GLuint)atoi(argv[7]), fur_binding = (GLuint)atoi(argv[8]),
                  shadow_binding = (GLuint)atoi(argv[9]);
-    if (furbake_abi_version() != FURBAKE_ABI_VERSION) {
-        die("the furbake library is not the one this host was built against");
+    if (furbake_check_version(FURBAKE_ABI_VERSION) != FURBAKE_RESULT_OK) {
+        die(furbake_last_error());
     }
 
     /* The walking Fox, stepped to the frame. */

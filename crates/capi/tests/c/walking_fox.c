@@ -103,8 +103,8 @@ int main(int argc, char **argv) {
         fprintf(stderr, "usage: %s FOX.fbk GRASS.fbk\n", argv[0]);
         return 2;
     }
-    if (furbake_abi_version() != FURBAKE_ABI_VERSION) {
-        fprintf(stderr, "furbake library ABI %u, header %u\n", furbake_abi_version(), FURBAKE_ABI_VERSION);
+    if (furbake_check_version(FURBAKE_ABI_VERSION) != FURBAKE_RESULT_OK) {
+        fprintf(stderr, "%s\n", furbake_last_error());
         return 1;
     }
 
