@@ -191,6 +191,19 @@ typedef struct FurbakeShellAtlasView {
   const float *coverage;
 } FurbakeShellAtlasView;
 
+// The shells' texture coordinates: three `(u, v)` per triangle, one texture repeat covering
+// `repeat_m` of surface (fur thesis §3.2, fig. 3.18–3.19).
+typedef struct FurbakeTriangleUvMapView {
+  // `sizeof(FurbakeTriangleUvMapView)`, set by the caller.
+  uint32_t size;
+  // Triangles (the skin mesh's, in its order).
+  uint32_t triangle_count;
+  // Surface length one texture repeat covers, metres.
+  float repeat_m;
+  // `triangle_count × 3 × 2` floats: each corner's `(u, v)` in the shell atlas.
+  const float *corners;
+} FurbakeTriangleUvMapView;
+
 // The fin atlas: the texture of the fins standing on fin and silhouette edges (§3.2).
 typedef struct FurbakeFinAtlasView {
   // `sizeof(FurbakeFinAtlasView)`, set by the caller.
@@ -551,6 +564,13 @@ enum FurbakeResult furbake_pack_skin_mesh(const struct FurbakePack *pack,
 // As `furbake_pack_skin_mesh`.
 enum FurbakeResult furbake_pack_shell_atlas(const struct FurbakePack *pack,
                                             struct FurbakeShellAtlasView *view);
+
+// Fills `*view` with the shells' texture coordinates (the pack's triangle UV map).
+//
+// # Safety
+// As `furbake_pack_skin_mesh`.
+enum FurbakeResult furbake_pack_triangle_uv_map(const struct FurbakePack *pack,
+                                                struct FurbakeTriangleUvMapView *view);
 
 // Fills `*view` with the pack's fin atlas.
 //

@@ -184,6 +184,27 @@ pub unsafe extern "C" fn furbake_pack_shell_atlas(
     })
 }
 
+/// Fills `*view` with the shells' texture coordinates (the pack's triangle UV map).
+///
+/// # Safety
+/// As `furbake_pack_skin_mesh`.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn furbake_pack_triangle_uv_map(
+    pack: *const FurbakePack,
+    view: *mut FurbakeTriangleUvMapView,
+) -> FurbakeResult {
+    guard(|| {
+        let m = pack_ref("pack", pack)?.pack.triangle_uv_map()?;
+        let value = FurbakeTriangleUvMapView {
+            size: 0,
+            triangle_count: m.corners.len() as u32,
+            repeat_m: m.repeat_m,
+            corners: m.corners.as_ptr().cast(),
+        };
+        write_view("view", view, value)
+    })
+}
+
 /// Fills `*view` with the pack's fin atlas.
 ///
 /// # Safety

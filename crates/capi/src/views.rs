@@ -105,6 +105,21 @@ pub struct FurbakeShellAtlasView {
     pub coverage: *const f32,
 }
 
+/// The shells' texture coordinates: three `(u, v)` per triangle, one texture repeat covering
+/// `repeat_m` of surface (fur thesis §3.2, fig. 3.18–3.19).
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct FurbakeTriangleUvMapView {
+    /// `sizeof(FurbakeTriangleUvMapView)`, set by the caller.
+    pub size: u32,
+    /// Triangles (the skin mesh's, in its order).
+    pub triangle_count: u32,
+    /// Surface length one texture repeat covers, metres.
+    pub repeat_m: f32,
+    /// `triangle_count × 3 × 2` floats: each corner's `(u, v)` in the shell atlas.
+    pub corners: *const f32,
+}
+
 /// The fin atlas: the texture of the fins standing on fin and silhouette edges (§3.2).
 #[repr(C)]
 #[derive(Clone, Copy, Debug)]

@@ -1,8 +1,9 @@
-//! A host that is not ours: `tests/c/gl_skin.c` (C, OpenGL 4.5 on a headless EGL context —
-//! Mesa's llvmpipe here) draws the walking Fox's skin with the GLSL that `furbake shaders`
-//! exports and the data the C interface hands out, and its image is compared with furbake's own
-//! renderer (`SceneRenderer::render_world`, what `furbake preview SCENE` draws) of the same scene
-//! at the same step: same camera, light, ambient, clip time, skin only.
+//! A host that is not ours: `tests/c/gl_fur.c` (C, OpenGL 4.5 on a headless EGL context —
+//! Mesa's llvmpipe here) draws the walking Fox's skin and shells with the GLSL that `furbake
+//! shaders` exports and the data the C interface hands out, and its image is compared with
+//! furbake's own renderer (`SceneRenderer::render_world`, what `furbake preview SCENE` draws) of
+//! the same scene at the same step: same camera, light, ambient, clip time; alpha-tested shells,
+//! every layer, no fins, strand shading off.
 
 use std::path::Path;
 use std::process::Command;
@@ -16,9 +17,16 @@ use crate::common::packs;
 const W: u32 = 160;
 const H: u32 = 120;
 const STEPS: u32 = 10;
+/// The small Fox's atlas has 4 layers (`common::packs`); every one is drawn.
+const LAYERS: u32 = 4;
 
-/// The scene gl_skin.c draws (its camera, light and ambient are written there too).
-const SCENE: &str = r#"
+/// The alpha test's threshold, in the scene and on gl_fur.c's command line.
+const THRESHOLD: &str = "0.3";
+
+/// The scene gl_fur.c draws (its camera, light and ambient are written there too).
+fn scene_text() -> String {
+    format!(
+        r#"
 time_step_s = 0.02
 [camera]
 eye = [1.6, 0.9, 2.0]
@@ -33,7 +41,10 @@ intensity = 1.2
 sky = [0.2, 0.22, 0.25]
 ground = [0.1, 0.09, 0.08]
 [render]
-shell_layers = 0
+shell_layers = 4
+blend = "alpha_test"
+alpha_threshold = {THRESHOLD}
+lod = false
 fins = false
 silhouette_fins = false
 strand_shading = false
@@ -41,13 +52,15 @@ strand_shading = false
 name = "fox"
 path = "fox.fbk"
 scale = 0.01
-animation = { clip = "Walk" }
+animation = {{ clip = "Walk" }}
 [effects.gravity]
-"#;
+"#
+    )
+}
 
 /// furbake's renderer: the scene stepped `STEPS` times, drawn headless (RGBA8 sRGB, top row first).
 fn reference() -> Vec<u8> {
-    let scene = Scene::from_toml_str(SCENE, Path::new("gl_host.toml"), packs()).unwrap();
+    let scene = Scene::from_toml_str(&scene_text(), Path::new("gl_host.toml"), packs()).unwrap();
     let mut world = World::new(scene).unwrap();
     for _ in 0..STEPS {
         world.step().unwrap();
@@ -66,16 +79,25 @@ fn reference() -> Vec<u8> {
     read_back(&gpu.device, &gpu.queue, &target).unwrap().into_raw()
 }
 
-/// The GLSL binding of the skin module's resource (group 0, `binding`) from the manifest.
-fn glsl_binding(manifest: &serde_json::Value, binding: u64) -> u64 {
+/// The GLSL binding manifest.json gives resource `name` in `file`.
+fn glsl_binding(manifest: &serde_json::Value, file: &str, name: &str) -> Option<u64> {
     let files = manifest["files"].as_array().unwrap();
-    let file = files.iter().find(|f| f["file"] == "skin.fs_skin.lambert-shadow.light_slots1.frag").unwrap();
-    let b = file["bindings"].as_array().unwrap().iter().find(|b| b["group"] == 0 && b["binding"] == binding).unwrap();
-    b["glsl_binding"]["binding"].as_u64().unwrap()
+    let file = files.iter().find(|f| f["file"] == file).unwrap_or_else(|| panic!("{file} is exported"));
+    let b = file["bindings"].as_array().unwrap().iter().find(|b| b["name"] == name)?;
+    b["glsl_binding"]["binding"].as_u64()
 }
 
+/// The programs gl_fur.c links, and the resources it binds once for both.
+const PROGRAMS: [&str; 4] = [
+    "skin.vs_skin.none.vert",
+    "skin.fs_skin.lambert-shadow.light_slots1.frag",
+    "shell.vs_shell.shear.vert",
+    "shell.fs_shell.lambert-shadow.light_slots1.frag",
+];
+const RESOURCES: [&str; 5] = ["frame", "fur", "scale_vectors", "shadow", "shell_alpha"];
+
 #[test]
-fn an_opengl_host_draws_the_walking_fox_skin_as_furbake_does() {
+fn an_opengl_host_draws_the_walking_fox_skin_and_shells_as_furbake_does() {
     let dir = tempfile::tempdir().unwrap();
     let shaders = dir.path().join("glsl");
     std::fs::create_dir_all(&shaders).unwrap();
@@ -83,20 +105,28 @@ fn an_opengl_host_draws_the_walking_fox_skin_as_furbake_does() {
     for f in &export.files {
         std::fs::write(shaders.join(&f.file), &f.bytes).unwrap();
     }
-    let (frame, fur, shadow) =
-        (glsl_binding(&export.manifest, 0), glsl_binding(&export.manifest, 1), glsl_binding(&export.manifest, 3));
+    // Each resource has one binding in every file that uses it (the host binds it once).
+    let bindings: Vec<String> = RESOURCES
+        .iter()
+        .map(|name| {
+            let numbers: Vec<u64> = PROGRAMS.iter().filter_map(|f| glsl_binding(&export.manifest, f, name)).collect();
+            assert!(!numbers.is_empty() && numbers.iter().all(|&n| n == numbers[0]), "{name}: {numbers:?}");
+            format!("{name}={}", numbers[0])
+        })
+        .collect();
 
     let prefix = dir.path().join("prefix");
     crate::c_programs::install(&prefix, "libfurbake_capi.a");
-    let exe = dir.path().join("gl_skin");
-    crate::c_programs::build_with("gl_skin.c", &prefix, true, &exe, &["-lEGL", "-lOpenGL"]);
+    let exe = dir.path().join("gl_fur");
+    crate::c_programs::build_with("gl_fur.c", &prefix, true, &exe, &["-lEGL", "-lOpenGL"]);
     let image = dir.path().join("gl.rgba");
     let out = Command::new(&exe)
         .arg(packs().join("fox.fbk"))
         .arg(&shaders)
         .arg(&image)
-        .args([W, H, STEPS].map(|v| v.to_string()))
-        .args([frame, fur, shadow].map(|v| v.to_string()))
+        .args([W, H, STEPS, LAYERS].map(|v| v.to_string()))
+        .arg(THRESHOLD)
+        .args(&bindings)
         // Leak checks need ptrace (often denied in containers), and the OpenGL driver's own
         // allocations are not ours to judge; address and UB checks stay on.
         .env("ASAN_OPTIONS", "detect_leaks=0")
@@ -104,7 +134,7 @@ fn an_opengl_host_draws_the_walking_fox_skin_as_furbake_does() {
         .output()
         .unwrap();
     let (stdout, stderr) = (String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
-    assert!(out.status.success(), "gl_skin failed ({}):\n{stdout}\n{stderr}", out.status);
+    assert!(out.status.success(), "gl_fur failed ({}):\n{stdout}\n{stderr}", out.status);
     eprintln!("{stdout}{stderr}");
 
     let ours = std::fs::read(&image).unwrap();

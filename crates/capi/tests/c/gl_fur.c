@@ -1,13 +1,13 @@
 /* An OpenGL 4.5 host written in C (no Rust in it): it steps the walking Fox through furbake's C
- * interface and draws its skin with the GLSL that `furbake shaders --target glsl` exported, on
- * a headless EGL context (Mesa's llvmpipe on a machine without a GPU), then writes the frame as
- * raw RGBA8 rows, top row first.
+ * interface and draws its skin and its alpha-tested shells with the GLSL that `furbake shaders
+ * --target glsl` exported, on a headless EGL context (Mesa's llvmpipe on a machine without a
+ * GPU), then writes the frame as raw RGBA8 rows, top row first.
  *
- * Usage: gl_skin FOX.fbk SHADER_DIR OUT.rgba WIDTH HEIGHT STEPS FRAME_BINDING FUR_BINDING
- *        SHADOW_BINDING
- * The bindings are the GLSL binding numbers manifest.json gives the skin module's `frame` and
- * `fur` uniform blocks and its `shadow` storage block. The camera and light are the ones the
- * crate's test gives `furbake`'s renderer (keep them in step with tests/gl_host.rs). */
+ * Usage: gl_fur FOX.fbk SHADER_DIR OUT.rgba WIDTH HEIGHT STEPS LAYERS THRESHOLD NAME=BINDING...
+ * LAYERS shells are drawn with alpha threshold THRESHOLD; each NAME=BINDING gives the GLSL
+ * binding manifest.json assigns the resource NAME (frame, fur, scale_vectors, shadow,
+ * shell_alpha). The camera and light are the ones the crate's test gives furbake's renderer
+ * (keep them in step with tests/gl_host.rs). */
 
 #define GL_GLEXT_PROTOTYPES 1
 #include <EGL/egl.h>
@@ -25,14 +25,14 @@
     do {                                                                                           \
         FurbakeResult r_ = (call);                                                                 \
         if (r_ != FURBAKE_RESULT_OK) {                                                             \
-            fprintf(stderr, "gl_skin.c:%d: %s failed (%d): %s\n", __LINE__, #call, (int)r_,        \
+            fprintf(stderr, "gl_fur.c:%d: %s failed (%d): %s\n", __LINE__, #call, (int)r_,        \
                     furbake_last_error());                                                         \
             exit(1);                                                                               \
         }                                                                                          \
     } while (0)
 
 static void die(const char *what) {
-    fprintf(stderr, "gl_skin.c: %s\n", what);
+    fprintf(stderr, "gl_fur.c: %s\n", what);
     exit(1);
 }
 
@@ -136,15 +136,47 @@ typedef struct {
     uint32_t vertex_index, flags, corner_index;
 } Corner;
 
+static GLuint binding_of(int argc, char **argv, const char *name) {
+    size_t n = strlen(name);
+    for (int i = 9; i < argc; i++) {
+        if (strncmp(argv[i], name, n) == 0 && argv[i][n] == '=') {
+            return (GLuint)atoi(argv[i] + n + 1);
+        }
+    }
+    fprintf(stderr, "gl_fur.c: no binding given for %s\n", name);
+    exit(2);
+}
+
+static GLuint program_of(const char *dir, const char *vertex, const char *fragment) {
+    GLuint program = glCreateProgram();
+    glAttachShader(program, compile(GL_VERTEX_SHADER, dir, vertex));
+    glAttachShader(program, compile(GL_FRAGMENT_SHADER, dir, fragment));
+    glLinkProgram(program);
+    GLint linked = 0;
+    glGetProgramiv(program, GL_LINK_STATUS, &linked);
+    if (!linked) {
+        char log[4096];
+        glGetProgramInfoLog(program, sizeof log, NULL, log);
+        fprintf(stderr, "link %s + %s: %s\n", vertex, fragment, log);
+        exit(1);
+    }
+    glUseProgram(program);
+    GLint first_instance = glGetUniformLocation(program, "naga_vs_first_instance");
+    if (first_instance >= 0) {
+        glUniform1ui(first_instance, 0);
+    }
+    return program;
+}
+
 int main(int argc, char **argv) {
-    if (argc != 10) {
-        fprintf(stderr, "usage: %s FOX.fbk SHADER_DIR OUT.rgba WIDTH HEIGHT STEPS FRAME FUR SHADOW\n", argv[0]);
+    if (argc < 10) {
+        fprintf(stderr, "usage: %s FOX.fbk SHADER_DIR OUT.rgba WIDTH HEIGHT STEPS LAYERS THRESHOLD NAME=BINDING...\n", argv[0]);
         return 2;
     }
     const char *shader_dir = argv[2];
     const int width = atoi(argv[4]), height = atoi(argv[5]), steps = atoi(argv[6]);
-    const GLuint frame_binding = (GLuint)atoi(argv[7]), fur_binding = (GLuint)atoi(argv[8]),
-                 shadow_binding = (GLuint)atoi(argv[9]);
+    const uint32_t layers = (uint32_t)atoi(argv[7]);
+    const float threshold = (float)atof(argv[8]);
     if (furbake_check_version(FURBAKE_ABI_VERSION) != FURBAKE_RESULT_OK) {
         die(furbake_last_error());
     }
@@ -185,6 +217,17 @@ int main(int argc, char **argv) {
     MUST(furbake_world_skin_pose(world, 0, &pose));
     Mat4 model;
     MUST(furbake_world_model_matrix(world, 0, model.m));
+    FurbakeTriangleUvMapView uv_map;
+    memset(&uv_map, 0, sizeof uv_map);
+    uv_map.size = sizeof uv_map;
+    MUST(furbake_pack_triangle_uv_map(fox, &uv_map));
+    FurbakeFurFrame fur_frame;
+    memset(&fur_frame, 0, sizeof fur_frame);
+    fur_frame.size = sizeof fur_frame;
+    MUST(furbake_world_fur_frame(world, 0, &fur_frame));
+    if (fur_frame.layout != 0) {
+        die("this host draws fur with one scale vector per skin vertex");
+    }
 
     /* A headless OpenGL 4.5 core context. */
     PFNEGLGETPLATFORMDISPLAYEXTPROC get_display =
@@ -204,41 +247,38 @@ int main(int argc, char **argv) {
     if (context == EGL_NO_CONTEXT || !eglMakeCurrent(display, EGL_NO_SURFACE, EGL_NO_SURFACE, context)) {
         die("no OpenGL 4.5 core context");
     }
-    fprintf(stderr, "gl_skin: %s, %s\n", (const char *)glGetString(GL_RENDERER), (const char *)glGetString(GL_VERSION));
+    fprintf(stderr, "gl_fur: %s, %s\n", (const char *)glGetString(GL_RENDERER), (const char *)glGetString(GL_VERSION));
 
-    /* The exported skin program: bind pose from the vertex attributes (the posed skin comes from
-     * the C interface), Lambert × self-shadow with one light. */
-    GLuint program = glCreateProgram();
-    glAttachShader(program, compile(GL_VERTEX_SHADER, shader_dir, "skin.vs_skin.none.vert"));
-    glAttachShader(program, compile(GL_FRAGMENT_SHADER, shader_dir, "skin.fs_skin.lambert-shadow.light_slots1.frag"));
-    glLinkProgram(program);
-    GLint linked = 0;
-    glGetProgramiv(program, GL_LINK_STATUS, &linked);
-    if (!linked) {
-        char log[4096];
-        glGetProgramInfoLog(program, sizeof log, NULL, log);
-        fprintf(stderr, "link: %s\n", log);
-        return 1;
-    }
-    glUseProgram(program);
-    GLint first_instance = glGetUniformLocation(program, "naga_vs_first_instance");
-    if (first_instance >= 0) {
-        glUniform1ui(first_instance, 0);
-    }
+    /* The exported programs: the skin and the shells as furbake draws them for this scene —
+     * bind pose from the vertex attributes (the posed skin comes from the C interface),
+     * Lambert × self-shadow with one light; shells sheared by the scale vectors, alpha-tested. */
+    GLuint skin = program_of(shader_dir, "skin.vs_skin.none.vert", "skin.fs_skin.lambert-shadow.light_slots1.frag");
+    GLuint shells = program_of(shader_dir, "shell.vs_shell.shear.vert", "shell.fs_shell.lambert-shadow.light_slots1.frag");
 
-    /* Vertices: one per triangle corner, posed by the world. */
-    size_t corners = 3 * (size_t)mesh.triangle_count;
+    /* Vertices: one per triangle corner, posed by the world, furry triangles first (the shells
+     * draw that prefix), as the renderer's surface vertices. */
+    size_t corners = 3 * (size_t)mesh.triangle_count, furry_corners = 0;
     Corner *vertices = calloc(corners, sizeof(Corner));
-    for (uint32_t t = 0; t < mesh.triangle_count; t++) {
-        for (uint32_t c = 0; c < 3; c++) {
-            uint32_t v = mesh.triangles[3 * t + c];
-            Corner *o = &vertices[3 * t + c];
-            memcpy(o->position, &pose.positions[3 * v], sizeof o->position);
-            memcpy(o->normal, &pose.normals[3 * v], sizeof o->normal);
-            memcpy(o->color, &mesh.colors[4 * v], sizeof o->color);
-            o->vertex_index = v;
-            o->flags = mesh.fur_mask[t];
-            o->corner_index = 3 * t + c;
+    size_t at = 0;
+    for (int pass = 1; pass >= 0; pass--) {
+        for (uint32_t t = 0; t < mesh.triangle_count; t++) {
+            if ((mesh.fur_mask[t] != 0) != (pass == 1)) {
+                continue;
+            }
+            for (uint32_t c = 0; c < 3; c++) {
+                uint32_t v = mesh.triangles[3 * t + c];
+                Corner *o = &vertices[at++];
+                memcpy(o->position, &pose.positions[3 * v], sizeof o->position);
+                memcpy(o->normal, &pose.normals[3 * v], sizeof o->normal);
+                memcpy(o->color, &mesh.colors[4 * v], sizeof o->color);
+                memcpy(o->uv, &uv_map.corners[6 * t + 2 * c], sizeof o->uv);
+                o->vertex_index = v;
+                o->flags = mesh.fur_mask[t] != 0;
+                o->corner_index = 3 * t + c;
+            }
+        }
+        if (pass == 1) {
+            furry_corners = at;
         }
     }
     GLuint vao, vbo;
@@ -286,22 +326,56 @@ int main(int argc, char **argv) {
     memcpy(&frame[64], model.m, 64);
     frame[80] = (float)width;
     frame[81] = (float)height;
-    GLuint ubo[2], shadow;
-    glGenBuffers(2, ubo);
-    glBindBuffer(GL_UNIFORM_BUFFER, ubo[0]);
+    /* Every layer is drawn (no level of detail): Frame.shells = (layers, fade 1, layers, 0). */
+    frame[84] = (float)layers;
+    frame[85] = 1.0f;
+    frame[86] = (float)layers;
+    GLuint buffers[4];
+    glGenBuffers(4, buffers);
+    glBindBuffer(GL_UNIFORM_BUFFER, buffers[0]);
     glBufferData(GL_UNIFORM_BUFFER, sizeof frame, frame, GL_STATIC_DRAW);
-    glBindBufferBase(GL_UNIFORM_BUFFER, frame_binding, ubo[0]);
-    /* Fur uniforms (struct Fur, 128 bytes): the skin reads the tint only (white). */
+    glBindBufferBase(GL_UNIFORM_BUFFER, binding_of(argc, argv, "frame"), buffers[0]);
+    /* Fur uniforms (struct Fur, 128 bytes): white tint, the atlas's fur length and layer count,
+     * the renderer's default shear exponent (2), the scene's alpha threshold, one scale vector
+     * per skin vertex; the strand shading's fields stay zero (it is off). */
     float fur[32];
     memset(fur, 0, sizeof fur);
     fur[0] = fur[1] = fur[2] = fur[3] = 1.0f;
-    glBindBuffer(GL_UNIFORM_BUFFER, ubo[1]);
+    fur[4] = atlas.fur_length_m;
+    fur[5] = 2.0f;
+    fur[6] = threshold;
+    memcpy(&fur[7], &atlas.layers, 4);
+    memcpy(&fur[8], &layers, 4);
+    fur[9] = uv_map.repeat_m;
+    glBindBuffer(GL_UNIFORM_BUFFER, buffers[1]);
     glBufferData(GL_UNIFORM_BUFFER, sizeof fur, fur, GL_STATIC_DRAW);
-    glBindBufferBase(GL_UNIFORM_BUFFER, fur_binding, ubo[1]);
-    glGenBuffers(1, &shadow);
-    glBindBuffer(GL_SHADER_STORAGE_BUFFER, shadow);
+    glBindBufferBase(GL_UNIFORM_BUFFER, binding_of(argc, argv, "fur"), buffers[1]);
+    glBindBuffer(GL_SHADER_STORAGE_BUFFER, buffers[2]);
     glBufferData(GL_SHADER_STORAGE_BUFFER, (GLsizeiptr)(atlas.layers * sizeof(float)), atlas.shadow, GL_STATIC_DRAW);
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, shadow_binding, shadow);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, binding_of(argc, argv, "shadow"), buffers[2]);
+    /* This frame's scale vectors, one vec4 each (xyz; w = 0). */
+    float *scale = calloc(4 * (size_t)fur_frame.count, sizeof(float));
+    for (uint32_t i = 0; i < fur_frame.count; i++) {
+        memcpy(&scale[4 * i], &fur_frame.scale_vectors[3 * i], 3 * sizeof(float));
+    }
+    glBindBuffer(GL_SHADER_STORAGE_BUFFER, buffers[3]);
+    glBufferData(GL_SHADER_STORAGE_BUFFER, (GLsizeiptr)(4 * fur_frame.count * sizeof(float)), scale, GL_STATIC_DRAW);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, binding_of(argc, argv, "scale_vectors"), buffers[3]);
+    free(scale);
+    /* The shell atlas: an R8 2D array texture, sampled linearly and repeating (the alpha test
+     * reads level 0 only). */
+    GLuint texture;
+    glGenTextures(1, &texture);
+    glActiveTexture(GL_TEXTURE0 + binding_of(argc, argv, "shell_alpha"));
+    glBindTexture(GL_TEXTURE_2D_ARRAY, texture);
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+    glTexImage3D(GL_TEXTURE_2D_ARRAY, 0, GL_R8, (GLsizei)atlas.resolution, (GLsizei)atlas.resolution,
+                 (GLsizei)atlas.layers, 0, GL_RED, GL_UNSIGNED_BYTE, atlas.alpha);
+    glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+    glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_WRAP_S, GL_REPEAT);
+    glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_WRAP_T, GL_REPEAT);
+    glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MAX_LEVEL, 0);
 
     /* An sRGB colour target and a float depth target, as the headless renderer's. */
     GLuint fbo, color, depth;
@@ -329,7 +403,12 @@ int main(int argc, char **argv) {
     glClearColor(0.06f, 0.06f, 0.07f, 1.0f);
     glClearDepth(1.0);
     glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+    glUseProgram(skin);
     glDrawArrays(GL_TRIANGLES, 0, (GLsizei)corners);
+    /* Shells: innermost first (instance = layer), no culling, depth written (alpha test). */
+    glDisable(GL_CULL_FACE);
+    glUseProgram(shells);
+    glDrawArraysInstanced(GL_TRIANGLES, 0, (GLsizei)furry_corners, (GLsizei)layers);
     GLenum error = glGetError();
     if (error != GL_NO_ERROR) {
         fprintf(stderr, "OpenGL error %#x\n", error);
@@ -357,6 +436,6 @@ int main(int argc, char **argv) {
     eglTerminate(display);
     furbake_world_release(world);
     furbake_pack_release(fox);
-    printf("drew %zu corners at %dx%d after %d steps\n", corners, width, height, steps);
+    printf("drew %zu corners and %u shells of %zu at %dx%d after %d steps\n", corners, layers, furry_corners, width, height, steps);
     return 0;
 }
