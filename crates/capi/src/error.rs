@@ -88,11 +88,14 @@ thread_local! {
     static LAST_ERROR: RefCell<CString> = RefCell::new(CString::default());
 }
 
+/// `s` as a C string; a NUL inside it (a path or a glTF name could hold one) shows as U+FFFD
+/// rather than cutting the text short.
+pub(crate) fn c_string(s: &str) -> CString {
+    CString::new(s.replace('\0', "\u{fffd}")).unwrap_or_default()
+}
+
 fn set_last_error(message: &str) {
-    // A message never holds a NUL of its own (paths and keys are shown, not embedded), but a
-    // path could: show it as U+FFFD rather than cutting the message short.
-    let text = CString::new(message.replace('\0', "\u{fffd}")).unwrap_or_default();
-    LAST_ERROR.with(|last| *last.borrow_mut() = text);
+    LAST_ERROR.with(|last| *last.borrow_mut() = c_string(message));
 }
 
 /// The message of the latest failed call on this thread, NUL-terminated UTF-8 (empty when no

@@ -8,7 +8,7 @@ use furbake_formats::SectionKind;
 use furbake_formats::sections::keyframe_table::{Displacements, Symmetry};
 use furbake_runtime::Pack;
 
-use crate::error::{Error, FurbakeResult, guard, out, text};
+use crate::error::{Error, FurbakeResult, c_string, guard, out, text};
 use crate::views::*;
 
 /// An opened pack (opaque). Made by `furbake_pack_open_file` or `furbake_pack_open_memory`,
@@ -31,10 +31,6 @@ impl FurbakePack {
 pub(crate) fn pack_ref<'a>(what: &str, pack: *const FurbakePack) -> Result<&'a FurbakePack, Error> {
     // SAFETY: a non-null handle is one this library made and the caller has not released.
     unsafe { pack.as_ref() }.ok_or_else(|| Error::argument(format!("{what} is a null pointer")))
-}
-
-fn c_string(s: &str) -> CString {
-    CString::new(s.replace('\0', "\u{fffd}")).unwrap_or_default()
 }
 
 /// Opens the pack file at `path` (UTF-8), validating its header, section table and every

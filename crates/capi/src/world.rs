@@ -223,6 +223,18 @@ impl FurbakeWorld {
     }
 }
 
+impl FurbakeWorld {
+    /// The built world and the checked index of its pack `index`.
+    fn built_pack(&mut self, index: u32) -> Result<(&mut World, usize), Error> {
+        let world = self.built()?;
+        let count = world.pack_count();
+        if index as usize >= count {
+            return Err(Error::argument(format!("pack {index} of a world of {count}")));
+        }
+        Ok((world, index as usize))
+    }
+}
+
 fn build(builder: Box<SceneBuilder>, packs: Vec<Arc<Pack>>, options: WorldOptions, name: &str) -> Result<World, Error> {
     if packs.is_empty() {
         return Err(Error::new(
@@ -237,14 +249,6 @@ fn build(builder: Box<SceneBuilder>, packs: Vec<Arc<Pack>>, options: WorldOption
 fn world_mut<'a>(world: *mut FurbakeWorld) -> Result<&'a mut FurbakeWorld, Error> {
     // SAFETY: a non-null handle is one this library made and the caller has not released.
     unsafe { world.as_mut() }.ok_or_else(|| Error::argument("world is a null pointer"))
-}
-
-fn entry(world: &mut World, index: u32) -> Result<(&mut World, usize), Error> {
-    let count = world.pack_count();
-    if index as usize >= count {
-        return Err(Error::argument(format!("pack {index} of a world of {count}")));
-    }
-    Ok((world, index as usize))
 }
 
 fn new_world(state: State, options: WorldOptions) -> *mut FurbakeWorld {
@@ -448,7 +452,7 @@ pub unsafe extern "C" fn furbake_world_set_model_matrix(
 ) -> FurbakeResult {
     guard(|| {
         let m = slice("model", model, 16)?;
-        let (w, i) = entry(world_mut(world)?.built()?, index)?;
+        let (w, i) = world_mut(world)?.built_pack(index)?;
         Ok(w.set_model_matrix(i, Mat4::from_cols_slice(m))?)
     })
 }
@@ -464,7 +468,7 @@ pub unsafe extern "C" fn furbake_world_model_matrix(
     out_model: *mut f32,
 ) -> FurbakeResult {
     guard(|| {
-        let (w, i) = entry(world_mut(world)?.built()?, index)?;
+        let (w, i) = world_mut(world)?.built_pack(index)?;
         if out_model.is_null() {
             return Err(Error::argument("out_model is a null pointer"));
         }
@@ -502,7 +506,7 @@ pub unsafe extern "C" fn furbake_world_set_joint_matrices(
         joints.clear();
         joints.extend(floats.chunks_exact(16).map(Mat4::from_cols_slice));
         let result = (|| {
-            let (w, i) = entry(fw.built()?, index)?;
+            let (w, i) = fw.built_pack(index)?;
             let path = w.pack(i).display_path();
             let anim = w
                 .animation_mut(i)
@@ -522,7 +526,7 @@ pub unsafe extern "C" fn furbake_world_set_joint_matrices(
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn furbake_world_resume_clips(world: *mut FurbakeWorld, index: u32) -> FurbakeResult {
     guard(|| {
-        let (w, i) = entry(world_mut(world)?.built()?, index)?;
+        let (w, i) = world_mut(world)?.built_pack(index)?;
         w.animation_mut(i).ok_or_else(|| Error::argument(format!("pack {index} is not animated")))?.resume_clips();
         Ok(())
     })
@@ -629,7 +633,7 @@ pub unsafe extern "C" fn furbake_world_fur_frame(
     frame: *mut FurbakeFurFrame,
 ) -> FurbakeResult {
     guard(|| {
-        let (w, i) = entry(world_mut(world)?.built()?, index)?;
+        let (w, i) = world_mut(world)?.built_pack(index)?;
         let fur = w.fur(i).ok_or_else(|| {
             Error::new(FurbakeResult::Missing, format!("{}: the pack has no fur", w.pack(i).display_path().display()))
         })?;
@@ -663,7 +667,7 @@ pub unsafe extern "C" fn furbake_world_grass_frame(
     frame: *mut FurbakeGrassFrame,
 ) -> FurbakeResult {
     guard(|| {
-        let (w, i) = entry(world_mut(world)?.built()?, index)?;
+        let (w, i) = world_mut(world)?.built_pack(index)?;
         let grass = w.grass(i).ok_or_else(|| {
             Error::new(
                 FurbakeResult::Missing,
@@ -692,7 +696,7 @@ pub unsafe extern "C" fn furbake_world_skin_pose(
     pose: *mut FurbakeSkinPose,
 ) -> FurbakeResult {
     guard(|| {
-        let (w, i) = entry(world_mut(world)?.built()?, index)?;
+        let (w, i) = world_mut(world)?.built_pack(index)?;
         let a = w.animation(i).ok_or_else(|| {
             Error::new(
                 FurbakeResult::Missing,

@@ -150,10 +150,13 @@ fn source_of(module: &str, variable: &str) -> &'static str {
 fn override_values(name: &str, ty: &TypeInner) -> Vec<f64> {
     match (name, ty) {
         (_, TypeInner::Scalar(s)) if s.kind == naga::ScalarKind::Bool => vec![0.0, 1.0],
-        ("LIGHT_SLOTS", _) => (1..=furbake_runtime::MAX_LIGHTS as u32).map(f64::from).collect(),
+        (LIGHT_SLOTS, _) => (1..=furbake_runtime::MAX_LIGHTS as u32).map(f64::from).collect(),
         _ => Vec::new(),
     }
 }
+
+/// The one override that is a count, not a switch (named by its value in file names).
+const LIGHT_SLOTS: &str = "LIGHT_SLOTS";
 
 fn export_error(entry: &str, what: impl std::fmt::Display) -> RenderError {
     RenderError::Parameter { what: format!("shader export of {entry}: {what}") }
@@ -171,11 +174,12 @@ pub fn export_shaders(target: ShaderTarget) -> Result<ShaderExport, RenderError>
             .validate(&module)
             .map_err(|e| export_error(name, e.emit_to_string(source)))?;
         describe_structs(&module, &mut structs);
+        let glsl = glsl_bindings(&module);
         for ep in &module.entry_points {
             let label = format!("{name}.{}", ep.name);
-            let switches = used_overrides(target, &module, &info, ep, &label)?;
+            let switches = used_overrides(target, &module, &info, &glsl, ep, &label)?;
             for constants in combinations(&switches) {
-                let bytes = translate(target, &module, &info, ep.stage, &ep.name, &constants)
+                let bytes = translate(target, &module, &info, &glsl, ep.stage, &ep.name, &constants)
                     .map_err(|e| export_error(&label, e))?;
                 let variant = variant_name(&constants);
                 let file = match variant.is_empty() {
@@ -189,7 +193,7 @@ pub fn export_shaders(target: ShaderTarget) -> Result<ShaderExport, RenderError>
                     "stage": stage_name(ep.stage),
                     "constants": constants.iter().map(|(k, v)| (k.clone(), json!(v))).collect::<serde_json::Map<_, _>>(),
                     "workgroup_size": (ep.stage == ShaderStage::Compute).then_some(ep.workgroup_size),
-                    "bindings": bindings(target, name, &module, &info, ep),
+                    "bindings": bindings(target, name, &module, &info, &glsl, ep),
                     "vertex_inputs": vertex_inputs(&module, ep),
                 }));
                 if target == ShaderTarget::Glsl {
@@ -235,6 +239,7 @@ fn used_overrides(
     target: ShaderTarget,
     module: &naga::Module,
     info: &ModuleInfo,
+    glsl: &GlslBindings,
     ep: &naga::EntryPoint,
     label: &str,
 ) -> Result<Vec<(String, Vec<f64>)>, RenderError> {
@@ -249,7 +254,8 @@ fn used_overrides(
         for v in &values[..2] {
             let constants = BTreeMap::from([(name.clone(), *v)]);
             outputs.push(
-                translate(target, module, info, ep.stage, &ep.name, &constants).map_err(|e| export_error(label, e))?,
+                translate(target, module, info, glsl, ep.stage, &ep.name, &constants)
+                    .map_err(|e| export_error(label, e))?,
             );
         }
         if outputs[0] != outputs[1] {
@@ -281,21 +287,15 @@ fn combinations(switches: &[(String, Vec<f64>)]) -> Vec<BTreeMap<String, f64>> {
 
 /// `lambert-shadow-strand.light_slots2`-style name: the switches on, then numeric values.
 fn variant_name(constants: &BTreeMap<String, f64>) -> String {
-    let mut on: Vec<String> = constants.iter().filter(|(_, v)| **v == 1.0).map(|(k, _)| k.to_lowercase()).collect();
-    let numbers: Vec<String> = constants
-        .iter()
-        .filter(|(k, _)| k.as_str() == "LIGHT_SLOTS")
-        .map(|(k, v)| format!("{}{v}", k.to_lowercase()))
-        .collect();
-    on.retain(|k| k != "light_slots");
-    if on.is_empty() && !constants.is_empty() && numbers.is_empty() {
-        on.push("none".into());
-    }
+    let (counts, switches): (Vec<_>, Vec<_>) = constants.iter().partition(|(k, _)| k.as_str() == LIGHT_SLOTS);
+    let on: Vec<String> = switches.iter().filter(|(_, v)| **v == 1.0).map(|(k, _)| k.to_lowercase()).collect();
     let mut parts = Vec::new();
     if !on.is_empty() {
         parts.push(on.join("-"));
+    } else if !switches.is_empty() && counts.is_empty() {
+        parts.push("none".to_string());
     }
-    parts.extend(numbers);
+    parts.extend(counts.iter().map(|(k, v)| format!("{}{v}", k.to_lowercase())));
     parts.join(".")
 }
 
@@ -304,13 +304,11 @@ fn translate(
     target: ShaderTarget,
     module: &naga::Module,
     info: &ModuleInfo,
+    glsl: &GlslBindings,
     stage: ShaderStage,
     entry: &str,
     constants: &BTreeMap<String, f64>,
 ) -> Result<Vec<u8>, String> {
-    // Numbered on the whole module: resolving the overrides for one entry point drops the
-    // resources it does not use, and the stages of one program must agree.
-    let glsl_map = glsl_bindings(module);
     let pipeline_constants: naga::back::PipelineConstants = constants.iter().map(|(k, v)| (k.clone(), *v)).collect();
     let (module, info) =
         naga::back::pipeline_constants::process_overrides(module, info, Some((stage, entry)), &pipeline_constants)
@@ -331,7 +329,7 @@ fn translate(
             Ok(words.iter().flat_map(|w| w.to_le_bytes()).collect())
         }
         ShaderTarget::Glsl => {
-            let binding_map = glsl_map.into_iter().map(|(binding, (_, slot))| (binding, slot as u8)).collect();
+            let binding_map = glsl.iter().map(|(binding, (_, slot))| (*binding, *slot as u8)).collect();
             let options = glsl::Options {
                 version: glsl::Version::Desktop(450),
                 writer_flags: glsl::WriterFlags::empty(),
@@ -406,10 +404,15 @@ fn used_resources<'a>(
     used
 }
 
+/// Each resource's OpenGL binding namespace and number.
+type GlslBindings = BTreeMap<naga::ResourceBinding, (&'static str, u32)>;
+
 /// GLSL binding numbers: one counter per OpenGL binding namespace (uniform blocks, shader
 /// storage blocks, texture units), over every resource of the module in (group, binding) order,
-/// so the stages of one program agree (OpenGL binding points are shared by the linked stages).
-fn glsl_bindings(module: &naga::Module) -> BTreeMap<naga::ResourceBinding, (&'static str, u32)> {
+/// numbered before the overrides are resolved for one entry point (which drops the resources it
+/// does not use), so the stages of one program agree (OpenGL binding points are shared by the
+/// linked stages).
+fn glsl_bindings(module: &naga::Module) -> GlslBindings {
     let mut resources: Vec<_> = module.global_variables.iter().filter_map(|(_, v)| v.binding.map(|b| (b, v))).collect();
     resources.sort_by_key(|(b, _)| (b.group, b.binding));
     let mut next = BTreeMap::new();
@@ -461,10 +464,10 @@ fn bindings(
     module_name: &str,
     module: &naga::Module,
     info: &ModuleInfo,
+    glsl: &GlslBindings,
     ep: &naga::EntryPoint,
 ) -> Vec<Value> {
-    let glsl = glsl_bindings(module);
-    let (msl, _) = msl_bindings(module, info, ep);
+    let msl = (target == ShaderTarget::Msl).then(|| msl_bindings(module, info, ep).0);
     used_resources(module, info, ep)
         .into_iter()
         .map(|(b, var)| {
@@ -489,7 +492,7 @@ fn bindings(
                 }
                 ShaderTarget::Hlsl => entry["hlsl_register"] = json!({ "register": b.binding, "space": b.group }),
                 ShaderTarget::Msl => {
-                    let t = msl.get(&b);
+                    let t = msl.as_ref().and_then(|m| m.get(&b));
                     entry["msl_slot"] = json!({
                         "buffer": t.and_then(|t| t.buffer),
                         "texture": t.and_then(|t| t.texture),

@@ -184,15 +184,11 @@ int main(int argc, char **argv) {
     /* The walking Fox, stepped to the frame. */
     FurbakePack *fox = NULL;
     MUST(furbake_pack_open_file(argv[1], &fox));
-    FurbakeWorldDesc desc;
-    memset(&desc, 0, sizeof desc);
-    desc.size = sizeof desc;
+    FurbakeWorldDesc desc = {.size = sizeof desc};
     desc.settings_toml = "time_step_s = 0.02\n[effects.gravity]\n";
     FurbakeWorld *world = NULL;
     MUST(furbake_world_create(&desc, &world));
-    FurbakeEntryDesc entry;
-    memset(&entry, 0, sizeof entry);
-    entry.size = sizeof entry;
+    FurbakeEntryDesc entry = {.size = sizeof entry};
     entry.name = "fox";
     entry.animation = FURBAKE_ANIMATION_CLIP;
     entry.clip = "Walk";
@@ -203,27 +199,17 @@ int main(int argc, char **argv) {
     for (int k = 0; k < steps; k++) {
         MUST(furbake_world_step(world));
     }
-    FurbakeSkinMeshView mesh;
-    memset(&mesh, 0, sizeof mesh);
-    mesh.size = sizeof mesh;
+    FurbakeSkinMeshView mesh = {.size = sizeof mesh};
     MUST(furbake_pack_skin_mesh(fox, &mesh));
-    FurbakeShellAtlasView atlas;
-    memset(&atlas, 0, sizeof atlas);
-    atlas.size = sizeof atlas;
+    FurbakeShellAtlasView atlas = {.size = sizeof atlas};
     MUST(furbake_pack_shell_atlas(fox, &atlas));
-    FurbakeSkinPose pose;
-    memset(&pose, 0, sizeof pose);
-    pose.size = sizeof pose;
+    FurbakeSkinPose pose = {.size = sizeof pose};
     MUST(furbake_world_skin_pose(world, 0, &pose));
     Mat4 model;
     MUST(furbake_world_model_matrix(world, 0, model.m));
-    FurbakeTriangleUvMapView uv_map;
-    memset(&uv_map, 0, sizeof uv_map);
-    uv_map.size = sizeof uv_map;
+    FurbakeTriangleUvMapView uv_map = {.size = sizeof uv_map};
     MUST(furbake_pack_triangle_uv_map(fox, &uv_map));
-    FurbakeFurFrame fur_frame;
-    memset(&fur_frame, 0, sizeof fur_frame);
-    fur_frame.size = sizeof fur_frame;
+    FurbakeFurFrame fur_frame = {.size = sizeof fur_frame};
     MUST(furbake_world_fur_frame(world, 0, &fur_frame));
     if (fur_frame.layout != 0) {
         die("this host draws fur with one scale vector per skin vertex");
@@ -306,8 +292,7 @@ int main(int argc, char **argv) {
 
     /* Frame uniforms (struct Frame of manifest.json: 352 bytes). */
     const float eye[3] = {1.6f, 0.9f, 2.0f}, target[3] = {0.0f, 0.35f, 0.0f}, up[3] = {0.0f, 1.0f, 0.0f};
-    float frame[88];
-    memset(frame, 0, sizeof frame);
+    float frame[88] = {0};
     Mat4 view_proj = mul(perspective(40.0f * 3.14159265358979f / 180.0f, (float)width / (float)height, 0.05f, 50.0f),
                          look_at(eye, target, up));
     memcpy(&frame[0], view_proj.m, 64);
@@ -338,8 +323,7 @@ int main(int argc, char **argv) {
     /* Fur uniforms (struct Fur, 128 bytes): white tint, the atlas's fur length and layer count,
      * the renderer's default shear exponent (2), the scene's alpha threshold, one scale vector
      * per skin vertex; the strand shading's fields stay zero (it is off). */
-    float fur[32];
-    memset(fur, 0, sizeof fur);
+    float fur[32] = {0};
     fur[0] = fur[1] = fur[2] = fur[3] = 1.0f;
     fur[4] = atlas.fur_length_m;
     fur[5] = 2.0f;

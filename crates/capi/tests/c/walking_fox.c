@@ -65,9 +65,7 @@ static const char SETTINGS[] = "time_step_s = 0.01\n"
                                "[effects.wrong_side_guard]\n";
 
 static FurbakeWorld *make_world(void) {
-    FurbakeWorldDesc desc;
-    memset(&desc, 0, sizeof desc);
-    desc.size = sizeof desc;
+    FurbakeWorldDesc desc = {.size = sizeof desc};
     desc.settings_toml = SETTINGS;
     desc.settings_name = "walking_fox.c settings";
     FurbakeWorld *world = NULL;
@@ -76,9 +74,7 @@ static FurbakeWorld *make_world(void) {
 }
 
 static void add_fox(FurbakeWorld *world, const FurbakePack *pack, const char *name, float speed) {
-    FurbakeEntryDesc entry;
-    memset(&entry, 0, sizeof entry);
-    entry.size = sizeof entry;
+    FurbakeEntryDesc entry = {.size = sizeof entry};
     entry.name = name;
     entry.animation = FURBAKE_ANIMATION_CLIP;
     entry.clip = "Walk";
@@ -91,9 +87,7 @@ static void add_fox(FurbakeWorld *world, const FurbakePack *pack, const char *na
 }
 
 static FurbakeFurFrame fur_frame(FurbakeWorld *world) {
-    FurbakeFurFrame frame;
-    memset(&frame, 0, sizeof frame);
-    frame.size = sizeof frame;
+    FurbakeFurFrame frame = {.size = sizeof frame};
     MUST(furbake_world_fur_frame(world, 0, &frame));
     return frame;
 }
@@ -115,16 +109,12 @@ int main(int argc, char **argv) {
     MUST(furbake_pack_open_memory(bytes, size, "assets/fox.fbk", &fox));
     free(bytes);
 
-    FurbakePackInfo info;
-    memset(&info, 0, sizeof info);
-    info.size = sizeof info;
+    FurbakePackInfo info = {.size = sizeof info};
     MUST(furbake_pack_info(fox, &info));
     CHECK(info.contents & FURBAKE_HAS_SHELL_ATLAS, "the Fox has fur");
     CHECK(info.contents & FURBAKE_HAS_SKELETON, "the Fox has a skeleton");
 
-    FurbakeSkinMeshView mesh;
-    memset(&mesh, 0, sizeof mesh);
-    mesh.size = sizeof mesh;
+    FurbakeSkinMeshView mesh = {.size = sizeof mesh};
     MUST(furbake_pack_skin_mesh(fox, &mesh));
     CHECK(mesh.vertex_count == info.vertex_count, "%u vs %u", mesh.vertex_count, info.vertex_count);
     uint32_t furry = 0;
@@ -140,9 +130,7 @@ int main(int argc, char **argv) {
         CHECK(fabsf(len - 1.0f) < 1e-3f, "normal %u has length %f", v, (double)len);
     }
 
-    FurbakeShellAtlasView atlas;
-    memset(&atlas, 0, sizeof atlas);
-    atlas.size = sizeof atlas;
+    FurbakeShellAtlasView atlas = {.size = sizeof atlas};
     MUST(furbake_pack_shell_atlas(fox, &atlas));
     size_t texels = (size_t)atlas.layers * atlas.resolution * atlas.resolution;
     size_t lit = 0;
@@ -151,9 +139,7 @@ int main(int argc, char **argv) {
     }
     CHECK(lit > 0 && lit < texels, "the atlas has strands and gaps (%zu of %zu)", lit, texels);
 
-    FurbakeSkeletonView skeleton;
-    memset(&skeleton, 0, sizeof skeleton);
-    skeleton.size = sizeof skeleton;
+    FurbakeSkeletonView skeleton = {.size = sizeof skeleton};
     MUST(furbake_pack_skeleton(fox, &skeleton));
     CHECK(skeleton.nodes != NULL, "joints carry their glTF nodes");
     uint32_t joint_count = skeleton.joint_count;
@@ -163,9 +149,7 @@ int main(int argc, char **argv) {
     snprintf(root, sizeof root, "%s", root_name);
 
     /* A view of data the pack lacks: a typed answer and a message naming the pack. */
-    FurbakeBladeFieldView none;
-    memset(&none, 0, sizeof none);
-    none.size = sizeof none;
+    FurbakeBladeFieldView none = {.size = sizeof none};
     CHECK(furbake_pack_blade_field(fox, &none) == FURBAKE_RESULT_MISSING, "a fur pack has no blades");
     CHECK(strstr(furbake_last_error(), "assets/fox.fbk") != NULL, "message: %s", furbake_last_error());
 
@@ -185,13 +169,9 @@ int main(int argc, char **argv) {
     for (int k = 1; k <= steps; k++) {
         MUST(furbake_world_step(walker));
         /* The puppet's pose comes from the sampler at this frame's clip time. */
-        FurbakeSkinPose pose;
-        memset(&pose, 0, sizeof pose);
-        pose.size = sizeof pose;
+        FurbakeSkinPose pose = {.size = sizeof pose};
         MUST(furbake_animator_pose(sampler, k * 0.01, &pose));
-        FurbakeSkinPose walked;
-        memset(&walked, 0, sizeof walked);
-        walked.size = sizeof walked;
+        FurbakeSkinPose walked = {.size = sizeof walked};
         MUST(furbake_world_skin_pose(walker, 0, &walked));
         CHECK(pose.joint_count == walked.joint_count, "joints %u vs %u", pose.joint_count, walked.joint_count);
         for (uint32_t i = 0; i < 16 * pose.joint_count; i++) {
@@ -220,18 +200,14 @@ int main(int argc, char **argv) {
     /* Misuse: refused with a code, and nothing changes. */
     CHECK(furbake_world_set_joint_matrices(puppet, 0, NULL, 3, NULL, 0) == FURBAKE_RESULT_INVALID_ARGUMENT,
           "null matrices");
-    FurbakeEntryDesc late;
-    memset(&late, 0, sizeof late);
-    late.size = sizeof late;
+    FurbakeEntryDesc late = {.size = sizeof late};
     late.name = "late";
     late.scale = 1.0f;
     FurbakePack *again = NULL;
     MUST(furbake_pack_open_file(argv[1], &again));
     CHECK(furbake_world_add_pack(walker, again, &late, NULL) == FURBAKE_RESULT_STATE, "added after a step");
     furbake_pack_release(again);
-    FurbakeWorldInfo winfo;
-    memset(&winfo, 0, sizeof winfo);
-    winfo.size = sizeof winfo;
+    FurbakeWorldInfo winfo = {.size = sizeof winfo};
     MUST(furbake_world_info(walker, &winfo));
     CHECK(winfo.steps == (uint64_t)steps && fabs(winfo.time_s - steps * 0.01) < 1e-6, "clock %llu %f",
           (unsigned long long)winfo.steps, winfo.time_s);
@@ -243,23 +219,15 @@ int main(int argc, char **argv) {
     /* Grass: the blade field to upload, and the wind's forces per cluster corner. */
     FurbakePack *grass = NULL;
     MUST(furbake_pack_open_file(argv[2], &grass));
-    FurbakeBladeFieldView field;
-    memset(&field, 0, sizeof field);
-    field.size = sizeof field;
+    FurbakeBladeFieldView field = {.size = sizeof field};
     MUST(furbake_pack_blade_field(grass, &field));
-    FurbakeKeyframeTableView table;
-    memset(&table, 0, sizeof table);
-    table.size = sizeof table;
+    FurbakeKeyframeTableView table = {.size = sizeof table};
     MUST(furbake_pack_keyframe_table(grass, &table));
-    FurbakeWorldDesc gdesc;
-    memset(&gdesc, 0, sizeof gdesc);
-    gdesc.size = sizeof gdesc;
+    FurbakeWorldDesc gdesc = {.size = sizeof gdesc};
     gdesc.settings_toml = "[effects.wind]\nvelocity_m_per_s = [4.0, 0.0, 0.0]\n";
     FurbakeWorld *meadow = NULL;
     MUST(furbake_world_create(&gdesc, &meadow));
-    FurbakeEntryDesc patch;
-    memset(&patch, 0, sizeof patch);
-    patch.size = sizeof patch;
+    FurbakeEntryDesc patch = {.size = sizeof patch};
     patch.name = "patch";
     patch.scale = 1.0f;
     MUST(furbake_world_add_pack(meadow, grass, &patch, NULL));
@@ -267,9 +235,7 @@ int main(int argc, char **argv) {
     for (int k = 0; k < 10; k++) {
         MUST(furbake_world_step(meadow));
     }
-    FurbakeGrassFrame gf;
-    memset(&gf, 0, sizeof gf);
-    gf.size = sizeof gf;
+    FurbakeGrassFrame gf = {.size = sizeof gf};
     MUST(furbake_world_grass_frame(meadow, 0, &gf));
     CHECK(gf.corner_count == (field.grid_cells_x + 1) * (field.grid_cells_z + 1), "%u corners", gf.corner_count);
     float push = 0.0f;
