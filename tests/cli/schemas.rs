@@ -273,3 +273,35 @@ fn bake_configs_and_batch_files_have_schemas_that_say_what_furbake_reads() {
         }
     }
 }
+
+/// `furbake shaders`' manifest.json of every target validates against
+/// `docs/schemas/shaders-manifest.schema.json` (hand-written: what a host's build script may rely
+/// on), and manifests that break it are refused: a GLSL binding without its OpenGL number, an
+/// unknown switch, a vertex stage with a workgroup size, a SPIR-V manifest naming a GLSL file.
+#[test]
+fn shader_manifests_validate_against_their_schema() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut manifests = Vec::new();
+    for target in ["spirv", "glsl", "hlsl", "msl"] {
+        let out_dir = dir.path().join(target);
+        assert_ok(&furbake(&["shaders", "--target", target, "-o", s(&out_dir)]), "furbake shaders");
+        manifests.push(out_dir.join("manifest.json"));
+    }
+    let v = violations("shaders-manifest", &manifests.iter().map(PathBuf::as_path).collect::<Vec<_>>());
+    assert!(v.is_empty(), "{v:#?}");
+
+    let glsl = read_json(&manifests[1]);
+    let vertex = glsl["files"].as_array().unwrap().iter().position(|f| f["stage"] == "vertex").unwrap();
+    let mut broken = glsl.clone();
+    broken["files"][0]["bindings"][0].as_object_mut().unwrap().remove("glsl_binding");
+    broken["files"][1]["constants"]["FAST_MATH"] = 1.0.into();
+    broken["files"][vertex]["workgroup_size"] = serde_json::json!([64, 1, 1]);
+    let v = violations("shaders-manifest", &[&write_json(&dir.path().join("b1.json"), &broken)]);
+    for needle in ["files/0/bindings/0: 'glsl_binding' is a required property", "FAST_MATH", "workgroup_size"] {
+        assert!(v.iter().any(|line| line.contains(needle)), "{needle:?} not refused: {v:#?}");
+    }
+    let mut broken = read_json(&manifests[0]);
+    broken["files"][0]["file"] = "skin.vs_skin.none.vert".into();
+    let v = violations("shaders-manifest", &[&write_json(&dir.path().join("b2.json"), &broken)]);
+    assert!(v.len() == 1 && v[0].contains("file"), "a SPIR-V manifest naming a GLSL file: {v:#?}");
+}

@@ -12,8 +12,9 @@ pub fn root() -> PathBuf {
 }
 
 /// A directory holding `fox.fbk` (the bundled Fox, CC-BY 4.0, fur with a prisms topology, small
-/// atlas), `grass.fbk` (the grass patch with 400 blades/m²) and `strip.fbk` (a skinned strip
-/// with a morph target), baked once.
+/// atlas), `grass.fbk` (the grass patch with 400 blades/m²), `strip.fbk` (a skinned strip
+/// with a morph target) and `plane.fbk` (a plane with a bare centre: fin edges along the fur's
+/// border), baked once.
 pub fn packs() -> &'static Path {
     static DIR: OnceLock<tempfile::TempDir> = OnceLock::new();
     DIR.get_or_init(|| {
@@ -26,6 +27,7 @@ pub fn packs() -> &'static Path {
         let strip = dir.path().join("strip.gltf");
         std::fs::write(&strip, furbake_import::testmesh::SkinnedStrip::default().to_gltf()).unwrap();
         bake_into(dir.path(), strip.to_str().unwrap(), "fur", &small, "strip.fbk");
+        bake_into(dir.path(), "fixtures/generated/plane_bare_centre.gltf", "fur", &small, "plane.fbk");
         dir
     })
     .path()
