@@ -93,7 +93,7 @@ doc:
 # toolchain writes that JSON for the named crates only (RUSTC_BOOTSTRAP=CRATE), in a target
 # folder of its own. `make api` rewrites the snapshots after an intended change; `make
 # api-check` (run by .ci/run) fails, with the difference, when the API and its snapshot differ.
-API_CRATES := furbake_render furbake_runtime
+API_CRATES := furbake_draw furbake_render furbake_runtime
 API_TARGET := target/api
 api:
 	@mkdir -p docs/api

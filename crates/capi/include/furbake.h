@@ -13,6 +13,12 @@
 // (a changed function or a changed meaning; fields added at a struct's end do not count).
 #define FURBAKE_ABI_VERSION 1
 
+// `furbake_pack_atlas_level`'s atlas: the shell atlas (a 2D array texture, one layer per shell).
+#define FURBAKE_ATLAS_SHELL 0
+
+// `furbake_pack_atlas_level`'s atlas: the fin atlas (one 2D texture).
+#define FURBAKE_ATLAS_FIN 1
+
 // The pack holds a skin mesh ([`FurbakeSkinMeshView`]).
 #define FURBAKE_HAS_SKIN_MESH (1 << 0)
 
@@ -126,6 +132,144 @@ typedef struct FurbakeSkinPose {
   // `morph_count` weights.
   const float *morph_weights;
 } FurbakeSkinPose;
+
+// The skin's triangle corners as the skin and shell vertex stages read them (vertex buffer 0:
+// the manifest's `vertex_inputs` of `vs_skin` and `vs_shell`), furry triangles first.
+typedef struct FurbakeSurfaceView {
+  // `sizeof(FurbakeSurfaceView)`, set by the caller.
+  uint32_t size;
+  // Corners: 3 per skin triangle. The skin draws them all.
+  uint32_t vertex_count;
+  // The furry triangles' corners, the first of `vertices`: what the shells draw, instanced once
+  // per shell layer.
+  uint32_t furry_vertex_count;
+  // Bytes per corner (60): position (3 floats), normal (3), colour (4), shell UV (2), welded
+  // vertex index (uint), flags (uint; bit 0 furry), corner id `3 × triangle + corner` (uint).
+  uint32_t stride;
+  // `vertex_count × stride` bytes.
+  const void *vertices;
+} FurbakeSurfaceView;
+
+// An array of fixed-size records (fin quad corners, silhouette edges).
+typedef struct FurbakeArrayView {
+  // `sizeof(FurbakeArrayView)`, set by the caller.
+  uint32_t size;
+  // Records.
+  uint32_t count;
+  // Bytes per record.
+  uint32_t stride;
+  // `count × stride` bytes (null when `count` is 0).
+  const void *data;
+} FurbakeArrayView;
+
+// One mip level of an atlas, box-filtered from the level above as furbake's renderer and its
+// stacking table see it (`furbake_draw::mips`).
+typedef struct FurbakeAtlasLevelView {
+  // `sizeof(FurbakeAtlasLevelView)`, set by the caller.
+  uint32_t size;
+  // Levels of the atlas's chain, level 0 the atlas itself, down to 1×1.
+  uint32_t level_count;
+  // This level's width and height, texels.
+  uint32_t width;
+  // Height, texels.
+  uint32_t height;
+  // Layers (the shells' count; 1 for the fin atlas).
+  uint32_t layers;
+  // `layers × width × height` bytes of alpha (R8 unorm), layer-major, rows top to bottom.
+  const uint8_t *texels;
+} FurbakeAtlasLevelView;
+
+// The shells' stacking exponents (docs/design.md "Shell opacity"), the storage buffer the
+// shell fragment stage reads when the look blends with stacking correction.
+typedef struct FurbakeStackingTableView {
+  // `sizeof(FurbakeStackingTableView)`, set by the caller.
+  uint32_t size;
+  // View-angle bins (0° to 80° between the view ray and the hair).
+  uint32_t angle_bins;
+  // Mip-level bins.
+  uint32_t mip_bins;
+  // Drawn-layer-count bins (1, 2, 4, …).
+  uint32_t count_bins;
+  // `angle_bins × mip_bins × count_bins` floats, `[(angle · mip_bins + mip) · count_bins +
+  // count]`.
+  const float *exponents;
+} FurbakeStackingTableView;
+
+// How fur is drawn, as far as the `Fur` uniform block carries it: what an engine's fur
+// material holds. `furbake_fur_look_default` fills furbake's defaults (what `furbake preview`
+// draws); docs/design.md "Fur shading" gives each parameter's meaning and range.
+typedef struct FurbakeFurLook {
+  // `sizeof(FurbakeFurLook)`, set by the caller.
+  uint32_t size;
+  // Linear RGB multiplier of the vertex colours.
+  float tint[3];
+  // Exponent k of the shell shearing (eq. 3.36).
+  float shear_exponent;
+  // Fragments with alpha at or below this are discarded, in [0, 1).
+  float alpha_threshold;
+  // 1: blend each shell with the stacking exponents; 0: with its alpha as it is.
+  uint32_t stacking_correction;
+  // Share of Kajiya–Kay's diffuse term, in [0, 1].
+  float kajiya_kay_diffuse;
+  // Primary highlight: strength, exponent, shift.
+  float primary_strength;
+  // Primary exponent.
+  float primary_exponent;
+  // Primary shift.
+  float primary_shift;
+  // Secondary highlight: strength, exponent, shift, tint, noise depth.
+  float secondary_strength;
+  // Secondary exponent.
+  float secondary_exponent;
+  // Secondary shift.
+  float secondary_shift;
+  // Secondary tint (RGB).
+  float secondary_tint[3];
+  // Secondary noise depth.
+  float secondary_noise;
+  // Back-light (transmission) strength.
+  float back_light;
+  // Ambient occlusion at the roots.
+  float root_occlusion;
+  // Colour multiplier at the tips (RGB).
+  float tip_color[3];
+} FurbakeFurLook;
+
+// A host's view, for the shell level of detail.
+typedef struct FurbakeCamera {
+  // `sizeof(FurbakeCamera)`, set by the caller.
+  uint32_t size;
+  // World → clip, column-major, depth in [0, 1] (the `Frame` block's `view_proj`).
+  float view_proj[16];
+  // Eye position, world metres.
+  float eye[3];
+  // The target's width and height in pixels.
+  float viewport[2];
+} FurbakeCamera;
+
+// How the shell count follows the fur's projected length (docs/design.md "Shell level of
+// detail"); zeroed fields take furbake's defaults.
+typedef struct FurbakeShellLod {
+  // `sizeof(FurbakeShellLod)`, set by the caller.
+  uint32_t size;
+  // Shell layers per pixel of projected fur length (0: the default, 1).
+  float layers_per_px;
+  // The fewest layers drawn (0: the default, 8).
+  uint32_t min_layers;
+} FurbakeShellLod;
+
+// The shells one view draws: the `Frame` block's `shells` vector is `(layers, fade,
+// continuous, 0)`, and the shell draw has `layers` instances.
+typedef struct FurbakeShellLevel {
+  // `sizeof(FurbakeShellLevel)`, set by the caller.
+  uint32_t size;
+  // Instances of the shell draw; layer i sits at height (i + 1)/layers.
+  uint32_t layers;
+  // Opacity in (0, 1] of the layers a transition between two levels adds.
+  float fade;
+  // The continuous layer count between the two levels.
+  float continuous;
+} FurbakeShellLevel;
 
 // What a pack holds. Filled by `furbake_pack_info`.
 typedef struct FurbakePackInfo {
@@ -512,6 +656,90 @@ void furbake_animator_release(struct FurbakeAnimator *animator);
 enum FurbakeResult furbake_animator_pose(struct FurbakeAnimator *animator,
                                          double time_s,
                                          struct FurbakeSkinPose *pose);
+
+// Fills `*view` with the skin's triangle corners (`FurbakeSurfaceView`). Missing without fur.
+//
+// # Safety
+// `pack` is a live handle; `view` points to a view whose `size` is set.
+enum FurbakeResult furbake_pack_surface_vertices(const struct FurbakePack *pack,
+                                                 struct FurbakeSurfaceView *view);
+
+// Fills `*view` with the fin quads: six corners (two triangles) per fin edge, roots at the edge
+// ends and tips at height 1 — vertex buffer 0 of the fin draw (`vs_fin`'s `vertex_inputs`):
+// 80 bytes each, position, normal and face normal (3 floats each), colour (4), metres along the
+// edge, height, welded vertex index, corner id, and the face's three welded vertices (uints).
+// An empty array when the pack has no fin edges. Missing without fur.
+//
+// # Safety
+// `pack` is a live handle; `view` points to a view whose `size` is set.
+enum FurbakeResult furbake_pack_fin_quads(const struct FurbakePack *pack,
+                                          struct FurbakeArrayView *view);
+
+// Fills `*view` with the interior edges a silhouette fin may grow on (edges between two furry
+// triangles, the pack's fin edges left out; fur thesis §4.1): the `edges` storage buffer of
+// `silhouette.cs_silhouette` and `fin.vs_silhouette_fin`, 32 bytes each (ends a and b, the
+// third corners c and d of the two faces, the ends' corner ids in face 0, flags, padding).
+// Missing without fur.
+//
+// # Safety
+// `pack` is a live handle; `view` points to a view whose `size` is set.
+enum FurbakeResult furbake_pack_silhouette_edges(const struct FurbakePack *pack,
+                                                 struct FurbakeArrayView *view);
+
+// Fills `*view` with mip level `level` of `atlas` (`FURBAKE_ATLAS_SHELL` or
+// `FURBAKE_ATLAS_FIN`), box-filtered as furbake's renderer uploads it. A level past the chain
+// is an invalid argument; an atlas the pack lacks is missing.
+//
+// # Safety
+// `pack` is a live handle; `view` points to a view whose `size` is set.
+enum FurbakeResult furbake_pack_atlas_level(const struct FurbakePack *pack,
+                                            uint32_t atlas,
+                                            uint32_t level,
+                                            struct FurbakeAtlasLevelView *view);
+
+// Fills `*view` with the shells' stacking exponents, computed from the shell atlas on the first
+// request (0.15 s for the `fur` preset's atlas, debug build) and kept. Missing without fur.
+//
+// # Safety
+// `pack` is a live handle; `view` points to a view whose `size` is set.
+enum FurbakeResult furbake_pack_stacking_table(const struct FurbakePack *pack,
+                                               struct FurbakeStackingTableView *view);
+
+// Fills `*look` with furbake's default look (what `furbake preview` draws).
+//
+// # Safety
+// `look` points to a `FurbakeFurLook` whose `size` is set.
+enum FurbakeResult furbake_fur_look_default(struct FurbakeFurLook *look);
+
+// Writes the `Fur` uniform block (the manifest's struct `Fur`, 112 bytes) for `*look` and the
+// pack's shells, drawing `drawn_layers` layers (the most a view draws; at least 1 is written)
+// with one scale vector per welded vertex: `out_size` must be the block's size. A look out of
+// range is an invalid argument naming the field; missing without fur.
+//
+// # Safety
+// `pack` is a live handle; `look` points to a `FurbakeFurLook` whose `size` is set; `out`
+// points to `out_size` writable bytes.
+enum FurbakeResult furbake_pack_fur_block(const struct FurbakePack *pack,
+                                          const struct FurbakeFurLook *look,
+                                          uint32_t drawn_layers,
+                                          void *out,
+                                          uint32_t out_size);
+
+// Fills `*level` with the shells pack `index` draws in `*camera`'s view, of at most
+// `max_layers` (the atlas's layer count, or the host's choice), by `*lod` (null: furbake's
+// default curve), from the fur's projected length at the nearest point of the pack's bounds
+// placed by its model matrix (`furbake_draw::lod`). Every layer when the camera gives no
+// viewport or is inside the bounds. Missing without fur.
+//
+// # Safety
+// `world` is a live handle; `camera` and `level` point to structs whose `size` is set; `lod` is
+// null or points to one whose `size` is set.
+enum FurbakeResult furbake_world_shell_level(struct FurbakeWorld *world,
+                                             uint32_t index,
+                                             const struct FurbakeCamera *camera,
+                                             const struct FurbakeShellLod *lod,
+                                             uint32_t max_layers,
+                                             struct FurbakeShellLevel *level);
 
 // The message of the latest failed call on this thread, NUL-terminated UTF-8 (empty when no
 // call has failed yet). It names the file and the problem, e.g. `fox.fbk: the pack has no

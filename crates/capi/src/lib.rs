@@ -40,12 +40,14 @@
 #![deny(missing_docs)]
 
 mod animator;
+mod draw;
 mod error;
 mod pack;
 mod views;
 mod world;
 
 pub use animator::*;
+pub use draw::*;
 pub use error::{FurbakeResult, furbake_last_error};
 pub use pack::*;
 pub use views::*;

@@ -19,11 +19,18 @@ pub struct FurbakePack {
     /// The joint and clip names as C strings, made on first request.
     joint_names: OnceLock<Vec<CString>>,
     clip_names: OnceLock<Vec<CString>>,
+    /// What drawing the pack takes (`crate::draw`), built on first request.
+    pub(crate) draw: crate::draw::DrawCache,
 }
 
 impl FurbakePack {
     fn new(pack: Pack) -> FurbakePack {
-        FurbakePack { pack: Arc::new(pack), joint_names: OnceLock::new(), clip_names: OnceLock::new() }
+        FurbakePack {
+            pack: Arc::new(pack),
+            joint_names: OnceLock::new(),
+            clip_names: OnceLock::new(),
+            draw: Default::default(),
+        }
     }
 }
 
@@ -446,6 +453,6 @@ pub unsafe extern "C" fn furbake_pack_clip(
     })
 }
 
-fn missing(p: &Pack, kind: SectionKind) -> Error {
+pub(crate) fn missing(p: &Pack, kind: SectionKind) -> Error {
     Error::new(FurbakeResult::Missing, format!("{}: the pack has no {kind} section", p.display_path().display()))
 }

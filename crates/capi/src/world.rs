@@ -225,7 +225,7 @@ impl FurbakeWorld {
 
 impl FurbakeWorld {
     /// The built world and the checked index of its pack `index`.
-    fn built_pack(&mut self, index: u32) -> Result<(&mut World, usize), Error> {
+    pub(crate) fn built_pack(&mut self, index: u32) -> Result<(&mut World, usize), Error> {
         let world = self.built()?;
         let count = world.pack_count();
         if index as usize >= count {
@@ -246,7 +246,7 @@ fn build(builder: Box<SceneBuilder>, packs: Vec<Arc<Pack>>, options: WorldOption
     Ok(WorldPlan::with_packs(scene, packs, options)?.build()?)
 }
 
-fn world_mut<'a>(world: *mut FurbakeWorld) -> Result<&'a mut FurbakeWorld, Error> {
+pub(crate) fn world_mut<'a>(world: *mut FurbakeWorld) -> Result<&'a mut FurbakeWorld, Error> {
     // SAFETY: a non-null handle is one this library made and the caller has not released.
     unsafe { world.as_mut() }.ok_or_else(|| Error::argument("world is a null pointer"))
 }

@@ -2,8 +2,9 @@
 //! Mesa's llvmpipe here) draws the walking Fox's skin and shells with the GLSL that `furbake
 //! shaders` exports and the data the C interface hands out, and its image is compared with
 //! furbake's own renderer (`SceneRenderer::render_world`, what `furbake preview SCENE` draws) of
-//! the same scene at the same step: same camera, light, ambient, clip time; alpha-tested shells,
-//! every layer, no fins, strand shading off.
+//! the same scene at the same step: same camera, light, ambient, clip time. Two looks: furbake's
+//! default (blended shells with stacking exponents, strand shading, level of detail, mip chain;
+//! no fins), and alpha-tested shells, every layer, Lambert × self-shadow.
 
 use std::path::Path;
 use std::process::Command;
@@ -17,14 +18,39 @@ use crate::common::packs;
 const W: u32 = 160;
 const H: u32 = 120;
 const STEPS: u32 = 10;
-/// The small Fox's atlas has 4 layers (`common::packs`); every one is drawn.
-const LAYERS: u32 = 4;
-
 /// The alpha test's threshold, in the scene and on gl_fur.c's command line.
 const THRESHOLD: &str = "0.3";
 
+/// How gl_fur.c draws, and the scene's `[render]` table that has furbake's renderer draw alike.
+#[derive(Clone, Copy)]
+enum Look {
+    /// furbake's default look, without fins (the host does not draw them yet).
+    Furbake,
+    /// Alpha-tested shells, every layer, strand shading off.
+    AlphaTest,
+}
+
+impl Look {
+    fn argument(self) -> &'static str {
+        match self {
+            Look::Furbake => "default",
+            Look::AlphaTest => "alpha_test",
+        }
+    }
+
+    fn render_table(self) -> String {
+        match self {
+            Look::Furbake => "[render]\nfins = false\nsilhouette_fins = false\n".into(),
+            Look::AlphaTest => format!(
+                "[render]\nshell_layers = 4\nblend = \"alpha_test\"\nalpha_threshold = {THRESHOLD}\nlod = false\n\
+                 fins = false\nsilhouette_fins = false\nstrand_shading = false\n"
+            ),
+        }
+    }
+}
+
 /// The scene gl_fur.c draws (its camera, light and ambient are written there too).
-fn scene_text() -> String {
+fn scene_text(look: Look) -> String {
     format!(
         r#"
 time_step_s = 0.02
@@ -40,27 +66,21 @@ intensity = 1.2
 [ambient]
 sky = [0.2, 0.22, 0.25]
 ground = [0.1, 0.09, 0.08]
-[render]
-shell_layers = 4
-blend = "alpha_test"
-alpha_threshold = {THRESHOLD}
-lod = false
-fins = false
-silhouette_fins = false
-strand_shading = false
+{render}
 [[packs]]
 name = "fox"
 path = "fox.fbk"
 scale = 0.01
 animation = {{ clip = "Walk" }}
 [effects.gravity]
-"#
+"#,
+        render = look.render_table()
     )
 }
 
 /// furbake's renderer: the scene stepped `STEPS` times, drawn headless (RGBA8 sRGB, top row first).
-fn reference() -> Vec<u8> {
-    let scene = Scene::from_toml_str(&scene_text(), Path::new("gl_host.toml"), packs()).unwrap();
+fn reference(look: Look) -> Vec<u8> {
+    let scene = Scene::from_toml_str(&scene_text(look), Path::new("gl_host.toml"), packs()).unwrap();
     let mut world = World::new(scene).unwrap();
     for _ in 0..STEPS {
         world.step().unwrap();
@@ -87,17 +107,20 @@ fn glsl_binding(manifest: &serde_json::Value, file: &str, name: &str) -> Option<
     b["glsl_binding"]["binding"].as_u64()
 }
 
-/// The programs gl_fur.c links, and the resources it binds once for both.
-const PROGRAMS: [&str; 4] = [
+/// The programs gl_fur.c links, and the resources it binds once for all.
+const PROGRAMS: [&str; 7] = [
     "skin.vs_skin.none.vert",
     "skin.fs_skin.lambert-shadow.light_slots1.frag",
+    "skin.fs_skin.lambert-shadow-strand.light_slots1.frag",
     "shell.vs_shell.shear.vert",
     "shell.fs_shell.lambert-shadow.light_slots1.frag",
+    "shell.vs_shell.shear-strand.vert",
+    "shell.fs_shell.alpha_blend-lambert-shadow-strand.light_slots1.frag",
 ];
-const RESOURCES: [&str; 5] = ["frame", "fur", "scale_vectors", "shadow", "shell_alpha"];
+const RESOURCES: [&str; 6] = ["frame", "fur", "scale_vectors", "shadow", "shell_alpha", "stacking"];
 
-#[test]
-fn an_opengl_host_draws_the_walking_fox_skin_and_shells_as_furbake_does() {
+/// gl_fur.c's frame in `look` (RGBA8, top row first), built with the sanitizers.
+fn opengl_host(look: Look) -> Vec<u8> {
     let dir = tempfile::tempdir().unwrap();
     let shaders = dir.path().join("glsl");
     std::fs::create_dir_all(&shaders).unwrap();
@@ -124,7 +147,8 @@ fn an_opengl_host_draws_the_walking_fox_skin_and_shells_as_furbake_does() {
         .arg(packs().join("fox.fbk"))
         .arg(&shaders)
         .arg(&image)
-        .args([W, H, STEPS, LAYERS].map(|v| v.to_string()))
+        .args([W, H, STEPS].map(|v| v.to_string()))
+        .arg(look.argument())
         .arg(THRESHOLD)
         .args(&bindings)
         // Leak checks need ptrace (often denied in containers), and the OpenGL driver's own
@@ -136,13 +160,16 @@ fn an_opengl_host_draws_the_walking_fox_skin_and_shells_as_furbake_does() {
     let (stdout, stderr) = (String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
     assert!(out.status.success(), "gl_fur failed ({}):\n{stdout}\n{stderr}", out.status);
     eprintln!("{stdout}{stderr}");
+    std::fs::read(&image).unwrap()
+}
 
-    let ours = std::fs::read(&image).unwrap();
-    let theirs = reference();
+/// Compares the two frames; returns (Fox pixels, pixels differing by more than 8/255, mean
+/// difference).
+fn compare(look: Look, ours: &[u8], theirs: &[u8]) -> (usize, usize, f64) {
     if let Some(dir) = std::env::var_os("FURBAKE_GL_HOST_IMAGES") {
-        let dir = Path::new(&dir);
-        image::save_buffer(dir.join("gl_host.png"), &ours, W, H, image::ColorType::Rgba8).unwrap();
-        image::save_buffer(dir.join("furbake.png"), &theirs, W, H, image::ColorType::Rgba8).unwrap();
+        let (dir, name) = (Path::new(&dir), look.argument());
+        image::save_buffer(dir.join(format!("gl_host_{name}.png")), ours, W, H, image::ColorType::Rgba8).unwrap();
+        image::save_buffer(dir.join(format!("furbake_{name}.png")), theirs, W, H, image::ColorType::Rgba8).unwrap();
     }
     assert_eq!(ours.len(), theirs.len());
     let background = [theirs[0], theirs[1], theirs[2]]; // the top-left corner is the clear colour
@@ -163,6 +190,25 @@ fn an_opengl_host_draws_the_walking_fox_skin_and_shells_as_furbake_does() {
         fox_pixels > (W * H / 20) as usize && fox_pixels < (W * H / 2) as usize,
         "the Fox fills part of the frame ({fox_pixels} pixels)"
     );
-    assert!(over(8) * 100 <= fox_pixels, "more than 1 % of the Fox's pixels differ by more than 8/255");
+    (fox_pixels, over(8), mean)
+}
+
+/// furbake's look, as `furbake preview` draws the scene (fins off: the host does not draw them
+/// yet): blended shells with the stacking exponents, strand shading, the level of detail's shell
+/// count and the atlas's mip chain, all from the C interface's draw views.
+#[test]
+fn an_opengl_host_draws_the_walking_fox_in_furbakes_look() {
+    let (ours, theirs) = (opengl_host(Look::Furbake), reference(Look::Furbake));
+    let (fox, over, mean) = compare(Look::Furbake, &ours, &theirs);
+    assert!(over * 100 <= fox, "{over} of the Fox's {fox} pixels differ by more than 8/255 (1 % allowed)");
+    assert!(mean < 0.5, "mean difference {mean}");
+}
+
+/// Alpha-tested shells, every layer, Lambert × self-shadow.
+#[test]
+fn an_opengl_host_draws_the_walking_fox_skin_and_alpha_tested_shells_as_furbake_does() {
+    let (ours, theirs) = (opengl_host(Look::AlphaTest), reference(Look::AlphaTest));
+    let (fox, over, mean) = compare(Look::AlphaTest, &ours, &theirs);
+    assert!(over * 100 <= fox, "{over} of the Fox's {fox} pixels differ by more than 8/255 (1 % allowed)");
     assert!(mean < 0.5, "mean difference {mean}");
 }

@@ -19,7 +19,6 @@ use furbake_formats::sections::triangle_uv_map::TriangleUvMap;
 use furbake_runtime::Pack;
 #[cfg(feature = "testing")]
 use furbake_runtime::ShellVertexLayout;
-use glam::Vec3;
 
 use crate::RenderError;
 use crate::shaders::{FinVertex, SurfaceVertex};
@@ -33,7 +32,7 @@ pub struct FurAsset {
     fins: Option<(Arc<FinAtlas>, Arc<FinEdges>)>,
     skin_weights: Option<Arc<SkinWeights>>,
     morph_targets: Option<Arc<MorphTargets>>,
-    /// The shells' stacking exponents (`crate::stacking`), computed on first use and shared by
+    /// The shells' stacking exponents (`furbake_draw::stacking`), computed on first use and shared by
     /// every clone and every renderer of this asset.
     stacking: Arc<std::sync::OnceLock<Vec<f32>>>,
 }
@@ -202,11 +201,7 @@ impl FurAsset {
     /// The shells' stacking exponents (docs/design.md "Shell opacity"), computed from the atlas
     /// on first use — 0.15 s for the `fur` preset's 16 × 128² atlas in the dev profile — and kept.
     pub(crate) fn stacking_table(&self) -> &[f32] {
-        self.stacking.get_or_init(|| {
-            let res = self.shells.params.resolution as f32;
-            let length_texels = self.shells.fur_length_m * res / self.uv_map.repeat_m.max(1e-9);
-            crate::stacking::stacking_table(&self.shells, length_texels)
-        })
+        self.stacking.get_or_init(|| furbake_draw::stacking::shell_stacking_table(&self.shells, self.uv_map.repeat_m))
     }
 
     /// The fin atlas and edges, when loaded.
@@ -233,10 +228,7 @@ impl FurAsset {
     /// A sphere holding the skin and its fur: centre of the skin's bounding box, radius = the
     /// farthest vertex plus the fur length (metres).
     pub fn bounding_sphere(&self) -> ([f32; 3], f32) {
-        let (lo, hi) = self.mesh.bounds();
-        let center = (Vec3::from(lo) + Vec3::from(hi)) * 0.5;
-        let far = self.mesh.positions.iter().map(|&p| Vec3::from(p).distance(center)).fold(0.0f32, f32::max);
-        (center.to_array(), far + self.shells.fur_length_m)
+        furbake_draw::geometry::bounding_sphere(&self.mesh, self.shells.fur_length_m)
     }
 
     /// The automatic preview camera: a three-quarter view fitted tightly around the furry mesh
@@ -245,64 +237,15 @@ impl FurAsset {
         crate::View::fit_points(&self.mesh.positions, self.shells.fur_length_m, aspect, self.bounding_sphere())
     }
 
-    /// Every triangle corner, furry triangles first (so the shells draw the prefix
-    /// `0..3·furry_triangles` of the same buffer the skin draws whole). Returns the corners and
-    /// the furry triangle count.
+    /// Every triangle corner, furry triangles first, and the furry triangle count
+    /// ([`furbake_draw::geometry::surface_vertices`]).
     pub(crate) fn surface_vertices(&self) -> (Vec<SurfaceVertex>, u32) {
-        let m = &*self.mesh;
-        let mut order: Vec<usize> = (0..m.triangles.len()).filter(|&t| m.fur_mask[t] != 0).collect();
-        let furry = order.len() as u32;
-        order.extend((0..m.triangles.len()).filter(|&t| m.fur_mask[t] == 0));
-        let mut out = Vec::with_capacity(order.len() * 3);
-        for t in order {
-            for (c, &vi) in m.triangles[t].iter().enumerate() {
-                let i = vi as usize;
-                out.push(SurfaceVertex {
-                    position: m.positions[i],
-                    normal: m.normals[i],
-                    color: m.colors[i],
-                    uv: self.uv_map.corners[t][c],
-                    vertex_index: vi,
-                    flags: u32::from(m.fur_mask[t] != 0),
-                    corner_index: (3 * t + c) as u32,
-                });
-            }
-        }
-        (out, furry)
+        furbake_draw::geometry::surface_vertices(&self.mesh, &self.uv_map)
     }
 
-    /// Six corners (two triangles) per fin edge: roots at the edge ends, tips at height 1.
+    /// Six corners per fin edge, none without fins ([`furbake_draw::geometry::fin_vertices`]).
     pub(crate) fn fin_vertices(&self) -> Vec<FinVertex> {
-        let Some((_, edges)) = self.fins() else { return Vec::new() };
-        let m = &*self.mesh;
-        let mut out = Vec::with_capacity(edges.vertices.len() * 6);
-        for (&[a, b], &t) in edges.vertices.iter().zip(&edges.triangles) {
-            let [i, j, k] = m.triangles[t as usize].map(|x| Vec3::from(m.positions[x as usize]));
-            let face_normal = (j - i).cross(k - i).normalize_or_zero().to_array();
-            let (pa, pb) = (Vec3::from(m.positions[a as usize]), Vec3::from(m.positions[b as usize]));
-            let length = pa.distance(pb);
-            // The edge ends' corners in triangle t (an edge of t: both ends are among its corners,
-            // checked in `FurAsset::new`).
-            let corner_of = |v: u32| {
-                let c = m.triangles[t as usize].iter().position(|&x| x == v).unwrap_or(0);
-                3 * t + c as u32
-            };
-            let corner = |v: u32, along_m: f32, height: f32| FinVertex {
-                position: m.positions[v as usize],
-                normal: m.normals[v as usize],
-                face_normal,
-                color: m.colors[v as usize],
-                along_m,
-                height,
-                vertex_index: v,
-                corner_index: corner_of(v),
-                face_vertices: m.triangles[t as usize],
-            };
-            let (a0, b0, a1, b1) =
-                (corner(a, 0.0, 0.0), corner(b, length, 0.0), corner(a, 0.0, 1.0), corner(b, length, 1.0));
-            out.extend_from_slice(&[a0, b0, b1, a0, b1, a1]);
-        }
-        out
+        self.fins().map(|(_, edges)| furbake_draw::geometry::fin_vertices(&self.mesh, edges)).unwrap_or_default()
     }
 
     /// The initial scale vectors (eq. 3.35 at rest: s = n), one `[x, y, z, 0]` per vertex.

@@ -132,7 +132,6 @@ mod culling;
 mod export;
 pub mod headless;
 mod lod;
-mod mips;
 mod pipelines;
 mod renderer;
 mod scene;
@@ -140,7 +139,6 @@ mod shaders;
 mod shading;
 mod silhouette;
 mod skinning;
-mod stacking;
 mod target;
 #[cfg(feature = "testing")]
 pub mod testing;

@@ -25,7 +25,6 @@ use glam::{Mat4, Vec3};
 use wgpu::util::DeviceExt;
 
 use crate::asset::FurAsset;
-use crate::mips::mip_chain;
 use crate::pipelines::{FurPipelines, FurSwitches};
 use crate::shaders::{FrameUniforms, FurUniforms, SkinnedVertex, SurfaceVertex};
 #[cfg(feature = "testing")]
@@ -33,6 +32,7 @@ use crate::shaders::{ProbeVertex, SHELL_WGSL};
 use crate::skinning::SkinningPass;
 use crate::upload::Upload;
 use crate::{FurShading, PipelineCache, RenderError, TargetDesc};
+use furbake_draw::mips::mip_chain;
 
 /// How shell and fin fragments combine with what is behind them.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -222,6 +222,17 @@ impl RenderSettings {
         }
         self.shading.enabled = o.strand_shading.unwrap_or(self.shading.enabled);
         self
+    }
+
+    /// The parameters of these settings that the `Fur` uniform block carries.
+    pub fn fur_look(&self) -> furbake_draw::FurLook {
+        furbake_draw::FurLook {
+            tint: self.tint,
+            shear_exponent: self.shear_exponent,
+            alpha_threshold: self.alpha_threshold,
+            shading: self.shading,
+            stacking_correction: self.stacking_correction,
+        }
     }
 
     fn validate(&self) -> Result<(), RenderError> {
@@ -529,22 +540,7 @@ impl FurRenderer {
         };
 
         let drawn_layers = settings.shell_layers.unwrap_or(shells.params.layers);
-        let fur = FurUniforms {
-            tint: [settings.tint[0], settings.tint[1], settings.tint[2], 1.0],
-            fur_length_m: shells.fur_length_m,
-            shear_exponent: settings.shear_exponent,
-            alpha_threshold: settings.alpha_threshold,
-            atlas_layers: shells.params.layers,
-            drawn_layers: drawn_layers.max(1),
-            fin_repeat_m: asset.uv_map().repeat_m,
-            scale_layout: 0,
-            pad1: 0,
-            ..Default::default()
-        };
-        let fur = FurUniforms {
-            stacking: [if settings.stacking_correction { 1.0 } else { 0.0 }, 0.0, 0.0, 0.0],
-            ..crate::shading::with_shading(fur, &settings.shading)
-        };
+        let fur = settings.fur_look().fur_uniforms(shells, asset.uv_map().repeat_m, drawn_layers);
         let init = |label, contents: &[u8], usage| {
             device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage })
         };

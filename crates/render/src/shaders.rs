@@ -61,6 +61,8 @@ pub const BLADE_CULL_WGSL: &str = concat!(
     include_str!("../shaders/blade_cull.wgsl")
 );
 
+pub use furbake_draw::layout::{FinVertex, FurUniforms, SurfaceVertex};
+
 /// One light of the frame uniforms (`Light` in `shaders/lighting.wgsl`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
@@ -199,44 +201,6 @@ impl FrameUniforms {
     }
 }
 
-/// Per-asset fur uniforms (`Fur` in every shader; binding 1).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct FurUniforms {
-    /// Colour multiplier for every vertex colour (rgb; a unused).
-    pub tint: [f32; 4],
-    /// Distance from the skin to the outermost shell, in metres.
-    pub fur_length_m: f32,
-    /// Exponent k of the shell shearing, eq. 3.36.
-    pub shear_exponent: f32,
-    /// Shell and fin fragments with alpha at or below this are discarded.
-    pub alpha_threshold: f32,
-    /// Slices in the shell texture array.
-    pub atlas_layers: u32,
-    /// Shell layers drawn.
-    pub drawn_layers: u32,
-    /// Metres of edge per fin texture repeat.
-    pub fin_repeat_m: f32,
-    /// How the scale-vector buffer is indexed: 0 = one per welded skin vertex (`vertex_index`),
-    /// 1 = one per triangle corner, `3 × triangle + corner` (`corner_index`; separable
-    /// topologies, where fur parts along triangle edges, fur thesis §3.4.1).
-    pub scale_layout: u32,
-    /// Padding to 16 bytes.
-    pub pad1: u32,
-    /// The strand shading ([`crate::FurShading`], `fur_common.wgsl` `strand_shade`): tip colour
-    /// multiplier (rgb) and root occlusion (a).
-    pub tip_color: [f32; 4],
-    /// Secondary highlight tint (rgb) and noise depth (a).
-    pub secondary_tint: [f32; 4],
-    /// Primary strength and exponent, secondary strength and exponent.
-    pub specular: [f32; 4],
-    /// Primary shift, secondary shift, back-light strength, Kajiya–Kay share of the diffuse term.
-    pub strand: [f32; 4],
-    /// x: 1 to blend the shells with the stacking exponents (`shell.wgsl` `stacked_alpha`,
-    /// docs/design.md "Shell opacity"), 0 to blend each layer's alpha as it is; yzw unused.
-    pub stacking: [f32; 4],
-}
-
 /// The skinning pass's counts (`SkinningUniforms` in `skinning.wgsl`; binding 0), written once.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
@@ -277,53 +241,6 @@ pub struct ProbeVertex {
     pub vertex_index: u32,
     /// Padding to the struct's 16-byte alignment.
     pub pad: [u32; 3],
-}
-
-/// One corner of a skin/shell triangle (vertex buffer 0 of the skin and shell pipelines).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct SurfaceVertex {
-    /// Position in metres.
-    pub position: [f32; 3],
-    /// Unit vertex normal.
-    pub normal: [f32; 3],
-    /// Linear RGBA vertex colour.
-    pub color: [f32; 4],
-    /// Per-triangle shell UV of this corner, in texture repeats.
-    pub uv: [f32; 2],
-    /// Welded vertex index (into the scale-vector buffer when it holds one vector per vertex).
-    pub vertex_index: u32,
-    /// Bit 0: the triangle carries fur.
-    pub flags: u32,
-    /// `3 × triangle + corner` in the skin mesh's triangle order (into the scale-vector buffer
-    /// when it holds one vector per triangle corner).
-    pub corner_index: u32,
-}
-
-/// One corner of a fin quad (vertex buffer 0 of the fin pipeline).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct FinVertex {
-    /// Root position (an edge end) in metres.
-    pub position: [f32; 3],
-    /// Vertex normal at that edge end.
-    pub normal: [f32; 3],
-    /// Normal of the furry triangle the fin grows from.
-    pub face_normal: [f32; 3],
-    /// Linear RGBA vertex colour.
-    pub color: [f32; 4],
-    /// Distance along the edge in metres.
-    pub along_m: f32,
-    /// 0 at the root, 1 at the tip.
-    pub height: f32,
-    /// Welded vertex index (into the scale-vector buffer when it holds one vector per vertex).
-    pub vertex_index: u32,
-    /// `3 × triangle + corner` of this edge end in the furry triangle the fin grows from (into
-    /// the scale-vector buffer when it holds one vector per triangle corner).
-    pub corner_index: u32,
-    /// Welded vertex indices of that triangle's corners: an animated pack's fin computes its
-    /// face normal from their posed positions.
-    pub face_vertices: [u32; 3],
 }
 
 /// Vertex attributes of [`SurfaceVertex`], locations 0–6 as in `skin.wgsl` / `shell.wgsl`.

@@ -1,6 +1,6 @@
 //! The fur's strand shading (docs/design.md "Fur shading"): [`FurShading`], its parameters (one
 //! set per renderer, [`crate::RenderSettings::shading`], or per scene pack, `[packs.shading]`),
-//! their packing into the fur uniforms, and the CPU twin of the hair direction the shaders shade
+//! their packing into the fur uniforms (`furbake_draw::FurLook`), and the CPU twin of the hair direction the shaders shade
 //! along ([`strand_tangent`], `strand_tangent` in `shaders/fur_common.wgsl`).
 
 #[cfg(feature = "testing")]
@@ -11,26 +11,11 @@ use glam::Vec3;
 pub use furbake_runtime::scene::FurShading;
 
 use crate::RenderError;
-use crate::shaders::FurUniforms;
 
 /// Checks `shading`'s ranges ([`FurShading::validate`]) as a [`RenderError::Shading`] naming the
 /// field.
 pub(crate) fn check(shading: &FurShading) -> Result<(), RenderError> {
     shading.validate().map_err(|(field, what)| RenderError::Shading { field, what })
-}
-
-/// `uniforms` with `shading`'s parameters in their strand fields (`Fur` in `fur_common.wgsl`).
-pub(crate) fn with_shading(uniforms: FurUniforms, shading: &FurShading) -> FurUniforms {
-    let s = shading;
-    let [tr, tg, tb] = s.tip_color;
-    let [sr, sg, sb] = s.secondary_tint;
-    FurUniforms {
-        tip_color: [tr, tg, tb, s.root_occlusion],
-        secondary_tint: [sr, sg, sb, s.secondary_noise],
-        specular: [s.primary_strength, s.primary_exponent, s.secondary_strength, s.secondary_exponent],
-        strand: [s.primary_shift, s.secondary_shift, s.back_light, s.kajiya_kay_diffuse],
-        ..uniforms
-    }
 }
 
 #[cfg(feature = "testing")]

@@ -26,8 +26,9 @@
 //!   quad, extrusion, shear and fragment shading as the always-on fins, alpha × fade.
 //! - **CPU reference**: [`silhouette_edges`], the same selection in plain Rust.
 
-use furbake_formats::sections::fin_edges::FinEdges;
-use furbake_formats::sections::skin_mesh::SkinMesh;
+#[cfg(any(test, feature = "testing"))]
+use furbake_draw::layout::SilhouetteEdge;
+use furbake_draw::layout::SilhouetteParams;
 use glam::Vec3;
 
 use crate::RenderError;
@@ -36,96 +37,7 @@ use crate::upload::Upload;
 /// Invocations per workgroup of `cs_silhouette`.
 const WORKGROUP_SIZE: u32 = 64;
 
-/// One interior edge (`SilhouetteEdge` in `silhouette.wgsl` and `fin.wgsl`): ends `a`, `b`; `c`
-/// the third corner of face 0, wound a → b → c; `d` the third corner of face 1, wound b → a → d
-/// (`flags` bit 0 clear) or a → b → d (bit 0 set, the faces disagree in orientation);
-/// `corner_a`, `corner_b` the ends' corner ids `3 × triangle + corner` in face 0.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct SilhouetteEdge {
-    /// First end (welded vertex).
-    pub a: u32,
-    /// Second end.
-    pub b: u32,
-    /// Third corner of face 0.
-    pub c: u32,
-    /// Third corner of face 1.
-    pub d: u32,
-    /// Corner id of `a` in face 0.
-    pub corner_a: u32,
-    /// Corner id of `b` in face 0.
-    pub corner_b: u32,
-    /// Bit 0: face 1 is wound a → b → d.
-    pub flags: u32,
-    /// Padding.
-    pub pad0: u32,
-}
-
-/// This frame's selection parameters (`SilhouetteParams` in `silhouette.wgsl`).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
-pub(crate) struct SilhouetteParams {
-    pub camera_obj: [f32; 4],
-    pub band: f32,
-    pub edge_count: u32,
-    pub pad0: u32,
-    pub pad1: u32,
-}
-
-/// The interior edges of `mesh` that may carry a silhouette fin: edges shared by exactly two
-/// furry triangles, minus the pack's always-on fin edges (`fin_edges`). Sorted by (a, b) of
-/// their first occurrence, deterministic.
-pub fn interior_edges(mesh: &SkinMesh, fin_edges: Option<&FinEdges>) -> Vec<SilhouetteEdge> {
-    use std::collections::{HashMap, HashSet};
-    let key = |a: u32, b: u32| (a.min(b), a.max(b));
-    let fins: HashSet<(u32, u32)> =
-        fin_edges.map(|f| f.vertices.iter().map(|&[a, b]| key(a, b)).collect()).unwrap_or_default();
-    // Edge → the (triangle, corner of the edge's start) of each furry triangle using it.
-    let mut faces: HashMap<(u32, u32), Vec<(u32, usize)>> = HashMap::with_capacity(mesh.triangles.len() * 2);
-    let mut order = Vec::with_capacity(mesh.triangles.len() * 2);
-    for (t, tri) in mesh.triangles.iter().enumerate() {
-        if mesh.fur_mask.get(t).copied().unwrap_or(0) == 0 || tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2] {
-            continue;
-        }
-        for c in 0..3 {
-            let k = key(tri[c], tri[(c + 1) % 3]);
-            let entry = faces.entry(k).or_default();
-            if entry.is_empty() {
-                order.push(k);
-            }
-            entry.push((t as u32, c));
-        }
-    }
-    let mut out = Vec::new();
-    for k in order {
-        let list = &faces[&k];
-        if list.len() != 2 || fins.contains(&k) {
-            continue;
-        }
-        let (t0, c0) = list[0];
-        let (t1, c1) = list[1];
-        let tri0 = mesh.triangles[t0 as usize];
-        let tri1 = mesh.triangles[t1 as usize];
-        let (a, b, c) = (tri0[c0], tri0[(c0 + 1) % 3], tri0[(c0 + 2) % 3]);
-        let d = tri1[(c1 + 2) % 3];
-        if c == d {
-            continue; // two triangles on the same three vertices
-        }
-        // Face 1 starts its edge at b (consistent orientation) or at a (flipped).
-        let flags = u32::from(tri1[c1] == a);
-        out.push(SilhouetteEdge {
-            a,
-            b,
-            c,
-            d,
-            corner_a: 3 * t0 + c0 as u32,
-            corner_b: 3 * t0 + ((c0 + 1) % 3) as u32,
-            flags,
-            pad0: 0,
-        });
-    }
-    out
-}
+pub use furbake_draw::geometry::interior_edges;
 
 #[cfg(feature = "testing")]
 /// n₀·v and n₁·v of `edge` seen from `camera` (object frame), or `None` where a face has
@@ -316,6 +228,7 @@ impl SilhouettePass {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use furbake_formats::sections::skin_mesh::SkinMesh;
 
     fn mesh(positions: Vec<[f32; 3]>, triangles: Vec<[u32; 3]>) -> SkinMesh {
         let n = positions.len();

@@ -29,8 +29,9 @@ pub use crate::culling::{
 pub use crate::lod::{ShellLevel, projected_fur_px};
 pub use crate::scene::RENDERER_OVERHEAD_BYTES;
 pub use crate::shading::strand_tangent;
-pub use crate::silhouette::{SilhouetteEdge, edge_facing, interior_edges, silhouette_edges, silhouette_fade};
+pub use crate::silhouette::{edge_facing, interior_edges, silhouette_edges, silhouette_fade};
 pub use crate::skinning::{PosedVertices, SkinningPass};
+pub use furbake_draw::layout::SilhouetteEdge;
 
 /// The shell level `renderer`'s next `prepare` of `frame` chooses (its level of detail, or every
 /// layer without one or without a viewport).

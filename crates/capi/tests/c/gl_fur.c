@@ -1,13 +1,15 @@
 /* An OpenGL 4.5 host written in C (no Rust in it): it steps the walking Fox through furbake's C
- * interface and draws its skin and its alpha-tested shells with the GLSL that `furbake shaders
- * --target glsl` exported, on a headless EGL context (Mesa's llvmpipe on a machine without a
- * GPU), then writes the frame as raw RGBA8 rows, top row first.
+ * interface and draws its skin and its shells with the GLSL that `furbake shaders --target glsl`
+ * exported, on a headless EGL context (Mesa's llvmpipe on a machine without a GPU), then writes
+ * the frame as raw RGBA8 rows, top row first.
  *
- * Usage: gl_fur FOX.fbk SHADER_DIR OUT.rgba WIDTH HEIGHT STEPS LAYERS THRESHOLD NAME=BINDING...
- * LAYERS shells are drawn with alpha threshold THRESHOLD; each NAME=BINDING gives the GLSL
- * binding manifest.json assigns the resource NAME (frame, fur, scale_vectors, shadow,
- * shell_alpha). The camera and light are the ones the crate's test gives furbake's renderer
- * (keep them in step with tests/gl_host.rs). */
+ * Usage: gl_fur FOX.fbk SHADER_DIR OUT.rgba WIDTH HEIGHT STEPS LOOK THRESHOLD NAME=BINDING...
+ * LOOK is `default` — furbake's own look: every shell the level of detail gives for this view,
+ * blended with the stacking exponents, strand-shaded, the atlas's mip chain sampled — or
+ * `alpha_test`: every shell, alpha-tested at THRESHOLD, Lambert × self-shadow. Each NAME=BINDING
+ * gives the GLSL binding manifest.json assigns the resource NAME (frame, fur, scale_vectors,
+ * shadow, shell_alpha, stacking). The camera and light are the ones the crate's test gives
+ * furbake's renderer (keep them in step with tests/gl_host.rs). */
 
 #define GL_GLEXT_PROTOTYPES 1
 #include <EGL/egl.h>
@@ -127,7 +129,8 @@ static Mat4 perspective(float fov_y, float aspect, float near, float far) {
     return m;
 }
 
-/* One vertex per triangle corner, as the renderer's surface vertices (vs_skin's inputs). */
+/* One vertex per triangle corner (furbake_pack_surface_vertices; vs_skin's and vs_shell's
+ * inputs). */
 typedef struct {
     float position[3];
     float normal[3];
@@ -170,13 +173,15 @@ static GLuint program_of(const char *dir, const char *vertex, const char *fragme
 
 int main(int argc, char **argv) {
     if (argc < 10) {
-        fprintf(stderr, "usage: %s FOX.fbk SHADER_DIR OUT.rgba WIDTH HEIGHT STEPS LAYERS THRESHOLD NAME=BINDING...\n", argv[0]);
+        fprintf(stderr, "usage: %s FOX.fbk SHADER_DIR OUT.rgba WIDTH HEIGHT STEPS LOOK THRESHOLD NAME=BINDING...\n", argv[0]);
         return 2;
     }
     const char *shader_dir = argv[2];
     const int width = atoi(argv[4]), height = atoi(argv[5]), steps = atoi(argv[6]);
-    const uint32_t layers = (uint32_t)atoi(argv[7]);
-    const float threshold = (float)atof(argv[8]);
+    const int furbake_look = strcmp(argv[7], "default") == 0;
+    if (!furbake_look && strcmp(argv[7], "alpha_test") != 0) {
+        die("LOOK is default or alpha_test");
+    }
     if (furbake_check_version(FURBAKE_ABI_VERSION) != FURBAKE_RESULT_OK) {
         die(furbake_last_error());
     }
@@ -236,36 +241,37 @@ int main(int argc, char **argv) {
     fprintf(stderr, "gl_fur: %s, %s\n", (const char *)glGetString(GL_RENDERER), (const char *)glGetString(GL_VERSION));
 
     /* The exported programs: the skin and the shells as furbake draws them for this scene —
-     * bind pose from the vertex attributes (the posed skin comes from the C interface),
-     * Lambert × self-shadow with one light; shells sheared by the scale vectors, alpha-tested. */
-    GLuint skin = program_of(shader_dir, "skin.vs_skin.none.vert", "skin.fs_skin.lambert-shadow.light_slots1.frag");
-    GLuint shells = program_of(shader_dir, "shell.vs_shell.shear.vert", "shell.fs_shell.lambert-shadow.light_slots1.frag");
+     * bind pose from the vertex attributes (the posed skin comes from the C interface), one
+     * light; the shells sheared by the scale vectors. furbake's look: strand shading on skin and
+     * shells, shells blended; the alpha-test look: Lambert × self-shadow, shells alpha-tested. */
+    GLuint skin = program_of(shader_dir, "skin.vs_skin.none.vert",
+                             furbake_look ? "skin.fs_skin.lambert-shadow-strand.light_slots1.frag"
+                                          : "skin.fs_skin.lambert-shadow.light_slots1.frag");
+    GLuint shells = furbake_look
+                        ? program_of(shader_dir, "shell.vs_shell.shear-strand.vert",
+                                     "shell.fs_shell.alpha_blend-lambert-shadow-strand.light_slots1.frag")
+                        : program_of(shader_dir, "shell.vs_shell.shear.vert",
+                                     "shell.fs_shell.lambert-shadow.light_slots1.frag");
 
-    /* Vertices: one per triangle corner, posed by the world, furry triangles first (the shells
-     * draw that prefix), as the renderer's surface vertices. */
-    size_t corners = 3 * (size_t)mesh.triangle_count, furry_corners = 0;
-    Corner *vertices = calloc(corners, sizeof(Corner));
-    size_t at = 0;
-    for (int pass = 1; pass >= 0; pass--) {
-        for (uint32_t t = 0; t < mesh.triangle_count; t++) {
-            if ((mesh.fur_mask[t] != 0) != (pass == 1)) {
-                continue;
-            }
-            for (uint32_t c = 0; c < 3; c++) {
-                uint32_t v = mesh.triangles[3 * t + c];
-                Corner *o = &vertices[at++];
-                memcpy(o->position, &pose.positions[3 * v], sizeof o->position);
-                memcpy(o->normal, &pose.normals[3 * v], sizeof o->normal);
-                memcpy(o->color, &mesh.colors[4 * v], sizeof o->color);
-                memcpy(o->uv, &uv_map.corners[6 * t + 2 * c], sizeof o->uv);
-                o->vertex_index = v;
-                o->flags = mesh.fur_mask[t] != 0;
-                o->corner_index = 3 * t + c;
-            }
+    /* Vertices: the pack's triangle corners, furry triangles first (the shells draw that
+     * prefix), moved to this frame's pose. */
+    FurbakeSurfaceView surface = {.size = sizeof surface};
+    MUST(furbake_pack_surface_vertices(fox, &surface));
+    if (surface.stride != sizeof(Corner)) {
+        die("the surface vertices are not laid out as this host's Corner");
+    }
+    size_t corners = surface.vertex_count, furry_corners = surface.furry_vertex_count;
+    Corner *vertices = malloc(corners * sizeof(Corner));
+    memcpy(vertices, surface.vertices, corners * sizeof(Corner));
+    for (size_t i = 0; i < corners; i++) {
+        uint32_t v = vertices[i].vertex_index, corner = vertices[i].corner_index;
+        if (v >= mesh.vertex_count || corner >= 3 * mesh.triangle_count ||
+            memcmp(vertices[i].uv, &uv_map.corners[2 * corner], sizeof vertices[i].uv) != 0 ||
+            (i < furry_corners) != (mesh.fur_mask[corner / 3] != 0)) {
+            die("a surface vertex disagrees with the skin mesh and triangle UV map");
         }
-        if (pass == 1) {
-            furry_corners = at;
-        }
+        memcpy(vertices[i].position, &pose.positions[3 * v], sizeof vertices[i].position);
+        memcpy(vertices[i].normal, &pose.normals[3 * v], sizeof vertices[i].normal);
     }
     GLuint vao, vbo;
     glGenVertexArrays(1, &vao);
@@ -311,26 +317,34 @@ int main(int argc, char **argv) {
     memcpy(&frame[64], model.m, 64);
     frame[80] = (float)width;
     frame[81] = (float)height;
-    /* Every layer is drawn (no level of detail): Frame.shells = (layers, fade 1, layers, 0). */
-    frame[84] = (float)layers;
-    frame[85] = 1.0f;
-    frame[86] = (float)layers;
-    GLuint buffers[4];
-    glGenBuffers(4, buffers);
+    /* The shells this view draws: furbake's level of detail for the Fox's projected fur length
+     * (its default curve), or every layer. Frame.shells = (layers, fade, continuous, 0). */
+    FurbakeShellLevel level = {.size = sizeof level, .layers = atlas.layers, .fade = 1.0f,
+                               .continuous = (float)atlas.layers};
+    if (furbake_look) {
+        FurbakeCamera camera = {.size = sizeof camera, .viewport = {(float)width, (float)height}};
+        memcpy(camera.view_proj, view_proj.m, sizeof camera.view_proj);
+        memcpy(camera.eye, eye, sizeof camera.eye);
+        MUST(furbake_world_shell_level(world, 0, &camera, NULL, atlas.layers, &level));
+    }
+    const uint32_t layers = level.layers;
+    frame[84] = (float)level.layers;
+    frame[85] = level.fade;
+    frame[86] = level.continuous;
+    GLuint buffers[5];
+    glGenBuffers(5, buffers);
     glBindBuffer(GL_UNIFORM_BUFFER, buffers[0]);
     glBufferData(GL_UNIFORM_BUFFER, sizeof frame, frame, GL_STATIC_DRAW);
     glBindBufferBase(GL_UNIFORM_BUFFER, binding_of(argc, argv, "frame"), buffers[0]);
-    /* Fur uniforms (struct Fur, 128 bytes): white tint, the atlas's fur length and layer count,
-     * the renderer's default shear exponent (2), the scene's alpha threshold, one scale vector
-     * per skin vertex; the strand shading's fields stay zero (it is off). */
-    float fur[32] = {0};
-    fur[0] = fur[1] = fur[2] = fur[3] = 1.0f;
-    fur[4] = atlas.fur_length_m;
-    fur[5] = 2.0f;
-    fur[6] = threshold;
-    memcpy(&fur[7], &atlas.layers, 4);
-    memcpy(&fur[8], &layers, 4);
-    fur[9] = uv_map.repeat_m;
+    /* Fur uniforms (struct Fur, 128 bytes) for furbake's default look, or with the alpha-test
+     * threshold; one scale vector per skin vertex. */
+    FurbakeFurLook look = {.size = sizeof look};
+    MUST(furbake_fur_look_default(&look));
+    if (!furbake_look) {
+        look.alpha_threshold = (float)atof(argv[8]);
+    }
+    unsigned char fur[128];
+    MUST(furbake_pack_fur_block(fox, &look, atlas.layers, fur, sizeof fur));
     glBindBuffer(GL_UNIFORM_BUFFER, buffers[1]);
     glBufferData(GL_UNIFORM_BUFFER, sizeof fur, fur, GL_STATIC_DRAW);
     glBindBufferBase(GL_UNIFORM_BUFFER, binding_of(argc, argv, "fur"), buffers[1]);
@@ -346,20 +360,33 @@ int main(int argc, char **argv) {
     glBufferData(GL_SHADER_STORAGE_BUFFER, (GLsizeiptr)(4 * fur_frame.count * sizeof(float)), scale, GL_STATIC_DRAW);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, binding_of(argc, argv, "scale_vectors"), buffers[3]);
     free(scale);
-    /* The shell atlas: an R8 2D array texture, sampled linearly and repeating (the alpha test
-     * reads level 0 only). */
+    /* The shells' stacking exponents (read by the blended shells). */
+    FurbakeStackingTableView stacking = {.size = sizeof stacking};
+    MUST(furbake_pack_stacking_table(fox, &stacking));
+    glBindBuffer(GL_SHADER_STORAGE_BUFFER, buffers[4]);
+    glBufferData(GL_SHADER_STORAGE_BUFFER,
+                 (GLsizeiptr)(stacking.angle_bins * stacking.mip_bins * stacking.count_bins * sizeof(float)),
+                 stacking.exponents, GL_STATIC_DRAW);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, binding_of(argc, argv, "stacking"), buffers[4]);
+    /* The shell atlas: an R8 2D array texture with furbake's mip chain, sampled trilinearly and
+     * repeating. */
     GLuint texture;
     glGenTextures(1, &texture);
     glActiveTexture(GL_TEXTURE0 + binding_of(argc, argv, "shell_alpha"));
     glBindTexture(GL_TEXTURE_2D_ARRAY, texture);
     glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-    glTexImage3D(GL_TEXTURE_2D_ARRAY, 0, GL_R8, (GLsizei)atlas.resolution, (GLsizei)atlas.resolution,
-                 (GLsizei)atlas.layers, 0, GL_RED, GL_UNSIGNED_BYTE, atlas.alpha);
-    glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+    FurbakeAtlasLevelView mip = {.size = sizeof mip};
+    MUST(furbake_pack_atlas_level(fox, FURBAKE_ATLAS_SHELL, 0, &mip));
+    for (uint32_t l = 0; l < mip.level_count; l++) {
+        MUST(furbake_pack_atlas_level(fox, FURBAKE_ATLAS_SHELL, l, &mip));
+        glTexImage3D(GL_TEXTURE_2D_ARRAY, (GLint)l, GL_R8, (GLsizei)mip.width, (GLsizei)mip.height,
+                     (GLsizei)mip.layers, 0, GL_RED, GL_UNSIGNED_BYTE, mip.texels);
+    }
+    glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
     glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
     glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_WRAP_S, GL_REPEAT);
     glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_WRAP_T, GL_REPEAT);
-    glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MAX_LEVEL, 0);
+    glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MAX_LEVEL, (GLint)mip.level_count - 1);
 
     /* An sRGB colour target and a float depth target, as the headless renderer's. */
     GLuint fbo, color, depth;
@@ -389,8 +416,14 @@ int main(int argc, char **argv) {
     glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
     glUseProgram(skin);
     glDrawArrays(GL_TRIANGLES, 0, (GLsizei)corners);
-    /* Shells: innermost first (instance = layer), no culling, depth written (alpha test). */
+    /* Shells: innermost first (instance = layer), no culling; blended over what is drawn
+     * (straight alpha, depth tested but not written), or alpha-tested with depth written. */
     glDisable(GL_CULL_FACE);
+    if (furbake_look) {
+        glEnable(GL_BLEND);
+        glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
+        glDepthMask(GL_FALSE);
+    }
     glUseProgram(shells);
     glDrawArraysInstanced(GL_TRIANGLES, 0, (GLsizei)furry_corners, (GLsizei)layers);
     GLenum error = glGetError();

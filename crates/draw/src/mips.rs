@@ -1,10 +1,10 @@
-//! The box-filtered mip chain of an 8-bit atlas slice: what the renderer uploads as the shell
-//! atlas's mip levels (`renderer.rs`) and what the stacking table reproduces on the CPU
+//! The box-filtered mip chain of an 8-bit atlas slice: what a renderer uploads as the shell
+//! and fin atlases' mip levels (`furbake-render`, and engines through `furbake-capi`) and what the stacking table reproduces on the CPU
 //! (`stacking.rs`, docs/design.md "Shell opacity"), so both see the same texels.
 
 /// Box-filtered mip chain of one `width × height` 8-bit image (level 0 first). Odd sizes are
 /// handled by clamping the 2×2 footprint at the border; the chain ends at 1×1.
-pub(crate) fn mip_chain(width: u32, height: u32, texels: &[u8]) -> Vec<(u32, u32, Vec<u8>)> {
+pub fn mip_chain(width: u32, height: u32, texels: &[u8]) -> Vec<(u32, u32, Vec<u8>)> {
     let mut levels = vec![(width, height, texels.to_vec())];
     while let Some((w, h, prev)) = levels.last().filter(|(w, h, _)| *w > 1 || *h > 1) {
         let (nw, nh) = ((*w / 2).max(1), (*h / 2).max(1));
