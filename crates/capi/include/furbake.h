@@ -711,7 +711,7 @@ enum FurbakeResult furbake_pack_stacking_table(const struct FurbakePack *pack,
 // `look` points to a `FurbakeFurLook` whose `size` is set.
 enum FurbakeResult furbake_fur_look_default(struct FurbakeFurLook *look);
 
-// Writes the `Fur` uniform block (the manifest's struct `Fur`, 112 bytes) for `*look` and the
+// Writes the `Fur` uniform block (the manifest's struct `Fur`, 128 bytes) for `*look` and the
 // pack's shells, drawing `drawn_layers` layers (the most a view draws; at least 1 is written)
 // with one scale vector per welded vertex: `out_size` must be the block's size. A look out of
 // range is an invalid argument naming the field; missing without fur.

@@ -5,10 +5,12 @@
  *
  * Usage: gl_fur FOX.fbk SHADER_DIR OUT.rgba WIDTH HEIGHT STEPS LOOK THRESHOLD NAME=BINDING...
  * LOOK is `default` — furbake's own look: every shell the level of detail gives for this view,
- * blended with the stacking exponents, strand-shaded, the atlas's mip chain sampled — or
+ * blended with the stacking exponents, strand-shaded, the atlas's mip chain sampled, then the fins
+ * and the silhouette fins this view selects (`default_without_fins` leaves the fins out) — or
  * `alpha_test`: every shell, alpha-tested at THRESHOLD, Lambert × self-shadow. Each NAME=BINDING
  * gives the GLSL binding manifest.json assigns the resource NAME (frame, fur, scale_vectors,
- * shadow, shell_alpha, stacking). The camera and light are the ones the crate's test gives
+ * shadow, shell_alpha, stacking; for the fins fin_alpha, sil_edges, sil_instances, sil_vertices,
+ * sil_colors, and the selection's params, edges, vertices, instances, args). The camera and light are the ones the crate's test gives
  * furbake's renderer (keep them in step with tests/gl_host.rs). */
 
 #define GL_GLEXT_PROTOTYPES 1
@@ -171,6 +173,160 @@ static GLuint program_of(const char *dir, const char *vertex, const char *fragme
     return program;
 }
 
+static GLuint compute_program_of(const char *dir, const char *name) {
+    GLuint program = glCreateProgram();
+    glAttachShader(program, compile(GL_COMPUTE_SHADER, dir, name));
+    glLinkProgram(program);
+    GLint linked = 0;
+    glGetProgramiv(program, GL_LINK_STATUS, &linked);
+    if (!linked) {
+        char log[4096];
+        glGetProgramInfoLog(program, sizeof log, NULL, log);
+        fprintf(stderr, "link %s: %s\n", name, log);
+        exit(1);
+    }
+    return program;
+}
+
+static GLuint storage_buffer(const void *data, size_t bytes) {
+    GLuint buffer;
+    glGenBuffers(1, &buffer);
+    glBindBuffer(GL_SHADER_STORAGE_BUFFER, buffer);
+    glBufferData(GL_SHADER_STORAGE_BUFFER, (GLsizeiptr)(bytes > 0 ? bytes : 16), data, GL_DYNAMIC_DRAW);
+    return buffer;
+}
+
+/* An R8 2D texture (array) of `atlas` with every mip level furbake makes, on texture unit `unit`. */
+static GLuint atlas_texture(const FurbakePack *pack, uint32_t atlas, GLuint unit) {
+    GLenum kind = atlas == FURBAKE_ATLAS_SHELL ? GL_TEXTURE_2D_ARRAY : GL_TEXTURE_2D;
+    GLuint texture;
+    glGenTextures(1, &texture);
+    glActiveTexture(GL_TEXTURE0 + unit);
+    glBindTexture(kind, texture);
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+    FurbakeAtlasLevelView mip = {.size = sizeof mip};
+    MUST(furbake_pack_atlas_level(pack, atlas, 0, &mip));
+    for (uint32_t l = 0; l < mip.level_count; l++) {
+        MUST(furbake_pack_atlas_level(pack, atlas, l, &mip));
+        if (kind == GL_TEXTURE_2D_ARRAY) {
+            glTexImage3D(kind, (GLint)l, GL_R8, (GLsizei)mip.width, (GLsizei)mip.height, (GLsizei)mip.layers, 0, GL_RED,
+                         GL_UNSIGNED_BYTE, mip.texels);
+        } else {
+            glTexImage2D(kind, (GLint)l, GL_R8, (GLsizei)mip.width, (GLsizei)mip.height, 0, GL_RED, GL_UNSIGNED_BYTE,
+                         mip.texels);
+        }
+    }
+    /* Trilinear; repeating, except the fin atlas clamps along the hair (v). */
+    glTexParameteri(kind, GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
+    glTexParameteri(kind, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    glTexParameteri(kind, GL_TEXTURE_WRAP_S, GL_REPEAT);
+    glTexParameteri(kind, GL_TEXTURE_WRAP_T, atlas == FURBAKE_ATLAS_SHELL ? GL_REPEAT : GL_CLAMP_TO_EDGE);
+    glTexParameteri(kind, GL_TEXTURE_MAX_LEVEL, (GLint)mip.level_count - 1);
+    return texture;
+}
+
+/* The inverse of a rotation × uniform scale + translation matrix, applied to a point. */
+static void to_object(const Mat4 *model, const float p[3], float out[3]) {
+    const float *m = model->m;
+    float s2 = m[0] * m[0] + m[1] * m[1] + m[2] * m[2];
+    float d[3] = {p[0] - m[12], p[1] - m[13], p[2] - m[14]};
+    for (int i = 0; i < 3; i++) { /* R^T d / s^2: the columns' dot products */
+        out[i] = (m[4 * i] * d[0] + m[4 * i + 1] * d[1] + m[4 * i + 2] * d[2]) / s2;
+    }
+}
+
+/* The fins, as furbake draws them after the shells: the fin quads of the pack's fin edges, then
+ * the silhouette fins — this frame's interior edges on or near the silhouette, selected by the
+ * exported compute pass (`silhouette.cs_silhouette`) into an instance list and an indirect draw's
+ * arguments, then drawn six vertices per instance. Blended, depth tested but not written. The
+ * storage bindings of the fin and selection programs overlap the shells' (the manifest numbers
+ * each module on its own), so each is bound just before its program runs. */
+static void draw_fins(int argc, char **argv, const char *dir, const FurbakePack *fox, const FurbakeSkinPose *pose,
+                      const FurbakeSkinMeshView *mesh, const Mat4 *model, const float eye[3], GLuint frame,
+                      GLuint scale_vectors, GLuint shadow) {
+    FurbakeArrayView quads = {.size = sizeof quads}, edges = {.size = sizeof edges};
+    MUST(furbake_pack_fin_quads(fox, &quads));
+    MUST(furbake_pack_silhouette_edges(fox, &edges));
+    GLuint fin_texture = atlas_texture(fox, FURBAKE_ATLAS_FIN, binding_of(argc, argv, "fin_alpha"));
+    GLuint fins = program_of(dir, "fin.vs_fin.shear-strand.vert", "fin.fs_fin.alpha_blend-lambert-shadow-strand.light_slots1.frag");
+    GLuint silhouette_fins = program_of(dir, "fin.vs_silhouette_fin.shear-strand.vert",
+                                        "fin.fs_fin.alpha_blend-lambert-shadow-strand.light_slots1.frag");
+    GLuint select = compute_program_of(dir, "silhouette.cs_silhouette.comp");
+
+    if (quads.count > 0) { /* the Fox has none: every furry edge is interior */
+        GLuint vao, vbo;
+        glGenVertexArrays(1, &vao);
+        glBindVertexArray(vao);
+        glGenBuffers(1, &vbo);
+        glBindBuffer(GL_ARRAY_BUFFER, vbo);
+        glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)quads.count * quads.stride, quads.data, GL_STATIC_DRAW);
+        const GLsizei stride = (GLsizei)quads.stride;
+        const GLint sizes[9] = {3, 3, 3, 4, 1, 1, 1, 1, 3};
+        const size_t offsets[9] = {0, 12, 24, 36, 52, 56, 60, 64, 68};
+        for (GLuint a = 0; a < 9; a++) {
+            glEnableVertexAttribArray(a);
+            if (a < 6) {
+                glVertexAttribPointer(a, sizes[a], GL_FLOAT, GL_FALSE, stride, (void *)offsets[a]);
+            } else {
+                glVertexAttribIPointer(a, sizes[a], GL_UNSIGNED_INT, stride, (void *)offsets[a]);
+            }
+        }
+        glUseProgram(fins);
+        glDrawArrays(GL_TRIANGLES, 0, (GLsizei)quads.count);
+    }
+
+    /* The selection's inputs: this frame's posed vertices (position, normal as vec4s), the eye
+     * in the pack's frame, the band of furbake's default (0.05). */
+    float *posed = calloc(8 * (size_t)pose->vertex_count, sizeof(float));
+    for (uint32_t v = 0; v < pose->vertex_count; v++) {
+        memcpy(&posed[8 * v], &pose->positions[3 * v], 3 * sizeof(float));
+        posed[8 * v + 3] = 1.0f;
+        memcpy(&posed[8 * v + 4], &pose->normals[3 * v], 3 * sizeof(float));
+    }
+    GLuint vertices = storage_buffer(posed, 32 * (size_t)pose->vertex_count);
+    free(posed);
+    GLuint edge_buffer = storage_buffer(edges.data, (size_t)edges.count * edges.stride);
+    GLuint colors = storage_buffer(mesh->colors, 16 * (size_t)mesh->vertex_count);
+    GLuint instances = storage_buffer(NULL, 8 * (size_t)edges.count);
+    const uint32_t args[4] = {6, 0, 0, 0}; /* six vertices per fin; the selection counts instances */
+    GLuint arguments = storage_buffer(args, sizeof args);
+    float params[8] = {0};
+    to_object(model, eye, params);
+    params[3] = 1.0f;
+    params[4] = 0.05f;
+    memcpy(&params[5], &edges.count, 4);
+    GLuint params_buffer;
+    glGenBuffers(1, &params_buffer);
+    glBindBuffer(GL_UNIFORM_BUFFER, params_buffer);
+    glBufferData(GL_UNIFORM_BUFFER, sizeof params, params, GL_STATIC_DRAW);
+
+    glUseProgram(select);
+    glBindBufferBase(GL_UNIFORM_BUFFER, binding_of(argc, argv, "params"), params_buffer);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, binding_of(argc, argv, "edges"), edge_buffer);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, binding_of(argc, argv, "vertices"), vertices);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, binding_of(argc, argv, "instances"), instances);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, binding_of(argc, argv, "args"), arguments);
+    glDispatchCompute((edges.count + 63) / 64, 1, 1);
+    glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_COMMAND_BARRIER_BIT);
+    /* The selection took bindings the fins read too (its parameters on the frame's uniform
+     * binding, its buffers on the storage bindings of the scale vectors and shadow table). */
+    glBindBufferBase(GL_UNIFORM_BUFFER, binding_of(argc, argv, "frame"), frame);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, binding_of(argc, argv, "scale_vectors"), scale_vectors);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, binding_of(argc, argv, "shadow"), shadow);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, binding_of(argc, argv, "sil_edges"), edge_buffer);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, binding_of(argc, argv, "sil_instances"), instances);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, binding_of(argc, argv, "sil_vertices"), vertices);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, binding_of(argc, argv, "sil_colors"), colors);
+    glUseProgram(silhouette_fins);
+    glBindBuffer(GL_DRAW_INDIRECT_BUFFER, arguments);
+    glDrawArraysIndirect(GL_TRIANGLES, NULL);
+    uint32_t drawn[4] = {0};
+    glGetNamedBufferSubData(arguments, 0, sizeof drawn, drawn);
+    printf("fins: %u fin quad corners, %u interior edges, silhouette draw of %u instances\n", quads.count,
+           edges.count, drawn[1]);
+    glDeleteTextures(1, &fin_texture);
+}
+
 int main(int argc, char **argv) {
     if (argc < 10) {
         fprintf(stderr, "usage: %s FOX.fbk SHADER_DIR OUT.rgba WIDTH HEIGHT STEPS LOOK THRESHOLD NAME=BINDING...\n", argv[0]);
@@ -178,9 +334,12 @@ int main(int argc, char **argv) {
     }
     const char *shader_dir = argv[2];
     const int width = atoi(argv[4]), height = atoi(argv[5]), steps = atoi(argv[6]);
-    const int furbake_look = strcmp(argv[7], "default") == 0;
+    /* `default_without_fins` is furbake's look with the fins left out: the test's proof that its
+     * comparison sees them. */
+    const int without_fins = strcmp(argv[7], "default_without_fins") == 0;
+    const int furbake_look = without_fins || strcmp(argv[7], "default") == 0;
     if (!furbake_look && strcmp(argv[7], "alpha_test") != 0) {
-        die("LOOK is default or alpha_test");
+        die("LOOK is default, default_without_fins or alpha_test");
     }
     if (furbake_check_version(FURBAKE_ABI_VERSION) != FURBAKE_RESULT_OK) {
         die(furbake_last_error());
@@ -368,25 +527,8 @@ int main(int argc, char **argv) {
                  (GLsizeiptr)(stacking.angle_bins * stacking.mip_bins * stacking.count_bins * sizeof(float)),
                  stacking.exponents, GL_STATIC_DRAW);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, binding_of(argc, argv, "stacking"), buffers[4]);
-    /* The shell atlas: an R8 2D array texture with furbake's mip chain, sampled trilinearly and
-     * repeating. */
-    GLuint texture;
-    glGenTextures(1, &texture);
-    glActiveTexture(GL_TEXTURE0 + binding_of(argc, argv, "shell_alpha"));
-    glBindTexture(GL_TEXTURE_2D_ARRAY, texture);
-    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-    FurbakeAtlasLevelView mip = {.size = sizeof mip};
-    MUST(furbake_pack_atlas_level(fox, FURBAKE_ATLAS_SHELL, 0, &mip));
-    for (uint32_t l = 0; l < mip.level_count; l++) {
-        MUST(furbake_pack_atlas_level(fox, FURBAKE_ATLAS_SHELL, l, &mip));
-        glTexImage3D(GL_TEXTURE_2D_ARRAY, (GLint)l, GL_R8, (GLsizei)mip.width, (GLsizei)mip.height,
-                     (GLsizei)mip.layers, 0, GL_RED, GL_UNSIGNED_BYTE, mip.texels);
-    }
-    glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
-    glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-    glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_WRAP_S, GL_REPEAT);
-    glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_WRAP_T, GL_REPEAT);
-    glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MAX_LEVEL, (GLint)mip.level_count - 1);
+    /* The shell atlas: an R8 2D array texture with furbake's mip chain. */
+    GLuint shell_texture = atlas_texture(fox, FURBAKE_ATLAS_SHELL, binding_of(argc, argv, "shell_alpha"));
 
     /* An sRGB colour target and a float depth target, as the headless renderer's. */
     GLuint fbo, color, depth;
@@ -426,6 +568,10 @@ int main(int argc, char **argv) {
     }
     glUseProgram(shells);
     glDrawArraysInstanced(GL_TRIANGLES, 0, (GLsizei)furry_corners, (GLsizei)layers);
+    if (furbake_look && !without_fins) {
+        draw_fins(argc, argv, shader_dir, fox, &pose, &mesh, &model, eye, buffers[0], buffers[3], buffers[2]);
+    }
+    glDeleteTextures(1, &shell_texture);
     GLenum error = glGetError();
     if (error != GL_NO_ERROR) {
         fprintf(stderr, "OpenGL error %#x\n", error);
