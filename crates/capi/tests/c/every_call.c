@@ -155,6 +155,76 @@ static double grass_push(FurbakeWorld *world, uint32_t pack) {
     return push;
 }
 
+/* What drawing a pack takes (`furbake-draw`): fin quads, atlas levels, the Fur block of a look,
+ * the shell level of detail, and their refusals. */
+static void draw_data(const FurbakePack *fox, const FurbakePack *plane) {
+    FurbakeFinEdgesView edges = {.size = sizeof edges};
+    MUST(furbake_pack_fin_edges(plane, &edges));
+    FurbakeArrayView quads = {.size = sizeof quads};
+    MUST(furbake_pack_fin_quads(plane, &quads));
+    CHECK(quads.count == 6 * edges.edge_count && quads.stride == 80, "%u fin corners of 80 bytes for %u edges",
+          quads.count, edges.edge_count);
+    FurbakeArrayView silhouette = {.size = sizeof silhouette};
+    MUST(furbake_pack_silhouette_edges(fox, &silhouette));
+    CHECK(silhouette.count > 0 && silhouette.stride == 32, "%u interior edges", silhouette.count);
+
+    FurbakeShellAtlasView atlas = {.size = sizeof atlas};
+    MUST(furbake_pack_shell_atlas(fox, &atlas));
+    FurbakeAtlasLevelView level = {.size = sizeof level};
+    MUST(furbake_pack_atlas_level(fox, FURBAKE_ATLAS_SHELL, 0, &level));
+    CHECK(level.width == atlas.resolution && level.layers == atlas.layers &&
+              memcmp(level.texels, atlas.alpha, (size_t)atlas.layers * atlas.resolution * atlas.resolution) == 0,
+          "level 0 is the atlas");
+    uint32_t count = level.level_count;
+    MUST(furbake_pack_atlas_level(fox, FURBAKE_ATLAS_SHELL, count - 1, &level));
+    CHECK(level.width == 1 && level.height == 1 && count > 1, "the chain ends at 1x1 (%u levels)", count);
+    CHECK(furbake_pack_atlas_level(fox, FURBAKE_ATLAS_SHELL, count, &level) == FURBAKE_RESULT_INVALID_ARGUMENT,
+          "past the chain");
+    CHECK(furbake_pack_atlas_level(fox, 7, 0, &level) == FURBAKE_RESULT_INVALID_ARGUMENT, "an unknown atlas");
+
+    FurbakeFurLook look = {.size = sizeof look};
+    MUST(furbake_fur_look_default(&look));
+    unsigned char block[128], small[112];
+    MUST(furbake_pack_fur_block(fox, &look, atlas.layers, block, sizeof block));
+    float length = 0.0f;
+    memcpy(&length, &block[16], sizeof length); /* Fur.fur_length_m */
+    CHECK(length == atlas.fur_length_m, "the block carries the fur length (%g)", (double)length);
+    CHECK(furbake_pack_fur_block(fox, &look, atlas.layers, small, sizeof small) == FURBAKE_RESULT_INVALID_ARGUMENT,
+          "a block of the wrong size");
+    look.alpha_threshold = 1.5f;
+    CHECK(furbake_pack_fur_block(fox, &look, atlas.layers, block, sizeof block) == FURBAKE_RESULT_INVALID_ARGUMENT &&
+              strstr(furbake_last_error(), "alpha_threshold") != NULL,
+          "an alpha threshold out of range, named: %s", furbake_last_error());
+
+    /* The level of detail: near, every layer; far, fewer (one layer per pixel, down to one). */
+    FurbakeWorldDesc desc = {.size = sizeof desc};
+    FurbakeWorld *world = NULL;
+    MUST(furbake_world_create(&desc, &world));
+    FurbakeEntryDesc entry = {.size = sizeof entry, .name = "fox", .scale = 0.01f};
+    MUST(furbake_world_add_pack(world, fox, &entry, NULL));
+    MUST(furbake_world_step(world));
+    FurbakeShellLod lod = {.size = sizeof lod, .layers_per_px = 1.0f, .min_layers = 1};
+    FurbakeShellLevel near = {.size = sizeof near}, far = {.size = sizeof far};
+    /* A camera at (0, 0.4, d) looking down -z: perspective (fov 40°, aspect 4:3, depth 0–1 over
+     * 0.05–100 m) × a translation by (0, -0.4, -d), column-major. */
+    float f = 1.0f / tanf(0.5f * 0.6981317f), zf = 100.0f / (0.05f - 100.0f);
+    for (int k = 0; k < 2; k++) {
+        float distance = k == 0 ? 1.5f : 60.0f;
+        FurbakeCamera camera = {.size = sizeof camera, .eye = {0.0f, 0.4f, distance}, .viewport = {640.0f, 480.0f}};
+        float m[16] = {f / (4.0f / 3.0f), 0, 0, 0, 0, f, 0, 0, 0, 0, zf, -1, 0, -0.4f * f, zf * (0.05f - distance), distance};
+        memcpy(camera.view_proj, m, sizeof m);
+        MUST(furbake_world_shell_level(world, 0, &camera, &lod, atlas.layers, k == 0 ? &near : &far));
+    }
+    CHECK(near.layers == atlas.layers && far.layers < near.layers, "near %u layers, far %u", near.layers, far.layers);
+    lod.layers_per_px = -1.0f;
+    CHECK(furbake_world_shell_level(world, 0, &(FurbakeCamera){.size = sizeof(FurbakeCamera)}, &lod, 4, &near) ==
+              FURBAKE_RESULT_INVALID_ARGUMENT,
+          "a negative slope");
+    furbake_world_release(world);
+    printf("draw: %u fin corners, %u interior edges, %u atlas levels, %u of %u layers far away\n", quads.count,
+           silhouette.count, count, far.layers, atlas.layers);
+}
+
 /* A scene file: packs by name, a model matrix, a held pose handed back, effects, wind. */
 static void scene(const char *path) {
     FurbakeWorld *walker = NULL, *held = NULL;
@@ -286,6 +356,7 @@ int main(int argc, char **argv) {
     MUST(furbake_pack_open_file(argv[3], &plane));
     pack_sections(fox, strip, plane);
     clips(fox);
+    draw_data(fox, plane);
     scene(argv[4]);
     gravity(fox);
     furbake_pack_release(fox);
