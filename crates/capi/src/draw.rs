@@ -200,6 +200,15 @@ impl Zeroed for FurbakeFurLook {}
 impl Zeroed for FurbakeCamera {}
 impl Zeroed for FurbakeShellLod {}
 
+/// The value `cell` holds, built by `build` on the first call (a failed build leaves it empty).
+fn cached<T>(cell: &OnceLock<T>, build: impl FnOnce() -> Result<T, Error>) -> Result<&T, Error> {
+    if let Some(value) = cell.get() {
+        return Ok(value);
+    }
+    let value = build()?;
+    Ok(cell.get_or_init(|| value))
+}
+
 fn furry(pack: &FurbakePack) -> Result<(), Error> {
     for kind in [SectionKind::SKIN_MESH, SectionKind::SHELL_ATLAS, SectionKind::TRIANGLE_UV_MAP] {
         if !pack.pack.has(kind) {
@@ -231,13 +240,8 @@ pub unsafe extern "C" fn furbake_pack_surface_vertices(
         let handle = pack_ref("pack", pack)?;
         furry(handle)?;
         let p = &handle.pack;
-        let surface = match handle.draw.surface.get() {
-            Some(s) => s,
-            None => {
-                let built = geometry::surface_vertices(&*p.skin_mesh()?, &*p.triangle_uv_map()?);
-                handle.draw.surface.get_or_init(|| built)
-            }
-        };
+        let surface =
+            cached(&handle.draw.surface, || Ok(geometry::surface_vertices(&*p.skin_mesh()?, &*p.triangle_uv_map()?)))?;
         let (corners, furry_triangles) = (&surface.0, surface.1);
         let value = FurbakeSurfaceView {
             size: 0,
@@ -267,16 +271,10 @@ pub unsafe extern "C" fn furbake_pack_fin_quads(
         let handle = pack_ref("pack", pack)?;
         furry(handle)?;
         let p = &handle.pack;
-        let quads = match handle.draw.fin_quads.get() {
-            Some(q) => q,
-            None => {
-                let built = match p.has(SectionKind::FIN_EDGES) {
-                    true => geometry::fin_vertices(&*p.skin_mesh()?, &*p.fin_edges()?),
-                    false => Vec::new(),
-                };
-                handle.draw.fin_quads.get_or_init(|| built)
-            }
-        };
+        let quads = cached(&handle.draw.fin_quads, || match p.has(SectionKind::FIN_EDGES) {
+            true => Ok(geometry::fin_vertices(&*p.skin_mesh()?, &*p.fin_edges()?)),
+            false => Ok(Vec::new()),
+        })?;
         write_view("view", view, array_view(quads))
     })
 }
@@ -298,14 +296,10 @@ pub unsafe extern "C" fn furbake_pack_silhouette_edges(
         let handle = pack_ref("pack", pack)?;
         furry(handle)?;
         let p = &handle.pack;
-        let edges = match handle.draw.silhouette_edges.get() {
-            Some(e) => e,
-            None => {
-                let fin_edges = if p.has(SectionKind::FIN_EDGES) { Some(p.fin_edges()?) } else { None };
-                let built = geometry::interior_edges(&*p.skin_mesh()?, fin_edges.as_deref());
-                handle.draw.silhouette_edges.get_or_init(|| built)
-            }
-        };
+        let edges = cached(&handle.draw.silhouette_edges, || {
+            let fin_edges = if p.has(SectionKind::FIN_EDGES) { Some(p.fin_edges()?) } else { None };
+            Ok(geometry::interior_edges(&*p.skin_mesh()?, fin_edges.as_deref()))
+        })?;
         write_view("view", view, array_view(edges))
     })
 }
@@ -334,33 +328,29 @@ pub unsafe extern "C" fn furbake_pack_atlas_level(
         if !p.has(kind) {
             return Err(missing(p, kind));
         }
-        let levels = match handle.draw.levels[slot].get() {
-            Some(l) => l,
-            None => {
-                let (w, h, layers): (u32, u32, Vec<&[u8]>);
-                let (shells, fins);
-                if slot == 0 {
-                    shells = p.shell_atlas()?;
-                    (w, h) = (shells.params.resolution, shells.params.resolution);
-                    layers = (0..shells.layers()).map(|s| shells.layer(s)).collect();
-                } else {
-                    fins = p.fin_atlas()?;
-                    (w, h) = (fins.width, fins.height);
-                    layers = vec![&fins.alpha[..]];
-                }
-                let chains: Vec<Vec<(u32, u32, Vec<u8>)>> =
-                    layers.iter().map(|texels| mips::mip_chain(w, h, texels)).collect();
-                let count = chains.first().map_or(0, Vec::len);
-                let built = (0..count)
-                    .map(|l| AtlasLevel {
-                        width: chains[0][l].0,
-                        height: chains[0][l].1,
-                        texels: chains.iter().flat_map(|c| c[l].2.iter().copied()).collect(),
-                    })
-                    .collect();
-                handle.draw.levels[slot].get_or_init(|| built)
+        let levels = cached(&handle.draw.levels[slot], || {
+            let (w, h, layers): (u32, u32, Vec<&[u8]>);
+            let (shells, fins);
+            if slot == 0 {
+                shells = p.shell_atlas()?;
+                (w, h) = (shells.params.resolution, shells.params.resolution);
+                layers = (0..shells.layers()).map(|s| shells.layer(s)).collect();
+            } else {
+                fins = p.fin_atlas()?;
+                (w, h) = (fins.width, fins.height);
+                layers = vec![&fins.alpha[..]];
             }
-        };
+            let chains: Vec<Vec<(u32, u32, Vec<u8>)>> =
+                layers.iter().map(|texels| mips::mip_chain(w, h, texels)).collect();
+            let count = chains.first().map_or(0, Vec::len);
+            Ok((0..count)
+                .map(|l| AtlasLevel {
+                    width: chains[0][l].0,
+                    height: chains[0][l].1,
+                    texels: chains.iter().flat_map(|c| c[l].2.iter().copied()).collect(),
+                })
+                .collect())
+        })?;
         let Some(l) = levels.get(level as usize) else {
             return Err(Error::argument(format!(
                 "{}: level {level} of an atlas with {} mip levels",
@@ -395,13 +385,9 @@ pub unsafe extern "C" fn furbake_pack_stacking_table(
         let handle = pack_ref("pack", pack)?;
         furry(handle)?;
         let p = &handle.pack;
-        let table = match handle.draw.stacking.get() {
-            Some(t) => t,
-            None => {
-                let built = stacking::shell_stacking_table(&*p.shell_atlas()?, p.triangle_uv_map()?.repeat_m);
-                handle.draw.stacking.get_or_init(|| built)
-            }
-        };
+        let table = cached(&handle.draw.stacking, || {
+            Ok(stacking::shell_stacking_table(&*p.shell_atlas()?, p.triangle_uv_map()?.repeat_m))
+        })?;
         let value = FurbakeStackingTableView {
             size: 0,
             angle_bins: stacking::ANGLE_BINS as u32,

@@ -152,19 +152,24 @@ static GLuint binding_of(int argc, char **argv, const char *name) {
     exit(2);
 }
 
-static GLuint program_of(const char *dir, const char *vertex, const char *fragment) {
-    GLuint program = glCreateProgram();
-    glAttachShader(program, compile(GL_VERTEX_SHADER, dir, vertex));
-    glAttachShader(program, compile(GL_FRAGMENT_SHADER, dir, fragment));
+/* Links `program`, or stops with the driver's log naming `what`. */
+static void link_program(GLuint program, const char *what) {
     glLinkProgram(program);
     GLint linked = 0;
     glGetProgramiv(program, GL_LINK_STATUS, &linked);
     if (!linked) {
         char log[4096];
         glGetProgramInfoLog(program, sizeof log, NULL, log);
-        fprintf(stderr, "link %s + %s: %s\n", vertex, fragment, log);
+        fprintf(stderr, "link %s: %s\n", what, log);
         exit(1);
     }
+}
+
+static GLuint program_of(const char *dir, const char *vertex, const char *fragment) {
+    GLuint program = glCreateProgram();
+    glAttachShader(program, compile(GL_VERTEX_SHADER, dir, vertex));
+    glAttachShader(program, compile(GL_FRAGMENT_SHADER, dir, fragment));
+    link_program(program, vertex);
     glUseProgram(program);
     GLint first_instance = glGetUniformLocation(program, "naga_vs_first_instance");
     if (first_instance >= 0) {
@@ -176,15 +181,7 @@ static GLuint program_of(const char *dir, const char *vertex, const char *fragme
 static GLuint compute_program_of(const char *dir, const char *name) {
     GLuint program = glCreateProgram();
     glAttachShader(program, compile(GL_COMPUTE_SHADER, dir, name));
-    glLinkProgram(program);
-    GLint linked = 0;
-    glGetProgramiv(program, GL_LINK_STATUS, &linked);
-    if (!linked) {
-        char log[4096];
-        glGetProgramInfoLog(program, sizeof log, NULL, log);
-        fprintf(stderr, "link %s: %s\n", name, log);
-        exit(1);
-    }
+    link_program(program, name);
     return program;
 }
 
