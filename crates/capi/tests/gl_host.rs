@@ -2,7 +2,8 @@
 //! Mesa's llvmpipe here) draws the walking Fox's skin and shells with the GLSL that `furbake
 //! shaders` exports and the data the C interface hands out, and its image is compared with
 //! furbake's own renderer (`SceneRenderer::render_world`, what `furbake preview SCENE` draws) of
-//! the same scene at the same step: same camera, light, ambient, clip time. Two looks: furbake's
+//! the same scene at the same step: same camera, light, ambient, clip time — the host poses the
+//! Fox itself from the clip sampler, furbake's world walks it on its own clip player. Two looks: furbake's
 //! default (blended shells with stacking exponents, strand shading, level of detail, mip chain;
 //! no fins), and alpha-tested shells, every layer, Lambert × self-shadow.
 

@@ -1,5 +1,5 @@
-/* An OpenGL 4.5 host written in C (no Rust in it): it steps the walking Fox through furbake's C
- * interface and draws its skin and its shells with the GLSL that `furbake shaders --target glsl`
+/* An OpenGL 4.5 host written in C (no Rust in it): it walks the Fox with its own poses (the clip
+ * sampler's), steps it through furbake's C interface and draws its skin and its shells with the GLSL that `furbake shaders --target glsl`
  * exported, on a headless EGL context (Mesa's llvmpipe on a machine without a GPU), then writes
  * the frame as raw RGBA8 rows, top row first.
  *
@@ -342,24 +342,35 @@ int main(int argc, char **argv) {
         die(furbake_last_error());
     }
 
-    /* The walking Fox, stepped to the frame. */
+    /* The walking Fox, stepped to the frame and posed by this program, as a game's animation
+     * system would: the Walk clip sampled at each step's end time (furbake_animator_pose), the
+     * joint matrices handed to the world before the step. The entry starts on the clip's first
+     * pose (held: speed 0), as the scene's walking Fox does. */
     FurbakePack *fox = NULL;
     MUST(furbake_pack_open_file(argv[1], &fox));
     FurbakeWorldDesc desc = {.size = sizeof desc};
-    desc.settings_toml = "time_step_s = 0.02\n[effects.gravity]\n";
+    desc.time_step_s = 0.02f;
+    desc.settings_toml = "[effects.gravity]\n";
     FurbakeWorld *world = NULL;
     MUST(furbake_world_create(&desc, &world));
     FurbakeEntryDesc entry = {.size = sizeof entry};
     entry.name = "fox";
     entry.animation = FURBAKE_ANIMATION_CLIP;
     entry.clip = "Walk";
-    entry.speed = 1.0f;
+    entry.speed = 0.0f;
     entry.looping = 1;
     entry.scale = 0.01f;
     MUST(furbake_world_add_pack(world, fox, &entry, NULL));
-    for (int k = 0; k < steps; k++) {
+    FurbakeAnimator *walk = NULL;
+    MUST(furbake_animator_create(fox, "Walk", &walk));
+    for (int k = 1; k <= steps; k++) {
+        FurbakeSkinPose sampled = {.size = sizeof sampled};
+        MUST(furbake_animator_pose(walk, k * 0.02, &sampled));
+        MUST(furbake_world_set_joint_matrices(world, 0, sampled.joint_matrices, sampled.joint_count,
+                                              sampled.morph_weights, sampled.morph_count));
         MUST(furbake_world_step(world));
     }
+    furbake_animator_release(walk);
     FurbakeSkinMeshView mesh = {.size = sizeof mesh};
     MUST(furbake_pack_skin_mesh(fox, &mesh));
     FurbakeShellAtlasView atlas = {.size = sizeof atlas};
