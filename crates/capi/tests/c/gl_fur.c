@@ -1,7 +1,7 @@
 /* An OpenGL 4.5 host written in C (no Rust in it): it walks the Fox with its own poses (the clip
- * sampler's), steps it through furbake's C interface and draws its skin and its shells with the GLSL that `furbake shaders --target glsl`
- * exported, on a headless EGL context (Mesa's llvmpipe on a machine without a GPU), then writes
- * the frame as raw RGBA8 rows, top row first.
+ * sampler's), steps it through furbake's C interface and draws its skin, shells and fins with the
+ * GLSL that `furbake shaders --target glsl` exported, on a headless EGL context (Mesa's llvmpipe on
+ * a machine without a GPU), then writes the frame as raw RGBA8 rows, top row first.
  *
  * Usage: gl_fur FOX.fbk SHADER_DIR OUT.rgba WIDTH HEIGHT STEPS LOOK THRESHOLD NAME=BINDING...
  * LOOK is `default` — furbake's own look: every shell the level of detail gives for this view,
