@@ -209,13 +209,25 @@ fn cached<T>(cell: &OnceLock<T>, build: impl FnOnce() -> Result<T, Error>) -> Re
     Ok(cell.get_or_init(|| value))
 }
 
-fn furry(pack: &FurbakePack) -> Result<(), Error> {
+/// Borrows a pack handle whose pack has fur (skin, shell atlas, triangle UV map); missing
+/// otherwise.
+fn fur_pack<'a>(pack: *const FurbakePack) -> Result<&'a FurbakePack, Error> {
+    let handle = pack_ref("pack", pack)?;
     for kind in [SectionKind::SKIN_MESH, SectionKind::SHELL_ATLAS, SectionKind::TRIANGLE_UV_MAP] {
-        if !pack.pack.has(kind) {
-            return Err(missing(&pack.pack, kind));
+        if !handle.pack.has(kind) {
+            return Err(missing(&handle.pack, kind));
         }
     }
-    Ok(())
+    Ok(handle)
+}
+
+/// A pack's fur bounds for the level of detail: the bounding sphere's centre and radius and the
+/// fur length (metres, the pack's frame).
+#[derive(Clone, Copy)]
+pub(crate) struct FurBounds {
+    center: Vec3,
+    radius: f32,
+    fur_length_m: f32,
 }
 
 fn array_view<T>(records: &[T]) -> FurbakeArrayView {
@@ -237,8 +249,7 @@ pub unsafe extern "C" fn furbake_pack_surface_vertices(
     view: *mut FurbakeSurfaceView,
 ) -> FurbakeResult {
     guard(|| {
-        let handle = pack_ref("pack", pack)?;
-        furry(handle)?;
+        let handle = fur_pack(pack)?;
         let p = &handle.pack;
         let surface =
             cached(&handle.draw.surface, || Ok(geometry::surface_vertices(&*p.skin_mesh()?, &*p.triangle_uv_map()?)))?;
@@ -268,8 +279,7 @@ pub unsafe extern "C" fn furbake_pack_fin_quads(
     view: *mut FurbakeArrayView,
 ) -> FurbakeResult {
     guard(|| {
-        let handle = pack_ref("pack", pack)?;
-        furry(handle)?;
+        let handle = fur_pack(pack)?;
         let p = &handle.pack;
         let quads = cached(&handle.draw.fin_quads, || match p.has(SectionKind::FIN_EDGES) {
             true => Ok(geometry::fin_vertices(&*p.skin_mesh()?, &*p.fin_edges()?)),
@@ -293,8 +303,7 @@ pub unsafe extern "C" fn furbake_pack_silhouette_edges(
     view: *mut FurbakeArrayView,
 ) -> FurbakeResult {
     guard(|| {
-        let handle = pack_ref("pack", pack)?;
-        furry(handle)?;
+        let handle = fur_pack(pack)?;
         let p = &handle.pack;
         let edges = cached(&handle.draw.silhouette_edges, || {
             let fin_edges = if p.has(SectionKind::FIN_EDGES) { Some(p.fin_edges()?) } else { None };
@@ -382,8 +391,7 @@ pub unsafe extern "C" fn furbake_pack_stacking_table(
     view: *mut FurbakeStackingTableView,
 ) -> FurbakeResult {
     guard(|| {
-        let handle = pack_ref("pack", pack)?;
-        furry(handle)?;
+        let handle = fur_pack(pack)?;
         let p = &handle.pack;
         let table = cached(&handle.draw.stacking, || {
             Ok(stacking::shell_stacking_table(&*p.shell_atlas()?, p.triangle_uv_map()?.repeat_m))
@@ -484,8 +492,7 @@ pub unsafe extern "C" fn furbake_pack_fur_block(
     out_size: u32,
 ) -> FurbakeResult {
     guard(|| {
-        let handle = pack_ref("pack", pack)?;
-        furry(handle)?;
+        let handle = fur_pack(pack)?;
         let look = from_c(&read_desc("look", look)?)?;
         let block_size = std::mem::size_of::<FurUniforms>();
         if out_size as usize != block_size {
@@ -537,21 +544,35 @@ pub unsafe extern "C" fn furbake_world_shell_level(
         if camera.view_proj.iter().chain(&camera.eye).chain(&camera.viewport).any(|x| !x.is_finite()) {
             return Err(Error::argument("camera has a value that is not finite"));
         }
-        let (w, i) = world_mut(world)?.built_pack(index)?;
-        let pack = w.pack(i);
-        if !(pack.has(SectionKind::SKIN_MESH) && pack.has(SectionKind::SHELL_ATLAS)) {
-            return Err(missing(pack, SectionKind::SHELL_ATLAS));
+        let handle = world_mut(world)?;
+        let (model, pack) = {
+            let (w, i) = handle.built_pack(index)?;
+            (w.model_matrix(i), w.pack(i).clone())
+        };
+        let slot = index as usize;
+        if handle.fur_bounds.len() <= slot {
+            handle.fur_bounds.resize(slot + 1, None);
         }
-        let shells = pack.shell_atlas()?;
-        let (center, radius) = geometry::bounding_sphere(&*pack.skin_mesh()?, shells.fur_length_m);
+        let b = match handle.fur_bounds[slot] {
+            Some(b) => b,
+            None => {
+                if !(pack.has(SectionKind::SKIN_MESH) && pack.has(SectionKind::SHELL_ATLAS)) {
+                    return Err(missing(&pack, SectionKind::SHELL_ATLAS));
+                }
+                let fur_length_m = pack.shell_atlas()?.fur_length_m;
+                let (center, radius) = geometry::bounding_sphere(&*pack.skin_mesh()?, fur_length_m);
+                let b = FurBounds { center: Vec3::from(center), radius, fur_length_m };
+                *handle.fur_bounds[slot].insert(b)
+            }
+        };
         let px = furbake_draw::lod::projected_fur_px(
             Mat4::from_cols_slice(&camera.view_proj),
             Vec3::from(camera.eye),
             camera.viewport,
-            w.model_matrix(i),
-            Vec3::from(center),
-            radius,
-            shells.fur_length_m,
+            model,
+            b.center,
+            b.radius,
+            b.fur_length_m,
         );
         let l = match px {
             Some(px) => ShellLevel::of(max_layers, &rule, px),

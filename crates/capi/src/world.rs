@@ -197,6 +197,9 @@ pub struct FurbakeWorld {
     options: WorldOptions,
     /// The host's joint matrices of the latest `furbake_world_set_joint_matrices`, reused.
     joints: Vec<Mat4>,
+    /// Per pack, its fur's bounding sphere and length once `furbake_world_shell_level` has
+    /// measured them (`crate::draw`): each frame's level of detail reuses them.
+    pub(crate) fur_bounds: Vec<Option<crate::draw::FurBounds>>,
 }
 
 impl FurbakeWorld {
@@ -252,7 +255,7 @@ pub(crate) fn world_mut<'a>(world: *mut FurbakeWorld) -> Result<&'a mut FurbakeW
 }
 
 fn new_world(state: State, options: WorldOptions) -> *mut FurbakeWorld {
-    Box::into_raw(Box::new(FurbakeWorld { state, options, joints: Vec::new() }))
+    Box::into_raw(Box::new(FurbakeWorld { state, options, joints: Vec::new(), fur_bounds: Vec::new() }))
 }
 
 fn options(flags: u32) -> Result<WorldOptions, Error> {
