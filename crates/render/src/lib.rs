@@ -132,6 +132,7 @@ mod culling;
 mod export;
 pub mod headless;
 mod lod;
+mod physics;
 mod pipelines;
 mod renderer;
 mod scene;
@@ -154,6 +155,9 @@ pub use blades::{BladeForces, BladeRenderSettings, BladeRenderer, BladeShading};
 pub use culling::GrassCulling;
 pub use export::{ExportedShader, ShaderExport, ShaderTarget, export_shaders};
 pub use lod::ShellLod;
+#[cfg(feature = "testing")]
+pub use physics::PhysicsReadback;
+pub use physics::{GpuFurPhysics, MAX_LOCAL_FORCES};
 pub use pipelines::PipelineCache;
 pub use renderer::{FurGpuAsset, FurRenderer, RenderSettings, ShellBlend};
 pub use scene::{PackInput, PackRenderers, SceneFrame, SceneRenderer};

@@ -556,7 +556,7 @@ impl FurRenderer {
         let scale_buffer = init(
             "furbake scale vectors",
             bytemuck::cast_slice(&rest),
-            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
         );
         // A static asset's shaders never read binding 8; it still needs a (one-entry) buffer.
         let posed_vertices = match &skinning {
@@ -742,6 +742,20 @@ impl FurRenderer {
         upload.write_chunks(&self.scale_buffer, 0, vectors, "scale vector")
     }
 
+    /// The scale-vector buffer the shell and fin shaders read (written by the GPU physics).
+    pub(crate) fn scale_buffer(&self) -> &wgpu::Buffer {
+        &self.scale_buffer
+    }
+
+    /// Tells the shaders how the scale-vector buffer is laid out (the GPU physics writes it).
+    pub(crate) fn set_scale_layout(&self, queue: &wgpu::Queue, layout: ShellVertexLayout) {
+        let code = layout_code(layout);
+        if self.scale_layout.swap(code, Ordering::Relaxed) != code {
+            let fur = FurUniforms { scale_layout: code, ..self.fur_uniforms };
+            queue.write_buffer(&self.fur_buffer, 0, bytemuck::bytes_of(&fur));
+        }
+    }
+
     /// The layout of the scale vectors last written (initially [`ShellVertexLayout::PerVertex`],
     /// the rest pose).
     pub fn scale_layout(&self) -> ShellVertexLayout {
@@ -750,6 +764,23 @@ impl FurRenderer {
         } else {
             ShellVertexLayout::PerVertex
         }
+    }
+
+    #[cfg(feature = "testing")]
+    /// The scale vectors the shell and fin shaders read now, one per welded vertex or triangle
+    /// corner ([`FurRenderer::scale_layout`]); submits and waits.
+    pub fn shell_scale_vectors(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+    ) -> Result<Vec<[f32; 3]>, RenderError> {
+        let count = match self.scale_layout() {
+            ShellVertexLayout::PerVertex => self.gpu.vertex_count,
+            ShellVertexLayout::PerCorner => 3 * self.gpu.triangle_count,
+        };
+        let v: Vec<[f32; 4]> =
+            crate::blocking::read_buffer(device, queue, &self.scale_buffer, count as u64, "scale vectors")?;
+        Ok(v.iter().map(|s| [s[0], s[1], s[2]]).collect())
     }
 
     #[cfg(feature = "testing")]

@@ -41,6 +41,11 @@ pub const SKINNING_WGSL: &str = include_str!("../shaders/skinning.wgsl");
 pub const SILHOUETTE_WGSL: &str =
     concat!(include_str!("../shaders/silhouette_common.wgsl"), include_str!("../shaders/silhouette.wgsl"));
 
+/// Fur physics (fur thesis §3.3.2, §3.4.1–3.4.3): the `cs_step`, `cs_guard` and `cs_scale` compute
+/// entry points of the explicit and stick solvers, the wrong-side guard and the scale vectors
+/// ([`crate::GpuFurPhysics`]). Stands alone.
+pub const FUR_PHYSICS_WGSL: &str = include_str!("../shaders/fur_physics.wgsl");
+
 /// Grass blades (grass thesis §3.2.5–3.2.6, §4.2): the `cs_blades` compute entry point posing
 /// every blade for readback and the instanced draw (`vs_blade`, `fs_blade`) from the culling
 /// passes' instance lists ([`crate::blades`]). `grass_common.wgsl` (the blade instance, the
@@ -287,7 +292,8 @@ pub(crate) mod tests {
         assert_eq!(got, rust);
     }
 
-    const SHADERS: [(&str, &str); 7] = [
+    const SHADERS: [(&str, &str); 8] = [
+        ("fur_physics.wgsl", FUR_PHYSICS_WGSL),
         ("skin.wgsl", SKIN_WGSL),
         ("shell.wgsl", SHELL_WGSL),
         ("fin.wgsl", FIN_WGSL),
@@ -313,11 +319,14 @@ pub(crate) mod tests {
                 "cs_compact",
                 "cs_cull_blades",
                 "cs_cull_clusters",
+                "cs_guard",
                 "cs_pose_all",
+                "cs_scale",
                 "cs_scan_blocks",
                 "cs_shell_positions",
                 "cs_silhouette",
                 "cs_skin",
+                "cs_step",
                 "fs_blade",
                 "fs_fin",
                 "fs_shell",

@@ -10,6 +10,7 @@ mod common;
 mod frame_cost;
 mod fur_shading;
 mod golden_images;
+mod gpu_physics;
 mod grass_culling;
 mod host;
 mod lights;

@@ -29,6 +29,7 @@
 
 #![deny(missing_docs)]
 mod clusters;
+mod compute;
 mod error;
 pub mod forces;
 mod groups;
@@ -43,6 +44,7 @@ mod solvers;
 pub mod synth;
 pub mod topology;
 
+pub use compute::{ComputeModel, ComputeTip, ComputeUpdate, NO_LINK};
 pub use error::SimError;
 pub use forces::{ForceSet, FrameMotion, LocalForce, WindForce, restoring_force};
 pub use furbake_formats::sections::spring_topology::{SpringTopology, TopologyKind, TopologyParams};

@@ -215,14 +215,14 @@ pub struct StepStats {
 
 /// A topology being simulated.
 pub struct Simulator {
-    model: SimModel,
-    settings: SolverSettings,
+    pub(crate) model: SimModel,
+    pub(crate) settings: SolverSettings,
     forces: ForceSet,
-    x: Vec<Vec3A>,
-    v: Vec<Vec3A>,
+    pub(crate) x: Vec<Vec3A>,
+    pub(crate) v: Vec<Vec3A>,
     x_next: Vec<Vec3A>,
     v_next: Vec<Vec3A>,
-    guard: GuardState,
+    pub(crate) guard: GuardState,
     implicit: ImplicitScratch,
     /// Small independent clusters of free masses the implicit solver solves exactly.
     clusters: Option<Clusters>,
@@ -238,7 +238,7 @@ pub struct Simulator {
     /// Per free mass `2 L sqrt(ε m / k)` (see [`Simulator::stretch_limited_step_s`]).
     stretch_reach: Vec<f32>,
     /// The bind pose, once the skin has been posed ([`Simulator::pose_skin`]).
-    bind: Option<BindPose>,
+    pub(crate) bind: Option<BindPose>,
     /// Some anchored mass has a velocity (the skin moves): its links' damping does work.
     anchors_moving: bool,
     /// Largest stiffest-link `k / m` over the free masses, 1/s².
@@ -248,7 +248,7 @@ pub struct Simulator {
     fresh: bool,
     /// The last substep's length, seconds.
     last_h: f64,
-    time_s: f64,
+    pub(crate) time_s: f64,
     steps: u64,
     budget_j: f64,
 }
@@ -493,25 +493,16 @@ impl Simulator {
         Ok(moved)
     }
 
-    /// Advances by `dt_s` seconds.
-    pub fn step(&mut self, dt_s: f64) -> Result<StepStats, SimError> {
-        if self.model.n_free >= solvers::PARALLEL_MIN && rayon::current_thread_index().is_none() {
-            // Called from outside the thread pool: hand the whole step to the pool once, so its
-            // parallel passes start from a worker instead of each waking the pool and putting
-            // the caller to sleep (measured: up to 30 % of an 18,152-mass explicit step).
-            rayon::scope(|_| self.step_in_pool(dt_s))
-        } else {
-            self.step_in_pool(dt_s)
-        }
-    }
-
-    fn step_in_pool(&mut self, dt_s: f64) -> Result<StepStats, SimError> {
+    /// The substeps a step of `dt_s` takes: one when `dt_s` is within the solver's stable step,
+    /// else as many as make it so; a [`SimError::StepTooLarge`] when that is more than the settings
+    /// allow. What [`Simulator::step`] does, for solvers that step elsewhere (compute shaders).
+    pub fn substeps_for(&mut self, dt_s: f64) -> Result<u32, SimError> {
         if !(dt_s.is_finite() && dt_s > 0.0) {
             return Err(SimError::Parameter { name: "dt_s", what: format!("{dt_s} (must be finite and positive)") });
         }
         let stable = match self.settings.kind {
             SolverKind::Explicit | SolverKind::Stick => self.stable_step_s(),
-            SolverKind::Implicit | SolverKind::Reference => match self.rotation_next.take() {
+            SolverKind::Implicit | SolverKind::Reference => match self.rotation_next {
                 Some(h) => h,
                 None => self.rotation_limited_step_s(),
             }
@@ -529,6 +520,26 @@ impl Simulator {
             }
             needed
         };
+        Ok(substeps as u32)
+    }
+
+    /// Advances by `dt_s` seconds.
+    pub fn step(&mut self, dt_s: f64) -> Result<StepStats, SimError> {
+        if self.model.n_free >= solvers::PARALLEL_MIN && rayon::current_thread_index().is_none() {
+            // Called from outside the thread pool: hand the whole step to the pool once, so its
+            // parallel passes start from a worker instead of each waking the pool and putting
+            // the caller to sleep (measured: up to 30 % of an 18,152-mass explicit step).
+            rayon::scope(|_| self.step_in_pool(dt_s))
+        } else {
+            self.step_in_pool(dt_s)
+        }
+    }
+
+    fn step_in_pool(&mut self, dt_s: f64) -> Result<StepStats, SimError> {
+        if !(dt_s.is_finite() && dt_s > 0.0) {
+            return Err(SimError::Parameter { name: "dt_s", what: format!("{dt_s} (must be finite and positive)") });
+        }
+        let substeps = self.substeps_for(dt_s)? as u64;
         let h = dt_s / substeps as f64;
         let mut stats = StepStats { substeps: substeps as u32, ..Default::default() };
         let mut work_j = 0.0;

@@ -1,0 +1,215 @@
+// Fur physics in compute: the explicit and stick mass–spring solvers of the fur thesis (§3.3.2,
+// eq. 3.20–3.25; §3.4.1 sticks), the wrong-side guard (§3.4.3) and the scale vectors (eq. 3.35)
+// written into the buffer the shell shader reads. The CPU twin is furbake-sim's lane-group kernel
+// (crates/sim/src/solvers/fused.rs) over the flat model of crates/sim/src/compute.rs; the data
+// layouts are crates/render/src/physics.rs. One invocation per free mass gathers its own links in
+// adjacency order, so the result does not depend on scheduling.
+
+const NO_LINK: u32 = 0xffffffffu;
+const LOCALS: u32 = 16u;
+const TAU: f32 = 6.283185307179586;
+
+struct PhysicsStep {
+    // xyz: gravity − frame acceleration (m/s²); w: substep length h (s)
+    accel: vec4<f32>,
+    // xyz: frame angular velocity (rad/s); w: time at the substep's start (s)
+    omega: vec4<f32>,
+    // xyz: frame angular acceleration (rad/s²); w: restoring weight (N, eq. 3.37)
+    alpha: vec4<f32>,
+    // xyz: wind direction (unit); w: mean wind force (N)
+    wind_dir: vec4<f32>,
+    // gust amplitude, gust frequency (Hz), 1/gust wavelength (1/m), wind on (1) or off (0)
+    wind: vec4<f32>,
+    // cos of the guard angle, guard impulse (m/s), guard on (1) or off (0), unused
+    guard: vec4<f32>,
+    // free masses, tips, shell vertices, local forces
+    counts: vec4<u32>,
+    // update (0 explicit, 1 stick), project sticks (1), rotating frame (1), unused
+    flags: vec4<u32>,
+    // per local force: centre xyz and radius w (m), then strength x (N)
+    locals: array<vec4<f32>, 32>,
+}
+
+struct PhysicsMass {
+    // the restoring link's rest direction (xyz)
+    restoring_n: vec4<f32>,
+    mass: f32,
+    inv_mass: f32,
+    links_start: u32,
+    links_end: u32,
+    restoring_parent: u32,
+    stick_parent: u32,
+    stick_len: f32,
+    stick_c: f32,
+}
+
+struct PhysicsLink {
+    other: u32,
+    rest: f32,
+    k: f32,
+    c: f32,
+}
+
+struct PhysicsTip {
+    // the rest direction (xyz)
+    n: vec4<f32>,
+    root: u32,
+    tip: u32,
+    pad0: u32,
+    pad1: u32,
+}
+
+@group(0) @binding(0) var<uniform> step: PhysicsStep;
+@group(0) @binding(1) var<storage, read> x_in: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read> v_in: array<vec4<f32>>;
+@group(0) @binding(3) var<storage, read_write> x_out: array<vec4<f32>>;
+@group(0) @binding(4) var<storage, read_write> v_out: array<vec4<f32>>;
+@group(0) @binding(5) var<storage, read> rest: array<vec4<f32>>;
+@group(0) @binding(6) var<storage, read> masses: array<PhysicsMass>;
+@group(0) @binding(7) var<storage, read> links: array<PhysicsLink>;
+// non-finite masses, guard triggers, frozen tips (read back only when asked for)
+@group(0) @binding(8) var<storage, read_write> stats: array<atomic<u32>, 4>;
+
+fn finite3(v: vec3<f32>) -> bool {
+    // NaN fails every comparison; ±inf exceeds the largest finite float.
+    return all(abs(v) <= vec3<f32>(3.4028235e38));
+}
+
+// The external forces on free mass k (crates/sim/src/forces.rs ForceEval::external).
+fn external_force(k: u32, m: f32, x: vec3<f32>, v: vec3<f32>) -> vec3<f32> {
+    var f = step.accel.xyz * m;
+    if step.flags.z != 0u {
+        let w = step.omega.xyz;
+        let inertial = cross(step.alpha.xyz, x) + cross(w, cross(w, x)) + 2.0 * cross(w, v);
+        f = f - inertial * m;
+    }
+    if step.wind.w != 0.0 {
+        let d = step.wind_dir.xyz;
+        let phase = TAU * (step.wind.y * step.omega.w - dot(d, rest[k].xyz) * step.wind.z);
+        f = f + d * (step.wind_dir.w * (1.0 + step.wind.x * sin(phase)));
+    }
+    for (var i = 0u; i < min(step.counts.w, LOCALS); i++) {
+        let c = step.locals[2u * i];
+        let delta = x - c.xyz;
+        let dist = length(delta);
+        if dist < c.w && dist > 1e-12 {
+            let fall = 1.0 - dist / c.w;
+            f = f + delta * (step.locals[2u * i + 1u].x * fall * fall / dist);
+        }
+    }
+    return f;
+}
+
+// One substep of one free mass: forces at the substep's start, the velocity update, the move
+// and the projection onto an anchored stick.
+@compute @workgroup_size(64)
+fn cs_step(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let k = gid.x;
+    if k >= step.counts.x {
+        return;
+    }
+    let m = masses[k];
+    let xi = x_in[k].xyz;
+    let vi = v_in[k].xyz;
+    let h = step.accel.w;
+    // Links (Hooke eq. 3.23 + viscosity eq. 3.24) from this mass's side, in adjacency order.
+    var fl = vec3<f32>(0.0);
+    for (var e = m.links_start; e < m.links_end; e++) {
+        let l = links[e];
+        let d = x_in[l.other].xyz - xi;
+        let dv = v_in[l.other].xyz - vi;
+        let t = l.k * (1.0 - l.rest / max(length(d), 1e-20));
+        fl = fl + fma(d, vec3<f32>(t), dv * l.c);
+    }
+    let fext = external_force(k, m.mass, xi, vi);
+    // The restoring force of eq. 3.37 on this mass, towards its rest direction.
+    var fr = vec3<f32>(0.0);
+    let w = step.alpha.w;
+    if w != 0.0 && m.restoring_parent != NO_LINK {
+        let s = xi - x_in[m.restoring_parent].xyz;
+        let rcp = 1.0 / sqrt(dot(s, s));
+        if rcp > 0.0 && rcp <= 3.4028235e38 {
+            let sn = s * rcp;
+            fr = (m.restoring_n.xyz - sn) * ((1.0 - dot(m.restoring_n.xyz, sn)) * w);
+        }
+    }
+    let f = (fext + fr) + fl;
+    let s = h * m.inv_mass;
+    var vn = vi + f * s;
+    if step.flags.x == 1u && m.stick_parent != NO_LINK {
+        // The stick solver damps the rigid link implicitly towards the parent's velocity.
+        let ac = s * m.stick_c;
+        vn = (vn + v_in[m.stick_parent].xyz * ac) / (1.0 + ac);
+    }
+    var xn = xi + vn * h;
+    if step.flags.y != 0u && m.stick_parent != NO_LINK {
+        // Back on the stick from its anchored parent; the velocity along it removed.
+        let xp = rest[m.stick_parent].xyz;
+        var e = xn - xp;
+        if dot(e, e) == 0.0 {
+            e = rest[k].xyz - xp;
+        }
+        let dir = normalize(e);
+        xn = xp + dir * m.stick_len;
+        vn = vn - dir * dot(vn, dir);
+    }
+    if !(finite3(xn) && finite3(vn)) {
+        atomicAdd(&stats[0], 1u);
+    }
+    x_out[k] = vec4<f32>(xn, 0.0);
+    v_out[k] = vec4<f32>(vn, 0.0);
+}
+
+// The guard's pass over the tips, after the last substep (bindings of group 1).
+@group(1) @binding(0) var<storage, read> tips: array<PhysicsTip>;
+// per tip: the scale vector (xyz) and frozen (w = 1)
+@group(1) @binding(1) var<storage, read_write> guard_state: array<vec4<f32>>;
+@group(1) @binding(2) var<storage, read> shell_tip: array<u32>;
+// the renderer's scale vectors, one per shell vertex (xyz; w unused)
+@group(1) @binding(3) var<storage, read_write> scale_out: array<vec4<f32>>;
+
+// The wrong-side guard of §3.4.3 on one tip of the state in x_out, v_out: a scale vector more than
+// the guard's angle from its rest direction freezes at its last good value and kicks the tip out
+// along the normal once; otherwise it follows the masses (crates/sim/src/shell.rs).
+@compute @workgroup_size(64)
+fn cs_guard(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if i >= step.counts.y {
+        return;
+    }
+    let t = tips[i];
+    let e = x_out[t.tip].xyz - rest[t.root].xyz;
+    let rcp = 1.0 / sqrt(dot(e, e));
+    let ok = rcp > 0.0 && rcp <= 3.4028235e38;
+    let sn = e * rcp;
+    let n = t.n.xyz;
+    var state = guard_state[i];
+    if step.guard.z == 0.0 {
+        state = vec4<f32>(select(n, sn, ok), 0.0);
+    } else if ok && dot(n, sn) >= step.guard.x {
+        state = vec4<f32>(sn, 0.0);
+    } else if state.w == 0.0 {
+        state.w = 1.0;
+        v_out[t.tip] = vec4<f32>(v_out[t.tip].xyz + step.guard.y * n, 0.0);
+        atomicAdd(&stats[1], 1u);
+    }
+    if state.w != 0.0 {
+        atomicAdd(&stats[2], 1u);
+    }
+    guard_state[i] = state;
+}
+
+// Scale vectors per shell vertex from the guarded tips (zero for bare vertices).
+@compute @workgroup_size(64)
+fn cs_scale(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if i >= step.counts.z {
+        return;
+    }
+    let s = shell_tip[i];
+    if s == NO_LINK {
+        scale_out[i] = vec4<f32>(0.0);
+    } else {
+        scale_out[i] = vec4<f32>(guard_state[s].xyz, 0.0);
+    }
+}

@@ -1,0 +1,721 @@
+//! Fur physics on the GPU: the explicit and stick mass–spring solvers (fur thesis §3.3.2,
+//! eq. 3.20–3.25; §3.4.1), the wrong-side guard (§3.4.3) and the scale vectors (eq. 3.35) as
+//! compute passes (`shaders/fur_physics.wgsl`) over the flat model a CPU
+//! [`furbake_sim::Simulator`] hands over ([`furbake_sim::ComputeModel`]), recorded into the host's
+//! encoder and writing the scale vectors straight into the buffer its [`FurRenderer`]'s shell
+//! shader reads — nothing is read back in a frame. Same forces as the CPU (gravity, wind, the
+//! rotating frame's inertial forces, up to [`MAX_LOCAL_FORCES`] local forces, the restoring force
+//! of eq. 3.37), same substep count for the same step; the counters (non-finite masses, guard
+//! triggers, frozen tips) stay on the GPU unless a test reads them.
+//!
+//! Not yet on the GPU: the implicit-class solvers, a moving (skinned) skin and energy tracking;
+//! [`furbake_sim::Simulator::compute_model`] refuses what has no compute form.
+
+use furbake_sim::{ComputeModel, ComputeUpdate, ForceSet, GuardSettings, NO_LINK};
+use wgpu::util::DeviceExt;
+
+use crate::shaders::FUR_PHYSICS_WGSL;
+use crate::{FurRenderer, RenderError};
+
+/// Local forces a GPU step applies (more are a [`RenderError::Parameter`]).
+pub const MAX_LOCAL_FORCES: usize = 16;
+/// Bytes between substeps' uniforms (a multiple of every adapter's uniform offset alignment).
+const STEP_STRIDE: u64 = 768;
+const WORKGROUP: u32 = 64;
+
+/// One substep's uniforms (`PhysicsStep` in `fur_physics.wgsl`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub(crate) struct PhysicsStep {
+    accel: [f32; 4],
+    omega: [f32; 4],
+    alpha: [f32; 4],
+    wind_dir: [f32; 4],
+    wind: [f32; 4],
+    guard: [f32; 4],
+    counts: [u32; 4],
+    flags: [u32; 4],
+    locals: [[f32; 4]; 2 * MAX_LOCAL_FORCES],
+}
+
+/// One free mass (`PhysicsMass`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub(crate) struct PhysicsMass {
+    restoring_n: [f32; 4],
+    mass: f32,
+    inv_mass: f32,
+    links_start: u32,
+    links_end: u32,
+    restoring_parent: u32,
+    stick_parent: u32,
+    stick_len: f32,
+    stick_c: f32,
+}
+
+/// One link seen from a free mass (`PhysicsLink`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub(crate) struct PhysicsLink {
+    other: u32,
+    rest: f32,
+    k: f32,
+    c: f32,
+}
+
+/// One tip (`PhysicsTip`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub(crate) struct PhysicsTip {
+    n: [f32; 4],
+    root: u32,
+    tip: u32,
+    pad0: u32,
+    pad1: u32,
+}
+
+fn v4(v: [f32; 3], w: f32) -> [f32; 4] {
+    [v[0], v[1], v[2], w]
+}
+
+/// A pack's fur physics on the GPU, bound to the renderer whose scale vectors it writes
+/// ([`FurRenderer::gpu_physics`]). [`GpuFurPhysics::record`] once per frame, before the frame's
+/// draws in the same submission.
+pub struct GpuFurPhysics {
+    forces: ForceSet,
+    guard: GuardSettings,
+    update: ComputeUpdate,
+    project_sticks: bool,
+    time_s: f64,
+    stable_step_s: f64,
+    max_substeps: u32,
+    restoring_weight_n: f32,
+    counts: [u32; 3],
+    #[cfg_attr(not(feature = "testing"), allow(dead_code))]
+    masses: u32,
+    #[cfg_attr(not(feature = "testing"), allow(dead_code))]
+    order: Vec<u32>,
+    x: [wgpu::Buffer; 2],
+    v: [wgpu::Buffer; 2],
+    #[cfg_attr(not(feature = "testing"), allow(dead_code))]
+    guard_state: wgpu::Buffer,
+    stats: wgpu::Buffer,
+    steps: wgpu::Buffer,
+    steps_capacity: u32,
+    state_layout: wgpu::BindGroupLayout,
+    final_layout: wgpu::BindGroupLayout,
+    rest: wgpu::Buffer,
+    mass_buffer: wgpu::Buffer,
+    links: wgpu::Buffer,
+    /// `state.step[i]` reads buffers `i` and writes `1 − i`; `state.last[i]` is the final state in
+    /// buffers `i` (guard and scale passes).
+    state: StateGroups,
+    tips: wgpu::BindGroup,
+    step_pipeline: wgpu::ComputePipeline,
+    guard_pipeline: wgpu::ComputePipeline,
+    scale_pipeline: wgpu::ComputePipeline,
+    /// The buffer pair holding the current state.
+    current: usize,
+    /// The uniforms of one record, reused (grows only when a step needs more substeps).
+    scratch: Vec<PhysicsStep>,
+}
+
+impl FurRenderer {
+    /// Fur physics on the GPU for this renderer's pack, starting from `model` (a
+    /// [`furbake_sim::Simulator::compute_model`] of the pack's topology, with its forces and
+    /// settings) and writing this renderer's scale vectors from now on. `stable_step_s` and
+    /// `max_substeps` are the CPU simulator's ([`furbake_sim::Simulator::stable_step_s`],
+    /// `SolverSettings::max_substeps`), so that a step takes as many substeps on both. The model's
+    /// shell vertices must be this renderer's welded vertices or triangle corners.
+    pub fn gpu_physics(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        model: &ComputeModel,
+        forces: &ForceSet,
+        stable_step_s: f64,
+        max_substeps: u32,
+    ) -> Result<GpuFurPhysics, RenderError> {
+        model.validate().map_err(|e| RenderError::Parameter { what: e.to_string() })?;
+        let shell = model.shell_tip.len() as u32;
+        let layout = if shell == self.vertex_count() {
+            furbake_runtime::ShellVertexLayout::PerVertex
+        } else if shell == 3 * self.triangle_count() {
+            furbake_runtime::ShellVertexLayout::PerCorner
+        } else {
+            return Err(RenderError::Parameter {
+                what: format!(
+                    "the physics model has {shell} shell vertices; this pack has {} welded vertices and {} corners",
+                    self.vertex_count(),
+                    3 * self.triangle_count()
+                ),
+            });
+        };
+        if stable_step_s.is_nan() || stable_step_s <= 0.0 || max_substeps == 0 {
+            return Err(RenderError::Parameter {
+                what: format!("stable step {stable_step_s} s and {max_substeps} substeps (must be positive)"),
+            });
+        }
+        self.set_scale_layout(queue, layout);
+        GpuFurPhysics::new(device, model, forces, stable_step_s, max_substeps, self.scale_buffer())
+    }
+}
+
+impl GpuFurPhysics {
+    fn new(
+        device: &wgpu::Device,
+        model: &ComputeModel,
+        forces: &ForceSet,
+        stable_step_s: f64,
+        max_substeps: u32,
+        scale_out: &wgpu::Buffer,
+    ) -> Result<GpuFurPhysics, RenderError> {
+        check_forces(forces)?;
+        let nf = model.free as usize;
+        let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
+        // Storage bindings cannot be empty: every array has at least one element.
+        let padded = |mut v: Vec<[f32; 4]>| {
+            if v.is_empty() {
+                v.push([0.0; 4]);
+            }
+            v
+        };
+        let positions = padded(model.positions.iter().map(|&p| v4(p, 0.0)).collect());
+        let velocities = padded(model.velocities.iter().map(|&p| v4(p, 0.0)).collect());
+        let rest = padded(model.rest.iter().map(|&p| v4(p, 0.0)).collect());
+        let mut masses: Vec<PhysicsMass> = (0..nf)
+            .map(|k| PhysicsMass {
+                restoring_n: v4(model.restoring_n[k], 0.0),
+                mass: model.mass[k],
+                inv_mass: 1.0 / model.mass[k],
+                links_start: model.links_start[k],
+                links_end: model.links_start[k + 1],
+                restoring_parent: model.restoring_parent[k],
+                stick_parent: model.stick_parent[k],
+                stick_len: model.stick[k][0],
+                stick_c: model.stick[k][1],
+            })
+            .collect();
+        if masses.is_empty() {
+            masses.push(bytemuck::Zeroable::zeroed());
+        }
+        let mut links: Vec<PhysicsLink> = model
+            .link_other
+            .iter()
+            .zip(&model.link_params)
+            .map(|(&other, p)| PhysicsLink { other, rest: p[0], k: p[1], c: p[2] })
+            .collect();
+        if links.is_empty() {
+            links.push(bytemuck::Zeroable::zeroed());
+        }
+        let mut tips: Vec<PhysicsTip> = model
+            .tips
+            .iter()
+            .map(|t| PhysicsTip { n: v4(t.n, 0.0), root: t.root, tip: t.tip, pad0: 0, pad1: 0 })
+            .collect();
+        if tips.is_empty() {
+            tips.push(bytemuck::Zeroable::zeroed());
+        }
+        let mut guard_state: Vec<[f32; 4]> =
+            model.scale.iter().zip(&model.frozen).map(|(&s, &f)| v4(s, if f { 1.0 } else { 0.0 })).collect();
+        if guard_state.is_empty() {
+            guard_state.push([0.0; 4]);
+        }
+        let mut shell_tip = model.shell_tip.clone();
+        if shell_tip.is_empty() {
+            shell_tip.push(NO_LINK);
+        }
+        crate::gpu_scope(device, "creating the fur physics", || {
+            let init = |label: &str, contents: &[u8], usage| {
+                device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage })
+            };
+            let x = [
+                init("furbake physics positions 0", bytemuck::cast_slice(&positions), storage),
+                init("furbake physics positions 1", bytemuck::cast_slice(&positions), storage),
+            ];
+            let v = [
+                init("furbake physics velocities 0", bytemuck::cast_slice(&velocities), storage),
+                init("furbake physics velocities 1", bytemuck::cast_slice(&velocities), storage),
+            ];
+            let read = wgpu::BufferUsages::STORAGE;
+            let rest = init("furbake physics rest", bytemuck::cast_slice(&rest), read);
+            let mass_buffer = init("furbake physics masses", bytemuck::cast_slice(&masses), read);
+            let links = init("furbake physics links", bytemuck::cast_slice(&links), read);
+            let tip_buffer = init("furbake physics tips", bytemuck::cast_slice(&tips), read);
+            let guard_state = init("furbake physics guard", bytemuck::cast_slice(&guard_state), storage);
+            let shell_tip = init("furbake physics shell tips", bytemuck::cast_slice(&shell_tip), read);
+            let stats = init("furbake physics counters", &[0u8; 16], storage);
+            let steps_capacity = 4;
+            let steps = step_buffer(device, steps_capacity);
+            let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
+                binding,
+                visibility: wgpu::ShaderStages::COMPUTE,
+                ty,
+                count: None,
+            };
+            let buffer = |read_only| wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Storage { read_only },
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            };
+            let state_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("furbake physics state"),
+                entries: &[
+                    entry(
+                        0,
+                        wgpu::BindingType::Buffer {
+                            ty: wgpu::BufferBindingType::Uniform,
+                            has_dynamic_offset: true,
+                            min_binding_size: wgpu::BufferSize::new(size_of::<PhysicsStep>() as u64),
+                        },
+                    ),
+                    entry(1, buffer(true)),
+                    entry(2, buffer(true)),
+                    entry(3, buffer(false)),
+                    entry(4, buffer(false)),
+                    entry(5, buffer(true)),
+                    entry(6, buffer(true)),
+                    entry(7, buffer(true)),
+                    entry(8, buffer(false)),
+                ],
+            });
+            // The guard and scale passes see only the final state (at most eight storage buffers
+            // per stage, WebGPU's default limit).
+            let final_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("furbake physics final state"),
+                entries: &[
+                    entry(
+                        0,
+                        wgpu::BindingType::Buffer {
+                            ty: wgpu::BufferBindingType::Uniform,
+                            has_dynamic_offset: true,
+                            min_binding_size: wgpu::BufferSize::new(size_of::<PhysicsStep>() as u64),
+                        },
+                    ),
+                    entry(3, buffer(false)),
+                    entry(4, buffer(false)),
+                    entry(5, buffer(true)),
+                    entry(8, buffer(false)),
+                ],
+            });
+            let tip_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("furbake physics tips"),
+                entries: &[
+                    entry(0, buffer(true)),
+                    entry(1, buffer(false)),
+                    entry(2, buffer(true)),
+                    entry(3, buffer(false)),
+                ],
+            });
+            let tips = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("furbake physics tips"),
+                layout: &tip_layout,
+                entries: &[
+                    wgpu::BindGroupEntry { binding: 0, resource: tip_buffer.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 1, resource: guard_state.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 2, resource: shell_tip.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 3, resource: scale_out.as_entire_binding() },
+                ],
+            });
+            let parts = StateParts {
+                layout: &state_layout,
+                final_layout: &final_layout,
+                steps: &steps,
+                rest: &rest,
+                masses: &mass_buffer,
+                links: &links,
+                stats: &stats,
+            };
+            let state = parts.bind_all(device, &x, &v);
+            let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some("furbake fur_physics.wgsl"),
+                source: wgpu::ShaderSource::Wgsl(FUR_PHYSICS_WGSL.into()),
+            });
+            let step_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("furbake physics step"),
+                bind_group_layouts: &[Some(&state_layout)],
+                immediate_size: 0,
+            });
+            let tips_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("furbake physics tips"),
+                bind_group_layouts: &[Some(&final_layout), Some(&tip_layout)],
+                immediate_size: 0,
+            });
+            let pipeline = |entry: &str, layout: &wgpu::PipelineLayout| {
+                device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                    label: Some(entry),
+                    layout: Some(layout),
+                    module: &module,
+                    entry_point: Some(entry),
+                    compilation_options: Default::default(),
+                    cache: None,
+                })
+            };
+            Ok(GpuFurPhysics {
+                forces: forces.clone(),
+                guard: model.guard.clone(),
+                update: model.update,
+                project_sticks: model.project_sticks,
+                time_s: model.time_s,
+                stable_step_s,
+                max_substeps,
+                restoring_weight_n: forces.restoring_weight_n,
+                counts: [model.free, model.tips.len() as u32, model.shell_tip.len() as u32],
+                masses: model.masses,
+                order: model.order.clone(),
+                x,
+                v,
+                guard_state,
+                stats,
+                steps,
+                steps_capacity,
+                state_layout,
+                final_layout,
+                rest,
+                mass_buffer,
+                links,
+                state,
+                tips,
+                step_pipeline: pipeline("cs_step", &step_layout),
+                guard_pipeline: pipeline("cs_guard", &tips_layout),
+                scale_pipeline: pipeline("cs_scale", &tips_layout),
+                current: 0,
+                scratch: Vec::with_capacity(steps_capacity as usize),
+            })
+        })
+    }
+
+    /// Replaces the forces. The restoring weight stays the one the stable step was computed for
+    /// (a different one is a [`RenderError::Parameter`]: build again from a simulator with it).
+    pub fn set_forces(&mut self, forces: &ForceSet) -> Result<(), RenderError> {
+        check_forces(forces)?;
+        if forces.restoring_weight_n != self.restoring_weight_n {
+            return Err(RenderError::Parameter {
+                what: format!(
+                    "restoring weight {} N: the GPU physics was built for {} N",
+                    forces.restoring_weight_n, self.restoring_weight_n
+                ),
+            });
+        }
+        self.forces.clone_from(forces);
+        Ok(())
+    }
+
+    /// Simulated time, seconds.
+    pub fn time_s(&self) -> f64 {
+        self.time_s
+    }
+
+    /// Records one step of `dt_s` seconds into `encoder` — as many substeps as the CPU simulator
+    /// takes, the guard and the scale vectors — and returns the substep count. Writes this step's
+    /// uniforms with `queue.write_buffer` (staged until the host's next submission), so one record
+    /// per submission; never submits or waits. A step needing more than the allowed substeps is a
+    /// [`RenderError::Parameter`] and records nothing.
+    pub fn record(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+        dt_s: f64,
+    ) -> Result<u32, RenderError> {
+        if !(dt_s.is_finite() && dt_s > 0.0) {
+            return Err(RenderError::Parameter {
+                what: format!("physics step {dt_s} s (must be finite and positive)"),
+            });
+        }
+        let substeps = if dt_s <= self.stable_step_s { 1 } else { (dt_s / self.stable_step_s).ceil() as u64 };
+        if substeps > self.max_substeps as u64 {
+            return Err(RenderError::Parameter {
+                what: format!(
+                    "a step of {dt_s} s needs {substeps} substeps of the stable {} s; {} allowed",
+                    self.stable_step_s, self.max_substeps
+                ),
+            });
+        }
+        let substeps = substeps as u32;
+        if substeps > self.steps_capacity {
+            // Grows, never shrinks: a steady frame rate allocates nothing here.
+            self.steps_capacity = substeps.next_power_of_two();
+            self.steps = step_buffer(device, self.steps_capacity);
+            self.state = self.parts().bind_all(device, &self.x, &self.v);
+        }
+        let h = dt_s / substeps as f64;
+        self.scratch.clear();
+        for sub in 0..substeps {
+            self.scratch.push(self.uniforms(self.time_s + sub as f64 * h, h as f32));
+        }
+        for (i, s) in self.scratch.iter().enumerate() {
+            queue.write_buffer(&self.steps, i as u64 * STEP_STRIDE, bytemuck::bytes_of(s));
+        }
+        encoder.clear_buffer(&self.stats, 0, None);
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("furbake fur physics"),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(&self.step_pipeline);
+        for sub in 0..substeps {
+            pass.set_bind_group(0, &self.state.step[self.current], &[(sub as u64 * STEP_STRIDE) as u32]);
+            pass.dispatch_workgroups(self.counts[0].div_ceil(WORKGROUP).max(1), 1, 1);
+            self.current = 1 - self.current;
+        }
+        // The guard reads and kicks the final state, with the last substep's uniforms.
+        let last = ((substeps - 1) as u64 * STEP_STRIDE) as u32;
+        pass.set_pipeline(&self.guard_pipeline);
+        pass.set_bind_group(0, &self.state.last[self.current], &[last]);
+        pass.set_bind_group(1, &self.tips, &[]);
+        pass.dispatch_workgroups(self.counts[1].div_ceil(WORKGROUP).max(1), 1, 1);
+        pass.set_pipeline(&self.scale_pipeline);
+        pass.dispatch_workgroups(self.counts[2].div_ceil(WORKGROUP).max(1), 1, 1);
+        drop(pass);
+        self.time_s += dt_s;
+        Ok(substeps)
+    }
+
+    fn parts(&self) -> StateParts<'_> {
+        StateParts {
+            layout: &self.state_layout,
+            final_layout: &self.final_layout,
+            steps: &self.steps,
+            rest: &self.rest,
+            masses: &self.mass_buffer,
+            links: &self.links,
+            stats: &self.stats,
+        }
+    }
+
+    /// The uniforms of the substep starting at `t` (as `furbake_sim`'s `ForceEval::new`).
+    fn uniforms(&self, t: f64, h: f32) -> PhysicsStep {
+        let f = &self.forces;
+        let sub = |a: [f32; 3], b: [f32; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+        let m = &f.motion;
+        let rotating = m.angular_velocity_rad_per_s != [0.0; 3] || m.angular_accel_rad_per_s2 != [0.0; 3];
+        let wind = f.wind.as_ref().and_then(|w| {
+            let d = glam::Vec3::from(w.direction).try_normalize()?;
+            Some((d, w))
+        });
+        let mut locals = [[0.0f32; 4]; 2 * MAX_LOCAL_FORCES];
+        for (i, l) in f.local.iter().enumerate().take(MAX_LOCAL_FORCES) {
+            locals[2 * i] = v4(l.point_m, l.radius_m);
+            locals[2 * i + 1] = [l.strength_n, 0.0, 0.0, 0.0];
+        }
+        let g = &self.guard;
+        PhysicsStep {
+            accel: v4(sub(f.gravity_m_per_s2, m.linear_accel_m_per_s2), h),
+            omega: v4(m.angular_velocity_rad_per_s, t as f32),
+            alpha: v4(m.angular_accel_rad_per_s2, f.restoring_weight_n),
+            wind_dir: wind.map_or([0.0; 4], |(d, w)| v4(d.to_array(), w.force_n)),
+            wind: wind
+                .map_or([0.0; 4], |(_, w)| [w.gust_amplitude, w.gust_frequency_hz, 1.0 / w.gust_wavelength_m, 1.0]),
+            guard: [g.max_angle_deg.to_radians().cos(), g.impulse_m_per_s, if g.enabled { 1.0 } else { 0.0 }, 0.0],
+            counts: [self.counts[0], self.counts[1], self.counts[2], f.local.len().min(MAX_LOCAL_FORCES) as u32],
+            flags: [
+                match self.update {
+                    ComputeUpdate::Explicit => 0,
+                    ComputeUpdate::Stick => 1,
+                },
+                self.project_sticks as u32,
+                rotating as u32,
+                0,
+            ],
+            locals,
+        }
+    }
+}
+
+#[cfg(feature = "testing")]
+/// What a test reads back from the GPU physics (submits and waits).
+#[derive(Clone, Debug)]
+pub struct PhysicsReadback {
+    /// Positions in the topology's mass order.
+    pub positions: Vec<[f32; 3]>,
+    /// Velocities in the topology's mass order.
+    pub velocities: Vec<[f32; 3]>,
+    /// Per tip: the guarded scale vector and whether it is frozen.
+    pub scale: Vec<([f32; 3], bool)>,
+    /// Masses that became non-finite, guard triggers and frozen tips in the last record.
+    pub counters: [u32; 3],
+}
+
+#[cfg(feature = "testing")]
+impl GpuFurPhysics {
+    /// Reads the current state back (submits and waits: tests and tools only).
+    pub fn read_back(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<PhysicsReadback, RenderError> {
+        use crate::blocking::read_buffer;
+        let n = self.masses as u64;
+        let order = |v: Vec<[f32; 4]>| {
+            let mut out = vec![[0.0f32; 3]; n as usize];
+            for (k, &i) in self.order.iter().enumerate() {
+                out[i as usize] = [v[k][0], v[k][1], v[k][2]];
+            }
+            out
+        };
+        let x: Vec<[f32; 4]> = read_buffer(device, queue, &self.x[self.current], n, "physics positions")?;
+        let v: Vec<[f32; 4]> = read_buffer(device, queue, &self.v[self.current], n, "physics velocities")?;
+        let g: Vec<[f32; 4]> = read_buffer(device, queue, &self.guard_state, self.counts[1] as u64, "physics guard")?;
+        let c: Vec<u32> = read_buffer(device, queue, &self.stats, 3, "physics counters")?;
+        Ok(PhysicsReadback {
+            positions: order(x),
+            velocities: order(v),
+            scale: g.iter().map(|s| ([s[0], s[1], s[2]], s[3] != 0.0)).collect(),
+            counters: [c[0], c[1], c[2]],
+        })
+    }
+}
+
+/// The bind groups over the two state buffers.
+struct StateGroups {
+    step: [wgpu::BindGroup; 2],
+    last: [wgpu::BindGroup; 2],
+}
+
+/// The buffers every state bind group shares.
+struct StateParts<'a> {
+    layout: &'a wgpu::BindGroupLayout,
+    final_layout: &'a wgpu::BindGroupLayout,
+    steps: &'a wgpu::Buffer,
+    rest: &'a wgpu::Buffer,
+    masses: &'a wgpu::Buffer,
+    links: &'a wgpu::Buffer,
+    stats: &'a wgpu::Buffer,
+}
+
+impl StateParts<'_> {
+    fn bind_all(&self, device: &wgpu::Device, x: &[wgpu::Buffer; 2], v: &[wgpu::Buffer; 2]) -> StateGroups {
+        StateGroups {
+            step: [self.bind(device, x, v, 0), self.bind(device, x, v, 1)],
+            last: [self.bind_last(device, x, v, 0), self.bind_last(device, x, v, 1)],
+        }
+    }
+
+    fn steps_entry(&self) -> wgpu::BindGroupEntry<'_> {
+        wgpu::BindGroupEntry {
+            binding: 0,
+            resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                buffer: self.steps,
+                offset: 0,
+                size: wgpu::BufferSize::new(size_of::<PhysicsStep>() as u64),
+            }),
+        }
+    }
+
+    /// The guard's and scale pass's bind group over the final state in buffers `at`.
+    fn bind_last(
+        &self,
+        device: &wgpu::Device,
+        x: &[wgpu::Buffer; 2],
+        v: &[wgpu::Buffer; 2],
+        at: usize,
+    ) -> wgpu::BindGroup {
+        device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("furbake physics final state"),
+            layout: self.final_layout,
+            entries: &[
+                self.steps_entry(),
+                entry(3, &x[at]),
+                entry(4, &v[at]),
+                entry(5, self.rest),
+                entry(8, self.stats),
+            ],
+        })
+    }
+
+    /// The bind group reading state buffers `from` and writing `1 − from`.
+    fn bind(
+        &self,
+        device: &wgpu::Device,
+        x: &[wgpu::Buffer; 2],
+        v: &[wgpu::Buffer; 2],
+        from: usize,
+    ) -> wgpu::BindGroup {
+        let to = 1 - from;
+        device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("furbake physics state"),
+            layout: self.layout,
+            entries: &[
+                self.steps_entry(),
+                entry(1, &x[from]),
+                entry(2, &v[from]),
+                entry(3, &x[to]),
+                entry(4, &v[to]),
+                entry(5, self.rest),
+                entry(6, self.masses),
+                entry(7, self.links),
+                entry(8, self.stats),
+            ],
+        })
+    }
+}
+
+fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
+    wgpu::BindGroupEntry { binding, resource: buffer.as_entire_binding() }
+}
+
+fn step_buffer(device: &wgpu::Device, capacity: u32) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("furbake physics steps"),
+        size: capacity as u64 * STEP_STRIDE,
+        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
+}
+
+fn check_forces(forces: &ForceSet) -> Result<(), RenderError> {
+    forces.validate().map_err(|e| RenderError::Parameter { what: e.to_string() })?;
+    if forces.local.len() > MAX_LOCAL_FORCES {
+        return Err(RenderError::Parameter {
+            what: format!("{} local forces; the GPU physics applies at most {MAX_LOCAL_FORCES}", forces.local.len()),
+        });
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn physics_structs_match_the_shader() {
+        use crate::shaders::tests::check_layout;
+        use std::mem::offset_of;
+        let step = [
+            ("accel", offset_of!(PhysicsStep, accel)),
+            ("omega", offset_of!(PhysicsStep, omega)),
+            ("alpha", offset_of!(PhysicsStep, alpha)),
+            ("wind_dir", offset_of!(PhysicsStep, wind_dir)),
+            ("wind", offset_of!(PhysicsStep, wind)),
+            ("guard", offset_of!(PhysicsStep, guard)),
+            ("counts", offset_of!(PhysicsStep, counts)),
+            ("flags", offset_of!(PhysicsStep, flags)),
+            ("locals", offset_of!(PhysicsStep, locals)),
+        ];
+        assert_eq!(check_layout("PhysicsStep", size_of::<PhysicsStep>(), &step), 1);
+        assert!(size_of::<PhysicsStep>() as u64 <= STEP_STRIDE && STEP_STRIDE.is_multiple_of(256));
+        let mass = [
+            ("restoring_n", offset_of!(PhysicsMass, restoring_n)),
+            ("mass", offset_of!(PhysicsMass, mass)),
+            ("inv_mass", offset_of!(PhysicsMass, inv_mass)),
+            ("links_start", offset_of!(PhysicsMass, links_start)),
+            ("links_end", offset_of!(PhysicsMass, links_end)),
+            ("restoring_parent", offset_of!(PhysicsMass, restoring_parent)),
+            ("stick_parent", offset_of!(PhysicsMass, stick_parent)),
+            ("stick_len", offset_of!(PhysicsMass, stick_len)),
+            ("stick_c", offset_of!(PhysicsMass, stick_c)),
+        ];
+        assert_eq!(check_layout("PhysicsMass", size_of::<PhysicsMass>(), &mass), 1);
+        let link = [
+            ("other", offset_of!(PhysicsLink, other)),
+            ("rest", offset_of!(PhysicsLink, rest)),
+            ("k", offset_of!(PhysicsLink, k)),
+            ("c", offset_of!(PhysicsLink, c)),
+        ];
+        assert_eq!(check_layout("PhysicsLink", size_of::<PhysicsLink>(), &link), 1);
+        let tip = [
+            ("n", offset_of!(PhysicsTip, n)),
+            ("root", offset_of!(PhysicsTip, root)),
+            ("tip", offset_of!(PhysicsTip, tip)),
+            ("pad0", offset_of!(PhysicsTip, pad0)),
+            ("pad1", offset_of!(PhysicsTip, pad1)),
+        ];
+        assert_eq!(check_layout("PhysicsTip", size_of::<PhysicsTip>(), &tip), 1);
+    }
+}
