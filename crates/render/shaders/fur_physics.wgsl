@@ -1,5 +1,6 @@
 // Fur physics in compute: the explicit and stick mass–spring solvers of the fur thesis (§3.3.2,
-// eq. 3.20–3.25; §3.4.1 sticks), the wrong-side guard (§3.4.3) and the scale vectors (eq. 3.35)
+// eq. 3.20–3.25; §3.4.1 sticks), XPBD over the coloured links (crates/sim/src/solvers/xpbd.rs),
+// the wrong-side guard (§3.4.3) and the scale vectors (eq. 3.35)
 // written into the buffer the shell shader reads. The CPU twin is furbake-sim's lane-group kernel
 // (crates/sim/src/solvers/fused.rs) over the flat model of crates/sim/src/compute.rs; the data
 // layouts are crates/render/src/physics.rs. One invocation per free mass gathers its own links in
@@ -24,14 +25,14 @@ struct PhysicsStep {
     guard: vec4<f32>,
     // free masses, tips, shell vertices, local forces
     counts: vec4<u32>,
-    // update (0 explicit, 1 stick), project sticks (1), rotating frame (1), unused
+    // update (0 explicit, 1 stick, 2 XPBD), project sticks (1), rotating frame (1), unused
     flags: vec4<u32>,
     // per local force: centre xyz and radius w (m), then strength x (N)
     locals: array<vec4<f32>, 32>,
 }
 
 struct PhysicsMass {
-    // the restoring link's rest direction (xyz)
+    // the restoring link's rest direction (xyz) and rest length (w, m)
     restoring_n: vec4<f32>,
     mass: f32,
     inv_mass: f32,
@@ -100,6 +101,34 @@ fn external_force(k: u32, m: f32, x: vec3<f32>, v: vec3<f32>) -> vec3<f32> {
     return f;
 }
 
+// The restoring force of eq. 3.37 on a free mass at `xi`, towards its rest direction.
+fn restoring_force(m: PhysicsMass, xi: vec3<f32>) -> vec3<f32> {
+    let w = step.alpha.w;
+    if w == 0.0 || m.restoring_parent == NO_LINK {
+        return vec3<f32>(0.0);
+    }
+    let s = xi - x_in[m.restoring_parent].xyz;
+    let rcp = 1.0 / sqrt(dot(s, s));
+    if !(rcp > 0.0 && rcp <= 3.4028235e38) {
+        return vec3<f32>(0.0);
+    }
+    let sn = s * rcp;
+    return (m.restoring_n.xyz - sn) * ((1.0 - dot(m.restoring_n.xyz, sn)) * w);
+}
+
+// Puts a free mass back at its stick's length from its anchored parent and removes its velocity
+// along the stick (crates/sim/src/solvers/projection.rs).
+fn project_on_stick(k: u32, m: PhysicsMass, x: ptr<function, vec3<f32>>, v: ptr<function, vec3<f32>>) {
+    let xp = rest[m.stick_parent].xyz;
+    var e = *x - xp;
+    if dot(e, e) == 0.0 {
+        e = rest[k].xyz - xp;
+    }
+    let dir = normalize(e);
+    *x = xp + dir * m.stick_len;
+    *v = *v - dir * dot(*v, dir);
+}
+
 // One substep of one free mass: forces at the substep's start, the velocity update, the move
 // and the projection onto an anchored stick.
 @compute @workgroup_size(64)
@@ -121,19 +150,7 @@ fn cs_step(@builtin(global_invocation_id) gid: vec3<u32>) {
         let t = l.k * (1.0 - l.rest / max(length(d), 1e-20));
         fl = fl + fma(d, vec3<f32>(t), dv * l.c);
     }
-    let fext = external_force(k, m.mass, xi, vi);
-    // The restoring force of eq. 3.37 on this mass, towards its rest direction.
-    var fr = vec3<f32>(0.0);
-    let w = step.alpha.w;
-    if w != 0.0 && m.restoring_parent != NO_LINK {
-        let s = xi - x_in[m.restoring_parent].xyz;
-        let rcp = 1.0 / sqrt(dot(s, s));
-        if rcp > 0.0 && rcp <= 3.4028235e38 {
-            let sn = s * rcp;
-            fr = (m.restoring_n.xyz - sn) * ((1.0 - dot(m.restoring_n.xyz, sn)) * w);
-        }
-    }
-    let f = (fext + fr) + fl;
+    let f = (external_force(k, m.mass, xi, vi) + restoring_force(m, xi)) + fl;
     let s = h * m.inv_mass;
     var vn = vi + f * s;
     if step.flags.x == 1u && m.stick_parent != NO_LINK {
@@ -141,23 +158,129 @@ fn cs_step(@builtin(global_invocation_id) gid: vec3<u32>) {
         let ac = s * m.stick_c;
         vn = (vn + v_in[m.stick_parent].xyz * ac) / (1.0 + ac);
     }
-    var xn = xi + vn * h;
+    write_state(k, m, xi + vn * h, vn);
+}
+
+// The new state of free mass k, projected onto its anchored stick and counted if not finite.
+fn write_state(k: u32, m: PhysicsMass, x: vec3<f32>, v: vec3<f32>) {
+    var xn = x;
+    var vn = v;
     if step.flags.y != 0u && m.stick_parent != NO_LINK {
-        // Back on the stick from its anchored parent; the velocity along it removed.
-        let xp = rest[m.stick_parent].xyz;
-        var e = xn - xp;
-        if dot(e, e) == 0.0 {
-            e = rest[k].xyz - xp;
-        }
-        let dir = normalize(e);
-        xn = xp + dir * m.stick_len;
-        vn = vn - dir * dot(vn, dir);
+        project_on_stick(k, m, &xn, &vn);
     }
     if !(finite3(xn) && finite3(vn)) {
         atomicAdd(&stats[0], 1u);
     }
     x_out[k] = vec4<f32>(xn, 0.0);
     v_out[k] = vec4<f32>(vn, 0.0);
+}
+
+// XPBD, 1. predict: the displacement h (v + Δv) under the external and restoring forces at the
+// step's start, the restoring stiffness 2w/L on the diagonal; kept in v_out until the end.
+@compute @workgroup_size(64)
+fn cs_xpbd_predict(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let k = gid.x;
+    if k >= step.counts.x {
+        return;
+    }
+    let m = masses[k];
+    let xi = x_in[k].xyz;
+    let vi = v_in[k].xyz;
+    let h = step.accel.w;
+    let w = step.alpha.w;
+    let f = external_force(k, m.mass, xi, vi) + restoring_force(m, xi);
+    var kr = 0.0;
+    var vp = vec3<f32>(0.0);
+    if m.restoring_parent != NO_LINK && w != 0.0 {
+        kr = 2.0 * w / max(m.restoring_n.w, 1e-3);
+        vp = v_in[m.restoring_parent].xyz;
+    }
+    let dv = (f - (vi - vp) * (h * kr)) * (h / (m.mass + h * h * kr));
+    v_out[k] = vec4<f32>((vi + dv) * h, 0.0);
+}
+
+// XPBD, 3. the new state x + Δx, velocity Δx/h, then the stick projection.
+@compute @workgroup_size(64)
+fn cs_xpbd_finish(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let k = gid.x;
+    if k >= step.counts.x {
+        return;
+    }
+    let d = v_out[k].xyz;
+    write_state(k, masses[k], x_in[k].xyz + d, d * (1.0 / step.accel.w));
+}
+
+struct PhysicsXpbdLink {
+    a: u32,
+    b: u32,
+    rest: f32,
+    // 1/k: 0 for a stick, +inf for a link without stiffness
+    compliance: f32,
+    c: f32,
+    wa: f32,
+    wb: f32,
+    pad0: f32,
+}
+
+struct PhysicsXpbdPass {
+    // this colour's first link, one past its last, the free masses, unused
+    range: vec4<u32>,
+    // x: the step h (s)
+    h: vec4<f32>,
+}
+
+@group(0) @binding(9) var<uniform> xpbd_pass: PhysicsXpbdPass;
+@group(0) @binding(10) var<storage, read> xpbd_links: array<PhysicsXpbdLink>;
+// per link: the damper's multiplier (xyz) and the distance multiplier (w), zero at each step's start
+@group(0) @binding(11) var<storage, read_write> xpbd_lambda: array<vec4<f32>>;
+
+// XPBD, 2. project one colour's links (distance, then damper) on the displacements in v_out;
+// within a colour no free mass has two links, so the invocations touch disjoint masses.
+@compute @workgroup_size(64)
+fn cs_xpbd_links(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = xpbd_pass.range.x + gid.x;
+    if i >= xpbd_pass.range.y {
+        return;
+    }
+    let l = xpbd_links[i];
+    let h = xpbd_pass.h.x;
+    let free_b = l.b < xpbd_pass.range.z;
+    var da = v_out[l.a].xyz;
+    var db = vec3<f32>(0.0);
+    if free_b {
+        db = v_out[l.b].xyz;
+    }
+    var lam = xpbd_lambda[i];
+    if l.compliance <= 3.4028235e38 {
+        let at = l.compliance / (h * h);
+        let den = l.wa + l.wb + at;
+        let d = (x_in[l.a].xyz - x_in[l.b].xyz) + (da - db);
+        let len = length(d);
+        if len > 1e-12 {
+            let n = d / len;
+            let dl = (-(len - l.rest) - at * lam.w) / den;
+            lam.w = lam.w + dl;
+            da = da + n * (l.wa * dl);
+            db = db - n * (l.wb * dl);
+        }
+    }
+    if l.c > 0.0 {
+        // An anchored end moves, for the damper, with the skin's velocity over the step.
+        let hc = h * l.c;
+        var moved_b = v_in[l.b].xyz * h;
+        if free_b {
+            moved_b = db;
+        }
+        let dl = (-lam.xyz - (da - moved_b) * hc) / (1.0 + hc * (l.wa + l.wb));
+        lam = vec4<f32>(lam.xyz + dl, lam.w);
+        da = da + dl * l.wa;
+        db = db - dl * l.wb;
+    }
+    xpbd_lambda[i] = lam;
+    v_out[l.a] = vec4<f32>(da, 0.0);
+    if free_b {
+        v_out[l.b] = vec4<f32>(db, 0.0);
+    }
 }
 
 // The guard's pass over the tips, after the last substep (bindings of group 1).
@@ -199,7 +322,8 @@ fn cs_guard(@builtin(global_invocation_id) gid: vec3<u32>) {
     guard_state[i] = state;
 }
 
-// Scale vectors per shell vertex from the guarded tips (zero for bare vertices).
+// Scale vectors per shell vertex from the guarded tips. A bare vertex (no tip) keeps what the
+// buffer holds, its rest direction: only bare triangles use it, and they draw no fur.
 @compute @workgroup_size(64)
 fn cs_scale(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = gid.x;
@@ -207,9 +331,7 @@ fn cs_scale(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let s = shell_tip[i];
-    if s == NO_LINK {
-        scale_out[i] = vec4<f32>(0.0);
-    } else {
+    if s != NO_LINK {
         scale_out[i] = vec4<f32>(guard_state[s].xyz, 0.0);
     }
 }

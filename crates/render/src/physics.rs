@@ -1,5 +1,6 @@
 //! Fur physics on the GPU: the explicit and stick mass–spring solvers (fur thesis §3.3.2,
-//! eq. 3.20–3.25; §3.4.1), the wrong-side guard (§3.4.3) and the scale vectors (eq. 3.35) as
+//! eq. 3.20–3.25; §3.4.1) and XPBD (edge-coloured Gauss–Seidel, one dispatch per colour), the
+//! wrong-side guard (§3.4.3) and the scale vectors (eq. 3.35) as
 //! compute passes (`shaders/fur_physics.wgsl`) over the flat model a CPU
 //! [`furbake_sim::Simulator`] hands over ([`furbake_sim::ComputeModel`]), recorded into the host's
 //! encoder and writing the scale vectors straight into the buffer its [`FurRenderer`]'s shell
@@ -8,7 +9,8 @@
 //! of eq. 3.37), same substep count for the same step; the counters (non-finite masses, guard
 //! triggers, frozen tips) stay on the GPU unless a test reads them.
 //!
-//! Not yet on the GPU: the implicit-class solvers, a moving (skinned) skin and energy tracking;
+//! Not yet on the GPU: the implicit and reference solvers, a moving (skinned) skin and energy
+//! tracking;
 //! [`furbake_sim::Simulator::compute_model`] refuses what has no compute form.
 
 use furbake_sim::{ComputeModel, ComputeUpdate, ForceSet, GuardSettings, NO_LINK};
@@ -21,6 +23,8 @@ use crate::{FurRenderer, RenderError};
 pub const MAX_LOCAL_FORCES: usize = 16;
 /// Bytes between substeps' uniforms (a multiple of every adapter's uniform offset alignment).
 const STEP_STRIDE: u64 = 768;
+/// Bytes between XPBD colours' uniforms.
+const PASS_STRIDE: u64 = 256;
 const WORKGROUP: u32 = 64;
 
 /// One substep's uniforms (`PhysicsStep` in `fur_physics.wgsl`).
@@ -61,6 +65,44 @@ pub(crate) struct PhysicsLink {
     rest: f32,
     k: f32,
     c: f32,
+}
+
+/// One XPBD link (`PhysicsXpbdLink`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub(crate) struct PhysicsXpbdLink {
+    a: u32,
+    b: u32,
+    rest: f32,
+    compliance: f32,
+    c: f32,
+    wa: f32,
+    wb: f32,
+    pad0: f32,
+}
+
+/// One XPBD colour's pass (`PhysicsXpbdPass`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub(crate) struct PhysicsXpbdPass {
+    range: [u32; 4],
+    h: [f32; 4],
+}
+
+/// XPBD's buffers and bind groups.
+struct Xpbd {
+    iterations: u32,
+    /// Colour `i` is links `colour_start[i]..colour_start[i + 1]`.
+    colour_start: Vec<u32>,
+    lambda: wgpu::Buffer,
+    passes: wgpu::Buffer,
+    /// `bind[i]` reads state `i` and iterates the displacement in velocity buffer `1 − i`.
+    bind: [wgpu::BindGroup; 2],
+    predict: wgpu::ComputePipeline,
+    links: wgpu::ComputePipeline,
+    finish: wgpu::ComputePipeline,
+    /// The passes' uniforms of one record, reused.
+    scratch: Vec<u8>,
 }
 
 /// One tip (`PhysicsTip`).
@@ -118,6 +160,10 @@ pub struct GpuFurPhysics {
     current: usize,
     /// The uniforms of one record, reused (grows only when a step needs more substeps).
     scratch: Vec<PhysicsStep>,
+    /// The same as bytes at their stride, reused.
+    scratch_bytes: Vec<u8>,
+    /// XPBD's part (XPBD models only).
+    xpbd: Option<Xpbd>,
 }
 
 impl FurRenderer {
@@ -185,7 +231,7 @@ impl GpuFurPhysics {
         let rest = padded(model.rest.iter().map(|&p| v4(p, 0.0)).collect());
         let mut masses: Vec<PhysicsMass> = (0..nf)
             .map(|k| PhysicsMass {
-                restoring_n: v4(model.restoring_n[k], 0.0),
+                restoring_n: v4(model.restoring_n[k], model.restoring_len[k]),
                 mass: model.mass[k],
                 inv_mass: 1.0 / model.mass[k],
                 links_start: model.links_start[k],
@@ -247,28 +293,11 @@ impl GpuFurPhysics {
             let stats = init("furbake physics counters", &[0u8; 16], storage);
             let steps_capacity = 4;
             let steps = step_buffer(device, steps_capacity);
-            let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
-                binding,
-                visibility: wgpu::ShaderStages::COMPUTE,
-                ty,
-                count: None,
-            };
-            let buffer = |read_only| wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Storage { read_only },
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            };
+            let (entry, buffer) = (layout_entry, storage_binding);
             let state_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                 label: Some("furbake physics state"),
                 entries: &[
-                    entry(
-                        0,
-                        wgpu::BindingType::Buffer {
-                            ty: wgpu::BufferBindingType::Uniform,
-                            has_dynamic_offset: true,
-                            min_binding_size: wgpu::BufferSize::new(size_of::<PhysicsStep>() as u64),
-                        },
-                    ),
+                    entry(0, dynamic_uniform::<PhysicsStep>()),
                     entry(1, buffer(true)),
                     entry(2, buffer(true)),
                     entry(3, buffer(false)),
@@ -284,14 +313,7 @@ impl GpuFurPhysics {
             let final_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                 label: Some("furbake physics final state"),
                 entries: &[
-                    entry(
-                        0,
-                        wgpu::BindingType::Buffer {
-                            ty: wgpu::BufferBindingType::Uniform,
-                            has_dynamic_offset: true,
-                            min_binding_size: wgpu::BufferSize::new(size_of::<PhysicsStep>() as u64),
-                        },
-                    ),
+                    entry(0, dynamic_uniform::<PhysicsStep>()),
                     entry(3, buffer(false)),
                     entry(4, buffer(false)),
                     entry(5, buffer(true)),
@@ -351,7 +373,17 @@ impl GpuFurPhysics {
                     cache: None,
                 })
             };
+            let xpbd = match model.update {
+                ComputeUpdate::Xpbd { iterations } => Some(Xpbd::new(
+                    device,
+                    model,
+                    iterations,
+                    XpbdParts { x: &x, v: &v, module: &module, step_layout: &step_layout },
+                )),
+                _ => None,
+            };
             Ok(GpuFurPhysics {
+                xpbd,
                 forces: forces.clone(),
                 guard: model.guard.clone(),
                 update: model.update,
@@ -381,6 +413,7 @@ impl GpuFurPhysics {
                 scale_pipeline: pipeline("cs_scale", &tips_layout),
                 current: 0,
                 scratch: Vec::with_capacity(steps_capacity as usize),
+                scratch_bytes: Vec::with_capacity(steps_capacity as usize * STEP_STRIDE as usize),
             })
         })
     }
@@ -389,14 +422,7 @@ impl GpuFurPhysics {
     /// (a different one is a [`RenderError::Parameter`]: build again from a simulator with it).
     pub fn set_forces(&mut self, forces: &ForceSet) -> Result<(), RenderError> {
         check_forces(forces)?;
-        if forces.restoring_weight_n != self.restoring_weight_n {
-            return Err(RenderError::Parameter {
-                what: format!(
-                    "restoring weight {} N: the GPU physics was built for {} N",
-                    forces.restoring_weight_n, self.restoring_weight_n
-                ),
-            });
-        }
+        self.check_restoring(forces)?;
         self.forces.clone_from(forces);
         Ok(())
     }
@@ -406,11 +432,11 @@ impl GpuFurPhysics {
         self.time_s
     }
 
-    /// Records one step of `dt_s` seconds into `encoder` — as many substeps as the CPU simulator
-    /// takes, the guard and the scale vectors — and returns the substep count. Writes this step's
-    /// uniforms with `queue.write_buffer` (staged until the host's next submission), so one record
-    /// per submission; never submits or waits. A step needing more than the allowed substeps is a
-    /// [`RenderError::Parameter`] and records nothing.
+    /// Records one step of `dt_s` seconds under the forces last set into `encoder` — as many
+    /// substeps as the CPU simulator takes, the guard and the scale vectors — and returns the
+    /// substep count. Writes the step's uniforms with `queue.write_buffer` (staged until the
+    /// host's next submission), so one record per submission; never submits or waits. A step
+    /// needing more than the allowed substeps is a [`RenderError::Parameter`] and records nothing.
     pub fn record(
         &mut self,
         device: &wgpu::Device,
@@ -418,12 +444,40 @@ impl GpuFurPhysics {
         encoder: &mut wgpu::CommandEncoder,
         dt_s: f64,
     ) -> Result<u32, RenderError> {
+        let forces = std::mem::take(&mut self.forces);
+        let out = self.record_steps(device, queue, encoder, dt_s, &[&forces]);
+        self.forces = forces;
+        out
+    }
+
+    /// Records `forces.len()` steps of `dt_s` seconds, step `i` under `forces[i]` (what a world
+    /// that stepped several times since the last frame hands over), each with its substeps and
+    /// guard, then the scale vectors; returns the substeps recorded. One record per submission,
+    /// as [`GpuFurPhysics::record`]. The forces must keep the restoring weight the physics was
+    /// built for; a step with too many substeps or bad forces records nothing.
+    pub fn record_steps(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+        dt_s: f64,
+        forces: &[&ForceSet],
+    ) -> Result<u32, RenderError> {
         if !(dt_s.is_finite() && dt_s > 0.0) {
             return Err(RenderError::Parameter {
                 what: format!("physics step {dt_s} s (must be finite and positive)"),
             });
         }
-        let substeps = if dt_s <= self.stable_step_s { 1 } else { (dt_s / self.stable_step_s).ceil() as u64 };
+        for f in forces {
+            self.check_restoring(f)?;
+            check_forces(f)?;
+        }
+        // XPBD never substeps (crates/sim/src/solvers/xpbd.rs).
+        let substeps = if dt_s <= self.stable_step_s || self.xpbd.is_some() {
+            1
+        } else {
+            (dt_s / self.stable_step_s).ceil() as u64
+        };
         if substeps > self.max_substeps as u64 {
             return Err(RenderError::Parameter {
                 what: format!(
@@ -432,43 +486,94 @@ impl GpuFurPhysics {
                 ),
             });
         }
-        let substeps = substeps as u32;
-        if substeps > self.steps_capacity {
+        let (substeps, steps) = (substeps as u32, forces.len() as u32);
+        if steps == 0 {
+            return Ok(0);
+        }
+        let total = substeps * steps;
+        if total > self.steps_capacity {
             // Grows, never shrinks: a steady frame rate allocates nothing here.
-            self.steps_capacity = substeps.next_power_of_two();
+            self.steps_capacity = total.next_power_of_two();
             self.steps = step_buffer(device, self.steps_capacity);
             self.state = self.parts().bind_all(device, &self.x, &self.v);
         }
         let h = dt_s / substeps as f64;
+        if let Some(x) = self.xpbd.as_mut() {
+            x.stage(queue, h as f32, self.counts[0]);
+        }
         self.scratch.clear();
-        for sub in 0..substeps {
-            self.scratch.push(self.uniforms(self.time_s + sub as f64 * h, h as f32));
+        // Time advances step by step, as the CPU simulator's does (so one record of n steps and n
+        // records of one agree to the bit).
+        let mut t = self.time_s;
+        for f in forces {
+            for sub in 0..substeps {
+                self.scratch.push(self.uniforms(f, t + sub as f64 * h, h as f32));
+            }
+            t += dt_s;
         }
-        for (i, s) in self.scratch.iter().enumerate() {
-            queue.write_buffer(&self.steps, i as u64 * STEP_STRIDE, bytemuck::bytes_of(s));
-        }
+        let bytes = self.scratch_bytes();
+        queue.write_buffer(&self.steps, 0, &bytes);
+        self.scratch_bytes = bytes;
         encoder.clear_buffer(&self.stats, 0, None);
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("furbake fur physics"),
-            timestamp_writes: None,
-        });
-        pass.set_pipeline(&self.step_pipeline);
-        for sub in 0..substeps {
-            pass.set_bind_group(0, &self.state.step[self.current], &[(sub as u64 * STEP_STRIDE) as u32]);
-            pass.dispatch_workgroups(self.counts[0].div_ceil(WORKGROUP).max(1), 1, 1);
-            self.current = 1 - self.current;
+        let free_groups = self.counts[0].div_ceil(WORKGROUP).max(1);
+        for n in 0..steps {
+            if let Some(x) = &self.xpbd {
+                encoder.clear_buffer(&x.lambda, 0, None);
+            }
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("furbake fur physics"),
+                timestamp_writes: None,
+            });
+            let first = n * substeps;
+            if let Some(x) = &self.xpbd {
+                let offset = (first as u64 * STEP_STRIDE) as u32;
+                x.record(&mut pass, &self.state.step[self.current], offset, self.current, free_groups);
+                self.current = 1 - self.current;
+            } else {
+                pass.set_pipeline(&self.step_pipeline);
+                for sub in first..first + substeps {
+                    pass.set_bind_group(0, &self.state.step[self.current], &[(sub as u64 * STEP_STRIDE) as u32]);
+                    pass.dispatch_workgroups(free_groups, 1, 1);
+                    self.current = 1 - self.current;
+                }
+            }
+            // The guard reads and kicks the step's final state, with its last substep's uniforms.
+            let last = ((first + substeps - 1) as u64 * STEP_STRIDE) as u32;
+            pass.set_pipeline(&self.guard_pipeline);
+            pass.set_bind_group(0, &self.state.last[self.current], &[last]);
+            pass.set_bind_group(1, &self.tips, &[]);
+            pass.dispatch_workgroups(self.counts[1].div_ceil(WORKGROUP).max(1), 1, 1);
+            if n + 1 == steps {
+                pass.set_pipeline(&self.scale_pipeline);
+                pass.dispatch_workgroups(self.counts[2].div_ceil(WORKGROUP).max(1), 1, 1);
+            }
         }
-        // The guard reads and kicks the final state, with the last substep's uniforms.
-        let last = ((substeps - 1) as u64 * STEP_STRIDE) as u32;
-        pass.set_pipeline(&self.guard_pipeline);
-        pass.set_bind_group(0, &self.state.last[self.current], &[last]);
-        pass.set_bind_group(1, &self.tips, &[]);
-        pass.dispatch_workgroups(self.counts[1].div_ceil(WORKGROUP).max(1), 1, 1);
-        pass.set_pipeline(&self.scale_pipeline);
-        pass.dispatch_workgroups(self.counts[2].div_ceil(WORKGROUP).max(1), 1, 1);
-        drop(pass);
-        self.time_s += dt_s;
-        Ok(substeps)
+        self.time_s = t;
+        Ok(total)
+    }
+
+    /// The uniforms of one record as bytes, each substep at its stride (reusing the scratch's
+    /// allocation once it has grown).
+    fn scratch_bytes(&mut self) -> Vec<u8> {
+        let mut bytes = std::mem::take(&mut self.scratch_bytes);
+        bytes.clear();
+        for s in &self.scratch {
+            bytes.extend_from_slice(bytemuck::bytes_of(s));
+            bytes.resize(bytes.len().next_multiple_of(STEP_STRIDE as usize), 0);
+        }
+        bytes
+    }
+
+    fn check_restoring(&self, forces: &ForceSet) -> Result<(), RenderError> {
+        if forces.restoring_weight_n != self.restoring_weight_n {
+            return Err(RenderError::Parameter {
+                what: format!(
+                    "restoring weight {} N: the GPU physics was built for {} N",
+                    forces.restoring_weight_n, self.restoring_weight_n
+                ),
+            });
+        }
+        Ok(())
     }
 
     fn parts(&self) -> StateParts<'_> {
@@ -484,8 +589,7 @@ impl GpuFurPhysics {
     }
 
     /// The uniforms of the substep starting at `t` (as `furbake_sim`'s `ForceEval::new`).
-    fn uniforms(&self, t: f64, h: f32) -> PhysicsStep {
-        let f = &self.forces;
+    fn uniforms(&self, f: &ForceSet, t: f64, h: f32) -> PhysicsStep {
         let sub = |a: [f32; 3], b: [f32; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
         let m = &f.motion;
         let rotating = m.angular_velocity_rad_per_s != [0.0; 3] || m.angular_accel_rad_per_s2 != [0.0; 3];
@@ -512,6 +616,7 @@ impl GpuFurPhysics {
                 match self.update {
                     ComputeUpdate::Explicit => 0,
                     ComputeUpdate::Stick => 1,
+                    ComputeUpdate::Xpbd { .. } => 2,
                 },
                 self.project_sticks as u32,
                 rotating as u32,
@@ -566,6 +671,161 @@ impl GpuFurPhysics {
 struct StateGroups {
     step: [wgpu::BindGroup; 2],
     last: [wgpu::BindGroup; 2],
+}
+
+/// What XPBD's part shares with the rest of the physics.
+struct XpbdParts<'a> {
+    x: &'a [wgpu::Buffer; 2],
+    v: &'a [wgpu::Buffer; 2],
+    module: &'a wgpu::ShaderModule,
+    /// The pipeline layout of `cs_step` (the state bind group), which predict and finish share.
+    step_layout: &'a wgpu::PipelineLayout,
+}
+
+impl Xpbd {
+    fn new(device: &wgpu::Device, model: &ComputeModel, iterations: u32, parts: XpbdParts<'_>) -> Xpbd {
+        let XpbdParts { x, v, module, step_layout } = parts;
+        let mut links: Vec<PhysicsXpbdLink> = model
+            .xpbd
+            .links
+            .iter()
+            .map(|l| PhysicsXpbdLink {
+                a: l.ends[0],
+                b: l.ends[1],
+                rest: l.rest,
+                compliance: l.compliance,
+                c: l.c,
+                wa: l.inv_mass[0],
+                wb: l.inv_mass[1],
+                pad0: 0.0,
+            })
+            .collect();
+        let count = links.len().max(1);
+        if links.is_empty() {
+            links.push(bytemuck::Zeroable::zeroed());
+        }
+        let colours = model.xpbd.colour_start.len().saturating_sub(1).max(1);
+        let links_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("furbake physics xpbd links"),
+            contents: bytemuck::cast_slice(&links),
+            usage: wgpu::BufferUsages::STORAGE,
+        });
+        let lambda = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("furbake physics xpbd multipliers"),
+            size: count as u64 * 16,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let passes = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("furbake physics xpbd colours"),
+            size: colours as u64 * PASS_STRIDE,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("furbake physics xpbd"),
+            entries: &[
+                layout_entry(1, storage_binding(true)),
+                layout_entry(2, storage_binding(true)),
+                layout_entry(4, storage_binding(false)),
+                layout_entry(9, dynamic_uniform::<PhysicsXpbdPass>()),
+                layout_entry(10, storage_binding(true)),
+                layout_entry(11, storage_binding(false)),
+            ],
+        });
+        let bind = |from: usize| {
+            device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("furbake physics xpbd"),
+                layout: &layout,
+                entries: &[
+                    entry(1, &x[from]),
+                    entry(2, &v[from]),
+                    entry(4, &v[1 - from]),
+                    wgpu::BindGroupEntry {
+                        binding: 9,
+                        resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                            buffer: &passes,
+                            offset: 0,
+                            size: wgpu::BufferSize::new(size_of::<PhysicsXpbdPass>() as u64),
+                        }),
+                    },
+                    entry(10, &links_buffer),
+                    entry(11, &lambda),
+                ],
+            })
+        };
+        let links_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("furbake physics xpbd"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let pipeline = |entry: &str, layout: &wgpu::PipelineLayout| {
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(entry),
+                layout: Some(layout),
+                module,
+                entry_point: Some(entry),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+        };
+        Xpbd {
+            iterations,
+            colour_start: model.xpbd.colour_start.clone(),
+            bind: [bind(0), bind(1)],
+            predict: pipeline("cs_xpbd_predict", step_layout),
+            links: pipeline("cs_xpbd_links", &links_layout),
+            finish: pipeline("cs_xpbd_finish", step_layout),
+            lambda,
+            passes,
+            scratch: Vec::with_capacity(colours * PASS_STRIDE as usize),
+        }
+    }
+
+    /// Writes the colour uniforms for steps of `h` (the caller clears the multipliers before
+    /// each step).
+    fn stage(&mut self, queue: &wgpu::Queue, h: f32, free: u32) {
+        self.scratch.clear();
+        for c in self.colour_start.windows(2) {
+            let pass = PhysicsXpbdPass { range: [c[0], c[1], free, 0], h: [h, 0.0, 0.0, 0.0] };
+            self.scratch.extend_from_slice(bytemuck::bytes_of(&pass));
+            self.scratch.resize(self.scratch.len().next_multiple_of(PASS_STRIDE as usize), 0);
+        }
+        if !self.scratch.is_empty() {
+            queue.write_buffer(&self.passes, 0, &self.scratch);
+        }
+    }
+
+    /// Records one XPBD step from state `from` into `1 − from` with the step uniforms at
+    /// `step_offset` (see `fur_physics.wgsl`).
+    fn record(
+        &self,
+        pass: &mut wgpu::ComputePass<'_>,
+        state: &wgpu::BindGroup,
+        step_offset: u32,
+        from: usize,
+        free_groups: u32,
+    ) {
+        pass.set_pipeline(&self.predict);
+        pass.set_bind_group(0, state, &[step_offset]);
+        pass.dispatch_workgroups(free_groups, 1, 1);
+        let colours = self.colour_start.len().saturating_sub(1);
+        pass.set_pipeline(&self.links);
+        for _ in 0..self.iterations {
+            // Symmetric Gauss–Seidel: the colours out along the hairs, then back.
+            for c in (0..colours).chain((0..colours.saturating_sub(1)).rev()) {
+                let n = self.colour_start[c + 1] - self.colour_start[c];
+                if n == 0 {
+                    continue;
+                }
+                pass.set_bind_group(0, &self.bind[from], &[(c as u64 * PASS_STRIDE) as u32]);
+                pass.dispatch_workgroups(n.div_ceil(WORKGROUP), 1, 1);
+            }
+        }
+        pass.set_pipeline(&self.finish);
+        pass.set_bind_group(0, state, &[step_offset]);
+        pass.dispatch_workgroups(free_groups, 1, 1);
+    }
 }
 
 /// The buffers every state bind group shares.
@@ -646,6 +906,27 @@ impl StateParts<'_> {
     }
 }
 
+fn layout_entry(binding: u32, ty: wgpu::BindingType) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry { binding, visibility: wgpu::ShaderStages::COMPUTE, ty, count: None }
+}
+
+fn storage_binding(read_only: bool) -> wgpu::BindingType {
+    wgpu::BindingType::Buffer {
+        ty: wgpu::BufferBindingType::Storage { read_only },
+        has_dynamic_offset: false,
+        min_binding_size: None,
+    }
+}
+
+/// A uniform `T` at a dynamic offset (one per substep or colour).
+fn dynamic_uniform<T>() -> wgpu::BindingType {
+    wgpu::BindingType::Buffer {
+        ty: wgpu::BufferBindingType::Uniform,
+        has_dynamic_offset: true,
+        min_binding_size: wgpu::BufferSize::new(size_of::<T>() as u64),
+    }
+}
+
 fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
     wgpu::BindGroupEntry { binding, resource: buffer.as_entire_binding() }
 }
@@ -717,5 +998,19 @@ mod tests {
             ("pad1", offset_of!(PhysicsTip, pad1)),
         ];
         assert_eq!(check_layout("PhysicsTip", size_of::<PhysicsTip>(), &tip), 1);
+        let link = [
+            ("a", offset_of!(PhysicsXpbdLink, a)),
+            ("b", offset_of!(PhysicsXpbdLink, b)),
+            ("rest", offset_of!(PhysicsXpbdLink, rest)),
+            ("compliance", offset_of!(PhysicsXpbdLink, compliance)),
+            ("c", offset_of!(PhysicsXpbdLink, c)),
+            ("wa", offset_of!(PhysicsXpbdLink, wa)),
+            ("wb", offset_of!(PhysicsXpbdLink, wb)),
+            ("pad0", offset_of!(PhysicsXpbdLink, pad0)),
+        ];
+        assert_eq!(check_layout("PhysicsXpbdLink", size_of::<PhysicsXpbdLink>(), &link), 1);
+        let pass = [("range", offset_of!(PhysicsXpbdPass, range)), ("h", offset_of!(PhysicsXpbdPass, h))];
+        assert_eq!(check_layout("PhysicsXpbdPass", size_of::<PhysicsXpbdPass>(), &pass), 1);
+        assert!(size_of::<PhysicsXpbdPass>() as u64 <= PASS_STRIDE);
     }
 }

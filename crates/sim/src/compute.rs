@@ -11,6 +11,12 @@
 //! `a = h c_p/m` towards a rigid parent; then, when [`ComputeModel::project_sticks`], the mass put
 //! back at its stick's length from its anchored parent with its velocity along the stick
 //! removed. After the last substep, the guard on every tip (roots are anchored).
+//!
+//! XPBD (`solvers/xpbd.rs`) instead predicts `Δx = h (v + Δv)` with the external and restoring
+//! forces (the restoring stiffness `2w/L` on the diagonal), projects
+//! [`ComputeModel::xpbd`]'s links colour by colour (`iterations` symmetric sweeps: colours up,
+//! then down; one colour's links share no free mass), and ends with `x' = x + Δx`, `v' = Δx/h` and
+//! the same projection and guard; it never substeps.
 
 use crate::sentinel::NONE;
 use crate::shell::GuardSettings;
@@ -26,6 +32,35 @@ pub enum ComputeUpdate {
     Explicit,
     /// Explicit with implicit damping towards each rigid parent (§3.4.1, the stick solver).
     Stick,
+    /// XPBD with this many symmetric Gauss–Seidel sweeps per step.
+    Xpbd {
+        /// Sweeps per step (`SolverSettings::xpbd_iterations`).
+        iterations: u32,
+    },
+}
+
+/// One XPBD link (`solvers/xpbd.rs`): `ends[0]` free, `ends[1]` free or anchored.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ComputeXpbdLink {
+    /// Its two masses, internal indices.
+    pub ends: [u32; 2],
+    /// Rest length, metres.
+    pub rest: f32,
+    /// Compliance `1/k` (0 for a stick, infinite for a link without stiffness).
+    pub compliance: f32,
+    /// Viscosity `c`, N·s/m (eq. 3.24).
+    pub c: f32,
+    /// The ends' inverse masses (0 for an anchored end).
+    pub inv_mass: [f32; 2],
+}
+
+/// XPBD's links, coloured: colour `i`'s links are `links[colour_start[i]..colour_start[i + 1]]`.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ComputeXpbd {
+    /// The links, colour-major.
+    pub links: Vec<ComputeXpbdLink>,
+    /// Where each colour starts (`colours + 1` entries).
+    pub colour_start: Vec<u32>,
 }
 
 /// One tip of the shell's scale vectors (eq. 3.35): its anchored root mass, its free tip mass and
@@ -71,6 +106,8 @@ pub struct ComputeModel {
     pub restoring_parent: Vec<u32>,
     /// Per free mass: the restoring link's rest direction (unit; zero without one).
     pub restoring_n: Vec<[f32; 3]>,
+    /// Per free mass: the restoring link's rest length, metres (XPBD's `2w/L`).
+    pub restoring_len: Vec<f32>,
     /// Per free mass: its rigid parent or [`NO_LINK`].
     pub stick_parent: Vec<u32>,
     /// Per free mass: the rigid link's length (m) and damping (N·s/m).
@@ -87,6 +124,8 @@ pub struct ComputeModel {
     pub frozen: Vec<bool>,
     /// The guard's settings.
     pub guard: GuardSettings,
+    /// XPBD's coloured links (empty for the other solvers).
+    pub xpbd: ComputeXpbd,
     /// Simulated time, seconds.
     pub time_s: f64,
 }
@@ -101,10 +140,11 @@ impl Simulator {
         let update = match self.settings.kind {
             SolverKind::Explicit => ComputeUpdate::Explicit,
             SolverKind::Stick => ComputeUpdate::Stick,
+            SolverKind::Xpbd => ComputeUpdate::Xpbd { iterations: self.settings.xpbd_iterations },
             other => {
                 return Err(SimError::Parameter {
                     name: "solver",
-                    what: format!("the {} solver has no compute form (explicit and stick do)", other.name()),
+                    what: format!("the {} solver has no compute form (explicit, stick and xpbd do)", other.name()),
                 });
             }
         };
@@ -134,6 +174,13 @@ impl Simulator {
             }
         }
         let v3 = |v: glam::Vec3A| v.to_array();
+        let xpbd = match &self.xpbd {
+            Some(x) => {
+                let (links, colour_start) = x.compute_links(m);
+                ComputeXpbd { links, colour_start }
+            }
+            None => ComputeXpbd::default(),
+        };
         Ok(ComputeModel {
             update,
             masses: m.n as u32,
@@ -148,6 +195,7 @@ impl Simulator {
             link_params: m.adj.iter().map(|a| [a.rest, a.k, a.c]).collect(),
             restoring_parent: m.rest_parent[..nf].to_vec(),
             restoring_n: m.rest_n[..nf].iter().copied().map(v3).collect(),
+            restoring_len: m.rest_len[..nf].to_vec(),
             stick_parent: m.parent[..nf].to_vec(),
             stick: (0..nf).map(|k| [m.parent_len[k], m.parent_c[k]]).collect(),
             project_sticks: m.has_sticks,
@@ -156,6 +204,7 @@ impl Simulator {
             scale: self.guard.scale.iter().copied().map(v3).collect(),
             frozen: self.guard.frozen.clone(),
             guard: self.settings.guard.clone(),
+            xpbd,
             time_s: self.time_s,
         })
     }
@@ -176,6 +225,7 @@ impl ComputeModel {
             || self.links_start.len() != nf + 1
             || self.restoring_parent.len() != nf
             || self.restoring_n.len() != nf
+            || self.restoring_len.len() != nf
             || self.stick_parent.len() != nf
             || self.stick.len() != nf
             || self.scale.len() != self.tips.len()
@@ -199,6 +249,15 @@ impl ComputeModel {
             || !self.shell_tip.iter().all(|&s| s == NO_LINK || (s as usize) < self.tips.len())
         {
             return bad("an index is out of range".into());
+        }
+        let colours = &self.xpbd.colour_start;
+        if matches!(self.update, ComputeUpdate::Xpbd { .. })
+            && (colours.first() != Some(&0)
+                || colours.windows(2).any(|w| w[0] > w[1])
+                || colours.last().is_some_and(|&e| e as usize != self.xpbd.links.len())
+                || !self.xpbd.links.iter().all(|l| (l.ends[0] as usize) < nf && (l.ends[1] as usize) < n))
+        {
+            return bad("XPBD's links disagree with their colours or the masses".into());
         }
         Ok(())
     }

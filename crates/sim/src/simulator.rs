@@ -228,7 +228,7 @@ pub struct Simulator {
     clusters: Option<Clusters>,
     reference: ReferenceScratch,
     /// The XPBD solver's links, colouring and buffers (XPBD only).
-    xpbd: Option<XpbdScratch>,
+    pub(crate) xpbd: Option<XpbdScratch>,
     /// The local/global solver's matrix, factor and buffers (local/global only).
     local_global: Option<LocalGlobalScratch>,
     stable_dt: Option<(f32, f64)>,

@@ -198,6 +198,26 @@ impl XpbdScratch {
     }
 }
 
+impl XpbdScratch {
+    /// The coloured links as a compute solver reads them (`crate::compute`): per link, colour-major,
+    /// its ends, rest length (the model's current one), compliance, viscosity and the ends'
+    /// inverse masses; and where each colour starts (`colours + 1` entries).
+    pub(crate) fn compute_links(&self, model: &SimModel) -> (Vec<crate::ComputeXpbdLink>, Vec<u32>) {
+        let links = self
+            .links
+            .iter()
+            .map(|l| crate::ComputeXpbdLink {
+                ends: [l.a, l.b],
+                rest: model.adj[l.e as usize].rest,
+                compliance: l.compliance,
+                c: l.c,
+                inv_mass: [l.wa, l.wb],
+            })
+            .collect();
+        (links, self.colour_start.iter().map(|&c| c as u32).collect())
+    }
+}
+
 /// One XPBD step with `iterations` symmetric Gauss–Seidel sweeps over the coloured links.
 pub(crate) fn xpbd_step(step: Step, iterations: u32, s: &mut XpbdScratch) -> StepOutcome {
     let (model, fe, h, x, v) = (step.model, step.fe, step.h, step.x, step.v);
