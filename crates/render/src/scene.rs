@@ -29,14 +29,15 @@ use std::path::PathBuf;
 
 use furbake_formats::SectionKind;
 use furbake_runtime::{Camera, Lighting, RenderOptions, Scene, ShellVertexLayout, World};
+use furbake_sim::ForceSet;
 use glam::{Mat4, Vec3};
 
 use crate::shaders::FrameUniforms;
 use crate::target::RenderTarget;
 use crate::upload::{FrameUpload, Upload};
 use crate::{
-    BladeForces, BladeRenderSettings, BladeRenderer, FurAsset, FurGpuAsset, FurRenderer, PipelineCache, RenderError,
-    RenderSettings, TargetDesc, View,
+    BladeForces, BladeRenderSettings, BladeRenderer, FurAsset, FurGpuAsset, FurRenderer, GpuFurPhysics, PipelineCache,
+    RenderError, RenderSettings, TargetDesc, View,
 };
 
 /// The fixed GPU (or, on lavapipe, host) memory of one fur or blade renderer beyond its data —
@@ -305,6 +306,15 @@ pub struct SceneRenderer {
     /// The frame's writes for all packs, uploaded at once (docs/design.md "One upload per
     /// frame"); behind a lock because `prepare_world` takes `&self`, never contended in a frame.
     upload: std::sync::Mutex<FrameUpload>,
+    /// Per pack, its fur physics on the GPU when the world runs it there (`[solver] device =
+    /// "gpu"`): built at the first `prepare_world`, then stepped by the world's steps.
+    physics: Vec<Option<std::sync::Mutex<GpuPhysicsSlot>>>,
+}
+
+/// One pack's GPU physics and how many of the world's steps it has recorded.
+struct GpuPhysicsSlot {
+    physics: Option<GpuFurPhysics>,
+    recorded: u64,
 }
 
 impl SceneRenderer {
@@ -441,7 +451,14 @@ impl SceneRenderer {
                 clip_bounds,
             });
         }
+        let physics = (0..world.pack_count())
+            .map(|i| {
+                let on_gpu = world.gpu_physics(i).is_some() && packs[i].fur.is_some();
+                on_gpu.then(|| std::sync::Mutex::new(GpuPhysicsSlot { physics: None, recorded: 0 }))
+            })
+            .collect();
         Ok(SceneRenderer {
+            physics,
             frame: SceneFrame::from_scene(scene),
             packs,
             target: target.clone(),
@@ -556,10 +573,12 @@ impl SceneRenderer {
             let grass = world.grass(i).filter(|_| drawn.blades.is_some());
             let skinned = drawn.fur.as_ref().is_some_and(|f| f.is_animated());
             let pose = world.animation(i).filter(|_| skinned).map(|a| (a.skinning_matrices(), a.morph_weights()));
+            // GPU physics writes its scale vectors in place (recorded below).
+            let gpu = self.physics[i].is_some();
             PackInput {
                 pose,
                 model: Some(world.model_matrix(i)),
-                scale_vectors: fur.map(|f| f.scale_vectors),
+                scale_vectors: fur.filter(|_| !gpu).map(|f| f.scale_vectors),
                 scale_layout: fur.map_or(ShellVertexLayout::PerVertex, |f| f.layout),
                 blade_forces: grass.map(|g| {
                     if g.has_delayed_sources() {
@@ -570,7 +589,63 @@ impl SceneRenderer {
                 }),
             }
         };
-        self.prepare_all(queue, encoder, input, frame)
+        self.prepare_all(queue, encoder, input, frame)?;
+        self.record_gpu_physics(queue, encoder, world)
+    }
+
+    /// Records, for every pack whose fur physics runs on the GPU, the world's steps since the
+    /// last record (building its solver from the world's model at the first), into `encoder`
+    /// after the frame's upload, before the frame's draws read the scale vectors.
+    fn record_gpu_physics(
+        &self,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+        world: &World,
+    ) -> Result<(), RenderError> {
+        for (i, slot) in self.physics.iter().enumerate() {
+            let (Some(slot), Some(steps), Some(renderer)) = (slot, world.gpu_physics(i), &self.packs[i].fur) else {
+                continue;
+            };
+            let mut slot = slot.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+            let slot = &mut *slot;
+            if slot.physics.is_none() || steps.taken() < slot.recorded {
+                // First frame, or a world that started over: the solver from the world's start.
+                let model = steps.compute_model()?;
+                let forces = ForceSet { restoring_weight_n: steps.restoring_weight_n(), ..ForceSet::none() };
+                slot.physics = Some(renderer.gpu_physics(
+                    &self.device,
+                    queue,
+                    &model,
+                    &forces,
+                    steps.stable_step_s(),
+                    steps.max_substeps(),
+                )?);
+                slot.recorded = 0;
+            }
+            let physics = slot.physics.as_mut().expect("built above");
+            if steps.taken() == slot.recorded {
+                continue;
+            }
+            let Some(first) = steps.forces(slot.recorded) else {
+                return Err(RenderError::Parameter {
+                    what: format!(
+                        "pack {:?}: the world took {} steps since the last frame; GPU physics records at most {} per frame",
+                        self.packs[i].name,
+                        steps.taken() - slot.recorded,
+                        furbake_runtime::GPU_PHYSICS_STEPS_KEPT
+                    ),
+                });
+            };
+            // On the stack: a frame allocates nothing here.
+            let mut refs = [first; furbake_runtime::GPU_PHYSICS_STEPS_KEPT];
+            let count = (steps.taken() - slot.recorded) as usize;
+            for (r, n) in refs.iter_mut().zip(slot.recorded..steps.taken()) {
+                *r = steps.forces(n).expect("the world keeps every step from the first unrecorded one");
+            }
+            physics.record_steps(&self.device, queue, encoder, steps.dt_s(), &refs[..count])?;
+            slot.recorded = steps.taken();
+        }
+        Ok(())
     }
 
     /// [`SceneRenderer::prepare_world`] with explicit inputs: `inputs[i]` belongs to `packs[i]`

@@ -192,3 +192,177 @@ fn several_steps_in_one_record_are_the_steps_one_by_one() {
     assert_eq!(a.velocities, b.velocities);
     assert_eq!(one.time_s(), three.time_s());
 }
+
+/// A furry sphere baked with the prisms topology into `dir` and a scene of it in gravity and a
+/// gusting wind, its fur on `device` with the XPBD solver, seen from +Z.
+fn sphere_scene(dir: &std::path::Path, kind: &str, device: &str) -> furbake_runtime::Scene {
+    if !dir.join("fur.fbk").exists() {
+        let gltf = testmesh::uv_sphere(12, 16, 1.0).gltf;
+        let imported = import_gltf_slice(&gltf, "sphere.gltf", None, &ImportSettings::default()).unwrap();
+        let mut settings = BakeSettings::preset("fur").unwrap();
+        settings.volume.layers = 8;
+        settings.volume.resolution = 32;
+        settings.shells.fur_length_m = Some(0.25);
+        settings.topologies = vec!["prisms".into()];
+        let baked = bake(&imported, "sphere", &settings.plan().unwrap(), &mut NoProgress).unwrap();
+        baked.to_writer().write_atomic(&dir.join("fur.fbk")).unwrap();
+    }
+    let toml = format!(
+        r#"
+[solver]
+kind = "{kind}"
+device = "{device}"
+
+[camera]
+eye = [0.0, 0.0, 4.0]
+target = [0.0, 0.0, 0.0]
+fov_y_deg = 45.0
+
+[[packs]]
+name = "fur"
+path = "fur.fbk"
+
+[effects.gravity]
+
+[effects.wind]
+velocity_m_per_s = [10.0, 0.0, 0.0]
+gust_amplitude = 0.5
+"#
+    );
+    furbake_runtime::Scene::from_toml_str(&toml, std::path::Path::new("gpu.toml"), dir).unwrap()
+}
+
+#[test]
+fn a_scene_runs_its_fur_physics_on_the_gpu() {
+    // The same scene with `[solver] device = "cpu"` and `"gpu"`, stepped 1 s and drawn every
+    // third step (so a frame records three world steps): the GPU world's renderer draws the scale
+    // vectors the CPU world computes, within f32 rounding, and the frames look the same.
+    use furbake_render::SceneRenderer;
+    use furbake_render::headless::read_back;
+    use furbake_runtime::World;
+    let g = gpu();
+    let dir = tempfile::tempdir().unwrap();
+    let (mut cpu, mut gpu_world) = (
+        World::new(sphere_scene(dir.path(), "xpbd", "cpu")).unwrap(),
+        World::new(sphere_scene(dir.path(), "xpbd", "gpu")).unwrap(),
+    );
+    assert!(cpu.gpu_physics(0).is_none() && gpu_world.gpu_physics(0).is_some());
+    let (r_cpu, r_gpu) = (
+        SceneRenderer::new(&g.device, &g.queue, &cpu).unwrap(),
+        SceneRenderer::new(&g.device, &g.queue, &gpu_world).unwrap(),
+    );
+    let target = RenderTarget::new(&g.device, 96, 96).unwrap();
+    let mut worst_px = 0u8;
+    let rest = cpu.fur(0).unwrap().scale_vectors.to_vec();
+    for frame in 0..20 {
+        for _ in 0..3 {
+            cpu.step().unwrap();
+            gpu_world.step().unwrap();
+        }
+        r_cpu.render_world(&g.device, &g.queue, &target, &cpu).unwrap();
+        let a = read_back(&g.device, &g.queue, &target).unwrap();
+        r_gpu.render_world(&g.device, &g.queue, &target, &gpu_world).unwrap();
+        let b = read_back(&g.device, &g.queue, &target).unwrap();
+        let diff = a.as_raw().iter().zip(b.as_raw()).map(|(x, y)| x.abs_diff(*y)).max().unwrap();
+        worst_px = worst_px.max(diff);
+        if frame == 19 {
+            let dir = std::env::temp_dir().join("furbake-render-tests");
+            std::fs::create_dir_all(&dir).unwrap();
+            a.save(dir.join("gpu_physics_scene_cpu.png")).unwrap();
+            b.save(dir.join("gpu_physics_scene_gpu.png")).unwrap();
+        }
+    }
+    let cpu_scale = cpu.fur(0).unwrap().scale_vectors;
+    let gpu_scale = r_gpu.packs()[0].fur.as_ref().unwrap().shell_scale_vectors(&g.device, &g.queue).unwrap();
+    let d = worst(cpu_scale, &gpu_scale);
+    let bent = worst(cpu_scale, &rest);
+    eprintln!("scene: scale vectors bent {bent:.3} from rest, GPU−CPU {d:.2e}, worst pixel difference {worst_px}/255");
+    assert!(bent > 0.02, "the wind bent the fur by {bent}");
+    assert!(d <= 2e-5, "GPU and CPU worlds' scale vectors differ by {d}");
+    assert!(worst_px <= 2, "the GPU world's frames differ from the CPU world's by {worst_px}/255");
+    // The world keeps no mass state for GPU packs, and says so.
+    let e = gpu_world.pack_state(0).unwrap_err().to_string();
+    assert!(e.contains("GPU"), "{e}");
+}
+
+#[test]
+fn a_scene_refuses_gpu_physics_it_cannot_run() {
+    // The implicit solver has no compute form: the world says so when it is built.
+    let dir = tempfile::tempdir().unwrap();
+    let e = furbake_runtime::World::new(sphere_scene(dir.path(), "implicit", "gpu")).unwrap_err().to_string();
+    assert!(e.contains("no compute form") && e.contains("implicit"), "{e}");
+}
+
+/// A scene of `n` furry spheres (entries of one pack, on a grid 3 m apart) in gravity and a
+/// gusting wind, their fur on `device` with the XPBD solver.
+fn crowd_scene(dir: &std::path::Path, n: usize, device: &str) -> furbake_runtime::Scene {
+    let _ = sphere_scene(dir, "xpbd", device); // bakes fur.fbk once
+    let side = (n as f32).sqrt().ceil() as usize;
+    let mut toml = format!(
+        "[solver]\nkind = \"xpbd\"\ndevice = \"{device}\"\n\n[effects.gravity]\n\n[effects.wind]\nvelocity_m_per_s = [4.0, 0.0, 0.0]\ngust_amplitude = 0.5\n"
+    );
+    for i in 0..n {
+        let (x, z) = ((i % side) as f32 * 3.0, (i / side) as f32 * 3.0);
+        toml += &format!("\n[[packs]]\nname = \"fur{i}\"\npath = \"fur.fbk\"\ntranslation = [{x}, 0.0, {z}]\n");
+    }
+    furbake_runtime::Scene::from_toml_str(&toml, std::path::Path::new("crowd.toml"), dir).unwrap()
+}
+
+#[test]
+#[ignore = "a measurement, not a check"]
+fn crowd_physics_frame_cost() {
+    // Per frame: the host's CPU time for furbake's part (World::step + prepare_world + render
+    // into the host's encoder) and the whole frame with its submission and wait, median of 20
+    // frames after 5 warm-up frames, for N spheres with CPU and with GPU physics. On lavapipe the
+    // "GPU" is the same CPU, so compare the host-time columns; the wall column is what a machine
+    // without a GPU pays in all.
+    use furbake_render::SceneRenderer;
+    use furbake_runtime::World;
+    use std::time::Instant;
+    let g = gpu();
+    let dir = tempfile::tempdir().unwrap();
+    let target = RenderTarget::new(&g.device, 320, 240).unwrap();
+    eprintln!("adapter: {} ({:?})", g.info.name, g.info.backend);
+    eprintln!("| spheres | physics | masses | host ms/frame | frame ms (submit + wait) |");
+    eprintln!("|---|---|---|---|---|");
+    for n in [1usize, 10, 50] {
+        for device in ["cpu", "gpu"] {
+            let mut world = World::new(crowd_scene(dir.path(), n, device)).unwrap();
+            let renderer = SceneRenderer::new(&g.device, &g.queue, &world).unwrap();
+            let masses: usize = (0..n).map(|i| world.pack_state(i).map_or(0, |s| s.mass_positions_m.len())).sum();
+            let view = renderer.world_view(&world);
+            let frame = view.uniforms(320, 240);
+            let (mut host, mut wall) = (Vec::new(), Vec::new());
+            for f in 0..25 {
+                let started = Instant::now();
+                world.step().unwrap();
+                let mut encoder = g.device.create_command_encoder(&Default::default());
+                renderer.prepare_world(&g.queue, &mut encoder, &world, &frame).unwrap();
+                {
+                    let mut pass = target.begin_pass(&mut encoder, "crowd", Some([0.0, 0.0, 0.0, 1.0]));
+                    renderer.render(&mut pass);
+                }
+                let hosted = started.elapsed();
+                g.queue.submit([encoder.finish()]);
+                g.device.poll(wgpu::PollType::wait_indefinitely()).unwrap();
+                if f >= 5 {
+                    host.push(hosted.as_secs_f64() * 1e3);
+                    wall.push(started.elapsed().as_secs_f64() * 1e3);
+                }
+            }
+            let median = |v: &mut Vec<f64>| {
+                v.sort_by(f64::total_cmp);
+                v[v.len() / 2]
+            };
+            let masses = match world.gpu_physics(0) {
+                Some(steps) => {
+                    let model = steps.compute_model().unwrap();
+                    let colours = model.xpbd.colour_start.len() - 1;
+                    format!("{} on the GPU ({colours} colours)", model.masses as usize * n)
+                }
+                None => masses.to_string(),
+            };
+            eprintln!("| {n} | {device} | {masses} | {:.2} | {:.2} |", median(&mut host), median(&mut wall));
+        }
+    }
+}

@@ -100,11 +100,14 @@ pub use frame::{
 pub use furbake_formats::Pack;
 pub use plan::{EntryMemory, WorldPlan};
 pub use scene::{
-    Ambient, Camera, Effect, Effects, Event, GrassCulling, Light, LightSource, Lighting, MAX_LIGHTS, RenderOptions,
-    Scene, SceneBuilder, SceneError, ScenePack, ShellBlendMode, Solver, SolverChoice,
+    Ambient, Camera, Effect, Effects, Event, GrassCulling, Light, LightSource, Lighting, MAX_LIGHTS, PhysicsDevice,
+    RenderOptions, Scene, SceneBuilder, SceneError, ScenePack, ShellBlendMode, Solver, SolverChoice,
 };
 pub use stages::{PlannedStage, StageKind, StageStats};
-pub use world::{FurFrame, GrassFrame, MAX_MASS_UPDATES_PER_STEP, PackState, ShellVertexLayout, World, WorldOptions};
+pub use world::{
+    FurFrame, GPU_PHYSICS_STEPS_KEPT, GpuPhysicsSteps, GrassFrame, MAX_MASS_UPDATES_PER_STEP, PackState,
+    ShellVertexLayout, World, WorldOptions,
+};
 
 /// Why a runtime operation failed.
 #[derive(Debug, thiserror::Error)]

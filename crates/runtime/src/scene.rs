@@ -269,11 +269,28 @@ pub enum SolverChoice {
     LocalGlobal,
 }
 
+/// Where a scene's fur physics runs (`[solver] device`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[serde(rename_all = "snake_case")]
+pub enum PhysicsDevice {
+    /// furbake-sim on the CPU, the scale vectors uploaded every frame.
+    #[default]
+    Cpu,
+    /// Compute passes the renderer records into the host's frame (furbake-render's
+    /// `GpuFurPhysics`): the explicit, stick and XPBD solvers on static skins; the World keeps
+    /// each step's forces for the renderer and leaves its own simulators at rest
+    /// (docs/design.md "Fur physics on the GPU").
+    Gpu,
+}
+
 /// The scene's `[solver]` table.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct Solver {
     /// Which solver. Default `auto`.
     pub kind: SolverChoice,
+    /// Where it runs. Default `cpu`.
+    pub device: PhysicsDevice,
     /// Jacobi sweeps per implicit step, in [1, 1000]; 1 is the fur thesis's method. Default 1.
     pub implicit_iterations: u32,
     /// Gauss–Seidel iterations per XPBD step, in [1, 1000]. Default 8.
@@ -287,6 +304,7 @@ impl Default for Solver {
         let sim = furbake_sim::SolverSettings::default();
         Solver {
             kind: SolverChoice::Auto,
+            device: PhysicsDevice::Cpu,
             implicit_iterations: 1,
             xpbd_iterations: sim.xpbd_iterations,
             local_global_iterations: sim.local_global_iterations,
@@ -304,6 +322,10 @@ struct SolverTable {
     /// Which solver. Default `auto`.
     #[serde(default)]
     kind: SolverChoice,
+    /// Where it runs: `cpu` or `gpu` (static skins; the explicit, stick and XPBD solvers).
+    /// Default `cpu`.
+    #[serde(default)]
+    device: PhysicsDevice,
     /// Jacobi sweeps per implicit step, in [1, 1000]; 1 is the fur thesis's method. Default 1.
     #[serde(default = "one_u32")]
     implicit_iterations: u32,
@@ -344,6 +366,7 @@ impl<'de> Deserialize<'de> for Solver {
         let d = Solver::default();
         Ok(Solver {
             kind: t.kind,
+            device: t.device,
             implicit_iterations: t.implicit_iterations,
             xpbd_iterations: t.xpbd_iterations.unwrap_or(d.xpbd_iterations),
             local_global_iterations: t.local_global_iterations.unwrap_or(d.local_global_iterations),

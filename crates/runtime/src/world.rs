@@ -18,8 +18,8 @@ use furbake_formats::sections::spring_topology::NO_MASS;
 use furbake_formats::{PackSections, check_consistency};
 use furbake_grass::{ForceField, ForceScene};
 use furbake_sim::{
-    ForceSet, FrameMotion, GuardSettings, SimError, Simulator, SkinMove, SkinTransform, SolverKind, SolverSettings,
-    StepStats, TopologyKind,
+    ComputeModel, ForceSet, FrameMotion, GuardSettings, SimError, Simulator, SkinMove, SkinTransform, SolverKind,
+    SolverSettings, StepStats, TopologyKind,
 };
 use glam::{Mat4, Vec3};
 use rayon::prelude::*;
@@ -27,7 +27,7 @@ use serde::Serialize;
 
 use crate::animation::Animator;
 use crate::frame::{self, ForcesOn, MeshFrame};
-use crate::scene::{Effect, Effects, Event, Scene, ScenePack};
+use crate::scene::{Effect, Effects, Event, PhysicsDevice, Scene, ScenePack};
 use crate::stages::{
     AUTO_ANIMATED_XPBD_ITERATIONS, NON_SEPARABLE_PREFERENCE, PackRole, PlannedStage, SEPARABLE_PREFERENCE, StageKind,
     StageStats, choose_solver, choose_topology,
@@ -132,6 +132,86 @@ struct FurSim {
     forces: ForceSet,
     last: StepStats,
     last_move: SkinMove,
+    /// With `[solver] device = "gpu"`: the steps' forces a renderer records (the simulator stays
+    /// at its start state).
+    gpu: Option<GpuSteps>,
+}
+
+/// How many steps a GPU-physics pack keeps for its renderer: a world may step this many times
+/// between two frames.
+pub const GPU_PHYSICS_STEPS_KEPT: usize = 16;
+
+/// The forces of a GPU-physics pack's latest steps, a ring of [`GPU_PHYSICS_STEPS_KEPT`].
+struct GpuSteps {
+    forces: Vec<ForceSet>,
+    dt_s: f64,
+    /// Steps taken since the start (step `n` is slot `n % GPU_PHYSICS_STEPS_KEPT`).
+    taken: u64,
+    stable_step_s: f64,
+    restoring_weight_n: f32,
+}
+
+impl GpuSteps {
+    fn push(&mut self, forces: &ForceSet) {
+        let slot = (self.taken % GPU_PHYSICS_STEPS_KEPT as u64) as usize;
+        // clone_from keeps the slot's list of local forces: no allocation once warm.
+        self.forces[slot].clone_from(forces);
+        self.taken += 1;
+    }
+}
+
+/// A pack whose fur physics runs on the GPU (`[solver] device = "gpu"`; [`World::gpu_physics`]):
+/// what its renderer needs to build the compute solver and record the steps the world took.
+#[derive(Clone, Copy)]
+pub struct GpuPhysicsSteps<'a> {
+    sim: &'a Simulator,
+    steps: &'a GpuSteps,
+    path: &'a std::path::Path,
+}
+
+impl std::fmt::Debug for GpuPhysicsSteps<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("GpuPhysicsSteps").field("taken", &self.steps.taken).finish()
+    }
+}
+
+impl<'a> GpuPhysicsSteps<'a> {
+    /// The solver's model and start state (`Simulator::compute_model`).
+    pub fn compute_model(&self) -> Result<ComputeModel, RuntimeError> {
+        self.sim.compute_model().map_err(|source| RuntimeError::Simulation { path: self.path.to_path_buf(), source })
+    }
+
+    /// The solver's stable step for the pack's restoring weight, seconds (infinite for XPBD).
+    pub fn stable_step_s(&self) -> f64 {
+        self.steps.stable_step_s
+    }
+
+    /// The most substeps a step may take.
+    pub fn max_substeps(&self) -> u32 {
+        self.sim.settings().max_substeps
+    }
+
+    /// The restoring weight every step's forces carry (the pack's scale at time 0), newtons.
+    pub fn restoring_weight_n(&self) -> f32 {
+        self.steps.restoring_weight_n
+    }
+
+    /// The world's time step, seconds.
+    pub fn dt_s(&self) -> f64 {
+        self.steps.dt_s
+    }
+
+    /// Steps the world has taken.
+    pub fn taken(&self) -> u64 {
+        self.steps.taken
+    }
+
+    /// The forces of step `n` (0-based), while the world keeps them (its last
+    /// [`GPU_PHYSICS_STEPS_KEPT`]); `None` before or after that.
+    pub fn forces(&self, n: u64) -> Option<&'a ForceSet> {
+        let kept = self.steps.taken.saturating_sub(GPU_PHYSICS_STEPS_KEPT as u64);
+        (n >= kept && n < self.steps.taken).then(|| &self.steps.forces[(n % GPU_PHYSICS_STEPS_KEPT as u64) as usize])
+    }
 }
 
 struct FurState {
@@ -365,9 +445,22 @@ impl World {
                 None => None,
             };
             let fur = if roles[i].fur {
-                let scale = MeshFrame::of(sp.model_at(0.0)).scale;
+                let frame0 = MeshFrame::of(sp.model_at(0.0));
                 let animated = sp.animation.is_some();
-                let mut fur = build_fur(&scene, &pack, planned(StageKind::FurSolver), animated, options, scale)?;
+                let mut fur = build_fur(&scene, &pack, planned(StageKind::FurSolver), animated, options, &frame0)?;
+                if fur.sim.as_ref().is_some_and(|s| s.gpu.is_some()) {
+                    let teleported =
+                        scene.events.iter().any(|e| matches!(e, Event::Teleport { pack, .. } if *pack == sp.name));
+                    if teleported {
+                        return Err(RuntimeError::Parameter {
+                            what: format!(
+                                "pack {:?}: a teleport event moves fur that [solver] device = \"gpu\" simulates; \
+                                 GPU physics does not teleport yet (use device = \"cpu\")",
+                                sp.name
+                            ),
+                        });
+                    }
+                }
                 if let Some(a) = &anim {
                     // The fur starts in the bind pose: the first pose is a cut (speed 0).
                     fur.follow(a, scene.time_step_s as f64, 0.0, &sp.path)?;
@@ -519,6 +612,15 @@ impl World {
         })
     }
 
+    /// The GPU side of pack `index` when its fur physics runs on the GPU (`[solver] device =
+    /// "gpu"`): the solver's model and the forces of the steps taken, for a renderer to record;
+    /// `None` for CPU physics or a pack without a simulation.
+    pub fn gpu_physics(&self, index: usize) -> Option<GpuPhysicsSteps<'_>> {
+        let p = self.packs.get(index)?;
+        let sim = p.fur.as_ref()?.sim.as_ref()?;
+        Some(GpuPhysicsSteps { sim: &sim.simulator, steps: sim.gpu.as_ref()?, path: &p.scene.path })
+    }
+
     /// The animation of pack `index` — clip, skinning matrices, morph weights, skinned positions
     /// and normals of the latest step; `None` when the scene gives the pack none.
     pub fn animation(&self, index: usize) -> Option<&Animator> {
@@ -533,7 +635,8 @@ impl World {
     }
 
     /// Pack `index`'s state in world space (see [`PackState`]); reads the skin mesh if no stage
-    /// has. Allocates: meant for reports, not for every frame.
+    /// has. Allocates: meant for reports, not for every frame. A pack whose fur physics runs on
+    /// the GPU has its state there: a [`RuntimeError::Parameter`].
     pub fn pack_state(&self, index: usize) -> Result<PackState, RuntimeError> {
         let p = &self.packs[index];
         let model = p.model_at(self.time_s);
@@ -555,6 +658,14 @@ impl World {
         state.scale_vectors =
             fur.scale_vectors.iter().map(|&s| (rotation * Vec3::from(s)).normalize_or_zero().to_array()).collect();
         let Some(sim) = &fur.sim else { return Ok(state) };
+        if sim.gpu.is_some() {
+            return Err(RuntimeError::Parameter {
+                what: format!(
+                    "pack {:?}: its fur physics runs on the GPU ([solver] device = \"gpu\"), so the world holds no mass state",
+                    p.scene.name
+                ),
+            });
+        }
         state.topology = Some(sim.topology.to_string());
         // World velocity of a mass: the frame's own velocity at that point plus the mass's
         // velocity relative to the frame, rotated and scaled into world units.
@@ -785,9 +896,16 @@ fn run_stage(p: &mut WorldPack, inputs: &StepInputs, kind: StageKind, t: f64, dt
             let path = &p.scene.path;
             let err = |source: SimError| RuntimeError::Simulation { path: path.clone(), source };
             sim.forces.restoring_weight_n = frame::restoring_weight(effects, &mesh_frame);
+            if let Some(gpu) = sim.gpu.as_mut() {
+                // The renderer steps the fur on the GPU with these forces.
+                sim.forces.validate().map_err(err)?;
+                gpu.push(&sim.forces);
+                return Ok(());
+            }
             sim.simulator.set_forces_from(&sim.forces).map_err(err)?;
             sim.last = sim.simulator.step(dt).map_err(err)?;
         }
+        StageKind::FurScaleVectors if sim.gpu.is_some() => {}
         StageKind::FurScaleVectors => {
             let path = &p.scene.path;
             let err = |source: SimError| RuntimeError::Simulation { path: path.clone(), source };
@@ -821,8 +939,9 @@ fn build_fur(
     simulate: bool,
     animated: bool,
     options: WorldOptions,
-    scale: f32,
+    frame0: &MeshFrame,
 ) -> Result<FurState, RuntimeError> {
+    let scale = frame0.scale;
     let mesh = pack.skin_mesh()?;
     let per_vertex: Vec<[f32; 3]> = mesh.normals.clone();
     if !simulate {
@@ -878,7 +997,11 @@ fn build_fur(
         ..defaults
     };
     let sim_err = |source| RuntimeError::Simulation { path: pack.display_path(), source };
-    let simulator = Simulator::new(&topology, settings).map_err(sim_err)?;
+    let mut simulator = Simulator::new(&topology, settings).map_err(sim_err)?;
+    let gpu = match scene.solver.device {
+        PhysicsDevice::Cpu => None,
+        PhysicsDevice::Gpu => Some(gpu_steps(scene, pack, &mut simulator, animated, frame0)?),
+    };
     // Every force stage overwrites its own term each step; a term without a stage stays off. The
     // restoring weight is set by the solver stage, in the mesh's units of its step.
     let forces = ForceSet::none();
@@ -893,12 +1016,45 @@ fn build_fur(
             forces,
             last: StepStats::default(),
             last_move: SkinMove::default(),
+            gpu,
         }),
         scale_vectors,
         rest,
         layout,
         shell_transforms: vec![SkinTransform::IDENTITY; corner_vertices.len()],
         corner_vertices,
+    })
+}
+
+/// The GPU side of a simulated pack (`[solver] device = "gpu"`): refused for an animated skin and
+/// for solvers without a compute form; the stable step at the restoring weight of time 0.
+fn gpu_steps(
+    scene: &Scene,
+    pack: &Pack,
+    simulator: &mut Simulator,
+    animated: bool,
+    frame0: &MeshFrame,
+) -> Result<GpuSteps, RuntimeError> {
+    let path = pack.display_path();
+    if animated {
+        return Err(RuntimeError::Parameter {
+            what: format!(
+                "{}: [solver] device = \"gpu\" needs a static skin and this pack plays an animation \
+                 (GPU physics does not pose skins yet; use device = \"cpu\")",
+                path.display()
+            ),
+        });
+    }
+    let err = |source| RuntimeError::Simulation { path: path.clone(), source };
+    simulator.compute_model().map_err(err)?;
+    let restoring_weight_n = frame::restoring_weight(&scene.effects, frame0);
+    simulator.set_forces(ForceSet { restoring_weight_n, ..ForceSet::none() }).map_err(err)?;
+    Ok(GpuSteps {
+        forces: vec![ForceSet::none(); GPU_PHYSICS_STEPS_KEPT],
+        dt_s: scene.time_step_s as f64,
+        taken: 0,
+        stable_step_s: simulator.stable_step_s(),
+        restoring_weight_n,
     })
 }
 
