@@ -82,6 +82,15 @@ pub fn run(args: SimulateArgs, quiet: bool) -> Result<(), Failure> {
     let plan = plan_world(scene, path, wants_report)?;
     check_memory_budget(&plan, path, args.state_out.is_some(), args.max_memory)?;
     let mut world = plan.build().map_err(|e| failure::runtime(e, path))?;
+    if let Some(i) = (0..world.pack_count()).find(|&i| world.gpu_physics(i).is_some()) {
+        return Err(Failure::Usage(anyhow!(
+            "{}: pack {:?} runs its fur physics on the GPU ([solver] device = \"gpu\"), and simulate runs on the \
+             CPU only; write device = \"cpu\" to simulate it here, or run the scene with `furbake preview` or \
+             `furbake view`, which step it on the GPU",
+            path.display(),
+            world.scene().packs()[i].name
+        )));
+    }
     // The report streams — its head, each step record as it is taken, then its tail — into the
     // -o file (named only once the run succeeds) and to stdout with --json; nothing is kept.
     let head = ReportHead {

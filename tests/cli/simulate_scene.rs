@@ -276,3 +276,18 @@ fn simulate_streams_its_report() {
     let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
     assert!(!names.iter().any(|n| n.to_string_lossy().ends_with(".tmp")), "{names:?}");
 }
+
+#[test]
+fn simulate_refuses_a_scene_whose_physics_runs_on_the_gpu() {
+    // `simulate` has no GPU: a scene with `[solver] device = "gpu"` is a usage error (exit 2)
+    // that says how to run it, and writes nothing.
+    let dir = tempfile::tempdir().unwrap();
+    bake_patch(dir.path());
+    let scene = write_scene(dir.path(), "gpu.toml", "[solver]\nkind = \"xpbd\"\ndevice = \"gpu\"\n[effects.gravity]\n");
+    let report = dir.path().join("report.json");
+    let out = furbake(&["simulate", s(&scene), "--frames", "3", "-o", s(&report)]);
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    let e = stderr(&out);
+    assert!(e.contains("\"patch\"") && e.contains("device = \"cpu\"") && e.contains("furbake preview"), "{e}");
+    assert!(!report.exists());
+}
