@@ -17,16 +17,21 @@ use furbake_sim::{
     ForceSet, FrameMotion, LocalForce, Simulator, SolverKind, SolverSettings, SpringTopology, WindForce,
 };
 
-/// A unit sphere with 0.15 m fur and the named topology.
-fn sphere(topology: &str) -> (FurAsset, SpringTopology) {
+/// A 12×16 unit UV sphere baked with 8 layers of 32², fur `fur_m` long and the named topology.
+fn baked_sphere(topology: &str, fur_m: f32) -> furbake_bake::BakedPack {
     let gltf = testmesh::uv_sphere(12, 16, 1.0).gltf;
     let imported = import_gltf_slice(&gltf, "sphere.gltf", None, &ImportSettings::default()).unwrap();
     let mut settings = BakeSettings::preset("fur").unwrap();
     settings.volume.layers = 8;
     settings.volume.resolution = 32;
-    settings.shells.fur_length_m = Some(0.15);
+    settings.shells.fur_length_m = Some(fur_m);
     settings.topologies = vec![topology.into()];
-    let mut baked = bake(&imported, "sphere.gltf", &settings.plan().unwrap(), &mut NoProgress).unwrap();
+    bake(&imported, "sphere.gltf", &settings.plan().unwrap(), &mut NoProgress).unwrap()
+}
+
+/// A unit sphere with 0.15 m fur and the named topology.
+fn sphere(topology: &str) -> (FurAsset, SpringTopology) {
+    let mut baked = baked_sphere(topology, 0.15);
     let topology = baked.topologies.pop().expect("the topology was asked for");
     let asset = FurAsset::new(Arc::new(baked.mesh), Arc::new(baked.shells), Arc::new(baked.uv_map), None).unwrap();
     (asset, topology)
@@ -197,15 +202,7 @@ fn several_steps_in_one_record_are_the_steps_one_by_one() {
 /// gusting wind, its fur on `device` with the XPBD solver, seen from +Z.
 fn sphere_scene(dir: &std::path::Path, kind: &str, device: &str) -> furbake_runtime::Scene {
     if !dir.join("fur.fbk").exists() {
-        let gltf = testmesh::uv_sphere(12, 16, 1.0).gltf;
-        let imported = import_gltf_slice(&gltf, "sphere.gltf", None, &ImportSettings::default()).unwrap();
-        let mut settings = BakeSettings::preset("fur").unwrap();
-        settings.volume.layers = 8;
-        settings.volume.resolution = 32;
-        settings.shells.fur_length_m = Some(0.25);
-        settings.topologies = vec!["prisms".into()];
-        let baked = bake(&imported, "sphere", &settings.plan().unwrap(), &mut NoProgress).unwrap();
-        baked.to_writer().write_atomic(&dir.join("fur.fbk")).unwrap();
+        baked_sphere("prisms", 0.25).to_writer().write_atomic(&dir.join("fur.fbk")).unwrap();
     }
     let toml = format!(
         r#"
