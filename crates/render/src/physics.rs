@@ -164,6 +164,45 @@ pub struct GpuFurPhysics {
     scratch_bytes: Vec<u8>,
     /// XPBD's part (XPBD models only).
     xpbd: Option<Xpbd>,
+    /// Steps and substeps of the last record.
+    last_record: (u32, u32),
+    /// The statistics readback ([`GpuFurPhysics::request_stats`]).
+    stats_readback: StatsReadback,
+}
+
+/// What one record of the GPU physics counted ([`GpuFurPhysics::poll_stats`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct GpuPhysicsStats {
+    /// Steps recorded.
+    pub steps: u32,
+    /// Substeps over those steps.
+    pub substeps: u32,
+    /// Free masses whose new position or velocity was not finite, summed over the substeps (the
+    /// CPU simulator refuses such a step; on the GPU the host decides: rebuild from a simulator).
+    pub non_finite: u32,
+    /// Tips the wrong-side guard froze afresh (and kicked), summed over the steps.
+    pub guard_triggers: u32,
+    /// Tips frozen after each step, summed over the steps (the CPU's `frozen_scale_vectors` of a
+    /// one-step record).
+    pub frozen: u32,
+}
+
+/// The counters' way back to the host, without waiting: copied into `buffer` by a request,
+/// mapped at the first poll after the host's submission, read at a later poll.
+struct StatsReadback {
+    buffer: wgpu::Buffer,
+    state: StatsState,
+    /// Set by the mapping's callback (1 mapped, 2 failed).
+    mapped: std::sync::Arc<std::sync::atomic::AtomicU8>,
+    /// The record the copy belongs to.
+    record: (u32, u32),
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+enum StatsState {
+    Idle,
+    Copied,
+    Mapping,
 }
 
 impl FurRenderer {
@@ -414,6 +453,18 @@ impl GpuFurPhysics {
                 current: 0,
                 scratch: Vec::with_capacity(steps_capacity as usize),
                 scratch_bytes: Vec::with_capacity(steps_capacity as usize * STEP_STRIDE as usize),
+                last_record: (0, 0),
+                stats_readback: StatsReadback {
+                    buffer: device.create_buffer(&wgpu::BufferDescriptor {
+                        label: Some("furbake physics counters readback"),
+                        size: 16,
+                        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+                        mapped_at_creation: false,
+                    }),
+                    state: StatsState::Idle,
+                    mapped: Default::default(),
+                    record: (0, 0),
+                },
             })
         })
     }
@@ -549,7 +600,66 @@ impl GpuFurPhysics {
             }
         }
         self.time_s = t;
+        self.last_record = (steps, total);
         Ok(total)
+    }
+
+    /// Asks for the counters of the last record ([`GpuPhysicsStats`]): records their copy into
+    /// `encoder` (after the record, in the same or a later encoder). Then, after the host has
+    /// submitted it, [`GpuFurPhysics::poll_stats`] hands them over once the GPU is done. False
+    /// (nothing recorded) while an earlier request is still on its way.
+    pub fn request_stats(&mut self, encoder: &mut wgpu::CommandEncoder) -> bool {
+        let r = &mut self.stats_readback;
+        if r.state != StatsState::Idle {
+            return false;
+        }
+        encoder.copy_buffer_to_buffer(&self.stats, 0, &r.buffer, 0, 16);
+        r.state = StatsState::Copied;
+        r.record = self.last_record;
+        true
+    }
+
+    /// The counters [`GpuFurPhysics::request_stats`] asked for, once the GPU has written them;
+    /// `None` until then (and without a request). Never waits: the first call after the host's
+    /// submission starts the mapping, and the host's own device polling (its next frame's submit
+    /// or `Device::poll`) completes it. A failed mapping is a [`RenderError::Gpu`].
+    pub fn poll_stats(&mut self) -> Result<Option<GpuPhysicsStats>, RenderError> {
+        use std::sync::atomic::Ordering;
+        let r = &mut self.stats_readback;
+        match r.state {
+            StatsState::Idle => Ok(None),
+            StatsState::Copied => {
+                r.mapped.store(0, Ordering::Release);
+                let flag = r.mapped.clone();
+                r.buffer.slice(..).map_async(wgpu::MapMode::Read, move |res| {
+                    flag.store(if res.is_ok() { 1 } else { 2 }, Ordering::Release);
+                });
+                r.state = StatsState::Mapping;
+                Ok(None)
+            }
+            StatsState::Mapping => match r.mapped.load(Ordering::Acquire) {
+                0 => Ok(None),
+                1 => {
+                    let read =
+                        r.buffer.slice(..).get_mapped_range().map(|view| bytemuck::pod_read_unaligned(&view[..16]));
+                    r.buffer.unmap();
+                    r.state = StatsState::Idle;
+                    let c: [u32; 4] =
+                        read.map_err(|e| RenderError::Gpu { what: format!("GPU physics counters: {e}") })?;
+                    Ok(Some(GpuPhysicsStats {
+                        steps: r.record.0,
+                        substeps: r.record.1,
+                        non_finite: c[0],
+                        guard_triggers: c[1],
+                        frozen: c[2],
+                    }))
+                }
+                _ => {
+                    r.state = StatsState::Idle;
+                    Err(RenderError::Gpu { what: "mapping the GPU physics counters failed".into() })
+                }
+            },
+        }
     }
 
     /// The uniforms of one record as bytes, each substep at its stride (reusing the scratch's

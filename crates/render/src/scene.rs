@@ -36,8 +36,8 @@ use crate::shaders::FrameUniforms;
 use crate::target::RenderTarget;
 use crate::upload::{FrameUpload, Upload};
 use crate::{
-    BladeForces, BladeRenderSettings, BladeRenderer, FurAsset, FurGpuAsset, FurRenderer, GpuFurPhysics, PipelineCache,
-    RenderError, RenderSettings, TargetDesc, View,
+    BladeForces, BladeRenderSettings, BladeRenderer, FurAsset, FurGpuAsset, FurRenderer, GpuFurPhysics,
+    GpuPhysicsStats, PipelineCache, RenderError, RenderSettings, TargetDesc, View,
 };
 
 /// The fixed GPU (or, on lavapipe, host) memory of one fur or blade renderer beyond its data —
@@ -646,6 +646,35 @@ impl SceneRenderer {
             slot.recorded = steps.taken();
         }
         Ok(())
+    }
+
+    /// Asks every pack whose fur physics runs on the GPU for the counters of its last record
+    /// ([`GpuFurPhysics::request_stats`]), recording their copies into `encoder` (after this
+    /// frame's `prepare_world`); [`SceneRenderer::poll_gpu_physics_stats`] hands them over once
+    /// the host's submission is done. Returns how many packs were asked (a pack whose earlier
+    /// request is still on its way is not).
+    pub fn request_gpu_physics_stats(&self, encoder: &mut wgpu::CommandEncoder) -> usize {
+        let mut asked = 0;
+        for slot in self.physics.iter().flatten() {
+            let mut slot = slot.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+            if let Some(physics) = slot.physics.as_mut() {
+                asked += physics.request_stats(encoder) as usize;
+            }
+        }
+        asked
+    }
+
+    /// Pack `index`'s GPU physics counters asked for by
+    /// [`SceneRenderer::request_gpu_physics_stats`], once the GPU has written them; `None` until
+    /// then, without a request, or for a pack whose physics is not on the GPU. Never waits
+    /// ([`GpuFurPhysics::poll_stats`]).
+    pub fn poll_gpu_physics_stats(&self, index: usize) -> Result<Option<GpuPhysicsStats>, RenderError> {
+        let Some(Some(slot)) = self.physics.get(index) else { return Ok(None) };
+        let mut slot = slot.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        match slot.physics.as_mut() {
+            Some(physics) => physics.poll_stats(),
+            None => Ok(None),
+        }
     }
 
     /// [`SceneRenderer::prepare_world`] with explicit inputs: `inputs[i]` belongs to `packs[i]`

@@ -277,6 +277,15 @@ fn a_scene_runs_its_fur_physics_on_the_gpu() {
     assert!(bent > 0.02, "the wind bent the fur by {bent}");
     assert!(d <= 2e-5, "GPU and CPU worlds' scale vectors differ by {d}");
     assert!(worst_px <= 2, "the GPU world's frames differ from the CPU world's by {worst_px}/255");
+    // Its counters on request: the scene's one pack, no frozen tip in this breeze.
+    let mut encoder = g.device.create_command_encoder(&Default::default());
+    assert_eq!(r_gpu.request_gpu_physics_stats(&mut encoder), 1);
+    g.queue.submit([encoder.finish()]);
+    assert_eq!(r_gpu.poll_gpu_physics_stats(0).unwrap(), None);
+    g.device.poll(wgpu::PollType::wait_indefinitely()).unwrap();
+    let stats = r_gpu.poll_gpu_physics_stats(0).unwrap().expect("mapped");
+    assert_eq!((stats.steps, stats.non_finite), (3, 0), "{stats:?}");
+    assert_eq!(r_cpu.poll_gpu_physics_stats(0).unwrap(), None, "CPU physics has no GPU counters");
     // The world keeps no mass state for GPU packs, and says so.
     let e = gpu_world.pack_state(0).unwrap_err().to_string();
     assert!(e.contains("GPU"), "{e}");
@@ -362,4 +371,42 @@ fn crowd_physics_frame_cost() {
             eprintln!("| {n} | {device} | {masses} | {:.2} | {:.2} |", median(&mut host), median(&mut wall));
         }
     }
+}
+
+#[test]
+fn statistics_come_back_when_asked_without_waiting() {
+    // The counters of a record come back through request_stats + poll_stats: nothing before the
+    // host's submission and its device polling, then exactly what the GPU counted, as the CPU
+    // counts them (the hard push freezes tips).
+    let g = gpu();
+    let (asset, topo) = sphere("sticks");
+    let renderer =
+        FurRenderer::new(g.pipelines(), &g.queue, &asset, &RenderSettings::default(), &RenderTarget::desc()).unwrap();
+    let mut sim = Simulator::new(&topo, SolverSettings::of(SolverKind::Stick)).unwrap();
+    sim.set_forces(forces(0.5)).unwrap();
+    let model = sim.compute_model().unwrap();
+    let mut physics = renderer
+        .gpu_physics(&g.device, &g.queue, &model, &forces(0.5), sim.stable_step_s(), sim.settings().max_substeps)
+        .unwrap();
+    assert_eq!(physics.poll_stats().unwrap(), None, "nothing was asked for");
+    let mut cpu = None;
+    for step in 0..60 {
+        let stats = sim.step(1.0 / 60.0).unwrap();
+        let mut encoder = g.device.create_command_encoder(&Default::default());
+        physics.record(&g.device, &g.queue, &mut encoder, 1.0 / 60.0).unwrap();
+        if step == 59 {
+            assert!(physics.request_stats(&mut encoder));
+            assert!(!physics.request_stats(&mut encoder), "one request at a time");
+            cpu = Some(stats);
+        }
+        g.queue.submit([encoder.finish()]);
+    }
+    assert_eq!(physics.poll_stats().unwrap(), None, "the first poll only starts the mapping");
+    g.device.poll(wgpu::PollType::wait_indefinitely()).unwrap();
+    let got = physics.poll_stats().unwrap().expect("mapped once the device was polled");
+    let cpu = cpu.unwrap();
+    assert_eq!((got.steps, got.substeps), (1, cpu.substeps));
+    assert_eq!((got.non_finite, got.guard_triggers, got.frozen), (0, cpu.guard_triggers, cpu.frozen_scale_vectors));
+    assert!(got.frozen > 0, "the push froze no tip");
+    assert_eq!(physics.poll_stats().unwrap(), None, "handed over once");
 }
