@@ -34,6 +34,10 @@ struct PhysicsStep {
 struct PhysicsMass {
     // the restoring link's rest direction (xyz) and rest length (w, m)
     restoring_n: vec4<f32>,
+    // this mass's rest position (xyz; the wind's phase, the stick fallback)
+    rest_pos: vec4<f32>,
+    // the anchored stick parent's position (xyz)
+    stick_anchor: vec4<f32>,
     mass: f32,
     inv_mass: f32,
     links_start: u32,
@@ -54,6 +58,8 @@ struct PhysicsLink {
 struct PhysicsTip {
     // the rest direction (xyz)
     n: vec4<f32>,
+    // the anchored root's position (xyz)
+    root_pos: vec4<f32>,
     root: u32,
     tip: u32,
     pad0: u32,
@@ -65,7 +71,6 @@ struct PhysicsTip {
 @group(0) @binding(2) var<storage, read> v_in: array<vec4<f32>>;
 @group(0) @binding(3) var<storage, read_write> x_out: array<vec4<f32>>;
 @group(0) @binding(4) var<storage, read_write> v_out: array<vec4<f32>>;
-@group(0) @binding(5) var<storage, read> rest: array<vec4<f32>>;
 @group(0) @binding(6) var<storage, read> masses: array<PhysicsMass>;
 @group(0) @binding(7) var<storage, read> links: array<PhysicsLink>;
 // non-finite masses, guard triggers, frozen tips (read back only when asked for)
@@ -77,7 +82,8 @@ fn finite3(v: vec3<f32>) -> bool {
 }
 
 // The external forces on free mass k (crates/sim/src/forces.rs ForceEval::external).
-fn external_force(k: u32, m: f32, x: vec3<f32>, v: vec3<f32>) -> vec3<f32> {
+fn external_force(pm: PhysicsMass, x: vec3<f32>, v: vec3<f32>) -> vec3<f32> {
+    let m = pm.mass;
     var f = step.accel.xyz * m;
     if step.flags.z != 0u {
         let w = step.omega.xyz;
@@ -86,7 +92,7 @@ fn external_force(k: u32, m: f32, x: vec3<f32>, v: vec3<f32>) -> vec3<f32> {
     }
     if step.wind.w != 0.0 {
         let d = step.wind_dir.xyz;
-        let phase = TAU * (step.wind.y * step.omega.w - dot(d, rest[k].xyz) * step.wind.z);
+        let phase = TAU * (step.wind.y * step.omega.w - dot(d, pm.rest_pos.xyz) * step.wind.z);
         f = f + d * (step.wind_dir.w * (1.0 + step.wind.x * sin(phase)));
     }
     for (var i = 0u; i < min(step.counts.w, LOCALS); i++) {
@@ -118,11 +124,11 @@ fn restoring_force(m: PhysicsMass, xi: vec3<f32>) -> vec3<f32> {
 
 // Puts a free mass back at its stick's length from its anchored parent and removes its velocity
 // along the stick (crates/sim/src/solvers/projection.rs).
-fn project_on_stick(k: u32, m: PhysicsMass, x: ptr<function, vec3<f32>>, v: ptr<function, vec3<f32>>) {
-    let xp = rest[m.stick_parent].xyz;
+fn project_on_stick(m: PhysicsMass, x: ptr<function, vec3<f32>>, v: ptr<function, vec3<f32>>) {
+    let xp = m.stick_anchor.xyz;
     var e = *x - xp;
     if dot(e, e) == 0.0 {
-        e = rest[k].xyz - xp;
+        e = m.rest_pos.xyz - xp;
     }
     let dir = normalize(e);
     *x = xp + dir * m.stick_len;
@@ -150,7 +156,7 @@ fn cs_step(@builtin(global_invocation_id) gid: vec3<u32>) {
         let t = l.k * (1.0 - l.rest / max(length(d), 1e-20));
         fl = fl + fma(d, vec3<f32>(t), dv * l.c);
     }
-    let f = (external_force(k, m.mass, xi, vi) + restoring_force(m, xi)) + fl;
+    let f = (external_force(m, xi, vi) + restoring_force(m, xi)) + fl;
     let s = h * m.inv_mass;
     var vn = vi + f * s;
     if step.flags.x == 1u && m.stick_parent != NO_LINK {
@@ -166,7 +172,7 @@ fn write_state(k: u32, m: PhysicsMass, x: vec3<f32>, v: vec3<f32>) {
     var xn = x;
     var vn = v;
     if step.flags.y != 0u && m.stick_parent != NO_LINK {
-        project_on_stick(k, m, &xn, &vn);
+        project_on_stick(m, &xn, &vn);
     }
     if !(finite3(xn) && finite3(vn)) {
         atomicAdd(&stats[0], 1u);
@@ -175,40 +181,15 @@ fn write_state(k: u32, m: PhysicsMass, x: vec3<f32>, v: vec3<f32>) {
     v_out[k] = vec4<f32>(vn, 0.0);
 }
 
-// XPBD, 1. predict: the displacement h (v + Δv) under the external and restoring forces at the
-// step's start, the restoring stiffness 2w/L on the diagonal; kept in v_out until the end.
-@compute @workgroup_size(64)
-fn cs_xpbd_predict(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let k = gid.x;
-    if k >= step.counts.x {
-        return;
-    }
-    let m = masses[k];
-    let xi = x_in[k].xyz;
-    let vi = v_in[k].xyz;
-    let h = step.accel.w;
-    let w = step.alpha.w;
-    let f = external_force(k, m.mass, xi, vi) + restoring_force(m, xi);
-    var kr = 0.0;
-    var vp = vec3<f32>(0.0);
-    if m.restoring_parent != NO_LINK && w != 0.0 {
-        kr = 2.0 * w / max(m.restoring_n.w, 1e-3);
-        vp = v_in[m.restoring_parent].xyz;
-    }
-    let dv = (f - (vi - vp) * (h * kr)) * (h / (m.mass + h * h * kr));
-    v_out[k] = vec4<f32>((vi + dv) * h, 0.0);
-}
-
-// XPBD, 3. the new state x + Δx, velocity Δx/h, then the stick projection.
-@compute @workgroup_size(64)
-fn cs_xpbd_finish(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let k = gid.x;
-    if k >= step.counts.x {
-        return;
-    }
-    let d = v_out[k].xyz;
-    write_state(k, masses[k], x_in[k].xyz + d, d * (1.0 / step.accel.w));
-}
+// XPBD (crates/sim/src/solvers/xpbd.rs), one step of one pack in one workgroup: the
+// multipliers to zero; 1. predict the displacement h (v + Δv) under the external and restoring
+// forces at the step's start (the restoring stiffness 2w/L on the diagonal), kept in v_out;
+// 2. `iterations` symmetric Gauss–Seidel sweeps, colour by colour up and back down, each colour's
+// links projected in parallel (within a colour no free mass has two links) with a barrier
+// between colours; 3. the new state x + Δx, velocity Δx/h and the stick projection. The same
+// arithmetic in the same colour order as the CPU's sweep, so one dispatch replaces a dispatch per
+// colour.
+const XPBD_THREADS: u32 = 256u;
 
 struct PhysicsXpbdLink {
     a: u32,
@@ -222,29 +203,27 @@ struct PhysicsXpbdLink {
     pad0: f32,
 }
 
-struct PhysicsXpbdPass {
-    // this colour's first link, one past its last, the free masses, unused
-    range: vec4<u32>,
-    // x: the step h (s)
-    h: vec4<f32>,
+struct PhysicsColours {
+    // colours, iterations, links, unused
+    count: vec4<u32>,
+    // colour c's links start at starts[c / 4][c % 4] (colours + 1 entries)
+    starts: array<vec4<u32>, 16>,
 }
 
-@group(0) @binding(9) var<uniform> xpbd_pass: PhysicsXpbdPass;
 @group(0) @binding(10) var<storage, read> xpbd_links: array<PhysicsXpbdLink>;
-// per link: the damper's multiplier (xyz) and the distance multiplier (w), zero at each step's start
+// per link: the damper's multiplier (xyz) and the distance multiplier (w)
 @group(0) @binding(11) var<storage, read_write> xpbd_lambda: array<vec4<f32>>;
+@group(0) @binding(12) var<uniform> xpbd_colours: PhysicsColours;
 
-// XPBD, 2. project one colour's links (distance, then damper) on the displacements in v_out;
-// within a colour no free mass has two links, so the invocations touch disjoint masses.
-@compute @workgroup_size(64)
-fn cs_xpbd_links(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let i = xpbd_pass.range.x + gid.x;
-    if i >= xpbd_pass.range.y {
-        return;
-    }
+fn colour_start(c: u32) -> u32 {
+    return xpbd_colours.starts[c / 4u][c % 4u];
+}
+
+// One link projected (distance, then damper) on the displacements in v_out.
+fn xpbd_link(i: u32, h: f32) {
     let l = xpbd_links[i];
-    let h = xpbd_pass.h.x;
-    let free_b = l.b < xpbd_pass.range.z;
+    // An anchored end has zero inverse mass.
+    let free_b = l.wb != 0.0;
     var da = v_out[l.a].xyz;
     var db = vec3<f32>(0.0);
     if free_b {
@@ -283,6 +262,48 @@ fn cs_xpbd_links(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
 }
 
+@compute @workgroup_size(256)
+fn cs_xpbd_step(@builtin(local_invocation_index) lid: u32) {
+    let free = step.counts.x;
+    let h = step.accel.w;
+    let w = step.alpha.w;
+    for (var i = lid; i < xpbd_colours.count.z; i += XPBD_THREADS) {
+        xpbd_lambda[i] = vec4<f32>(0.0);
+    }
+    for (var k = lid; k < free; k += XPBD_THREADS) {
+        let m = masses[k];
+        let xi = x_in[k].xyz;
+        let vi = v_in[k].xyz;
+        let f = external_force(m, xi, vi) + restoring_force(m, xi);
+        var kr = 0.0;
+        var vp = vec3<f32>(0.0);
+        if m.restoring_parent != NO_LINK && w != 0.0 {
+            kr = 2.0 * w / max(m.restoring_n.w, 1e-3);
+            vp = v_in[m.restoring_parent].xyz;
+        }
+        let dv = (f - (vi - vp) * (h * kr)) * (h / (m.mass + h * h * kr));
+        v_out[k] = vec4<f32>((vi + dv) * h, 0.0);
+    }
+    storageBarrier();
+    let colours = xpbd_colours.count.x;
+    if colours > 0u {
+        for (var it = 0u; it < xpbd_colours.count.y; it++) {
+            for (var s = 0u; s < 2u * colours - 1u; s++) {
+                // Out along the hairs, then back.
+                let c = select(2u * colours - 2u - s, s, s < colours);
+                for (var i = colour_start(c) + lid; i < colour_start(c + 1u); i += XPBD_THREADS) {
+                    xpbd_link(i, h);
+                }
+                storageBarrier();
+            }
+        }
+    }
+    for (var k = lid; k < free; k += XPBD_THREADS) {
+        let d = v_out[k].xyz;
+        write_state(k, masses[k], x_in[k].xyz + d, d * (1.0 / h));
+    }
+}
+
 // The guard's pass over the tips, after the last substep (bindings of group 1).
 @group(1) @binding(0) var<storage, read> tips: array<PhysicsTip>;
 // per tip: the scale vector (xyz) and frozen (w = 1)
@@ -301,7 +322,7 @@ fn cs_guard(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let t = tips[i];
-    let e = x_out[t.tip].xyz - rest[t.root].xyz;
+    let e = x_out[t.tip].xyz - t.root_pos.xyz;
     let rcp = 1.0 / sqrt(dot(e, e));
     let ok = rcp > 0.0 && rcp <= 3.4028235e38;
     let sn = e * rcp;

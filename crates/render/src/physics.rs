@@ -1,5 +1,5 @@
 //! Fur physics on the GPU: the explicit and stick mass–spring solvers (fur thesis §3.3.2,
-//! eq. 3.20–3.25; §3.4.1) and XPBD (edge-coloured Gauss–Seidel, one dispatch per colour), the
+//! eq. 3.20–3.25; §3.4.1) and XPBD (edge-coloured Gauss–Seidel, a whole step in one workgroup), the
 //! wrong-side guard (§3.4.3) and the scale vectors (eq. 3.35) as
 //! compute passes (`shaders/fur_physics.wgsl`) over the flat model a CPU
 //! [`furbake_sim::Simulator`] hands over ([`furbake_sim::ComputeModel`]), recorded into the host's
@@ -23,8 +23,6 @@ use crate::{FurRenderer, RenderError};
 pub const MAX_LOCAL_FORCES: usize = 16;
 /// Bytes between substeps' uniforms (a multiple of every adapter's uniform offset alignment).
 const STEP_STRIDE: u64 = 768;
-/// Bytes between XPBD colours' uniforms.
-const PASS_STRIDE: u64 = 256;
 const WORKGROUP: u32 = 64;
 
 /// One substep's uniforms (`PhysicsStep` in `fur_physics.wgsl`).
@@ -47,6 +45,8 @@ pub(crate) struct PhysicsStep {
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 pub(crate) struct PhysicsMass {
     restoring_n: [f32; 4],
+    rest_pos: [f32; 4],
+    stick_anchor: [f32; 4],
     mass: f32,
     inv_mass: f32,
     links_start: u32,
@@ -81,28 +81,22 @@ pub(crate) struct PhysicsXpbdLink {
     pad0: f32,
 }
 
-/// One XPBD colour's pass (`PhysicsXpbdPass`).
+/// XPBD's colouring (`PhysicsColours`): colours, iterations, links, and where each colour starts.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
-pub(crate) struct PhysicsXpbdPass {
-    range: [u32; 4],
-    h: [f32; 4],
+pub(crate) struct PhysicsColours {
+    count: [u32; 4],
+    starts: [[u32; 4]; 16],
 }
+
+/// The most colours the XPBD kernel's uniform holds (`PhysicsColours::starts` has one more entry).
+pub const MAX_XPBD_COLOURS: usize = 63;
 
 /// XPBD's buffers and bind groups.
 struct Xpbd {
-    iterations: u32,
-    /// Colour `i` is links `colour_start[i]..colour_start[i + 1]`.
-    colour_start: Vec<u32>,
-    lambda: wgpu::Buffer,
-    passes: wgpu::Buffer,
-    /// `bind[i]` reads state `i` and iterates the displacement in velocity buffer `1 − i`.
+    /// `bind[i]` steps state `i` into `1 − i`.
     bind: [wgpu::BindGroup; 2],
-    predict: wgpu::ComputePipeline,
-    links: wgpu::ComputePipeline,
-    finish: wgpu::ComputePipeline,
-    /// The passes' uniforms of one record, reused.
-    scratch: Vec<u8>,
+    pipeline: wgpu::ComputePipeline,
 }
 
 /// One tip (`PhysicsTip`).
@@ -110,6 +104,7 @@ struct Xpbd {
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 pub(crate) struct PhysicsTip {
     n: [f32; 4],
+    root_pos: [f32; 4],
     root: u32,
     tip: u32,
     pad0: u32,
@@ -146,7 +141,6 @@ pub struct GpuFurPhysics {
     steps_capacity: u32,
     state_layout: wgpu::BindGroupLayout,
     final_layout: wgpu::BindGroupLayout,
-    rest: wgpu::Buffer,
     mass_buffer: wgpu::Buffer,
     links: wgpu::Buffer,
     /// `state.step[i]` reads buffers `i` and writes `1 − i`; `state.last[i]` is the final state in
@@ -267,10 +261,14 @@ impl GpuFurPhysics {
         };
         let positions = padded(model.positions.iter().map(|&p| v4(p, 0.0)).collect());
         let velocities = padded(model.velocities.iter().map(|&p| v4(p, 0.0)).collect());
-        let rest = padded(model.rest.iter().map(|&p| v4(p, 0.0)).collect());
         let mut masses: Vec<PhysicsMass> = (0..nf)
             .map(|k| PhysicsMass {
                 restoring_n: v4(model.restoring_n[k], model.restoring_len[k]),
+                rest_pos: v4(model.rest[k], 0.0),
+                stick_anchor: match model.stick_parent[k] {
+                    NO_LINK => [0.0; 4],
+                    p => v4(model.rest[p as usize], 0.0),
+                },
                 mass: model.mass[k],
                 inv_mass: 1.0 / model.mass[k],
                 links_start: model.links_start[k],
@@ -296,7 +294,14 @@ impl GpuFurPhysics {
         let mut tips: Vec<PhysicsTip> = model
             .tips
             .iter()
-            .map(|t| PhysicsTip { n: v4(t.n, 0.0), root: t.root, tip: t.tip, pad0: 0, pad1: 0 })
+            .map(|t| PhysicsTip {
+                n: v4(t.n, 0.0),
+                root_pos: v4(model.rest[t.root as usize], 0.0),
+                root: t.root,
+                tip: t.tip,
+                pad0: 0,
+                pad1: 0,
+            })
             .collect();
         if tips.is_empty() {
             tips.push(bytemuck::Zeroable::zeroed());
@@ -323,7 +328,6 @@ impl GpuFurPhysics {
                 init("furbake physics velocities 1", bytemuck::cast_slice(&velocities), storage),
             ];
             let read = wgpu::BufferUsages::STORAGE;
-            let rest = init("furbake physics rest", bytemuck::cast_slice(&rest), read);
             let mass_buffer = init("furbake physics masses", bytemuck::cast_slice(&masses), read);
             let links = init("furbake physics links", bytemuck::cast_slice(&links), read);
             let tip_buffer = init("furbake physics tips", bytemuck::cast_slice(&tips), read);
@@ -341,7 +345,6 @@ impl GpuFurPhysics {
                     entry(2, buffer(true)),
                     entry(3, buffer(false)),
                     entry(4, buffer(false)),
-                    entry(5, buffer(true)),
                     entry(6, buffer(true)),
                     entry(7, buffer(true)),
                     entry(8, buffer(false)),
@@ -355,7 +358,6 @@ impl GpuFurPhysics {
                     entry(0, dynamic_uniform::<PhysicsStep>()),
                     entry(3, buffer(false)),
                     entry(4, buffer(false)),
-                    entry(5, buffer(true)),
                     entry(8, buffer(false)),
                 ],
             });
@@ -382,7 +384,6 @@ impl GpuFurPhysics {
                 layout: &state_layout,
                 final_layout: &final_layout,
                 steps: &steps,
-                rest: &rest,
                 masses: &mass_buffer,
                 links: &links,
                 stats: &stats,
@@ -417,8 +418,8 @@ impl GpuFurPhysics {
                     device,
                     model,
                     iterations,
-                    XpbdParts { x: &x, v: &v, module: &module, step_layout: &step_layout },
-                )),
+                    XpbdParts { x: &x, v: &v, module: &module, state: &parts },
+                )?),
                 _ => None,
             };
             Ok(GpuFurPhysics {
@@ -442,7 +443,6 @@ impl GpuFurPhysics {
                 steps_capacity,
                 state_layout,
                 final_layout,
-                rest,
                 mass_buffer,
                 links,
                 state,
@@ -549,9 +549,6 @@ impl GpuFurPhysics {
             self.state = self.parts().bind_all(device, &self.x, &self.v);
         }
         let h = dt_s / substeps as f64;
-        if let Some(x) = self.xpbd.as_mut() {
-            x.stage(queue, h as f32, self.counts[0]);
-        }
         self.scratch.clear();
         // Time advances step by step, as the CPU simulator's does (so one record of n steps and n
         // records of one agree to the bit).
@@ -568,17 +565,13 @@ impl GpuFurPhysics {
         encoder.clear_buffer(&self.stats, 0, None);
         let free_groups = self.counts[0].div_ceil(WORKGROUP).max(1);
         for n in 0..steps {
-            if let Some(x) = &self.xpbd {
-                encoder.clear_buffer(&x.lambda, 0, None);
-            }
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("furbake fur physics"),
                 timestamp_writes: None,
             });
             let first = n * substeps;
             if let Some(x) = &self.xpbd {
-                let offset = (first as u64 * STEP_STRIDE) as u32;
-                x.record(&mut pass, &self.state.step[self.current], offset, self.current, free_groups);
+                x.record(&mut pass, (first as u64 * STEP_STRIDE) as u32, self.current);
                 self.current = 1 - self.current;
             } else {
                 pass.set_pipeline(&self.step_pipeline);
@@ -691,7 +684,6 @@ impl GpuFurPhysics {
             layout: &self.state_layout,
             final_layout: &self.final_layout,
             steps: &self.steps,
-            rest: &self.rest,
             masses: &self.mass_buffer,
             links: &self.links,
             stats: &self.stats,
@@ -788,13 +780,24 @@ struct XpbdParts<'a> {
     x: &'a [wgpu::Buffer; 2],
     v: &'a [wgpu::Buffer; 2],
     module: &'a wgpu::ShaderModule,
-    /// The pipeline layout of `cs_step` (the state bind group), which predict and finish share.
-    step_layout: &'a wgpu::PipelineLayout,
+    /// The step uniforms, masses and counters.
+    state: &'a StateParts<'a>,
 }
 
 impl Xpbd {
-    fn new(device: &wgpu::Device, model: &ComputeModel, iterations: u32, parts: XpbdParts<'_>) -> Xpbd {
-        let XpbdParts { x, v, module, step_layout } = parts;
+    fn new(
+        device: &wgpu::Device,
+        model: &ComputeModel,
+        iterations: u32,
+        parts: XpbdParts<'_>,
+    ) -> Result<Xpbd, RenderError> {
+        let XpbdParts { x, v, module, state } = parts;
+        let colours = model.xpbd.colour_start.len().saturating_sub(1);
+        if colours > MAX_XPBD_COLOURS {
+            return Err(RenderError::Parameter {
+                what: format!("XPBD's links take {colours} colours; the GPU physics takes at most {MAX_XPBD_COLOURS}"),
+            });
+        }
         let mut links: Vec<PhysicsXpbdLink> = model
             .xpbd
             .links
@@ -810,37 +813,48 @@ impl Xpbd {
                 pad0: 0.0,
             })
             .collect();
-        let count = links.len().max(1);
+        let count = links.len();
         if links.is_empty() {
             links.push(bytemuck::Zeroable::zeroed());
         }
-        let colours = model.xpbd.colour_start.len().saturating_sub(1).max(1);
-        let links_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("furbake physics xpbd links"),
-            contents: bytemuck::cast_slice(&links),
-            usage: wgpu::BufferUsages::STORAGE,
-        });
+        let mut uniforms =
+            PhysicsColours { count: [colours as u32, iterations, count as u32, 0], starts: [[0; 4]; 16] };
+        for (c, &start) in model.xpbd.colour_start.iter().enumerate() {
+            uniforms.starts[c / 4][c % 4] = start;
+        }
+        let init = |label: &str, contents: &[u8], usage| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage })
+        };
+        let links_buffer =
+            init("furbake physics xpbd links", bytemuck::cast_slice(&links), wgpu::BufferUsages::STORAGE);
         let lambda = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("furbake physics xpbd multipliers"),
-            size: count as u64 * 16,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            size: links.len() as u64 * 16,
+            usage: wgpu::BufferUsages::STORAGE,
             mapped_at_creation: false,
         });
-        let passes = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("furbake physics xpbd colours"),
-            size: colours as u64 * PASS_STRIDE,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
+        let colours_buffer =
+            init("furbake physics xpbd colours", bytemuck::bytes_of(&uniforms), wgpu::BufferUsages::UNIFORM);
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("furbake physics xpbd"),
             entries: &[
+                layout_entry(0, dynamic_uniform::<PhysicsStep>()),
                 layout_entry(1, storage_binding(true)),
                 layout_entry(2, storage_binding(true)),
+                layout_entry(3, storage_binding(false)),
                 layout_entry(4, storage_binding(false)),
-                layout_entry(9, dynamic_uniform::<PhysicsXpbdPass>()),
+                layout_entry(6, storage_binding(true)),
+                layout_entry(8, storage_binding(false)),
                 layout_entry(10, storage_binding(true)),
                 layout_entry(11, storage_binding(false)),
+                layout_entry(
+                    12,
+                    wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Uniform,
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                ),
             ],
         });
         let bind = |from: usize| {
@@ -848,93 +862,41 @@ impl Xpbd {
                 label: Some("furbake physics xpbd"),
                 layout: &layout,
                 entries: &[
+                    state.steps_entry(),
                     entry(1, &x[from]),
                     entry(2, &v[from]),
+                    entry(3, &x[1 - from]),
                     entry(4, &v[1 - from]),
-                    wgpu::BindGroupEntry {
-                        binding: 9,
-                        resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                            buffer: &passes,
-                            offset: 0,
-                            size: wgpu::BufferSize::new(size_of::<PhysicsXpbdPass>() as u64),
-                        }),
-                    },
+                    entry(6, state.masses),
+                    entry(8, state.stats),
                     entry(10, &links_buffer),
                     entry(11, &lambda),
+                    entry(12, &colours_buffer),
                 ],
             })
         };
-        let links_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("furbake physics xpbd"),
             bind_group_layouts: &[Some(&layout)],
             immediate_size: 0,
         });
-        let pipeline = |entry: &str, layout: &wgpu::PipelineLayout| {
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(entry),
-                layout: Some(layout),
-                module,
-                entry_point: Some(entry),
-                compilation_options: Default::default(),
-                cache: None,
-            })
-        };
-        Xpbd {
-            iterations,
-            colour_start: model.xpbd.colour_start.clone(),
-            bind: [bind(0), bind(1)],
-            predict: pipeline("cs_xpbd_predict", step_layout),
-            links: pipeline("cs_xpbd_links", &links_layout),
-            finish: pipeline("cs_xpbd_finish", step_layout),
-            lambda,
-            passes,
-            scratch: Vec::with_capacity(colours * PASS_STRIDE as usize),
-        }
-    }
-
-    /// Writes the colour uniforms for steps of `h` (the caller clears the multipliers before
-    /// each step).
-    fn stage(&mut self, queue: &wgpu::Queue, h: f32, free: u32) {
-        self.scratch.clear();
-        for c in self.colour_start.windows(2) {
-            let pass = PhysicsXpbdPass { range: [c[0], c[1], free, 0], h: [h, 0.0, 0.0, 0.0] };
-            self.scratch.extend_from_slice(bytemuck::bytes_of(&pass));
-            self.scratch.resize(self.scratch.len().next_multiple_of(PASS_STRIDE as usize), 0);
-        }
-        if !self.scratch.is_empty() {
-            queue.write_buffer(&self.passes, 0, &self.scratch);
-        }
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("cs_xpbd_step"),
+            layout: Some(&pipeline_layout),
+            module,
+            entry_point: Some("cs_xpbd_step"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        Ok(Xpbd { bind: [bind(0), bind(1)], pipeline })
     }
 
     /// Records one XPBD step from state `from` into `1 − from` with the step uniforms at
-    /// `step_offset` (see `fur_physics.wgsl`).
-    fn record(
-        &self,
-        pass: &mut wgpu::ComputePass<'_>,
-        state: &wgpu::BindGroup,
-        step_offset: u32,
-        from: usize,
-        free_groups: u32,
-    ) {
-        pass.set_pipeline(&self.predict);
-        pass.set_bind_group(0, state, &[step_offset]);
-        pass.dispatch_workgroups(free_groups, 1, 1);
-        let colours = self.colour_start.len().saturating_sub(1);
-        pass.set_pipeline(&self.links);
-        for _ in 0..self.iterations {
-            // Symmetric Gauss–Seidel: the colours out along the hairs, then back.
-            for c in (0..colours).chain((0..colours.saturating_sub(1)).rev()) {
-                let n = self.colour_start[c + 1] - self.colour_start[c];
-                if n == 0 {
-                    continue;
-                }
-                pass.set_bind_group(0, &self.bind[from], &[(c as u64 * PASS_STRIDE) as u32]);
-                pass.dispatch_workgroups(n.div_ceil(WORKGROUP), 1, 1);
-            }
-        }
-        pass.set_pipeline(&self.finish);
-        pass.set_bind_group(0, state, &[step_offset]);
-        pass.dispatch_workgroups(free_groups, 1, 1);
+    /// `step_offset`: one workgroup does the whole step (`cs_xpbd_step`).
+    fn record(&self, pass: &mut wgpu::ComputePass<'_>, step_offset: u32, from: usize) {
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, &self.bind[from], &[step_offset]);
+        pass.dispatch_workgroups(1, 1, 1);
     }
 }
 
@@ -943,7 +905,6 @@ struct StateParts<'a> {
     layout: &'a wgpu::BindGroupLayout,
     final_layout: &'a wgpu::BindGroupLayout,
     steps: &'a wgpu::Buffer,
-    rest: &'a wgpu::Buffer,
     masses: &'a wgpu::Buffer,
     links: &'a wgpu::Buffer,
     stats: &'a wgpu::Buffer,
@@ -979,13 +940,7 @@ impl StateParts<'_> {
         device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("furbake physics final state"),
             layout: self.final_layout,
-            entries: &[
-                self.steps_entry(),
-                entry(3, &x[at]),
-                entry(4, &v[at]),
-                entry(5, self.rest),
-                entry(8, self.stats),
-            ],
+            entries: &[self.steps_entry(), entry(3, &x[at]), entry(4, &v[at]), entry(8, self.stats)],
         })
     }
 
@@ -1007,7 +962,6 @@ impl StateParts<'_> {
                 entry(2, &v[from]),
                 entry(3, &x[to]),
                 entry(4, &v[to]),
-                entry(5, self.rest),
                 entry(6, self.masses),
                 entry(7, self.links),
                 entry(8, self.stats),
@@ -1083,6 +1037,8 @@ mod tests {
         assert!(size_of::<PhysicsStep>() as u64 <= STEP_STRIDE && STEP_STRIDE.is_multiple_of(256));
         let mass = [
             ("restoring_n", offset_of!(PhysicsMass, restoring_n)),
+            ("rest_pos", offset_of!(PhysicsMass, rest_pos)),
+            ("stick_anchor", offset_of!(PhysicsMass, stick_anchor)),
             ("mass", offset_of!(PhysicsMass, mass)),
             ("inv_mass", offset_of!(PhysicsMass, inv_mass)),
             ("links_start", offset_of!(PhysicsMass, links_start)),
@@ -1102,6 +1058,7 @@ mod tests {
         assert_eq!(check_layout("PhysicsLink", size_of::<PhysicsLink>(), &link), 1);
         let tip = [
             ("n", offset_of!(PhysicsTip, n)),
+            ("root_pos", offset_of!(PhysicsTip, root_pos)),
             ("root", offset_of!(PhysicsTip, root)),
             ("tip", offset_of!(PhysicsTip, tip)),
             ("pad0", offset_of!(PhysicsTip, pad0)),
@@ -1119,8 +1076,7 @@ mod tests {
             ("pad0", offset_of!(PhysicsXpbdLink, pad0)),
         ];
         assert_eq!(check_layout("PhysicsXpbdLink", size_of::<PhysicsXpbdLink>(), &link), 1);
-        let pass = [("range", offset_of!(PhysicsXpbdPass, range)), ("h", offset_of!(PhysicsXpbdPass, h))];
-        assert_eq!(check_layout("PhysicsXpbdPass", size_of::<PhysicsXpbdPass>(), &pass), 1);
-        assert!(size_of::<PhysicsXpbdPass>() as u64 <= PASS_STRIDE);
+        let colours = [("count", offset_of!(PhysicsColours, count)), ("starts", offset_of!(PhysicsColours, starts))];
+        assert_eq!(check_layout("PhysicsColours", size_of::<PhysicsColours>(), &colours), 1);
     }
 }
