@@ -27,6 +27,8 @@ struct PhysicsStep {
     counts: vec4<u32>,
     // update (0 explicit, 1 stick, 2 XPBD), project sticks (1), rotating frame (1), unused
     flags: vec4<u32>,
+    // xyz: the teleport applied before this step (m, mesh frame; cs_teleport)
+    teleport: vec4<f32>,
     // per local force: centre xyz and radius w (m), then strength x (N)
     locals: array<vec4<f32>, 32>,
 }
@@ -302,6 +304,26 @@ fn cs_xpbd_step(@builtin(local_invocation_index) lid: u32) {
         let d = v_out[k].xyz;
         write_state(k, masses[k], x_in[k].xyz + d, d * (1.0 / h));
     }
+}
+
+// A teleport at the start of a step (crates/sim/src/simulator.rs `teleport`): the mesh frame
+// jumps by `teleport` and the free masses keep their world positions, so in the mesh frame they
+// move by −teleport; rigid links snap back onto their anchored parents. In place on the current
+// state (bindings 3 and 4 of the final-state group).
+@compute @workgroup_size(64)
+fn cs_teleport(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let k = gid.x;
+    if k >= step.counts.x {
+        return;
+    }
+    var x = x_out[k].xyz - step.teleport.xyz;
+    var v = v_out[k].xyz;
+    let m = masses[k];
+    if step.flags.y != 0u && m.stick_parent != NO_LINK {
+        project_on_stick(m, &x, &v);
+    }
+    x_out[k] = vec4<f32>(x, 0.0);
+    v_out[k] = vec4<f32>(v, 0.0);
 }
 
 // The guard's pass over the tips, after the last substep (bindings of group 1).

@@ -7,11 +7,13 @@
 //! shader reads — nothing is read back in a frame. Same forces as the CPU (gravity, wind, the
 //! rotating frame's inertial forces, up to [`MAX_LOCAL_FORCES`] local forces, the restoring force
 //! of eq. 3.37), same substep count for the same step; the counters (non-finite masses, guard
-//! triggers, frozen tips) stay on the GPU unless a test reads them.
+//! triggers, frozen tips) come back only when asked for, without waiting
+//! ([`GpuFurPhysics::request_stats`]). docs/design.md "Fur physics on the GPU" has the design and
+//! the measured agreement with the CPU.
 //!
-//! Not yet on the GPU: the implicit and reference solvers, a moving (skinned) skin and energy
-//! tracking;
-//! [`furbake_sim::Simulator::compute_model`] refuses what has no compute form.
+//! Not yet on the GPU: the implicit, reference and local/global solvers, a moving (skinned) skin
+//! and energy tracking; [`furbake_sim::Simulator::compute_model`] refuses what has no compute
+//! form.
 
 use furbake_sim::{ComputeModel, ComputeUpdate, ForceSet, GuardSettings, NO_LINK};
 use wgpu::util::DeviceExt;
@@ -37,6 +39,7 @@ pub(crate) struct PhysicsStep {
     guard: [f32; 4],
     counts: [u32; 4],
     flags: [u32; 4],
+    teleport: [f32; 4],
     locals: [[f32; 4]; 2 * MAX_LOCAL_FORCES],
 }
 
@@ -149,6 +152,7 @@ pub struct GpuFurPhysics {
     tips: wgpu::BindGroup,
     step_pipeline: wgpu::ComputePipeline,
     guard_pipeline: wgpu::ComputePipeline,
+    teleport_pipeline: wgpu::ComputePipeline,
     scale_pipeline: wgpu::ComputePipeline,
     /// The buffer pair holding the current state.
     current: usize,
@@ -162,6 +166,16 @@ pub struct GpuFurPhysics {
     last_record: (u32, u32),
     /// The statistics readback ([`GpuFurPhysics::request_stats`]).
     stats_readback: StatsReadback,
+}
+
+/// One step for [`GpuFurPhysics::record_steps`]: its forces and the teleport that moves the fur
+/// at its start (mesh frame, metres, as `Simulator::teleport`; zero for none).
+#[derive(Clone, Copy, Debug)]
+pub struct GpuStep<'a> {
+    /// The step's forces.
+    pub forces: &'a ForceSet,
+    /// The teleport before it.
+    pub teleport_m: [f32; 3],
 }
 
 /// What one record of the GPU physics counted ([`GpuFurPhysics::poll_stats`]).
@@ -358,6 +372,7 @@ impl GpuFurPhysics {
                     entry(0, dynamic_uniform::<PhysicsStep>()),
                     entry(3, buffer(false)),
                     entry(4, buffer(false)),
+                    entry(6, buffer(true)),
                     entry(8, buffer(false)),
                 ],
             });
@@ -449,6 +464,7 @@ impl GpuFurPhysics {
                 tips,
                 step_pipeline: pipeline("cs_step", &step_layout),
                 guard_pipeline: pipeline("cs_guard", &tips_layout),
+                teleport_pipeline: pipeline("cs_teleport", &tips_layout),
                 scale_pipeline: pipeline("cs_scale", &tips_layout),
                 current: 0,
                 scratch: Vec::with_capacity(steps_capacity as usize),
@@ -496,32 +512,35 @@ impl GpuFurPhysics {
         dt_s: f64,
     ) -> Result<u32, RenderError> {
         let forces = std::mem::take(&mut self.forces);
-        let out = self.record_steps(device, queue, encoder, dt_s, &[&forces]);
+        let out = self.record_steps(device, queue, encoder, dt_s, &[GpuStep { forces: &forces, teleport_m: [0.0; 3] }]);
         self.forces = forces;
         out
     }
 
-    /// Records `forces.len()` steps of `dt_s` seconds, step `i` under `forces[i]` (what a world
-    /// that stepped several times since the last frame hands over), each with its substeps and
-    /// guard, then the scale vectors; returns the substeps recorded. One record per submission,
-    /// as [`GpuFurPhysics::record`]. The forces must keep the restoring weight the physics was
-    /// built for; a step with too many substeps or bad forces records nothing.
+    /// Records `steps.len()` steps of `dt_s` seconds (what a world that stepped several times
+    /// since the last frame hands over), each with its teleport, substeps and guard, then the
+    /// scale vectors; returns the substeps recorded. One record per submission, as
+    /// [`GpuFurPhysics::record`]. The forces must keep the restoring weight the physics was built
+    /// for; a step with too many substeps, bad forces or a non-finite teleport records nothing.
     pub fn record_steps(
         &mut self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         encoder: &mut wgpu::CommandEncoder,
         dt_s: f64,
-        forces: &[&ForceSet],
+        steps: &[GpuStep<'_>],
     ) -> Result<u32, RenderError> {
         if !(dt_s.is_finite() && dt_s > 0.0) {
             return Err(RenderError::Parameter {
                 what: format!("physics step {dt_s} s (must be finite and positive)"),
             });
         }
-        for f in forces {
-            self.check_restoring(f)?;
-            check_forces(f)?;
+        for step in steps {
+            self.check_restoring(step.forces)?;
+            check_forces(step.forces)?;
+            if !step.teleport_m.iter().all(|c| c.is_finite()) {
+                return Err(RenderError::Parameter { what: format!("teleport {:?} is not finite", step.teleport_m) });
+            }
         }
         // XPBD never substeps (crates/sim/src/solvers/xpbd.rs).
         let substeps = if dt_s <= self.stable_step_s || self.xpbd.is_some() {
@@ -537,11 +556,11 @@ impl GpuFurPhysics {
                 ),
             });
         }
-        let (substeps, steps) = (substeps as u32, forces.len() as u32);
-        if steps == 0 {
+        let (substeps, count) = (substeps as u32, steps.len() as u32);
+        if count == 0 {
             return Ok(0);
         }
-        let total = substeps * steps;
+        let total = substeps * count;
         if total > self.steps_capacity {
             // Grows, never shrinks: a steady frame rate allocates nothing here.
             self.steps_capacity = total.next_power_of_two();
@@ -553,9 +572,11 @@ impl GpuFurPhysics {
         // Time advances step by step, as the CPU simulator's does (so one record of n steps and n
         // records of one agree to the bit).
         let mut t = self.time_s;
-        for f in forces {
+        for step in steps {
             for sub in 0..substeps {
-                self.scratch.push(self.uniforms(f, t + sub as f64 * h, h as f32));
+                // The teleport belongs to the step's first substep (cs_teleport reads it there).
+                let teleport = if sub == 0 { step.teleport_m } else { [0.0; 3] };
+                self.scratch.push(self.uniforms(step.forces, teleport, t + sub as f64 * h, h as f32));
             }
             t += dt_s;
         }
@@ -564,12 +585,18 @@ impl GpuFurPhysics {
         self.scratch_bytes = bytes;
         encoder.clear_buffer(&self.stats, 0, None);
         let free_groups = self.counts[0].div_ceil(WORKGROUP).max(1);
-        for n in 0..steps {
+        for (n, step) in (0..count).zip(steps) {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("furbake fur physics"),
                 timestamp_writes: None,
             });
             let first = n * substeps;
+            if step.teleport_m != [0.0; 3] {
+                pass.set_pipeline(&self.teleport_pipeline);
+                pass.set_bind_group(0, &self.state.last[self.current], &[(first as u64 * STEP_STRIDE) as u32]);
+                pass.set_bind_group(1, &self.tips, &[]);
+                pass.dispatch_workgroups(free_groups, 1, 1);
+            }
             if let Some(x) = &self.xpbd {
                 x.record(&mut pass, (first as u64 * STEP_STRIDE) as u32, self.current);
                 self.current = 1 - self.current;
@@ -587,13 +614,13 @@ impl GpuFurPhysics {
             pass.set_bind_group(0, &self.state.last[self.current], &[last]);
             pass.set_bind_group(1, &self.tips, &[]);
             pass.dispatch_workgroups(self.counts[1].div_ceil(WORKGROUP).max(1), 1, 1);
-            if n + 1 == steps {
+            if n + 1 == count {
                 pass.set_pipeline(&self.scale_pipeline);
                 pass.dispatch_workgroups(self.counts[2].div_ceil(WORKGROUP).max(1), 1, 1);
             }
         }
         self.time_s = t;
-        self.last_record = (steps, total);
+        self.last_record = (count, total);
         Ok(total)
     }
 
@@ -691,7 +718,7 @@ impl GpuFurPhysics {
     }
 
     /// The uniforms of the substep starting at `t` (as `furbake_sim`'s `ForceEval::new`).
-    fn uniforms(&self, f: &ForceSet, t: f64, h: f32) -> PhysicsStep {
+    fn uniforms(&self, f: &ForceSet, teleport_m: [f32; 3], t: f64, h: f32) -> PhysicsStep {
         let sub = |a: [f32; 3], b: [f32; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
         let m = &f.motion;
         let rotating = m.angular_velocity_rad_per_s != [0.0; 3] || m.angular_accel_rad_per_s2 != [0.0; 3];
@@ -724,6 +751,7 @@ impl GpuFurPhysics {
                 rotating as u32,
                 0,
             ],
+            teleport: v4(teleport_m, 0.0),
             locals,
         }
     }
@@ -940,7 +968,13 @@ impl StateParts<'_> {
         device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("furbake physics final state"),
             layout: self.final_layout,
-            entries: &[self.steps_entry(), entry(3, &x[at]), entry(4, &v[at]), entry(8, self.stats)],
+            entries: &[
+                self.steps_entry(),
+                entry(3, &x[at]),
+                entry(4, &v[at]),
+                entry(6, self.masses),
+                entry(8, self.stats),
+            ],
         })
     }
 
@@ -1031,6 +1065,7 @@ mod tests {
             ("guard", offset_of!(PhysicsStep, guard)),
             ("counts", offset_of!(PhysicsStep, counts)),
             ("flags", offset_of!(PhysicsStep, flags)),
+            ("teleport", offset_of!(PhysicsStep, teleport)),
             ("locals", offset_of!(PhysicsStep, locals)),
         ];
         assert_eq!(check_layout("PhysicsStep", size_of::<PhysicsStep>(), &step), 1);

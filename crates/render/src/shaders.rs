@@ -41,9 +41,9 @@ pub const SKINNING_WGSL: &str = include_str!("../shaders/skinning.wgsl");
 pub const SILHOUETTE_WGSL: &str =
     concat!(include_str!("../shaders/silhouette_common.wgsl"), include_str!("../shaders/silhouette.wgsl"));
 
-/// Fur physics (fur thesis §3.3.2, §3.4.1–3.4.3): the `cs_step`, `cs_xpbd_step`, `cs_guard` and
-/// `cs_scale` compute entry points of the explicit and stick solvers, XPBD, the wrong-side guard
-/// and the scale vectors
+/// Fur physics (fur thesis §3.3.2, §3.4.1–3.4.3): the `cs_step`, `cs_xpbd_step`, `cs_teleport`,
+/// `cs_guard` and `cs_scale` compute entry points of the explicit and stick solvers, XPBD, a
+/// teleport's jump, the wrong-side guard and the scale vectors
 /// ([`crate::GpuFurPhysics`]). Stands alone.
 pub const FUR_PHYSICS_WGSL: &str = include_str!("../shaders/fur_physics.wgsl");
 
@@ -328,6 +328,7 @@ pub(crate) mod tests {
                 "cs_silhouette",
                 "cs_skin",
                 "cs_step",
+                "cs_teleport",
                 "cs_xpbd_step",
                 "fs_blade",
                 "fs_fin",

@@ -12,7 +12,7 @@ use crate::common::gpu;
 use furbake_bake::{BakeSettings, NoProgress, bake};
 use furbake_import::{ImportSettings, import_gltf_slice, testmesh};
 use furbake_render::headless::RenderTarget;
-use furbake_render::{FurAsset, FurRenderer, GpuFurPhysics, RenderSettings};
+use furbake_render::{FurAsset, FurRenderer, GpuFurPhysics, GpuStep, RenderSettings};
 use furbake_sim::{
     ForceSet, FrameMotion, LocalForce, Simulator, SolverKind, SolverSettings, SpringTopology, WindForce,
 };
@@ -189,7 +189,8 @@ fn several_steps_in_one_record_are_the_steps_one_by_one() {
             g.queue.submit([encoder.finish()]);
         }
         let mut encoder = g.device.create_command_encoder(&Default::default());
-        three.record_steps(&g.device, &g.queue, &mut encoder, 1.0 / 60.0, &[&f, &f, &f]).unwrap();
+        let step = GpuStep { forces: &f, teleport_m: [0.0; 3] };
+        three.record_steps(&g.device, &g.queue, &mut encoder, 1.0 / 60.0, &[step; 3]).unwrap();
         g.queue.submit([encoder.finish()]);
     }
     let (a, b) = (one.read_back(&g.device, &g.queue).unwrap(), three.read_back(&g.device, &g.queue).unwrap());
@@ -201,6 +202,11 @@ fn several_steps_in_one_record_are_the_steps_one_by_one() {
 /// A furry sphere baked with the prisms topology into `dir` and a scene of it in gravity and a
 /// gusting wind, its fur on `device` with the XPBD solver, seen from +Z.
 fn sphere_scene(dir: &std::path::Path, kind: &str, device: &str) -> furbake_runtime::Scene {
+    sphere_scene_with(dir, kind, device, "")
+}
+
+/// [`sphere_scene`] with more TOML appended (events).
+fn sphere_scene_with(dir: &std::path::Path, kind: &str, device: &str, more: &str) -> furbake_runtime::Scene {
     if !dir.join("fur.fbk").exists() {
         baked_sphere("prisms", 0.25).to_writer().write_atomic(&dir.join("fur.fbk")).unwrap();
     }
@@ -224,7 +230,7 @@ path = "fur.fbk"
 [effects.wind]
 velocity_m_per_s = [10.0, 0.0, 0.0]
 gust_amplitude = 0.5
-"#
+{more}"#
     );
     furbake_runtime::Scene::from_toml_str(&toml, std::path::Path::new("gpu.toml"), dir).unwrap()
 }
@@ -409,4 +415,37 @@ fn statistics_come_back_when_asked_without_waiting() {
     assert_eq!((got.non_finite, got.guard_triggers, got.frozen), (0, cpu.guard_triggers, cpu.frozen_scale_vectors));
     assert!(got.frozen > 0, "the push froze no tip");
     assert_eq!(physics.poll_stats().unwrap(), None, "handed over once");
+}
+
+#[test]
+fn a_teleport_moves_gpu_fur_as_it_moves_cpu_fur() {
+    // A teleport event mid-run: the GPU world's renderer applies it at the start of the next step
+    // it records (cs_teleport), as the CPU simulator's teleport does, and the fur pulled back by
+    // its springs agrees with the CPU world's.
+    use furbake_render::SceneRenderer;
+    use furbake_runtime::World;
+    let g = gpu();
+    let dir = tempfile::tempdir().unwrap();
+    let jump = "\n[[events]]\nkind = \"teleport\"\nat_s = 0.2\npack = \"fur\"\noffset_m = [0.3, 0.1, 0.0]\n";
+    let mut cpu = World::new(sphere_scene_with(dir.path(), "xpbd", "cpu", jump)).unwrap();
+    let mut on_gpu = World::new(sphere_scene_with(dir.path(), "xpbd", "gpu", jump)).unwrap();
+    let renderer = SceneRenderer::new(&g.device, &g.queue, &on_gpu).unwrap();
+    let target = RenderTarget::new(&g.device, 64, 64).unwrap();
+    let mut worst_after = 0.0f32;
+    for step in 0..24 {
+        cpu.step().unwrap();
+        on_gpu.step().unwrap();
+        if step % 2 == 1 {
+            renderer.render_world(&g.device, &g.queue, &target, &on_gpu).unwrap();
+            let gpu_scale = renderer.packs()[0].fur.as_ref().unwrap().shell_scale_vectors(&g.device, &g.queue).unwrap();
+            let d = worst(cpu.fur(0).unwrap().scale_vectors, &gpu_scale);
+            assert!(d <= 2e-5, "step {step}: GPU and CPU scale vectors differ by {d}");
+            worst_after = worst_after.max(d);
+        }
+    }
+    // The jump threw the fur about: far more than the wind alone bends it.
+    let rest_world = World::new(sphere_scene(dir.path(), "xpbd", "cpu")).unwrap();
+    let bent = worst(cpu.fur(0).unwrap().scale_vectors, rest_world.fur(0).unwrap().scale_vectors);
+    eprintln!("teleport: scale vectors {bent:.3} from rest, GPU−CPU at most {worst_after:.2e}");
+    assert!(bent > 0.1, "the teleport moved the fur by {bent}");
 }

@@ -144,6 +144,10 @@ pub const GPU_PHYSICS_STEPS_KEPT: usize = 16;
 /// The forces of a GPU-physics pack's latest steps, a ring of [`GPU_PHYSICS_STEPS_KEPT`].
 struct GpuSteps {
     forces: Vec<ForceSet>,
+    /// Per kept step: the teleport (mesh frame, metres) that moves the fur at its start.
+    teleports: Vec<[f32; 3]>,
+    /// Teleports since the last step, applied at the start of the next.
+    teleport_m: [f32; 3],
     dt_s: f64,
     /// Steps taken since the start (step `n` is slot `n % GPU_PHYSICS_STEPS_KEPT`).
     taken: u64,
@@ -156,6 +160,7 @@ impl GpuSteps {
         let slot = (self.taken % GPU_PHYSICS_STEPS_KEPT as u64) as usize;
         // clone_from keeps the slot's list of local forces: no allocation once warm.
         self.forces[slot].clone_from(forces);
+        self.teleports[slot] = std::mem::take(&mut self.teleport_m);
         self.taken += 1;
     }
 }
@@ -206,11 +211,13 @@ impl<'a> GpuPhysicsSteps<'a> {
         self.steps.taken
     }
 
-    /// The forces of step `n` (0-based), while the world keeps them (its last
+    /// The forces of step `n` (0-based) and the teleport that moves the fur at its start (mesh
+    /// frame, metres; `Simulator::teleport`), while the world keeps them (its last
     /// [`GPU_PHYSICS_STEPS_KEPT`]); `None` before or after that.
-    pub fn forces(&self, n: u64) -> Option<&'a ForceSet> {
+    pub fn step(&self, n: u64) -> Option<(&'a ForceSet, [f32; 3])> {
         let kept = self.steps.taken.saturating_sub(GPU_PHYSICS_STEPS_KEPT as u64);
-        (n >= kept && n < self.steps.taken).then(|| &self.steps.forces[(n % GPU_PHYSICS_STEPS_KEPT as u64) as usize])
+        let slot = (n % GPU_PHYSICS_STEPS_KEPT as u64) as usize;
+        (n >= kept && n < self.steps.taken).then(|| (&self.steps.forces[slot], self.steps.teleports[slot]))
     }
 }
 
@@ -448,19 +455,6 @@ impl World {
                 let frame0 = MeshFrame::of(sp.model_at(0.0));
                 let animated = sp.animation.is_some();
                 let mut fur = build_fur(&scene, &pack, planned(StageKind::FurSolver), animated, options, &frame0)?;
-                if fur.sim.as_ref().is_some_and(|s| s.gpu.is_some()) {
-                    let teleported =
-                        scene.events.iter().any(|e| matches!(e, Event::Teleport { pack, .. } if *pack == sp.name));
-                    if teleported {
-                        return Err(RuntimeError::Parameter {
-                            what: format!(
-                                "pack {:?}: a teleport event moves fur that [solver] device = \"gpu\" simulates; \
-                                 GPU physics does not teleport yet (use device = \"cpu\")",
-                                sp.name
-                            ),
-                        });
-                    }
-                }
                 if let Some(a) = &anim {
                     // The fur starts in the bind pose: the first pose is a cut (speed 0).
                     fur.follow(a, scene.time_step_s as f64, 0.0, &sp.path)?;
@@ -821,7 +815,12 @@ impl World {
                     let frame = MeshFrame::of(p.model_at(t));
                     p.teleported_m += offset;
                     if let Some(sim) = p.fur.as_mut().and_then(|f| f.sim.as_mut()) {
-                        sim.simulator.teleport(frame.vector(offset).to_array());
+                        let o = frame.vector(offset).to_array();
+                        match sim.gpu.as_mut() {
+                            // The GPU moves the fur at the start of the next step it records.
+                            Some(gpu) => gpu.teleport_m = (Vec3::from(gpu.teleport_m) + Vec3::from(o)).to_array(),
+                            None => sim.simulator.teleport(o),
+                        }
                     }
                 }
                 Event::PlayClip { pack, clip, fade_s, .. } => {
@@ -1051,6 +1050,8 @@ fn gpu_steps(
     simulator.set_forces(ForceSet { restoring_weight_n, ..ForceSet::none() }).map_err(err)?;
     Ok(GpuSteps {
         forces: vec![ForceSet::none(); GPU_PHYSICS_STEPS_KEPT],
+        teleports: vec![[0.0; 3]; GPU_PHYSICS_STEPS_KEPT],
+        teleport_m: [0.0; 3],
         dt_s: scene.time_step_s as f64,
         taken: 0,
         stable_step_s: simulator.stable_step_s(),
