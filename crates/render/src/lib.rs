@@ -129,6 +129,7 @@ mod asset;
 mod blades;
 mod blocking;
 mod culling;
+mod depth_pyramid;
 mod export;
 pub mod headless;
 mod lod;
@@ -153,6 +154,7 @@ use scene::RENDERER_OVERHEAD_BYTES;
 pub use asset::FurAsset;
 pub use blades::{BladeForces, BladeRenderSettings, BladeRenderer, BladeShading};
 pub use culling::GrassCulling;
+pub use depth_pyramid::DepthPyramid;
 pub use export::{ExportedShader, ShaderExport, ShaderTarget, export_shaders};
 pub use lod::ShellLod;
 #[cfg(feature = "testing")]

@@ -47,6 +47,11 @@ pub const SILHOUETTE_WGSL: &str =
 /// ([`crate::GpuFurPhysics`]). Stands alone.
 pub const FUR_PHYSICS_WGSL: &str = include_str!("../shaders/fur_physics.wgsl");
 
+/// The hierarchical depth pyramid (grass occlusion culling): `cs_depth_copy` (level 0 from the
+/// host's depth) and `cs_depth_reduce` (each further level) of [`crate::DepthPyramid`]. Stands
+/// alone.
+pub const DEPTH_PYRAMID_WGSL: &str = include_str!("../shaders/depth_pyramid.wgsl");
+
 /// Grass blades (grass thesis §3.2.5–3.2.6, §4.2): the `cs_blades` compute entry point posing
 /// every blade for readback and the instanced draw (`vs_blade`, `fs_blade`) from the culling
 /// passes' instance lists ([`crate::blades`]). `grass_common.wgsl` (the blade instance, the
@@ -293,7 +298,8 @@ pub(crate) mod tests {
         assert_eq!(got, rust);
     }
 
-    const SHADERS: [(&str, &str); 8] = [
+    const SHADERS: [(&str, &str); 9] = [
+        ("depth_pyramid.wgsl", DEPTH_PYRAMID_WGSL),
         ("fur_physics.wgsl", FUR_PHYSICS_WGSL),
         ("skin.wgsl", SKIN_WGSL),
         ("shell.wgsl", SHELL_WGSL),
@@ -320,6 +326,8 @@ pub(crate) mod tests {
                 "cs_compact",
                 "cs_cull_blades",
                 "cs_cull_clusters",
+                "cs_depth_copy",
+                "cs_depth_reduce",
                 "cs_guard",
                 "cs_pose_all",
                 "cs_scale",

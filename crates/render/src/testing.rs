@@ -26,6 +26,7 @@ pub use crate::culling::{
     BladeLods, CullDecision, CullLists, CullReference, CullUniforms, EDGE_ON_WIDTH, MAX_LODS, blade_random,
     thinning_keep,
 };
+pub use crate::depth_pyramid::reduce_level;
 pub use crate::lod::{ShellLevel, projected_fur_px};
 pub use crate::scene::RENDERER_OVERHEAD_BYTES;
 pub use crate::shading::strand_tangent;

@@ -7,6 +7,7 @@ mod asset;
 mod blade_shading;
 mod blades;
 mod common;
+mod depth_pyramid;
 mod frame_cost;
 mod fur_shading;
 mod golden_images;
