@@ -246,7 +246,24 @@ fn build(builder: Box<SceneBuilder>, packs: Vec<Arc<Pack>>, options: WorldOption
         ));
     }
     let scene = (*builder).build().map_err(RuntimeError::from)?;
-    Ok(WorldPlan::with_packs(scene, packs, options)?.build()?)
+    cpu_physics_only(WorldPlan::with_packs(scene, packs, options)?.build()?, name)
+}
+
+/// `world`, unless a pack's fur physics runs on the GPU (`[solver] device = "gpu"`): the C
+/// interface hands the host CPU-stepped scale vectors (`furbake_world_fur_frame`) and has no GPU
+/// physics, so such a world is refused rather than left with fur that never moves.
+fn cpu_physics_only(world: World, name: &str) -> Result<World, Error> {
+    match (0..world.pack_count()).find(|&i| world.gpu_physics(i).is_some()) {
+        Some(i) => Err(Error::new(
+            FurbakeResult::Scene,
+            format!(
+                "{name}: pack {:?} asks for [solver] device = \"gpu\"; the C interface steps fur on the CPU \
+                 (write device = \"cpu\")",
+                world.scene().packs()[i].name
+            ),
+        )),
+        None => Ok(world),
+    }
 }
 
 pub(crate) fn world_mut<'a>(world: *mut FurbakeWorld) -> Result<&'a mut FurbakeWorld, Error> {
@@ -318,7 +335,7 @@ pub unsafe extern "C" fn furbake_world_open_scene(
         for pack in plan.packs() {
             pack.verify()?;
         }
-        *slot = new_world(State::Built(Box::new(plan.build()?)), options);
+        *slot = new_world(State::Built(Box::new(cpu_physics_only(plan.build()?, path)?)), options);
         Ok(())
     })
 }

@@ -388,6 +388,23 @@ fn the_animator_samples_the_clip_the_world_plays() {
 }
 
 #[test]
+fn a_world_whose_physics_asks_for_the_gpu_is_refused() {
+    // The C interface steps fur on the CPU: `[solver] device = "gpu"` is a scene error naming the
+    // pack, at the step that builds the world.
+    let pack = open(&packs().join("plane.fbk"));
+    let w = world(&format!("{SETTINGS}[solver]\nkind = \"xpbd\"\ndevice = \"gpu\"\n"), 0);
+    add(w, pack, "plane", FURBAKE_ANIMATION_NONE, None, 1.0);
+    // SAFETY: live handle.
+    assert_eq!(unsafe { furbake_world_step(w) }, FurbakeResult::Scene);
+    assert!(last_error().contains("\"plane\"") && last_error().contains("device = \"cpu\""), "{}", last_error());
+    // SAFETY: live handles, released once.
+    unsafe {
+        furbake_world_release(w);
+        furbake_pack_release(pack);
+    }
+}
+
+#[test]
 fn refused_world_calls_change_nothing_and_say_why() {
     let pack = open(&packs().join("fox.fbk"));
     // Settings that are not a scene: the key is named.
