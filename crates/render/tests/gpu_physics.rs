@@ -144,6 +144,16 @@ fn xpbd_solver_agrees_with_the_cpu() {
 }
 
 #[test]
+fn separable_topologies_write_scale_vectors_per_corner() {
+    // A separable topology has one scale vector per triangle corner: the GPU physics writes the
+    // renderer's per-corner layout, and agrees with the CPU there too.
+    let r = check_agreement("separable-sticks", SolverKind::Stick, 5e-3);
+    assert_eq!(r.gpu_scale.len(), r.cpu_scale.len());
+    let r = check_agreement("separable-prisms", SolverKind::Xpbd, 5e-3);
+    assert_eq!(r.gpu_scale.len(), r.cpu_scale.len());
+}
+
+#[test]
 fn the_guard_freezes_the_same_tips_on_both() {
     // A hard push from above the pole flattens the fur there past the guard's 80°.
     let r = check_agreement("sticks", SolverKind::Stick, 0.5);
