@@ -540,6 +540,8 @@ impl Simulator {
             return Err(SimError::Parameter { name: "dt_s", what: format!("{dt_s} (must be finite and positive)") });
         }
         let substeps = self.substeps_for(dt_s)? as u64;
+        // The rotation limit it used belongs to the state before this step.
+        self.rotation_next = None;
         let h = dt_s / substeps as f64;
         let mut stats = StepStats { substeps: substeps as u32, ..Default::default() };
         let mut work_j = 0.0;
