@@ -308,6 +308,36 @@ fn a_scene_runs_its_fur_physics_on_the_gpu() {
 }
 
 #[test]
+fn a_pack_entry_chooses_its_own_physics_device() {
+    // `physics_device` on a `[[packs]]` entry overrides the scene's `[solver] device` for it: of
+    // two entries of one pack, the GPU one is stepped by the renderer and agrees with the CPU one.
+    use furbake_render::SceneRenderer;
+    use furbake_runtime::World;
+    let g = gpu();
+    let dir = tempfile::tempdir().unwrap();
+    let _ = sphere_scene(dir.path(), "xpbd", "cpu"); // bakes fur.fbk
+    let toml = "[solver]\nkind = \"xpbd\"\n[effects.gravity]\n[effects.wind]\nvelocity_m_per_s = [10.0, 0.0, 0.0]\n\
+                [[packs]]\nname = \"on_cpu\"\npath = \"fur.fbk\"\n\
+                [[packs]]\nname = \"on_gpu\"\npath = \"fur.fbk\"\nphysics_device = \"gpu\"\n";
+    let scene = furbake_runtime::Scene::from_toml_str(toml, std::path::Path::new("two.toml"), dir.path()).unwrap();
+    let mut world = World::new(scene).unwrap();
+    assert!(world.gpu_physics(0).is_none() && world.gpu_physics(1).is_some());
+    let renderer = SceneRenderer::new(&g.device, &g.queue, &world).unwrap();
+    let target = RenderTarget::new(&g.device, 64, 64).unwrap();
+    for _ in 0..20 {
+        world.step().unwrap();
+        renderer.render_world(&g.device, &g.queue, &target, &world).unwrap();
+    }
+    let gpu_scale = renderer.packs()[1].fur.as_ref().unwrap().shell_scale_vectors(&g.device, &g.queue).unwrap();
+    let d = worst(world.fur(0).unwrap().scale_vectors, &gpu_scale);
+    assert!(d <= 2e-5, "the GPU entry's scale vectors differ from the CPU entry's by {d}");
+    assert!(
+        worst(world.fur(0).unwrap().scale_vectors, world.fur(1).unwrap().scale_vectors) > 0.01,
+        "the CPU entry moved"
+    );
+}
+
+#[test]
 fn a_scene_refuses_gpu_physics_it_cannot_run() {
     // The implicit solver has no compute form: the world says so when it is built.
     let dir = tempfile::tempdir().unwrap();

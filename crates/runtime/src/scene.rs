@@ -683,6 +683,10 @@ pub struct ScenePack {
     /// `[render]`. Default: nothing overridden.
     #[serde(default)]
     pub render: RenderOptions,
+    /// Where this pack's fur physics runs (`physics_device = "cpu" | "gpu"`), overriding the
+    /// scene's `[solver] device` for it. Default: the scene's.
+    #[serde(default)]
+    pub physics_device: Option<PhysicsDevice>,
 }
 
 /// How shells and fins are blended into what is behind them (`blend` of [`RenderOptions`]).
@@ -993,6 +997,7 @@ impl ScenePack {
             animation: None,
             shading: FurShading::default(),
             render: RenderOptions::default(),
+            physics_device: None,
         }
     }
 

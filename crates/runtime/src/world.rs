@@ -454,7 +454,9 @@ impl World {
             let fur = if roles[i].fur {
                 let frame0 = MeshFrame::of(sp.model_at(0.0));
                 let animated = sp.animation.is_some();
-                let mut fur = build_fur(&scene, &pack, planned(StageKind::FurSolver), animated, options, &frame0)?;
+                let device = sp.physics_device.unwrap_or(scene.solver.device);
+                let fur = FurInputs { simulate: planned(StageKind::FurSolver), animated, device, frame0: &frame0 };
+                let mut fur = build_fur(&scene, &pack, fur, options)?;
                 if let Some(a) = &anim {
                     // The fur starts in the bind pose: the first pose is a cut (speed 0).
                     fur.follow(a, scene.time_step_s as f64, 0.0, &sp.path)?;
@@ -929,17 +931,17 @@ fn update_grass(p: &mut WorldPack, inputs: &StepInputs, t: f64) {
 
 /// Reads what one fur pack needs: its skin mesh (rest normals), and when a solver stage is
 /// planned, the one topology the scene calls for and a simulator over it.
-/// The fur of `pack`, simulated when `simulate`; `scale` is the pack's uniform scale at time 0
-/// (the guard's impulse, a speed in world metres per second, is brought into the mesh's units
-/// with it, as the per-step forces are with the scale of their step: `crate::frame`).
+/// The fur of `pack`, simulated when `inputs.simulate`, on `inputs.device`; the pack's uniform
+/// scale at time 0 (`inputs.frame0`) brings the guard's impulse, a speed in world metres per
+/// second, into the mesh's units, as the per-step forces are with the scale of their step
+/// (`crate::frame`).
 fn build_fur(
     scene: &Scene,
     pack: &Pack,
-    simulate: bool,
-    animated: bool,
+    inputs: FurInputs<'_>,
     options: WorldOptions,
-    frame0: &MeshFrame,
 ) -> Result<FurState, RuntimeError> {
+    let FurInputs { simulate, animated, device, frame0 } = inputs;
     let scale = frame0.scale;
     let mesh = pack.skin_mesh()?;
     let per_vertex: Vec<[f32; 3]> = mesh.normals.clone();
@@ -997,7 +999,7 @@ fn build_fur(
     };
     let sim_err = |source| RuntimeError::Simulation { path: pack.display_path(), source };
     let mut simulator = Simulator::new(&topology, settings).map_err(sim_err)?;
-    let gpu = match scene.solver.device {
+    let gpu = match device {
         PhysicsDevice::Cpu => None,
         PhysicsDevice::Gpu => Some(gpu_steps(scene, pack, &mut simulator, animated, frame0)?),
     };
@@ -1023,6 +1025,18 @@ fn build_fur(
         shell_transforms: vec![SkinTransform::IDENTITY; corner_vertices.len()],
         corner_vertices,
     })
+}
+
+/// What [`build_fur`] needs of a pack entry besides the scene and the pack.
+struct FurInputs<'a> {
+    /// A solver stage is planned.
+    simulate: bool,
+    /// The pack plays an animation.
+    animated: bool,
+    /// Where its physics runs (the entry's `physics_device`, else the scene's `[solver] device`).
+    device: PhysicsDevice,
+    /// Its mesh frame at time 0.
+    frame0: &'a MeshFrame,
 }
 
 /// The GPU side of a simulated pack (`[solver] device = "gpu"`): refused for an animated skin and
