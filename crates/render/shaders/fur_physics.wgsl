@@ -29,6 +29,10 @@ struct PhysicsStep {
     flags: vec4<u32>,
     // xyz: the teleport applied before this step (m, mesh frame; cs_teleport)
     teleport: vec4<f32>,
+    // the skin's pose before this step (cs_pose_*): 1/step (1/s), cut speed (m/s), unused, unused
+    pose: vec4<f32>,
+    // the pose's first transform, its speed slot, every mass, links between hairs
+    pose_at: vec4<u32>,
     // per local force: centre xyz and radius w (m), then strength x (N)
     locals: array<vec4<f32>, 32>,
 }
@@ -376,5 +380,208 @@ fn cs_scale(@builtin(global_invocation_id) gid: vec3<u32>) {
     let s = shell_tip[i];
     if s != NO_LINK {
         scale_out[i] = vec4<f32>(guard_state[s].xyz, 0.0);
+    }
+}
+
+// ---- The skin moves (crates/sim/src/skin.rs; the bind pose of crates/sim/src/compute.rs) ----
+// Before a step on an animated skin, five passes pose the model as `BindPose::pose` does: every
+// mass's rest position through the transform of the shell vertex it hangs from and the fastest
+// anchor's speed (cs_pose_rest); free masses' rest positions and directions, carried along on a
+// cut, back onto their anchored sticks (cs_pose_free); anchored masses to their posed positions
+// with the jump's velocity (cs_pose_anchored); tips' rest directions and roots, and the guard's
+// scale vectors past its angle reset (cs_pose_tips); links between hairs keeping their bind
+// strain (cs_pose_between).
+
+struct PoseTransform {
+    // the blended skinning matrix's columns (xyz); the w of the first three: the morph offset (m)
+    c0: vec4<f32>,
+    c1: vec4<f32>,
+    c2: vec4<f32>,
+    c3: vec4<f32>,
+    // the normal matrix's columns (xyz)
+    n0: vec4<f32>,
+    n1: vec4<f32>,
+    n2: vec4<f32>,
+}
+
+struct PoseMass {
+    // the bind rest position (xyz)
+    rest: vec4<f32>,
+    // the restoring link's bind rest direction (xyz; free masses)
+    n: vec4<f32>,
+    // the shell vertex it hangs from, or NO_LINK (it keeps its bind pose)
+    attach: u32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
+}
+
+struct PoseBetween {
+    a: u32,
+    b: u32,
+    // the link entries holding its rest length from either free end, or NO_LINK
+    e0: u32,
+    e1: u32,
+    rest: f32,
+    bind_distance: f32,
+    // its XPBD link, or NO_LINK
+    xpbd: u32,
+    pad0: u32,
+}
+
+@group(0) @binding(21) var<storage, read> pose_transforms: array<PoseTransform>;
+@group(0) @binding(22) var<storage, read> pose_masses: array<PoseMass>;
+@group(0) @binding(23) var<storage, read_write> posed: array<vec4<f32>>;
+// per step of a record: the fastest anchor's speed (m/s, as bits)
+@group(0) @binding(24) var<storage, read_write> pose_speed: array<atomic<u32>>;
+// the current state, and the other state buffer (anchored masses are in both)
+@group(0) @binding(25) var<storage, read_write> pose_x: array<vec4<f32>>;
+@group(0) @binding(26) var<storage, read_write> pose_v: array<vec4<f32>>;
+@group(0) @binding(27) var<storage, read_write> pose_x_other: array<vec4<f32>>;
+@group(0) @binding(28) var<storage, read_write> pose_v_other: array<vec4<f32>>;
+@group(0) @binding(29) var<storage, read_write> pose_physics: array<PhysicsMass>;
+@group(0) @binding(30) var<storage, read_write> pose_tips: array<PhysicsTip>;
+@group(0) @binding(31) var<storage, read_write> pose_guard: array<vec4<f32>>;
+// per tip: its bind rest direction (xyz)
+@group(0) @binding(32) var<storage, read> pose_tip_n: array<vec4<f32>>;
+@group(0) @binding(33) var<storage, read> pose_between: array<PoseBetween>;
+@group(0) @binding(34) var<storage, read_write> pose_links: array<PhysicsLink>;
+@group(0) @binding(35) var<storage, read_write> pose_xpbd_links: array<PhysicsXpbdLink>;
+
+// A bind-pose position through shell vertex s's transform: `matrix · (p + morph)`.
+fn pose_point(s: u32, p: vec3<f32>) -> vec3<f32> {
+    if s == NO_LINK {
+        return p;
+    }
+    let t = pose_transforms[step.pose_at.x + s];
+    let q = p + vec3<f32>(t.c0.w, t.c1.w, t.c2.w);
+    return t.c0.xyz * q.x + t.c1.xyz * q.y + t.c2.xyz * q.z + t.c3.xyz;
+}
+
+// A bind-pose direction through shell vertex s's normal matrix, unit (the bind direction where
+// that has no length).
+fn pose_direction(s: u32, n: vec3<f32>) -> vec3<f32> {
+    if s == NO_LINK {
+        return n;
+    }
+    let t = pose_transforms[step.pose_at.x + s];
+    let d = t.n0.xyz * n.x + t.n1.xyz * n.y + t.n2.xyz * n.z;
+    let rcp = 1.0 / length(d);
+    if rcp > 0.0 && rcp <= 3.4028235e38 {
+        return d * rcp;
+    }
+    return n;
+}
+
+// The skin moved faster than the cut speed: the fur is carried along.
+fn pose_cut() -> bool {
+    return bitcast<f32>(atomicLoad(&pose_speed[step.pose_at.y])) > step.pose.y;
+}
+
+@compute @workgroup_size(64)
+fn cs_pose_rest(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let k = gid.x;
+    if k >= step.pose_at.z {
+        return;
+    }
+    let pm = pose_masses[k];
+    let p = pose_point(pm.attach, pm.rest.xyz);
+    posed[k] = vec4<f32>(p, 0.0);
+    if k >= step.counts.x {
+        // Non-negative floats order as their bits; a NaN (above +inf's bits) is skipped, as the
+        // CPU's maximum skips it.
+        let bits = bitcast<u32>(length(p - pose_x[k].xyz) * step.pose.x);
+        if bits <= 0x7f800000u {
+            atomicMax(&pose_speed[step.pose_at.y], bits);
+        }
+    }
+}
+
+@compute @workgroup_size(64)
+fn cs_pose_free(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let k = gid.x;
+    if k >= step.counts.x {
+        return;
+    }
+    var m = pose_physics[k];
+    let pm = pose_masses[k];
+    let p = posed[k].xyz;
+    var x = pose_x[k].xyz;
+    var v = pose_v[k].xyz;
+    if pose_cut() {
+        x = x + (p - m.rest_pos.xyz);
+    }
+    m.rest_pos = vec4<f32>(p, 0.0);
+    m.restoring_n = vec4<f32>(pose_direction(pm.attach, pm.n.xyz), m.restoring_n.w);
+    if m.stick_parent != NO_LINK {
+        m.stick_anchor = vec4<f32>(posed[m.stick_parent].xyz, 0.0);
+        if step.flags.y != 0u {
+            project_on_stick(m, &x, &v);
+        }
+    }
+    pose_physics[k] = m;
+    pose_x[k] = vec4<f32>(x, 0.0);
+    pose_v[k] = vec4<f32>(v, 0.0);
+}
+
+@compute @workgroup_size(64)
+fn cs_pose_anchored(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let k = step.counts.x + gid.x;
+    if k >= step.pose_at.z {
+        return;
+    }
+    let p = posed[k].xyz;
+    var vel = vec3<f32>(0.0);
+    if !pose_cut() {
+        vel = (p - pose_x[k].xyz) * step.pose.x;
+    }
+    pose_x[k] = vec4<f32>(p, 0.0);
+    pose_x_other[k] = vec4<f32>(p, 0.0);
+    pose_v[k] = vec4<f32>(vel, 0.0);
+    pose_v_other[k] = vec4<f32>(vel, 0.0);
+}
+
+@compute @workgroup_size(64)
+fn cs_pose_tips(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if i >= step.counts.y {
+        return;
+    }
+    var t = pose_tips[i];
+    let n = pose_direction(pose_masses[t.tip].attach, pose_tip_n[i].xyz);
+    t.n = vec4<f32>(n, 0.0);
+    t.root_pos = vec4<f32>(posed[t.root].xyz, 0.0);
+    pose_tips[i] = t;
+    // A scale vector now past the guard's angle from its rest direction starts again from it
+    // (crates/sim/src/shell.rs follow_rest_directions).
+    var cos_a = -1.0;
+    if step.guard.z != 0.0 {
+        cos_a = step.guard.x;
+    }
+    let g = pose_guard[i];
+    if dot(n, g.xyz) < cos_a {
+        pose_guard[i] = vec4<f32>(n, g.w);
+    }
+}
+
+@compute @workgroup_size(64)
+fn cs_pose_between(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if i >= step.pose_at.w {
+        return;
+    }
+    let b = pose_between[i];
+    var rest = b.rest;
+    if b.bind_distance > 0.0 {
+        rest = b.rest * (distance(posed[b.a].xyz, posed[b.b].xyz) / b.bind_distance);
+    }
+    if b.e0 != NO_LINK {
+        pose_links[b.e0].rest = rest;
+    }
+    if b.e1 != NO_LINK {
+        pose_links[b.e1].rest = rest;
+    }
+    if b.xpbd != NO_LINK {
+        pose_xpbd_links[b.xpbd].rest = rest;
     }
 }

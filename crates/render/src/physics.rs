@@ -11,15 +11,18 @@
 //! ([`GpuFurPhysics::request_stats`]). docs/design.md "Fur physics on the GPU" has the design and
 //! the measured agreement with the CPU.
 //!
-//! Not yet on the GPU: the implicit, reference and local/global solvers, a moving (skinned) skin
-//! and energy tracking; [`furbake_sim::Simulator::compute_model`] refuses what has no compute
-//! form.
+//! An animated skin is posed on the GPU before each step as `Simulator::pose_skin` poses it
+//! ([`GpuStep::pose`], `physics/pose.rs`). Not yet on the GPU: the implicit, reference and
+//! local/global solvers and energy tracking; [`furbake_sim::Simulator::compute_model`] refuses
+//! what has no compute form.
 
-use furbake_sim::{ComputeModel, ComputeUpdate, ForceSet, GuardSettings, NO_LINK};
+use furbake_sim::{ComputeModel, ComputeUpdate, ForceSet, GuardSettings, NO_LINK, SkinTransform};
 use wgpu::util::DeviceExt;
 
 use crate::shaders::FUR_PHYSICS_WGSL;
 use crate::{FurRenderer, RenderError};
+
+mod pose;
 
 /// Local forces a GPU step applies (more are a [`RenderError::Parameter`]).
 pub const MAX_LOCAL_FORCES: usize = 16;
@@ -40,6 +43,8 @@ pub(crate) struct PhysicsStep {
     counts: [u32; 4],
     flags: [u32; 4],
     teleport: [f32; 4],
+    pose: [f32; 4],
+    pose_at: [u32; 4],
     locals: [[f32; 4]; 2 * MAX_LOCAL_FORCES],
 }
 
@@ -100,6 +105,8 @@ struct Xpbd {
     /// `bind[i]` steps state `i` into `1 − i`.
     bind: [wgpu::BindGroup; 2],
     pipeline: wgpu::ComputePipeline,
+    /// The links (their rest lengths follow a posed skin).
+    links: wgpu::Buffer,
 }
 
 /// One tip (`PhysicsTip`).
@@ -162,6 +169,10 @@ pub struct GpuFurPhysics {
     scratch_bytes: Vec<u8>,
     /// XPBD's part (XPBD models only).
     xpbd: Option<Xpbd>,
+    /// The tips (their rest directions and roots follow a posed skin).
+    tip_buffer: wgpu::Buffer,
+    /// The animated skin's part (models with a bind pose only).
+    pose: Option<pose::Pose>,
     /// Steps and substeps of the last record.
     last_record: (u32, u32),
     /// The statistics readback ([`GpuFurPhysics::request_stats`]).
@@ -176,6 +187,20 @@ pub struct GpuStep<'a> {
     pub forces: &'a ForceSet,
     /// The teleport before it.
     pub teleport_m: [f32; 3],
+    /// The animated skin's pose at the step's end, applied before it (as
+    /// `Simulator::pose_skin`); `None` where the skin did not move.
+    pub pose: Option<GpuPose<'a>>,
+}
+
+/// An animated skin's pose for one GPU step ([`GpuStep::pose`]): one [`SkinTransform`] per
+/// shell vertex (bind pose → now) and the cut speed above which the fur is carried along
+/// (mesh-frame metres per second), as `Simulator::pose_skin` takes them.
+#[derive(Clone, Copy, Debug)]
+pub struct GpuPose<'a> {
+    /// Per shell vertex, bind pose → now.
+    pub transforms: &'a [SkinTransform],
+    /// The fastest anchor speed that still drags the fur through its springs, m/s.
+    pub cut_speed_m_per_s: f32,
 }
 
 /// What one record of the GPU physics counted ([`GpuFurPhysics::poll_stats`]).
@@ -437,8 +462,20 @@ impl GpuFurPhysics {
                 )?),
                 _ => None,
             };
+            let targets = pose::PoseTargets {
+                steps: &steps,
+                x: &x,
+                v: &v,
+                masses: &mass_buffer,
+                links: &links,
+                tips: &tip_buffer,
+                guard: &guard_state,
+            };
+            let pose = pose::Pose::new(device, model, &module, &targets, xpbd.as_ref().map(|x| &x.links))?;
             Ok(GpuFurPhysics {
                 xpbd,
+                tip_buffer,
+                pose,
                 forces: forces.clone(),
                 guard: model.guard.clone(),
                 update: model.update,
@@ -512,7 +549,13 @@ impl GpuFurPhysics {
         dt_s: f64,
     ) -> Result<u32, RenderError> {
         let forces = std::mem::take(&mut self.forces);
-        let out = self.record_steps(device, queue, encoder, dt_s, &[GpuStep { forces: &forces, teleport_m: [0.0; 3] }]);
+        let out = self.record_steps(
+            device,
+            queue,
+            encoder,
+            dt_s,
+            &[GpuStep { forces: &forces, teleport_m: [0.0; 3], pose: None }],
+        );
         self.forces = forces;
         out
     }
@@ -541,6 +584,18 @@ impl GpuFurPhysics {
             if !step.teleport_m.iter().all(|c| c.is_finite()) {
                 return Err(RenderError::Parameter { what: format!("teleport {:?} is not finite", step.teleport_m) });
             }
+            if let Some(p) = &step.pose {
+                match &self.pose {
+                    Some(pose) => pose.check(p)?,
+                    None => {
+                        return Err(RenderError::Parameter {
+                            what: "a skin pose for GPU physics built from a static skin (pose the simulator once, \
+                                   Simulator::pose_skin, before its compute_model)"
+                                .into(),
+                        });
+                    }
+                }
+            }
         }
         // XPBD never substeps (crates/sim/src/solvers/xpbd.rs).
         let substeps = if dt_s <= self.stable_step_s || self.xpbd.is_some() {
@@ -561,22 +616,47 @@ impl GpuFurPhysics {
             return Ok(0);
         }
         let total = substeps * count;
+        let posed = steps.iter().filter(|s| s.pose.is_some()).count() as u32;
+        let mut rebind_pose = false;
         if total > self.steps_capacity {
             // Grows, never shrinks: a steady frame rate allocates nothing here.
             self.steps_capacity = total.next_power_of_two();
             self.steps = step_buffer(device, self.steps_capacity);
             self.state = self.parts().bind_all(device, &self.x, &self.v);
+            rebind_pose = true;
+        }
+        if let Some(pose) = self.pose.as_mut() {
+            rebind_pose |= pose.reserve(device, posed, count);
+            if rebind_pose {
+                let targets = pose::PoseTargets {
+                    steps: &self.steps,
+                    x: &self.x,
+                    v: &self.v,
+                    masses: &self.mass_buffer,
+                    links: &self.links,
+                    tips: &self.tip_buffer,
+                    guard: &self.guard_state,
+                };
+                pose.rebind(device, &targets);
+            }
         }
         let h = dt_s / substeps as f64;
         self.scratch.clear();
         // Time advances step by step, as the CPU simulator's does (so one record of n steps and n
         // records of one agree to the bit).
         let mut t = self.time_s;
-        for step in steps {
+        let mut poses = 0;
+        for (n, step) in (0..count).zip(steps) {
             for sub in 0..substeps {
-                // The teleport belongs to the step's first substep (cs_teleport reads it there).
+                // The teleport and the pose belong to the step's first substep (cs_teleport and
+                // the pose passes read them there).
                 let teleport = if sub == 0 { step.teleport_m } else { [0.0; 3] };
-                self.scratch.push(self.uniforms(step.forces, teleport, t + sub as f64 * h, h as f32));
+                let mut u = self.uniforms(step.forces, teleport, t + sub as f64 * h, h as f32);
+                if let (0, Some(p), Some(pose)) = (sub, &step.pose, &self.pose) {
+                    (u.pose, u.pose_at) = pose.uniforms(poses, n, dt_s, p.cut_speed_m_per_s);
+                    poses += 1;
+                }
+                self.scratch.push(u);
             }
             t += dt_s;
         }
@@ -584,6 +664,10 @@ impl GpuFurPhysics {
         queue.write_buffer(&self.steps, 0, &bytes);
         self.scratch_bytes = bytes;
         encoder.clear_buffer(&self.stats, 0, None);
+        if let (Some(pose), true) = (self.pose.as_mut(), posed > 0) {
+            pose.write(queue, steps.iter().filter_map(|s| s.pose.as_ref()));
+            pose.clear(encoder);
+        }
         let free_groups = self.counts[0].div_ceil(WORKGROUP).max(1);
         for (n, step) in (0..count).zip(steps) {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -596,6 +680,11 @@ impl GpuFurPhysics {
                 pass.set_bind_group(0, &self.state.last[self.current], &[(first as u64 * STEP_STRIDE) as u32]);
                 pass.set_bind_group(1, &self.tips, &[]);
                 pass.dispatch_workgroups(free_groups, 1, 1);
+            }
+            if let (Some(_), Some(pose)) = (&step.pose, &self.pose) {
+                // The skin moves to its pose at the step's end before the step (as the CPU
+                // world poses the simulator before stepping it).
+                pose.record(&mut pass, (first as u64 * STEP_STRIDE) as u32, self.current);
             }
             if let Some(x) = &self.xpbd {
                 x.record(&mut pass, (first as u64 * STEP_STRIDE) as u32, self.current);
@@ -752,6 +841,8 @@ impl GpuFurPhysics {
                 0,
             ],
             teleport: v4(teleport_m, 0.0),
+            pose: [0.0; 4],
+            pose_at: [0; 4],
             locals,
         }
     }
@@ -916,7 +1007,8 @@ impl Xpbd {
             compilation_options: Default::default(),
             cache: None,
         });
-        Ok(Xpbd { bind: [bind(0), bind(1)], pipeline })
+        let bind = [bind(0), bind(1)];
+        Ok(Xpbd { bind, pipeline, links: links_buffer })
     }
 
     /// Records one XPBD step from state `from` into `1 − from` with the step uniforms at
@@ -947,14 +1039,7 @@ impl StateParts<'_> {
     }
 
     fn steps_entry(&self) -> wgpu::BindGroupEntry<'_> {
-        wgpu::BindGroupEntry {
-            binding: 0,
-            resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                buffer: self.steps,
-                offset: 0,
-                size: wgpu::BufferSize::new(size_of::<PhysicsStep>() as u64),
-            }),
-        }
+        steps_entry(self.steps)
     }
 
     /// The guard's and scale pass's bind group over the final state in buffers `at`.
@@ -1001,6 +1086,18 @@ impl StateParts<'_> {
                 entry(8, self.stats),
             ],
         })
+    }
+}
+
+/// The step uniforms' binding (0), one substep's worth at a dynamic offset.
+fn steps_entry(steps: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
+    wgpu::BindGroupEntry {
+        binding: 0,
+        resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+            buffer: steps,
+            offset: 0,
+            size: wgpu::BufferSize::new(size_of::<PhysicsStep>() as u64),
+        }),
     }
 }
 
@@ -1066,6 +1163,8 @@ mod tests {
             ("counts", offset_of!(PhysicsStep, counts)),
             ("flags", offset_of!(PhysicsStep, flags)),
             ("teleport", offset_of!(PhysicsStep, teleport)),
+            ("pose", offset_of!(PhysicsStep, pose)),
+            ("pose_at", offset_of!(PhysicsStep, pose_at)),
             ("locals", offset_of!(PhysicsStep, locals)),
         ];
         assert_eq!(check_layout("PhysicsStep", size_of::<PhysicsStep>(), &step), 1);

@@ -37,7 +37,7 @@ use crate::target::RenderTarget;
 use crate::upload::{FrameUpload, Upload};
 use crate::{
     BladeForces, BladeRenderSettings, BladeRenderer, FurAsset, FurGpuAsset, FurRenderer, GpuFurPhysics,
-    GpuPhysicsStats, GpuStep, PipelineCache, RenderError, RenderSettings, TargetDesc, View,
+    GpuPhysicsStats, GpuPose, GpuStep, PipelineCache, RenderError, RenderSettings, TargetDesc, View,
 };
 
 /// The fixed GPU (or, on lavapipe, host) memory of one fur or blade renderer beyond its data —
@@ -626,7 +626,7 @@ impl SceneRenderer {
             if steps.taken() == slot.recorded {
                 continue;
             }
-            let Some((forces, teleport_m)) = steps.step(slot.recorded) else {
+            let Some(first) = steps.step(slot.recorded) else {
                 return Err(RenderError::Parameter {
                     what: format!(
                         "pack {:?}: the world took {} steps since the last frame; GPU physics records at most {} per frame",
@@ -637,12 +637,17 @@ impl SceneRenderer {
                 });
             };
             // On the stack: a frame allocates nothing here.
-            let mut refs = [GpuStep { forces, teleport_m }; furbake_runtime::GPU_PHYSICS_STEPS_KEPT];
+            fn gpu_step(s: furbake_runtime::GpuStepInputs<'_>) -> GpuStep<'_> {
+                GpuStep {
+                    forces: s.forces,
+                    teleport_m: s.teleport_m,
+                    pose: s.pose.map(|(transforms, cut_speed_m_per_s)| GpuPose { transforms, cut_speed_m_per_s }),
+                }
+            }
+            let mut refs = [gpu_step(first); furbake_runtime::GPU_PHYSICS_STEPS_KEPT];
             let count = (steps.taken() - slot.recorded) as usize;
             for (r, n) in refs.iter_mut().zip(slot.recorded..steps.taken()) {
-                let (forces, teleport_m) =
-                    steps.step(n).expect("the world keeps every step from the first unrecorded one");
-                *r = GpuStep { forces, teleport_m };
+                *r = gpu_step(steps.step(n).expect("the world keeps every step from the first unrecorded one"));
             }
             physics.record_steps(&self.device, queue, encoder, steps.dt_s(), &refs[..count])?;
             slot.recorded = steps.taken();

@@ -42,8 +42,8 @@ pub const SILHOUETTE_WGSL: &str =
     concat!(include_str!("../shaders/silhouette_common.wgsl"), include_str!("../shaders/silhouette.wgsl"));
 
 /// Fur physics (fur thesis §3.3.2, §3.4.1–3.4.3): the `cs_step`, `cs_xpbd_step`, `cs_teleport`,
-/// `cs_guard` and `cs_scale` compute entry points of the explicit and stick solvers, XPBD, a
-/// teleport's jump, the wrong-side guard and the scale vectors
+/// `cs_pose_*`, `cs_guard` and `cs_scale` compute entry points of the explicit and stick solvers,
+/// XPBD, a teleport's jump, an animated skin's pose, the wrong-side guard and the scale vectors
 /// ([`crate::GpuFurPhysics`]). Stands alone.
 pub const FUR_PHYSICS_WGSL: &str = include_str!("../shaders/fur_physics.wgsl");
 
@@ -330,6 +330,11 @@ pub(crate) mod tests {
                 "cs_depth_reduce",
                 "cs_guard",
                 "cs_pose_all",
+                "cs_pose_anchored",
+                "cs_pose_between",
+                "cs_pose_free",
+                "cs_pose_rest",
+                "cs_pose_tips",
                 "cs_scale",
                 "cs_scan_blocks",
                 "cs_shell_positions",

@@ -199,7 +199,7 @@ fn several_steps_in_one_record_are_the_steps_one_by_one() {
             g.queue.submit([encoder.finish()]);
         }
         let mut encoder = g.device.create_command_encoder(&Default::default());
-        let step = GpuStep { forces: &f, teleport_m: [0.0; 3] };
+        let step = GpuStep { forces: &f, teleport_m: [0.0; 3], pose: None };
         three.record_steps(&g.device, &g.queue, &mut encoder, 1.0 / 60.0, &[step; 3]).unwrap();
         g.queue.submit([encoder.finish()]);
     }
@@ -207,6 +207,215 @@ fn several_steps_in_one_record_are_the_steps_one_by_one() {
     assert_eq!(a.positions, b.positions);
     assert_eq!(a.velocities, b.velocities);
     assert_eq!(one.time_s(), three.time_s());
+}
+
+/// How a skin moves: the blended matrix and morph offset of a vertex at bind position `p`, time
+/// `t` (crates/sim/tests/skinned.rs's hard cases).
+type Motion = fn(glam::Vec3, f32) -> (glam::Mat4, glam::Vec3);
+
+/// A limb swinging ±1 rad at 3 Hz about z, more the higher up, while the body strides along x.
+fn swing(p: glam::Vec3, t: f32) -> (glam::Mat4, glam::Vec3) {
+    let a = (std::f32::consts::TAU * 3.0 * t).sin() * (0.3 + 0.5 * p.y);
+    (
+        glam::Mat4::from_translation(glam::Vec3::new(0.8 * t, 0.0, 0.0)) * glam::Mat4::from_rotation_z(a),
+        glam::Vec3::ZERO,
+    )
+}
+
+/// Non-uniform scale that breathes at 2 Hz, mirrored in x, with a morph bulging the upper half.
+fn breathe_mirrored(p: glam::Vec3, t: f32) -> (glam::Mat4, glam::Vec3) {
+    let w = (std::f32::consts::TAU * 2.0 * t).sin();
+    let m = glam::Mat4::from_scale(glam::Vec3::new(-(1.0 + 0.3 * w), 1.0, 1.0 - 0.2 * w));
+    (m, p * (0.1 * w * p.y.max(0.0)))
+}
+
+/// Still, then 10 m away from one frame to the next (a cut: the fur is carried along).
+fn jump(_: glam::Vec3, t: f32) -> (glam::Mat4, glam::Vec3) {
+    let at = if t < 0.25 { glam::Vec3::ZERO } else { glam::Vec3::new(10.0, 0.0, 0.0) };
+    (glam::Mat4::from_translation(at), glam::Vec3::ZERO)
+}
+
+/// The CPU simulator and the GPU physics on a sphere whose skin moves by `motion`, posed before
+/// every one of 60 steps of 1/60 s (`Simulator::pose_skin`; `GpuStep::pose`), both starting from
+/// the simulator after its first pose: the largest position and scale-vector gaps, how far the
+/// fur moved from its posed rest, and how many steps were cuts on the CPU.
+fn posed_run(topology: &str, kind: SolverKind, motion: Motion) -> (f32, f32, f32, u32) {
+    use furbake_sim::SkinTransform;
+    let g = gpu();
+    let mut baked = baked_sphere(topology, 0.15);
+    let topo = baked.topologies.pop().unwrap();
+    let mesh = &baked.mesh;
+    let shell: Vec<glam::Vec3> = if shell_per_corner(topology) {
+        mesh.triangles.iter().flatten().map(|&i| glam::Vec3::from(mesh.positions[i as usize])).collect()
+    } else {
+        mesh.positions.iter().map(|&p| glam::Vec3::from(p)).collect()
+    };
+    let asset = FurAsset::new(Arc::new(baked.mesh), Arc::new(baked.shells), Arc::new(baked.uv_map), None).unwrap();
+    let renderer =
+        FurRenderer::new(g.pipelines(), &g.queue, &asset, &RenderSettings::default(), &RenderTarget::desc()).unwrap();
+    let settings = SolverSettings { max_substeps: 2_000, ..SolverSettings::of(kind) };
+    let max_substeps = settings.max_substeps;
+    let mut sim = Simulator::new(&topo, settings.clone()).unwrap();
+    let f = ForceSet { wind: None, local: Vec::new(), ..forces(0.0) };
+    sim.set_forces(f.clone()).unwrap();
+    let dt = 1.0 / 60.0;
+    let pose_at = |t: f32, out: &mut Vec<SkinTransform>| {
+        out.clear();
+        out.extend(shell.iter().map(|&p| {
+            let (m, morph) = motion(p, t);
+            SkinTransform::new(m, morph)
+        }));
+    };
+    let mut transforms = Vec::new();
+    pose_at(0.0, &mut transforms);
+    // The first pose is a cut (the fur starts in the bind pose) and builds the bind pose the GPU
+    // solver starts from.
+    sim.pose_skin(&transforms, dt, 0.0).unwrap();
+    let model = sim.compute_model().unwrap();
+    assert!(model.pose.is_some(), "a posed simulator hands its bind pose over");
+    let mut physics = renderer.gpu_physics(&g.device, &g.queue, &model, &f, sim.stable_step_s(), max_substeps).unwrap();
+    let mut cuts = 0;
+    for step in 1..=60 {
+        pose_at(step as f32 * dt as f32, &mut transforms);
+        let moved = sim.pose_skin(&transforms, dt, 50.0).unwrap();
+        cuts += u32::from(moved.cut);
+        sim.step(dt).unwrap();
+        let mut encoder = g.device.create_command_encoder(&Default::default());
+        let pose = furbake_render::GpuPose { transforms: &transforms, cut_speed_m_per_s: 50.0 };
+        let gpu_step = GpuStep { forces: &f, teleport_m: [0.0; 3], pose: Some(pose) };
+        physics.record_steps(&g.device, &g.queue, &mut encoder, dt, &[gpu_step]).unwrap();
+        g.queue.submit([encoder.finish()]);
+    }
+    let readback = physics.read_back(&g.device, &g.queue).unwrap();
+    let gpu_scale = renderer.shell_scale_vectors(&g.device, &g.queue).unwrap();
+    assert_eq!(readback.counters[0], 0, "no non-finite mass on the GPU");
+    // The posed rest state: how far the fur swung away from where the skin alone puts it.
+    let mut rest = Simulator::new(&topo, settings).unwrap();
+    rest.pose_skin(&transforms, dt, 0.0).unwrap();
+    (
+        worst(&sim.positions(), &readback.positions),
+        worst(&sim.scale_vectors(), &gpu_scale),
+        worst(&sim.positions(), &rest.positions()),
+        cuts,
+    )
+}
+
+fn shell_per_corner(topology: &str) -> bool {
+    topology.starts_with("separable")
+}
+
+#[test]
+fn a_moving_skin_drags_gpu_fur_as_it_drags_cpu_fur() {
+    // The skin's pose on the GPU (cs_pose_*): anchors dragged with the skin's velocity, rest
+    // directions turned, links between hairs keeping their bind strain, a cut carrying the fur
+    // along; every solver with a compute form, welded and per-corner shells, morphs and a
+    // mirrored (negative-determinant) skin.
+    let cases: [(&str, SolverKind, Motion, &str); 6] = [
+        ("prisms", SolverKind::Xpbd, swing, "swing"),
+        ("prisms", SolverKind::Explicit, swing, "swing"),
+        ("sticks", SolverKind::Stick, swing, "swing"),
+        ("separable-prisms", SolverKind::Xpbd, breathe_mirrored, "breathing, mirrored, morphed"),
+        ("sticks", SolverKind::Xpbd, breathe_mirrored, "breathing, mirrored, morphed"),
+        ("prisms", SolverKind::Xpbd, jump, "10 m jump"),
+    ];
+    for (topology, kind, motion, what) in cases {
+        let (d, s, swung, cuts) = posed_run(topology, kind, motion);
+        eprintln!(
+            "{topology} {}, {what}: GPU−CPU {d:.2e} m, scale vectors {s:.2e}, swung {swung:.3} m from the posed rest, {cuts} cuts",
+            kind.name()
+        );
+        assert!(swung > 0.003 || what == "10 m jump", "{topology} {what}: the skin's motion moved the fur {swung} m");
+        assert_eq!(cuts, u32::from(what == "10 m jump"), "{topology} {what}: cuts");
+        assert!(d <= 2e-5, "{topology} {}, {what}: GPU and CPU positions differ by {d} m", kind.name());
+        assert!(s <= 5e-5, "{topology} {}, {what}: scale vectors differ by {s}", kind.name());
+    }
+}
+
+#[test]
+fn the_walking_fox_runs_its_fur_physics_on_the_gpu() {
+    // The demo's case: the bundled Fox walking 80 cm in 1 s with its clip, prisms topology, the
+    // solver the scene picks (auto), gravity and a gusting breeze; the same scene with the fur on
+    // the CPU and on the GPU, drawn every other step: the GPU world's scale vectors agree with
+    // the CPU world's and the frames look the same.
+    use furbake_render::SceneRenderer;
+    use furbake_render::headless::read_back;
+    use furbake_runtime::World;
+    let g = gpu();
+    let dir = tempfile::tempdir().unwrap();
+    let fox = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/real/Fox.glb");
+    let imported = furbake_import::import_gltf(&fox, &ImportSettings::default()).unwrap();
+    let mut settings = BakeSettings::preset("fur").unwrap();
+    settings.volume.layers = 8;
+    settings.volume.resolution = 32;
+    settings.topologies = vec!["prisms".into()];
+    let baked = bake(&imported, "fox", &settings.plan().unwrap(), &mut NoProgress).unwrap();
+    baked.to_writer().write_atomic(&dir.path().join("fox.fbk")).unwrap();
+    let scene = |device: &str| {
+        let toml = format!(
+            r#"
+time_step_s = 0.02
+[solver]
+device = "{device}"
+[camera]
+eye = [1.6, 1.0, 2.2]
+target = [0.0, 0.3, 0.0]
+fov_y_deg = 40.0
+[[packs]]
+name = "fox"
+path = "fox.fbk"
+translation = [-0.4, 0.0, 0.0]
+rotation_deg = [0.0, 90.0, 0.0]
+scale = 0.01
+animation = {{ clip = "Walk", speed = 1.0, loop = true }}
+[[packs.motion]]
+time_s = 0.0
+[[packs.motion]]
+time_s = 1.0
+translation = [0.8, 0.0, 0.0]
+[effects.gravity]
+[effects.wind]
+velocity_m_per_s = [2.0, 0.0, 0.5]
+gust_amplitude = 0.5
+"#
+        );
+        furbake_runtime::Scene::from_toml_str(&toml, std::path::Path::new("fox.toml"), dir.path()).unwrap()
+    };
+    let (mut cpu, mut gpu_world) = (World::new(scene("cpu")).unwrap(), World::new(scene("gpu")).unwrap());
+    assert!(gpu_world.gpu_physics(0).is_some());
+    let (r_cpu, r_gpu) = (
+        SceneRenderer::new(&g.device, &g.queue, &cpu).unwrap(),
+        SceneRenderer::new(&g.device, &g.queue, &gpu_world).unwrap(),
+    );
+    let target = RenderTarget::new(&g.device, 128, 96).unwrap();
+    let (mut worst_px, mut worst_d) = (0u8, 0.0f32);
+    let rest = cpu.fur(0).unwrap().scale_vectors.to_vec();
+    for frame in 0..25 {
+        for _ in 0..2 {
+            cpu.step().unwrap();
+            gpu_world.step().unwrap();
+        }
+        r_cpu.render_world(&g.device, &g.queue, &target, &cpu).unwrap();
+        let a = read_back(&g.device, &g.queue, &target).unwrap();
+        r_gpu.render_world(&g.device, &g.queue, &target, &gpu_world).unwrap();
+        let b = read_back(&g.device, &g.queue, &target).unwrap();
+        worst_px = worst_px.max(a.as_raw().iter().zip(b.as_raw()).map(|(x, y)| x.abs_diff(*y)).max().unwrap());
+        let gpu_scale = r_gpu.packs()[0].fur.as_ref().unwrap().shell_scale_vectors(&g.device, &g.queue).unwrap();
+        worst_d = worst_d.max(worst(cpu.fur(0).unwrap().scale_vectors, &gpu_scale));
+        if frame == 24 {
+            let out = std::env::temp_dir().join("furbake-render-tests");
+            std::fs::create_dir_all(&out).unwrap();
+            a.save(out.join("gpu_physics_fox_cpu.png")).unwrap();
+            b.save(out.join("gpu_physics_fox_gpu.png")).unwrap();
+        }
+    }
+    let bent = worst(cpu.fur(0).unwrap().scale_vectors, &rest);
+    eprintln!(
+        "walking Fox, 1 s: scale vectors moved {bent:.3} from the first frame's, GPU−CPU {worst_d:.2e} at worst, \
+         worst pixel difference {worst_px}/255"
+    );
+    assert!(bent > 0.1, "the walk moved the fur's scale vectors by {bent}");
+    assert!(worst_d <= 1e-4, "GPU and CPU worlds' scale vectors differ by {worst_d}");
+    assert!(worst_px <= 2, "the GPU world's frames differ from the CPU world's by {worst_px}/255");
 }
 
 /// A furry sphere baked with the prisms topology into `dir` and a scene of it in gravity and a

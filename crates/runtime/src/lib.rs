@@ -105,7 +105,7 @@ pub use scene::{
 };
 pub use stages::{PlannedStage, StageKind, StageStats};
 pub use world::{
-    FurFrame, GPU_PHYSICS_STEPS_KEPT, GpuPhysicsSteps, GrassFrame, MAX_MASS_UPDATES_PER_STEP, PackState,
+    FurFrame, GPU_PHYSICS_STEPS_KEPT, GpuPhysicsSteps, GpuStepInputs, GrassFrame, MAX_MASS_UPDATES_PER_STEP, PackState,
     ShellVertexLayout, World, WorldOptions,
 };
 

@@ -278,8 +278,9 @@ pub enum PhysicsDevice {
     #[default]
     Cpu,
     /// Compute passes the renderer records into the host's frame (furbake-render's
-    /// `GpuFurPhysics`): the explicit, stick and XPBD solvers on static skins; the World keeps
-    /// each step's forces for the renderer and leaves its own simulators at rest
+    /// `GpuFurPhysics`): the explicit, stick and XPBD solvers on static and animated skins; the
+    /// World keeps each step's forces and skin pose for the renderer and leaves its own
+    /// simulators at rest
     /// (docs/design.md "Fur physics on the GPU").
     Gpu,
 }
@@ -322,7 +323,7 @@ struct SolverTable {
     /// Which solver. Default `auto`.
     #[serde(default)]
     kind: SolverChoice,
-    /// Where it runs: `cpu` or `gpu` (static skins; the explicit, stick and XPBD solvers).
+    /// Where it runs: `cpu` or `gpu` (the explicit, stick and XPBD solvers).
     /// Default `cpu`.
     #[serde(default)]
     device: PhysicsDevice,

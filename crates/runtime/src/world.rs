@@ -148,6 +148,13 @@ struct GpuSteps {
     teleports: Vec<[f32; 3]>,
     /// Teleports since the last step, applied at the start of the next.
     teleport_m: [f32; 3],
+    /// Per kept step of an animated pack: the skin's transforms (one per shell vertex) and cut
+    /// speed it was posed with before the step (`Simulator::pose_skin`), or `None`.
+    poses: Vec<Vec<SkinTransform>>,
+    cut_speeds: Vec<Option<f32>>,
+    /// The pose of the step being taken (the animation stage runs before the solver stage).
+    pose_pending: Vec<SkinTransform>,
+    cut_pending: Option<f32>,
     dt_s: f64,
     /// Steps taken since the start (step `n` is slot `n % GPU_PHYSICS_STEPS_KEPT`).
     taken: u64,
@@ -161,8 +168,34 @@ impl GpuSteps {
         // clone_from keeps the slot's list of local forces: no allocation once warm.
         self.forces[slot].clone_from(forces);
         self.teleports[slot] = std::mem::take(&mut self.teleport_m);
+        // A swap: the ring's transforms were sized when the world was built, so no allocation.
+        std::mem::swap(&mut self.poses[slot], &mut self.pose_pending);
+        self.cut_speeds[slot] = self.cut_pending.take();
         self.taken += 1;
     }
+
+    /// Keeps the pose of the step being taken.
+    fn pose(&mut self, transforms: &[SkinTransform], cut_speed: f32) {
+        if self.pose_pending.len() == transforms.len() {
+            self.pose_pending.copy_from_slice(transforms);
+        } else {
+            self.pose_pending.clear();
+            self.pose_pending.extend_from_slice(transforms);
+        }
+        self.cut_pending = Some(cut_speed);
+    }
+}
+
+/// One step a GPU-physics pack took ([`GpuPhysicsSteps::step`]).
+#[derive(Clone, Copy, Debug)]
+pub struct GpuStepInputs<'a> {
+    /// The step's forces.
+    pub forces: &'a ForceSet,
+    /// The teleport that moves the fur at its start (mesh frame, metres; `Simulator::teleport`).
+    pub teleport_m: [f32; 3],
+    /// An animated pack's skin before the step: one transform per shell vertex (bind pose → the
+    /// step's end) and the cut speed, mesh-frame m/s (`Simulator::pose_skin`).
+    pub pose: Option<(&'a [SkinTransform], f32)>,
 }
 
 /// A pack whose fur physics runs on the GPU (`[solver] device = "gpu"`; [`World::gpu_physics`]):
@@ -211,13 +244,18 @@ impl<'a> GpuPhysicsSteps<'a> {
         self.steps.taken
     }
 
-    /// The forces of step `n` (0-based) and the teleport that moves the fur at its start (mesh
-    /// frame, metres; `Simulator::teleport`), while the world keeps them (its last
-    /// [`GPU_PHYSICS_STEPS_KEPT`]); `None` before or after that.
-    pub fn step(&self, n: u64) -> Option<(&'a ForceSet, [f32; 3])> {
+    /// Step `n` (0-based): its forces, the teleport at its start and an animated skin's pose,
+    /// while the world keeps them (its last [`GPU_PHYSICS_STEPS_KEPT`]); `None` before or after
+    /// that.
+    pub fn step(&self, n: u64) -> Option<GpuStepInputs<'a>> {
         let kept = self.steps.taken.saturating_sub(GPU_PHYSICS_STEPS_KEPT as u64);
         let slot = (n % GPU_PHYSICS_STEPS_KEPT as u64) as usize;
-        (n >= kept && n < self.steps.taken).then(|| (&self.steps.forces[slot], self.steps.teleports[slot]))
+        let s = self.steps;
+        (n >= kept && n < s.taken).then(|| GpuStepInputs {
+            forces: &s.forces[slot],
+            teleport_m: s.teleports[slot],
+            pose: s.cut_speeds[slot].map(|cut| (&s.poses[slot][..], cut)),
+        })
     }
 }
 
@@ -236,13 +274,16 @@ struct FurState {
 
 impl FurState {
     /// Poses the fur on `anim`'s skin for the step of `dt_s` that follows (anchors, rest
-    /// directions, and the rest scale vectors of fur that is not simulated).
+    /// directions, and the rest scale vectors of fur that is not simulated). Fur whose physics
+    /// runs on the GPU keeps the pose for its renderer, unless `on_cpu` (the world's first pose,
+    /// which the GPU solver starts from).
     fn follow(
         &mut self,
         anim: &Animator,
         dt_s: f64,
         cut_speed: f32,
         path: &std::path::Path,
+        on_cpu: bool,
     ) -> Result<(), RuntimeError> {
         let normals = anim.normals();
         if self.corner_vertices.is_empty() {
@@ -257,6 +298,10 @@ impl FurState {
             Some(sim) => {
                 let transforms =
                     if self.corner_vertices.is_empty() { anim.transforms() } else { &self.shell_transforms[..] };
+                if let (Some(gpu), false) = (sim.gpu.as_mut(), on_cpu) {
+                    gpu.pose(transforms, cut_speed);
+                    return Ok(());
+                }
                 sim.last_move = sim
                     .simulator
                     .pose_skin(transforms, dt_s, cut_speed)
@@ -459,7 +504,7 @@ impl World {
                 let mut fur = build_fur(&scene, &pack, fur, options)?;
                 if let Some(a) = &anim {
                     // The fur starts in the bind pose: the first pose is a cut (speed 0).
-                    fur.follow(a, scene.time_step_s as f64, 0.0, &sp.path)?;
+                    fur.follow(a, scene.time_step_s as f64, 0.0, &sp.path, true)?;
                     if let Some(sim) = &fur.sim {
                         sim.simulator
                             .write_scale_vectors(&mut fur.scale_vectors)
@@ -860,7 +905,7 @@ fn run_stage(p: &mut WorldPack, inputs: &StepInputs, kind: StageKind, t: f64, dt
         // which the pack's uniform scale maps to the world.
         let cut = p.scene.animation.as_ref().map_or(f32::INFINITY, |a| a.cut_speed_m_per_s) / p.step_frame.1.scale;
         if let Some(fur) = p.fur.as_mut() {
-            fur.follow(anim, dt, cut, &p.scene.path)?;
+            fur.follow(anim, dt, cut, &p.scene.path, false)?;
         }
         return Ok(());
     }
@@ -1039,8 +1084,9 @@ struct FurInputs<'a> {
     frame0: &'a MeshFrame,
 }
 
-/// The GPU side of a simulated pack (`[solver] device = "gpu"`): refused for an animated skin and
-/// for solvers without a compute form; the stable step at the restoring weight of time 0.
+/// The GPU side of a simulated pack (`[solver] device = "gpu"`): refused for solvers without a
+/// compute form; the stable step at the restoring weight of time 0; an animated pack's ring of
+/// skin poses sized once.
 fn gpu_steps(
     scene: &Scene,
     pack: &Pack,
@@ -1049,23 +1095,19 @@ fn gpu_steps(
     frame0: &MeshFrame,
 ) -> Result<GpuSteps, RuntimeError> {
     let path = pack.display_path();
-    if animated {
-        return Err(RuntimeError::Parameter {
-            what: format!(
-                "{}: [solver] device = \"gpu\" needs a static skin and this pack plays an animation \
-                 (GPU physics does not pose skins yet; use device = \"cpu\")",
-                path.display()
-            ),
-        });
-    }
     let err = |source| RuntimeError::Simulation { path: path.clone(), source };
     simulator.compute_model().map_err(err)?;
+    let shell = simulator.shell_vertex_count();
     let restoring_weight_n = frame::restoring_weight(&scene.effects, frame0);
     simulator.set_forces(ForceSet { restoring_weight_n, ..ForceSet::none() }).map_err(err)?;
     Ok(GpuSteps {
         forces: vec![ForceSet::none(); GPU_PHYSICS_STEPS_KEPT],
         teleports: vec![[0.0; 3]; GPU_PHYSICS_STEPS_KEPT],
         teleport_m: [0.0; 3],
+        poses: vec![vec![SkinTransform::IDENTITY; if animated { shell } else { 0 }]; GPU_PHYSICS_STEPS_KEPT],
+        cut_speeds: vec![None; GPU_PHYSICS_STEPS_KEPT],
+        pose_pending: vec![SkinTransform::IDENTITY; if animated { shell } else { 0 }],
+        cut_pending: None,
         dt_s: scene.time_step_s as f64,
         taken: 0,
         stable_step_s: simulator.stable_step_s(),

@@ -17,6 +17,15 @@
 //! [`ComputeModel::xpbd`]'s links colour by colour (`iterations` symmetric sweeps: colours up,
 //! then down; one colour's links share no free mass), and ends with `x' = x + Δx`, `v' = Δx/h` and
 //! the same projection and guard; it never substeps.
+//!
+//! On an animated skin ([`Simulator::pose_skin`]) the model also carries its bind pose
+//! ([`ComputePose`]): before a step, a compute solver poses it as `skin.rs` does — every mass's
+//! rest position `T_s · (bind + morph)` through the transform of the shell vertex `s` it hangs
+//! from, anchored masses moved there with the velocity of the jump over the step (or carried
+//! along, with no velocity, when the fastest anchor beat the cut speed), free masses' and tips'
+//! rest directions turned by the normal matrix, links between hairs keeping their bind strain,
+//! anchored sticks re-projected and the guard's frozen scale vectors that now lie past its angle
+//! reset to the rest direction.
 
 use crate::sentinel::NONE;
 use crate::shell::GuardSettings;
@@ -52,6 +61,38 @@ pub struct ComputeXpbdLink {
     pub c: f32,
     /// The ends' inverse masses (0 for an anchored end).
     pub inv_mass: [f32; 2],
+    /// The link entry (index into [`ComputeModel::link_other`]) whose rest length it shares.
+    pub entry: u32,
+}
+
+/// A link between two hairs on a posed skin: its rest length follows the skin's stretch between
+/// its ends, `rest · |posed(a) − posed(b)| / bind_distance` (`skin.rs`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ComputeBetween {
+    /// Its two masses, internal indices.
+    pub ends: [u32; 2],
+    /// Rest length in the bind pose, metres.
+    pub rest: f32,
+    /// Distance between the ends' bind rest positions, metres (0: the rest length stays).
+    pub bind_distance: f32,
+    /// The link entries (indices into [`ComputeModel::link_other`]) holding its rest length from
+    /// either free end, or [`NO_LINK`].
+    pub entries: [u32; 2],
+}
+
+/// The bind pose of a model on an animated skin ([`ComputeModel::pose`]).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ComputePose {
+    /// Per mass: the shell vertex it hangs from, or [`NO_LINK`] (it keeps its bind pose).
+    pub attach: Vec<u32>,
+    /// Per mass: rest position in the bind pose, metres.
+    pub bind_rest: Vec<[f32; 3]>,
+    /// Per free mass: the restoring link's rest direction in the bind pose.
+    pub bind_restoring_n: Vec<[f32; 3]>,
+    /// Per tip: rest direction in the bind pose.
+    pub bind_tip_n: Vec<[f32; 3]>,
+    /// The links between hairs.
+    pub between: Vec<ComputeBetween>,
 }
 
 /// XPBD's links, coloured: colour `i`'s links are `links[colour_start[i]..colour_start[i + 1]]`.
@@ -126,6 +167,9 @@ pub struct ComputeModel {
     pub guard: GuardSettings,
     /// XPBD's coloured links (empty for the other solvers).
     pub xpbd: ComputeXpbd,
+    /// The bind pose, once the skin has been posed ([`Simulator::pose_skin`]); `None` for a
+    /// static skin.
+    pub pose: Option<ComputePose>,
     /// Simulated time, seconds.
     pub time_s: f64,
 }
@@ -133,8 +177,7 @@ pub struct ComputeModel {
 impl Simulator {
     /// This simulator's model and current state as flat arrays for a compute solver
     /// ([`ComputeModel`]). Only the explicit and stick solvers, on topologies whose rigid links
-    /// and tips are rooted at anchored masses, with a static skin (no [`Simulator::pose_skin`]),
-    /// have such a form: anything else is a [`SimError::Parameter`] naming what is missing.
+    /// and tips are rooted at anchored masses, have such a form (static or posed skin): anything else is a [`SimError::Parameter`] naming what is missing.
     pub fn compute_model(&self) -> Result<ComputeModel, SimError> {
         let m = &self.model;
         let update = match self.settings.kind {
@@ -159,9 +202,6 @@ impl Simulator {
                 name: "topology",
                 what: "tips whose root is a free mass have no compute form".into(),
             });
-        }
-        if self.bind.is_some() {
-            return Err(SimError::Parameter { name: "skin", what: "a posed (moving) skin has no compute form".into() });
         }
         let nf = m.n_free;
         let mut seen = vec![false; m.n];
@@ -205,6 +245,7 @@ impl Simulator {
             frozen: self.guard.frozen.clone(),
             guard: self.settings.guard.clone(),
             xpbd,
+            pose: self.bind.as_ref().map(|b| b.compute_form(m)),
             time_s: self.time_s,
         })
     }
@@ -258,6 +299,29 @@ impl ComputeModel {
                 || !self.xpbd.links.iter().all(|l| (l.ends[0] as usize) < nf && (l.ends[1] as usize) < n))
         {
             return bad("XPBD's links disagree with their colours or the masses".into());
+        }
+        if matches!(self.update, ComputeUpdate::Xpbd { .. })
+            && !self.xpbd.links.iter().all(|l| (l.entry as usize) < links)
+        {
+            return bad("an XPBD link's entry is out of range".into());
+        }
+        if let Some(p) = &self.pose {
+            let shell = self.shell_tip.len();
+            if p.attach.len() != n
+                || p.bind_rest.len() != n
+                || p.bind_restoring_n.len() != nf
+                || p.bind_tip_n.len() != self.tips.len()
+            {
+                return bad("the bind pose's array lengths disagree".into());
+            }
+            if !p.attach.iter().all(|&s| s == NO_LINK || (s as usize) < shell)
+                || !p.between.iter().all(|b| {
+                    b.ends.iter().all(|&e| (e as usize) < n)
+                        && b.entries.iter().all(|&e| e == NO_LINK || (e as usize) < links)
+                })
+            {
+                return bad("an index of the bind pose is out of range".into());
+            }
         }
         Ok(())
     }

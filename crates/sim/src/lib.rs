@@ -44,7 +44,9 @@ mod solvers;
 pub mod synth;
 pub mod topology;
 
-pub use compute::{ComputeModel, ComputeTip, ComputeUpdate, ComputeXpbd, ComputeXpbdLink, NO_LINK};
+pub use compute::{
+    ComputeBetween, ComputeModel, ComputePose, ComputeTip, ComputeUpdate, ComputeXpbd, ComputeXpbdLink, NO_LINK,
+};
 pub use error::SimError;
 pub use forces::{ForceSet, FrameMotion, LocalForce, WindForce, restoring_force};
 pub use furbake_formats::sections::spring_topology::{SpringTopology, TopologyKind, TopologyParams};

@@ -184,6 +184,27 @@ impl BindPose {
         }
     }
 
+    /// The bind pose as a compute solver reads it (`compute.rs`).
+    pub fn compute_form(&self, model: &SimModel) -> crate::ComputePose {
+        let v3 = |v: &Vec3A| v.to_array();
+        crate::ComputePose {
+            attach: self.attach.clone(),
+            bind_rest: self.rest.iter().map(v3).collect(),
+            bind_restoring_n: self.rest_n[..model.n_free].iter().map(v3).collect(),
+            bind_tip_n: self.tip_n.iter().map(v3).collect(),
+            between: self
+                .between
+                .iter()
+                .map(|b| crate::ComputeBetween {
+                    ends: b.ends,
+                    rest: b.rest,
+                    bind_distance: b.bind_distance,
+                    entries: b.adj.map(|(_, e)| e),
+                })
+                .collect(),
+        }
+    }
+
     /// Checks `transforms` (one per shell vertex, finite).
     pub fn check(model: &SimModel, transforms: &[SkinTransform]) -> Result<(), String> {
         if transforms.len() != model.shell_tip.len() {

@@ -212,6 +212,7 @@ impl XpbdScratch {
                 compliance: l.compliance,
                 c: l.c,
                 inv_mass: [l.wa, l.wb],
+                entry: l.e,
             })
             .collect();
         (links, self.colour_start.iter().map(|&c| c as u32).collect())
