@@ -554,6 +554,22 @@ fn a_scene_refuses_gpu_physics_it_cannot_run() {
     assert!(e.contains("no compute form") && e.contains("implicit"), "{e}");
 }
 
+#[test]
+fn the_auto_solver_picks_one_the_gpu_runs() {
+    // `kind = "auto"` on a static spring topology is implicit Euler on the CPU; on the GPU it is
+    // XPBD (the implicit-class solver with a compute form), so `device = "gpu"` alone works.
+    let dir = tempfile::tempdir().unwrap();
+    let cpu = furbake_runtime::World::new(sphere_scene(dir.path(), "auto", "cpu")).unwrap();
+    let gpu_world = furbake_runtime::World::new(sphere_scene(dir.path(), "auto", "gpu")).unwrap();
+    let model = gpu_world.gpu_physics(0).unwrap().compute_model().unwrap();
+    assert!(matches!(model.update, furbake_sim::ComputeUpdate::Xpbd { .. }), "{:?}", model.update);
+    assert!(cpu.gpu_physics(0).is_none());
+    use furbake_runtime::{PhysicsDevice, SolverChoice, stages::choose_solver};
+    let prisms = furbake_sim::TopologyKind::PRISMS;
+    assert_eq!(choose_solver(prisms, SolverChoice::Auto, false, PhysicsDevice::Cpu), SolverKind::Implicit);
+    assert_eq!(choose_solver(prisms, SolverChoice::Auto, false, PhysicsDevice::Gpu), SolverKind::Xpbd);
+}
+
 /// A scene of `n` furry spheres (entries of one pack, on a grid 3 m apart) in gravity and a
 /// gusting wind, their fur on `device` with the XPBD solver.
 fn crowd_scene(dir: &std::path::Path, n: usize, device: &str) -> furbake_runtime::Scene {

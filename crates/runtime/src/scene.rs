@@ -249,8 +249,9 @@ fn default_time_step() -> f32 {
 pub enum SolverChoice {
     /// Chosen from the topology and the pack: the stick solver for sticks and separable sticks
     /// (rigid links); for a spring topology on a pack that plays an animation, XPBD with one
-    /// iteration per step (`xpbd_iterations` applies only to `kind = "xpbd"`); implicit Euler
-    /// for every other spring topology (`crate::stages::choose_solver`).
+    /// iteration per step (`xpbd_iterations` applies only to `kind = "xpbd"`); for every other
+    /// spring topology implicit Euler, or XPBD with `xpbd_iterations` where the pack's physics
+    /// runs on the GPU (`crate::stages::choose_solver`).
     #[default]
     Auto,
     /// Explicit Euler (eq. 3.20–3.25).

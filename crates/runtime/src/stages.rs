@@ -195,18 +195,24 @@ pub fn choose_topology(available: &[TopologyKind], parting: bool) -> Option<Topo
 /// XPBD iterations per step of the solver [`SolverChoice::Auto`] picks for an animated pack.
 pub const AUTO_ANIMATED_XPBD_ITERATIONS: u32 = 1;
 
-/// The solver for `kind` on a pack whose skin is `animated` or not: the scene's choice, or with
-/// [`SolverChoice::Auto`] the stick solver for the stick kinds (their links are rigid), XPBD with
-/// [`AUTO_ANIMATED_XPBD_ITERATIONS`] iteration for the other kinds on an animated skin, and
-/// implicit Euler for the rest (springs stiff enough to need it, eq. 3.26–3.34). Why XPBD on an
+/// The solver for `kind` on a pack whose skin is `animated` or not, its physics on `device`: the
+/// scene's choice, or with [`SolverChoice::Auto`] the stick solver for the stick kinds (their
+/// links are rigid), XPBD with [`AUTO_ANIMATED_XPBD_ITERATIONS`] iteration for the other kinds
+/// on an animated skin, and for the rest implicit Euler on the CPU (springs stiff enough to need
+/// it, eq. 3.26–3.34) and XPBD on the GPU (the implicit-class solver with a compute form). Why XPBD on an
 /// animated skin (docs/accuracy.md "Fox walking, prisms"): at game steps every solver's error
 /// there is dominated by posing the skin once per step, which XPBD with one iteration reaches at
 /// 1/4–1/8 of implicit Euler's cost, in one substep, where implicit Euler's rotation limit splits
 /// a walking Fox's step of 1/30 s into 39.
-pub fn choose_solver(kind: TopologyKind, choice: SolverChoice, animated: bool) -> SolverKind {
+pub fn choose_solver(
+    kind: TopologyKind,
+    choice: SolverChoice,
+    animated: bool,
+    device: crate::PhysicsDevice,
+) -> SolverKind {
     match choice {
         SolverChoice::Auto if kind.uses_sticks() => SolverKind::Stick,
-        SolverChoice::Auto if animated => SolverKind::Xpbd,
+        SolverChoice::Auto if animated || device == crate::PhysicsDevice::Gpu => SolverKind::Xpbd,
         SolverChoice::Auto => SolverKind::Implicit,
         SolverChoice::Explicit => SolverKind::Explicit,
         SolverChoice::Implicit => SolverKind::Implicit,

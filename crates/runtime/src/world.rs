@@ -1029,8 +1029,8 @@ fn build_fur(
         }
         None => GuardSettings { enabled: false, ..GuardSettings::default() },
     };
-    let solver = choose_solver(kind, scene.solver.kind, animated);
-    let auto_xpbd = scene.solver.kind == crate::SolverChoice::Auto && solver == SolverKind::Xpbd;
+    let solver = choose_solver(kind, scene.solver.kind, animated, device);
+    let auto_xpbd = scene.solver.kind == crate::SolverChoice::Auto && solver == SolverKind::Xpbd && animated;
     let defaults = SolverSettings::of(solver);
     let masses = topology.mass_kg.len().max(1) as u64;
     let settings = SolverSettings {
