@@ -3,12 +3,15 @@
 //
 // 1. `cs_cull_clusters`, one thread per cluster: the cluster's box (its roots' bounds grown by
 //    the reach of any pose of its tallest blade, widened as thinning may widen it) against the
-//    view frustum and the max distance.
+//    view frustum and the max distance; then, where the host handed over its depth, against the
+//    depth pyramid (occluded: 2).
 // 2. `cs_cull_blades`, one thread per blade in blade order, 256 per workgroup (a "block"): a blade
 //    of a visible cluster is culled when it is beyond the max distance, dropped by distance
 //    thinning, seen edge-on, or when the sphere around its root that holds every pose lies
-//    outside a frustum plane; a surviving blade gets a level of detail from its distance and a
-//    fixed random threshold (dithered transitions). Each block counts its blades per LOD.
+//    outside a frustum plane; a survivor whose box around that sphere lies behind the depth
+//    pyramid is OCCLUDED (as is every blade of an occluded cluster); a surviving blade gets a
+//    level of detail from its distance and a fixed random threshold (dithered transitions). Each
+//    block counts its blades per LOD.
 // 3. `cs_scan_blocks`, one workgroup: exclusive prefix sums of the block counts per LOD, the
 //    start of each LOD's instance list, and the `draw_indexed_indirect` arguments per LOD.
 // 4. `cs_compact`, one thread per blade: writes each surviving blade's index and its pose-grid
@@ -24,7 +27,7 @@
 @group(0) @binding(1) var<storage, read> blades: array<Blade>;
 // Per cluster: (min xyz, tallest height scale), (max xyz, unused); min > max for an empty one.
 @group(0) @binding(2) var<storage, read> cluster_bounds: array<vec4<f32>>;
-// [clusters]: 1 visible, 0 culled; then [blades]: LOD, or CULLED.
+// [clusters]: 1 visible, 0 culled, 2 occluded; then [blades]: LOD, CULLED or OCCLUDED.
 @group(0) @binding(3) var<storage, read_write> decisions: array<u32>;
 // Words 0..20: five draw_indexed_indirect words per LOD; from word 32: per block, 4 words (one
 // per LOD) of blade counts, replaced by the block's exclusive offsets in pass 3.
@@ -37,6 +40,8 @@
 @group(0) @binding(7) var<storage, read> corner_forces: array<vec2<f32>>;
 @group(0) @binding(8) var<storage, read> delayed: array<DelayedSource>;
 @group(0) @binding(9) var<storage, read> delayed_directions: array<vec2<f32>>;
+// The Hi-Z pyramid of the host's depth for this view (a 1 × 1 stand-in when there is none).
+@group(0) @binding(10) var pyramid: texture_2d<f32>;
 
 const BLOCK: u32 = 256u;
 const BLOCKS_AT: u32 = 32u;
@@ -75,7 +80,67 @@ fn cs_cull_clusters(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_
     if dot(q, q) > cull.distance.x {
         visible = 0u;
     }
+    if visible == 1u && box_occluded(blo, bhi) {
+        visible = 2u;
+    }
     decisions[c] = visible;
+}
+
+// Occlusion (Jahrmann & Wimmer 2017's fourth test) against the Hi-Z pyramid of the depth the
+// host drew this frame before the grass (crates/render/src/depth_pyramid.rs): true when the
+// pack-frame box [lo, hi] lies wholly behind the farthest depth over its screen rectangle. The
+// box's nearest depth is at a corner (depth is monotonic in view distance, which is linear in
+// position); the rectangle is read at the level where it spans at most 2 × 2 texels, each the
+// farthest depth of the pixels it covers. Conservative: a box reaching the eye's plane or the
+// near plane is never occluded.
+fn box_occluded(lo: vec3<f32>, hi: vec3<f32>) -> bool {
+    let o = cull.occlusion;
+    if (o.w & 1u) == 0u {
+        return false;
+    }
+    let reversed = (o.w & 2u) != 0u;
+    var smin = vec2<f32>(3.4e38);
+    var smax = vec2<f32>(-3.4e38);
+    var near = select(3.4e38, -3.4e38, reversed);
+    for (var i = 0u; i < 8u; i++) {
+        let p = select(lo, hi, vec3<bool>((i & 1u) != 0u, (i & 2u) != 0u, (i & 4u) != 0u));
+        let c = cull.clip * vec4<f32>(p, 1.0);
+        if !(c.w > 1e-6) {
+            return false;
+        }
+        let ndc = c.xyz / c.w;
+        smin = min(smin, ndc.xy);
+        smax = max(smax, ndc.xy);
+        near = select(min(near, ndc.z), max(near, ndc.z), reversed);
+    }
+    if !(near >= 0.0 && near <= 1.0) {
+        return false;
+    }
+    // NDC to pixels (y down), clamped to the screen: the part off the screen draws nothing.
+    let size = vec2<f32>(f32(o.x), f32(o.y));
+    let p0 = clamp(vec2<f32>(smin.x * 0.5 + 0.5, 0.5 - smax.y * 0.5) * size, vec2<f32>(0.0), size - 1.0);
+    let p1 = clamp(vec2<f32>(smax.x * 0.5 + 0.5, 0.5 - smin.y * 0.5) * size, vec2<f32>(0.0), size - 1.0);
+    var a = vec2<u32>(p0);
+    var b = vec2<u32>(p1);
+    var level = 0u;
+    while level + 1u < o.z && (b.x - a.x > 1u || b.y - a.y > 1u) {
+        a = a >> vec2<u32>(1u);
+        b = b >> vec2<u32>(1u);
+        level += 1u;
+    }
+    // A level's last texel also covers the odd pixels past it (level sizes halve with floor,
+    // down to 1; computed here rather than queried, as the pyramid's own passes size them).
+    let last = max(vec2<u32>(o.x, o.y) >> vec2<u32>(level), vec2<u32>(1u)) - vec2<u32>(1u);
+    a = min(a, last);
+    b = min(b, last);
+    var far = select(-3.4e38, 3.4e38, reversed);
+    for (var y = a.y; y <= b.y; y++) {
+        for (var x = a.x; x <= b.x; x++) {
+            let d = textureLoad(pyramid, vec2<u32>(x, y), i32(level)).x;
+            far = select(max(far, d), min(far, d), reversed);
+        }
+    }
+    return select(near > far, near < far, reversed);
 }
 
 // The block (workgroup) index of a 256-blade pass dispatched as (x, y) workgroups.
@@ -86,8 +151,9 @@ fn block_index(wid: vec3<u32>, groups: vec3<u32>) -> u32 {
 // The LOD of blade `b`, or CULLED (the CPU twin is `CullReference::classify`).
 fn classify(b: u32) -> u32 {
     let blade = blades[b];
-    if decisions[blade.cluster] == 0u {
-        return CULLED;
+    let cluster = decisions[blade.cluster];
+    if cluster != 1u {
+        return select(CULLED, OCCLUDED, cluster == 2u);
     }
     let root = blade.root.xyz;
     let to_eye = cull.eye.xyz - root;
@@ -112,6 +178,9 @@ fn classify(b: u32) -> u32 {
             return CULLED;
         }
     }
+    if box_occluded(root - vec3<f32>(r), root + vec3<f32>(r)) {
+        return OCCLUDED;
+    }
     let u = blade_random(b, SALT_LOD) - 0.5;
     var lod = 0u;
     if cull.counts.w > 1u && d >= cull.lod.x + u * cull.lod.z {
@@ -125,7 +194,7 @@ fn classify(b: u32) -> u32 {
 
 // A blade's contribution to the packed per-LOD counters: 10 bits per LOD (a block holds 256).
 fn one_hot(lod: u32) -> u32 {
-    return select(1u << (10u * lod), 0u, lod == CULLED);
+    return select(1u << (10u * lod), 0u, lod >= 3u);
 }
 
 fn unpack_counts(packed: u32) -> vec4<u32> {
@@ -241,7 +310,7 @@ fn cs_compact(
         ranks[local] += add;
         workgroupBarrier();
     }
-    if lod != CULLED {
+    if lod < 3u {
         // Blades of this LOD before this one in the block.
         let before = unpack_counts(ranks[local] - mine)[lod];
         let at = instances[lod] + work[BLOCKS_AT + 4u * block + lod] + before;

@@ -44,6 +44,11 @@ struct CullUniforms {
     first_index: vec4<u32>,
     // Blades, clusters, 256-blade blocks, levels of detail.
     counts: vec4<u32>,
+    // view_proj × model: the pack frame to clip space (the occlusion test's projection).
+    clip: mat4x4<f32>,
+    // The depth pyramid of this view (crates/render/src/depth_pyramid.rs): width, height, levels,
+    // flags (1: test against it, 2: reversed depth).
+    occlusion: vec4<u32>,
 };
 
 // Salts of the two per-blade random numbers.
@@ -51,6 +56,8 @@ const SALT_THINNING: u32 = 0x68e31da4u;
 const SALT_LOD: u32 = 0xb5297a4du;
 // The LOD code of a culled blade.
 const CULLED: u32 = 0xffffffffu;
+// A blade (or, in a cluster's decision, 2) hidden behind the host's depth: not drawn, counted apart.
+const OCCLUDED: u32 = 0xfffffffeu;
 
 // A fixed uniform number in [0, 1) per blade and salt (24 bits, exact in f32).
 fn blade_random(b: u32, salt: u32) -> f32 {

@@ -26,7 +26,7 @@ use crate::culling::{BLOCK, BLOCKS_AT, BladeLods, CullUniforms, GrassCulling, LI
 use crate::culling::{CullLists, MAX_LODS};
 use crate::shaders::FrameUniforms;
 use crate::upload::{ExactLen, Upload};
-use crate::{PipelineCache, RenderError, TargetDesc};
+use crate::{DepthPyramid, PipelineCache, RenderError, TargetDesc};
 
 /// The `BladeUniforms` uniform of `blades.wgsl` (binding 1).
 #[repr(C)]
@@ -138,6 +138,10 @@ pub struct BladeGpu {
 
 /// Compute workgroup size of `cs_blades` (one thread per blade).
 const WORKGROUP: u32 = 64;
+/// A blade's culling decision when it is hidden behind the depth pyramid (`OCCLUDED` in
+/// grass_common.wgsl).
+#[cfg(feature = "testing")]
+const OCCLUDED: u32 = 0xffff_fffe;
 
 /// How blades are drawn.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -317,6 +321,9 @@ pub struct BladeRenderer {
     data: BladeData,
     /// Per view: the draw's bind group and the culling passes' bind group.
     groups: Vec<(wgpu::BindGroup, wgpu::BindGroup)>,
+    /// Per view: the occlusion test's parameters (`CullUniforms::occlusion`) while a depth
+    /// pyramid is bound ([`BladeRenderer::set_occlusion`]).
+    occlusion: Vec<Option<[u32; 4]>>,
     compute_pipeline: wgpu::ComputePipeline,
     /// `cs_cull_clusters`, `cs_cull_blades`, `cs_scan_blocks`, `cs_compact`, `cs_pose_all`.
     cull_pipelines: [wgpu::ComputePipeline; 5],
@@ -427,7 +434,7 @@ impl InstanceBuffers {
                 }),
                 wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             ),
-            decisions: buffer("furbake blade culling decisions", decisions, storage),
+            decisions: buffer("furbake blade culling decisions", decisions, storage | copy),
             work: buffer("furbake blade culling work", work, storage | wgpu::BufferUsages::INDIRECT | copy),
             instances: buffer("furbake blade instance lists", instances, storage | copy),
         };
@@ -456,7 +463,10 @@ impl InstanceBuffers {
 
     /// Each view's draw and culling bind groups.
     fn view_groups(&self, pipelines: &PipelineCache, data: &BladeData) -> Vec<(wgpu::BindGroup, wgpu::BindGroup)> {
-        self.views.iter().map(|v| (self.bind_group(pipelines, data, v), self.cull_group(pipelines, data, v))).collect()
+        self.views
+            .iter()
+            .map(|v| (self.bind_group(pipelines, data, v), self.cull_group(pipelines, data, v, &data.no_pyramid)))
+            .collect()
     }
 
     /// The draw's bind group: these buffers and the field's shared ones.
@@ -480,8 +490,14 @@ impl InstanceBuffers {
         })
     }
 
-    /// The culling passes' bind group.
-    fn cull_group(&self, pipelines: &PipelineCache, data: &BladeData, view: &ViewBuffers) -> wgpu::BindGroup {
+    /// The culling passes' bind group, testing against `pyramid` (`BladeData::no_pyramid`: none).
+    fn cull_group(
+        &self,
+        pipelines: &PipelineCache,
+        data: &BladeData,
+        view: &ViewBuffers,
+        pyramid: &wgpu::TextureView,
+    ) -> wgpu::BindGroup {
         pipelines.device().create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("furbake blade culling"),
             layout: &pipelines.blade_layouts().cull,
@@ -496,6 +512,7 @@ impl InstanceBuffers {
                 wgpu::BindGroupEntry { binding: 7, resource: self.forces.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 8, resource: self.delayed.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 9, resource: self.directions.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 10, resource: wgpu::BindingResource::TextureView(pyramid) },
             ],
         })
     }
@@ -510,6 +527,9 @@ struct BladeData {
     reference: wgpu::Buffer,
     /// Per cluster: root bounds and tallest height scale (`culling::cluster_bounds`).
     cluster_bounds: wgpu::Buffer,
+    /// A 1 × 1 `R32Float` texture bound where a view has no depth pyramid (never read: the
+    /// occlusion test is off).
+    no_pyramid: wgpu::TextureView,
 }
 
 /// The payload packed into u32 words (little-endian lanes) and its shader encoding code.
@@ -729,6 +749,18 @@ impl BladeRenderer {
                 bytemuck::cast_slice(&crate::culling::cluster_bounds(field)),
                 storage,
             ),
+            no_pyramid: device
+                .create_texture(&wgpu::TextureDescriptor {
+                    label: Some("furbake no depth pyramid"),
+                    size: wgpu::Extent3d { width: 1, height: 1, depth_or_array_layers: 1 },
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D2,
+                    format: wgpu::TextureFormat::R32Float,
+                    usage: wgpu::TextureUsages::TEXTURE_BINDING,
+                    view_formats: &[],
+                })
+                .create_view(&Default::default()),
         };
         let lods = std::sync::Arc::new(BladeLods::new(table));
         let indices = init(
@@ -756,6 +788,7 @@ impl BladeRenderer {
             out_layout: pipelines.blade_layouts().out.clone(),
             indices,
             data,
+            occlusion: vec![None; groups.len()],
             groups,
             // One per cache, independent of the target.
             compute_pipeline: pipelines.blade_compute()?,
@@ -797,6 +830,7 @@ impl BladeRenderer {
                 out_layout: self.out_layout.clone(),
                 indices: self.indices.clone(),
                 data: self.data.clone(),
+                occlusion: vec![None; groups.len()],
                 groups,
                 compute_pipeline: self.compute_pipeline.clone(),
                 cull_pipelines: self.cull_pipelines.clone(),
@@ -1176,6 +1210,34 @@ impl BladeRenderer {
         Ok(())
     }
 
+    /// Tests view `view`'s blades against `pyramid` from now on (`None`: no occlusion test):
+    /// blades whose bounds lie wholly behind its depth are not drawn. The pyramid must be built
+    /// ([`DepthPyramid::record`]) from the depth of this view's camera, of the size of the pass
+    /// the blades are drawn into, each frame after the host drew its occluders and before this
+    /// view's [`BladeRenderer::prepare_view`] — so nothing visible this frame is culled, whatever
+    /// moved since the last (docs/design.md "Occlusion culling"). Only with culling on; binds
+    /// once (call again with a new pyramid after a resize), records nothing.
+    pub fn set_occlusion(
+        &mut self,
+        pipelines: &PipelineCache,
+        view: usize,
+        pyramid: Option<&DepthPyramid>,
+    ) -> Result<(), RenderError> {
+        self.check_view(view)?;
+        let texture_view;
+        let (bound, params) = match pyramid {
+            Some(p) => {
+                let (w, h) = p.size();
+                texture_view = p.texture().create_view(&Default::default());
+                (&texture_view, Some([w, h, p.levels(), 1 | (p.reversed_depth() as u32) << 1]))
+            }
+            None => (&self.data.no_pyramid, None),
+        };
+        self.groups[view].1 = self.own.cull_group(pipelines, &self.data, &self.own.views[view], bound);
+        self.occlusion[view] = params;
+        Ok(())
+    }
+
     fn check_view(&self, view: usize) -> Result<(), RenderError> {
         if view < self.groups.len() {
             return Ok(());
@@ -1188,7 +1250,9 @@ impl BladeRenderer {
     pub(crate) fn write_frame(&self, upload: &mut Upload<'_>, view: usize, frame: &FrameUniforms) {
         let buffers = &self.own.views[view];
         if self.culling.enabled && !self.draws_nothing() {
-            let both = FrameAndCull { frame: *frame, pad: [0.0; CULL_PAD], cull: self.cull_params(frame) };
+            let mut cull = self.cull_params(frame);
+            cull.occlusion = self.occlusion[view].unwrap_or_default();
+            let both = FrameAndCull { frame: *frame, pad: [0.0; CULL_PAD], cull };
             upload.write(&buffers.frame, 0, bytemuck::bytes_of(&both));
         } else {
             // The culling parameters (culling off) were written by `new` or `set_culling`.
@@ -1296,6 +1360,21 @@ impl BladeRenderer {
             out.lods[l] = list.chunks_exact(3).map(|e| e[0]).collect();
         }
         Ok(out)
+    }
+
+    #[cfg(feature = "testing")]
+    /// Reads back how many blades the last frame's culling passes of view 0 found hidden behind
+    /// the depth pyramid (their own bounds or their cluster's); waits for the GPU.
+    pub fn read_occluded(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<u32, RenderError> {
+        let clusters = self.grid.clusters() as u64;
+        let decisions = crate::blocking::read_buffer::<u32>(
+            device,
+            queue,
+            &self.own.views[0].decisions,
+            clusters + self.blade_count as u64,
+            "culling decisions",
+        )?;
+        Ok(decisions[clusters as usize..].iter().filter(|&&d| d == OCCLUDED).count() as u32)
     }
 
     #[cfg(feature = "testing")]

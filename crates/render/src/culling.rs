@@ -69,6 +69,11 @@ pub struct CullUniforms {
     pub first_index: [u32; 4],
     /// Blades, clusters, blocks, levels of detail.
     pub counts: [u32; 4],
+    /// view_proj × model (the pack frame to clip space), columns.
+    pub clip: [[f32; 4]; 4],
+    /// The view's depth pyramid ([`crate::DepthPyramid`]): width, height, levels and flags (1:
+    /// occlusion test on, 2: reversed depth); zero without one.
+    pub occlusion: [u32; 4],
 }
 
 /// A blade field's levels of detail and extents, derived once at load.
@@ -243,6 +248,8 @@ impl CullUniforms {
             index_count: lods.index_count,
             first_index: lods.first_index,
             counts: [blades, clusters, blades.div_ceil(BLOCK), lods.count],
+            clip: m.to_cols_array_2d(),
+            occlusion: [0; 4],
         }
     }
 }
@@ -532,6 +539,8 @@ mod tests {
             ("index_count", offset_of!(C, index_count)),
             ("first_index", offset_of!(C, first_index)),
             ("counts", offset_of!(C, counts)),
+            ("clip", offset_of!(C, clip)),
+            ("occlusion", offset_of!(C, occlusion)),
         ];
         assert_eq!(check_layout("CullUniforms", size_of::<C>(), &cull), 2, "grass_common.wgsl, in both");
     }

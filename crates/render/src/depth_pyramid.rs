@@ -4,8 +4,8 @@
 //! the host's encoder. Level 0 is the depth itself (`R32Float`), each further level (the texture's
 //! mip chain, floor halving) the farthest depth of the texels below it covers — the largest, or
 //! the smallest for reversed depth — so a bound nearer than nothing in a texel's footprint is
-//! hidden. The culling pass that tests blade clusters against it is not built yet
-//! (docs/design.md "Depth pyramid").
+//! hidden. Blade culling tests clusters and blades against it ([`crate::BladeRenderer::
+//! set_occlusion`]; docs/design.md "Depth pyramid and occlusion culling").
 
 use wgpu::util::DeviceExt;
 

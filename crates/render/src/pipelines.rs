@@ -592,6 +592,17 @@ fn blade_layouts(device: &wgpu::Device) -> BladeLayouts {
             entry(7, ro, c),
             entry(8, ro, c),
             entry(9, ro, c),
+            // The view's depth pyramid (`R32Float`, read with textureLoad).
+            wgpu::BindGroupLayoutEntry {
+                binding: 10,
+                visibility: c,
+                ty: wgpu::BindingType::Texture {
+                    sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                    view_dimension: wgpu::TextureViewDimension::D2,
+                    multisampled: false,
+                },
+                count: None,
+            },
         ],
     });
     let cull_pipeline = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {

@@ -241,7 +241,12 @@ impl RenderTarget {
             COLOR_FORMAT,
             wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
         );
-        let depth = make("furbake depth target", DEPTH_FORMAT, wgpu::TextureUsages::RENDER_ATTACHMENT);
+        // Readable by a depth pyramid (grass occlusion culling).
+        let depth = make(
+            "furbake depth target",
+            DEPTH_FORMAT,
+            wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+        );
         RenderTarget { color, depth, width, height }
     }
 

@@ -444,3 +444,234 @@ fn a_pack_preview_draws_its_grass_whatever_its_units() {
     println!("{differ} of {} pixels differ with the blades", 160 * 120);
     assert!(differ > 500, "the blades of a large pack are missing from its preview ({differ} pixels differ)");
 }
+
+/// An opaque box the host draws before the grass (its occluder): a pipeline of the test's own
+/// into the headless target's pass, writing depth.
+struct Occluder {
+    pipeline: wgpu::RenderPipeline,
+    vertices: wgpu::Buffer,
+    uniforms: wgpu::Buffer,
+    group: wgpu::BindGroup,
+    lo: Vec3,
+    hi: Vec3,
+}
+
+impl Occluder {
+    fn new(lo: Vec3, hi: Vec3) -> Occluder {
+        use wgpu::util::DeviceExt;
+        let device = &gpu().device;
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("test occluder"),
+            source: wgpu::ShaderSource::Wgsl(
+                "@group(0) @binding(0) var<uniform> view_proj: mat4x4<f32>;
+                 @vertex fn vs(@location(0) p: vec3<f32>) -> @builtin(position) vec4<f32> {
+                     return view_proj * vec4<f32>(p, 1.0);
+                 }
+                 @fragment fn fs() -> @location(0) vec4<f32> { return vec4<f32>(0.5, 0.3, 0.2, 1.0); }"
+                    .into(),
+            ),
+        });
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: None,
+            entries: &[wgpu::BindGroupLayoutEntry {
+                binding: 0,
+                visibility: wgpu::ShaderStages::VERTEX,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Uniform,
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
+                },
+                count: None,
+            }],
+        });
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: None,
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("test occluder"),
+            layout: Some(&pipeline_layout),
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some("vs"),
+                compilation_options: Default::default(),
+                buffers: &[Some(wgpu::VertexBufferLayout {
+                    array_stride: 12,
+                    step_mode: wgpu::VertexStepMode::Vertex,
+                    attributes: &wgpu::vertex_attr_array![0 => Float32x3],
+                })],
+            },
+            primitive: wgpu::PrimitiveState::default(),
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: furbake_render::headless::DEPTH_FORMAT,
+                depth_write_enabled: Some(true),
+                depth_compare: Some(wgpu::CompareFunction::LessEqual),
+                stencil: Default::default(),
+                bias: Default::default(),
+            }),
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &module,
+                entry_point: Some("fs"),
+                compilation_options: Default::default(),
+                targets: &[Some(furbake_render::headless::COLOR_FORMAT.into())],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        // The box's 12 triangles (no face culling).
+        let c = |i: usize| {
+            Vec3::new(
+                if i & 1 != 0 { hi.x } else { lo.x },
+                if i & 2 != 0 { hi.y } else { lo.y },
+                if i & 4 != 0 { hi.z } else { lo.z },
+            )
+        };
+        let faces = [[0, 1, 3, 2], [4, 5, 7, 6], [0, 1, 5, 4], [2, 3, 7, 6], [0, 2, 6, 4], [1, 3, 7, 5]];
+        let mut v: Vec<[f32; 3]> = Vec::new();
+        for f in faces {
+            for i in [0, 1, 2, 0, 2, 3] {
+                v.push(c(f[i]).to_array());
+            }
+        }
+        let vertices = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: None,
+            contents: bytemuck::cast_slice(&v),
+            usage: wgpu::BufferUsages::VERTEX,
+        });
+        let uniforms = device.create_buffer(&wgpu::BufferDescriptor {
+            label: None,
+            size: 64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: None,
+            layout: &layout,
+            entries: &[wgpu::BindGroupEntry { binding: 0, resource: uniforms.as_entire_binding() }],
+        });
+        Occluder { pipeline, vertices, uniforms, group, lo, hi }
+    }
+
+    /// True when the segment from `eye` to `p` passes through the box shrunk by `margin`.
+    fn hides(&self, eye: Vec3, p: Vec3, margin: f32) -> bool {
+        let (lo, hi) = (self.lo + Vec3::splat(margin), self.hi - Vec3::splat(margin));
+        let d = p - eye;
+        let (mut t0, mut t1) = (0.0f32, 1.0f32);
+        for a in 0..3 {
+            if d[a].abs() < 1e-12 {
+                if eye[a] < lo[a] || eye[a] > hi[a] {
+                    return false;
+                }
+                continue;
+            }
+            let (mut ta, mut tb) = ((lo[a] - eye[a]) / d[a], (hi[a] - eye[a]) / d[a]);
+            if ta > tb {
+                std::mem::swap(&mut ta, &mut tb);
+            }
+            t0 = t0.max(ta);
+            t1 = t1.min(tb);
+        }
+        t0 < t1
+    }
+}
+
+/// One frame as a host with occluders draws it: the box, then (with `pyramid`) the depth pyramid
+/// of that depth, the grass's culling and the grass, depth-tested against the box.
+fn draw_behind(
+    r: &BladeRenderer,
+    frame: &FrameUniforms,
+    occluder: &Occluder,
+    pyramid: Option<&furbake_render::DepthPyramid>,
+) -> RgbaImage {
+    let (device, queue) = (&gpu().device, &gpu().queue);
+    let target = RenderTarget::new(device, WIDTH, HEIGHT).unwrap();
+    queue.write_buffer(&occluder.uniforms, 0, bytemuck::cast_slice(&frame.view_proj().to_cols_array()));
+    let mut encoder = device.create_command_encoder(&Default::default());
+    {
+        let mut pass = target.begin_pass(&mut encoder, "occluders", Some([0.0, 0.0, 0.0, 1.0]));
+        pass.set_pipeline(&occluder.pipeline);
+        pass.set_bind_group(0, &occluder.group, &[]);
+        pass.set_vertex_buffer(0, occluder.vertices.slice(..));
+        pass.draw(0..36, 0..1);
+    }
+    if let Some(p) = pyramid {
+        p.record(device, &mut encoder, &target.depth).unwrap();
+    }
+    r.prepare(queue, &mut encoder, frame);
+    r.render(&mut target.begin_pass(&mut encoder, "grass", None));
+    queue.submit([encoder.finish()]);
+    read_back(device, queue, &target).unwrap()
+}
+
+#[test]
+fn blades_behind_a_box_are_not_drawn_and_the_image_is_unchanged() {
+    // A 10 m × 2.5 m wall across the field, drawn by the host before the grass. With the wall's
+    // depth pyramid bound, blades wholly behind it are culled (counted as occluded), and the frame
+    // equals the one without the occlusion test byte for byte: no blade that shows is lost. The
+    // pyramid is this frame's, so a camera that moves past the wall loses nothing either.
+    let (device, queue) = (&gpu().device, &gpu().queue);
+    let wall = Occluder::new(Vec3::new(-5.0, 0.0, -8.0), Vec3::new(5.0, 2.5, -7.6));
+    let pyramid = furbake_render::DepthPyramid::new(device, WIDTH, HEIGHT, false).unwrap();
+    let mut occluding = renderer(GrassCulling::frustum_only());
+    occluding.set_occlusion(gpu().pipelines(), 0, Some(&pyramid)).unwrap();
+    let plain = renderer(GrassCulling::frustum_only());
+    let decoder = KeyframeDecoder::new(table()).unwrap();
+    let forces = wind();
+    let f_ = field();
+    let mut posed = vec![Vec3::ZERO; table().vertex_count()];
+    let cameras = [
+        ("behind the wall", [0.0, 1.7, -16.0], [0.0, 0.2, 6.0], true),
+        ("over the wall", [0.0, 4.0, -16.0], [0.0, 0.0, 4.0], true),
+        ("moving past it, left", [-6.0, 1.7, -15.0], [-1.0, 0.2, 6.0], true),
+        ("moving past it, right", [6.0, 1.7, -15.0], [1.0, 0.2, 6.0], true),
+        ("the wall behind the camera", [0.0, 1.7, -5.0], [0.0, 0.2, 10.0], false),
+    ];
+    for (name, eye, target, hidden_expected) in cameras {
+        let f = frame(&view(eye, target), Mat4::IDENTITY);
+        let with = draw_behind(&occluding, &f, &wall, Some(&pyramid));
+        let lists = occluding.read_culling(device, queue).unwrap();
+        let occluded = occluding.read_occluded(device, queue).unwrap() as usize;
+        let without = draw_behind(&plain, &f, &wall, None);
+        let all = plain.read_culling(device, queue).unwrap();
+        assert!(with == without, "{name}: the occlusion test changed the image");
+        assert!(lists.drawn() + occluded >= all.drawn(), "{name}: blades went missing besides the occluded");
+        // Independent check: a blade every posed vertex of which lies behind the wall (the ray
+        // from the eye passes through it, 5 cm inside its faces) is hidden.
+        let eye = Vec3::from(eye);
+        let (mut hidden, mut hidden_drawn) = (0, 0);
+        for b in 0..f_.blade_count() {
+            let corners = f_.grid.corner_indices(f_.cluster[b]);
+            let root = Vec3::from(f_.positions[b]);
+            let force = forces.blade_force(corners, f_.weights[b], root);
+            let force = Vec3::new(force.x, 0.0, force.y);
+            decoder.world_positions(
+                root,
+                f_.yaw_rad[b],
+                f_.height_scale[b],
+                force,
+                PoseInterpolation::Nearest,
+                &mut posed,
+            );
+            if all.lods[0].binary_search(&(b as u32)).is_ok() && posed.iter().all(|&p| wall.hides(eye, p, 0.05)) {
+                hidden += 1;
+                hidden_drawn += usize::from(lists.lods[0].binary_search(&(b as u32)).is_ok());
+            }
+        }
+        println!(
+            "{name}: {} blades after frustum culling, {occluded} occluded, {} drawn; {hidden} hidden behind the \
+             wall, {hidden_drawn} of them still drawn (conservative bounds)",
+            all.drawn(),
+            lists.drawn()
+        );
+        if hidden_expected {
+            assert!(hidden > 1000, "{name}: the wall hides {hidden} blades");
+            // A blade is tested by a box around every pose it may take, so near the wall's top
+            // edge a hidden blade's box may show above it and the blade is kept.
+            assert!(hidden_drawn * 2 <= hidden, "{name}: {hidden_drawn} of {hidden} hidden blades are still drawn");
+        } else {
+            assert_eq!((hidden, occluded), (0, 0), "{name}: nothing is behind the wall");
+        }
+    }
+}
