@@ -36,7 +36,7 @@ use crate::shaders::FrameUniforms;
 use crate::target::RenderTarget;
 use crate::upload::{FrameUpload, Upload};
 use crate::{
-    BladeForces, BladeRenderSettings, BladeRenderer, FurAsset, FurGpuAsset, FurRenderer, GpuFurPhysics,
+    BladeForces, BladeRenderSettings, BladeRenderer, DepthPyramid, FurAsset, FurGpuAsset, FurRenderer, GpuFurPhysics,
     GpuPhysicsStats, GpuPose, GpuStep, PipelineCache, RenderError, RenderSettings, TargetDesc, View,
 };
 
@@ -309,6 +309,10 @@ pub struct SceneRenderer {
     /// Per pack, its fur physics on the GPU when the world runs it there (`[solver] device =
     /// "gpu"`): built at the first `prepare_world`, then stepped by the world's steps.
     physics: Vec<Option<std::sync::Mutex<GpuPhysicsSlot>>>,
+    /// Grass occlusion ([`SceneRenderer::set_grass_occlusion`]): the depth pyramid every blade
+    /// renderer tests against; blade culling is then recorded by
+    /// [`SceneRenderer::prepare_grass`] after the fur is drawn instead of by the prepare.
+    occlusion: Option<DepthPyramid>,
 }
 
 /// One pack's GPU physics and how many of the world's steps it has recorded.
@@ -464,7 +468,44 @@ impl SceneRenderer {
             target: target.clone(),
             device: pipelines.device().clone(),
             upload: Default::default(),
+            occlusion: None,
         })
+    }
+
+    /// Culls the scene's grass against the depth its fur (and whatever the host draws first)
+    /// leaves in passes of `size` (`None`: no occlusion test, the default): builds the depth
+    /// pyramid and binds it to every blade renderer ([`BladeRenderer::set_occlusion`]). From then
+    /// on a frame is: the prepare (which no longer records blade culling), a pass with
+    /// [`SceneRenderer::render_fur`] and the host's own occluders, [`SceneRenderer::prepare_grass`]
+    /// with that pass's depth texture, and a pass (loading colour and depth) with
+    /// [`SceneRenderer::render_grass`]; the image is the same, with fewer blades drawn
+    /// (docs/design.md "Depth pyramid and occlusion culling"). Call again after a resize.
+    pub fn set_grass_occlusion(
+        &mut self,
+        pipelines: &PipelineCache,
+        size: Option<(u32, u32)>,
+    ) -> Result<(), RenderError> {
+        let reversed =
+            self.target.depth.as_ref().is_some_and(|d| {
+                matches!(d.compare, wgpu::CompareFunction::Greater | wgpu::CompareFunction::GreaterEqual)
+            });
+        let pyramid = match size {
+            Some((w, h)) if self.target.depth.is_some() => Some(DepthPyramid::new(pipelines.device(), w, h, reversed)?),
+            Some(_) => {
+                return Err(RenderError::Parameter { what: "grass occlusion needs a target with depth".into() });
+            }
+            None => None,
+        };
+        for blades in self.packs.iter_mut().filter_map(|p| p.blades.as_mut()) {
+            blades.set_occlusion(pipelines, 0, pyramid.as_ref())?;
+        }
+        self.occlusion = pyramid;
+        Ok(())
+    }
+
+    /// The grass occlusion pyramid's size, when [`SceneRenderer::set_grass_occlusion`] set one.
+    pub fn grass_occlusion(&self) -> Option<(u32, u32)> {
+        self.occlusion.as_ref().map(DepthPyramid::size)
     }
 
     /// The GPU memory [`SceneRenderer::new`] would allocate for `world` — each distinct fur
@@ -724,14 +765,47 @@ impl SceneRenderer {
         upload.flush(&self.device, queue, encoder);
         drop(upload);
         for pack in &self.packs {
-            record_pack(encoder, pack);
+            record_pack(encoder, pack, self.occlusion.is_none());
         }
         Ok(())
     }
 
+    /// With grass occlusion on ([`SceneRenderer::set_grass_occlusion`]): records the depth
+    /// pyramid of `depth` (the pass [`SceneRenderer::render_fur`] drew into, ended) and every blade
+    /// renderer's culling against it into `encoder`; without, records nothing (the prepare
+    /// recorded the culling). Does not submit or wait.
+    pub fn prepare_grass(
+        &self,
+        device: &wgpu::Device,
+        encoder: &mut wgpu::CommandEncoder,
+        depth: &wgpu::Texture,
+    ) -> Result<(), RenderError> {
+        let Some(pyramid) = &self.occlusion else { return Ok(()) };
+        pyramid.record(device, encoder, depth)?;
+        for blades in self.packs.iter().filter_map(|p| p.blades.as_ref()) {
+            blades.record(encoder, 0);
+        }
+        Ok(())
+    }
+
+    /// Draws every pack's fur (skin, shells, fins) into `pass`, in scene order.
+    pub fn render_fur(&self, pass: &mut wgpu::RenderPass<'_>) {
+        for fur in self.packs.iter().filter_map(|p| p.fur.as_ref()) {
+            fur.render(pass);
+        }
+    }
+
+    /// Draws every pack's grass blades into `pass`, in scene order.
+    pub fn render_grass(&self, pass: &mut wgpu::RenderPass<'_>) {
+        for blades in self.packs.iter().filter_map(|p| p.blades.as_ref()) {
+            blades.render(pass);
+        }
+    }
+
     /// Draws every pack into the host's `pass` (attachments matching
     /// [`SceneRenderer::target`]) as the last prepare left it: fur before blades within a pack,
-    /// packs in scene order. Does not submit or wait, and allocates nothing of its own (wgpu
+    /// packs in scene order. With grass occlusion on, draw with [`SceneRenderer::render_fur`] and
+    /// [`SceneRenderer::render_grass`] around [`SceneRenderer::prepare_grass`] instead. Does not submit or wait, and allocates nothing of its own (wgpu
     /// allocates inside its calls; docs/performance.md).
     pub fn render(&self, pass: &mut wgpu::RenderPass<'_>) {
         for pack in &self.packs {
@@ -790,8 +864,23 @@ impl SceneRenderer {
         let mut encoder =
             device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("furbake scene frame") });
         // On an error the encoder is dropped unsubmitted: nothing of this frame is drawn.
+        if let Some((w, h)) = self.grass_occlusion().filter(|&s| s != (target.width, target.height)) {
+            return Err(RenderError::Parameter {
+                what: format!(
+                    "grass occlusion is set for {w}×{h} passes and the target is {}×{}",
+                    target.width, target.height
+                ),
+            });
+        }
         prepare(&mut encoder, &view.uniforms(target.width, target.height))?;
-        self.render(&mut target.begin_pass(&mut encoder, "furbake scene frame", Some(self.frame.background)));
+        if self.occlusion.is_some() {
+            // The fur first, its depth's pyramid, the grass culled against it, then the grass.
+            self.render_fur(&mut target.begin_pass(&mut encoder, "furbake scene fur", Some(self.frame.background)));
+            self.prepare_grass(device, &mut encoder, &target.depth)?;
+            self.render_grass(&mut target.begin_pass(&mut encoder, "furbake scene grass", None));
+        } else {
+            self.render(&mut target.begin_pass(&mut encoder, "furbake scene frame", Some(self.frame.background)));
+        }
         crate::blocking::submit(queue, [encoder.finish()]);
         Ok(())
     }
@@ -863,12 +952,13 @@ fn write_pack(
     Ok(())
 }
 
-/// Records one pack's compute passes (skinning, silhouette fin selection, blade culling).
-fn record_pack(encoder: &mut wgpu::CommandEncoder, pack: &PackRenderers) {
+/// Records one pack's compute passes (skinning, silhouette fin selection, and blade culling
+/// unless it waits for the occluders' depth).
+fn record_pack(encoder: &mut wgpu::CommandEncoder, pack: &PackRenderers, cull_blades: bool) {
     if let Some(renderer) = &pack.fur {
         renderer.record(encoder);
     }
-    if let Some(renderer) = &pack.blades {
+    if let (Some(renderer), true) = (&pack.blades, cull_blades) {
         renderer.record(encoder, 0);
     }
 }

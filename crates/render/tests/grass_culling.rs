@@ -675,3 +675,79 @@ fn blades_behind_a_box_are_not_drawn_and_the_image_is_unchanged() {
         }
     }
 }
+
+#[test]
+fn a_scene_culls_its_grass_behind_its_fur() {
+    // The demo's Fox standing on its grass patch, seen from above its flank: with grass occlusion on,
+    // the scene renderer draws the fur, builds the pyramid of its depth, culls the grass against
+    // it and draws the grass: the same frame, byte for byte, with the blades behind the Fox not
+    // drawn.
+    use furbake_bake::{BakeSettings, NoProgress, bake};
+    use furbake_import::{ImportSettings, import_gltf, import_gltf_slice, testmesh};
+    use furbake_render::SceneRenderer;
+    use furbake_runtime::World;
+    let (device, queue) = (&gpu().device, &gpu().queue);
+    let dir = tempfile::tempdir().unwrap();
+    let fox = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/real/Fox.glb");
+    let mut fur = BakeSettings::preset("fur").unwrap();
+    fur.volume.layers = 8;
+    fur.volume.resolution = 32;
+    fur.topologies = vec!["prisms".into()];
+    let imported = import_gltf(&fox, &ImportSettings::default()).unwrap();
+    bake(&imported, "fox", &fur.plan().unwrap(), &mut NoProgress)
+        .unwrap()
+        .to_writer()
+        .write_atomic(&dir.path().join("fox.fbk"))
+        .unwrap();
+    let mut grass = BakeSettings::preset("grass").unwrap();
+    grass.volume.layers = 8;
+    grass.volume.resolution = 32;
+    grass.topologies = vec!["prisms".into()];
+    let mut blades = furbake_bake::BladeSettings::default();
+    blades.field.density_per_m2 = 400.0;
+    grass.blades = Some(blades);
+    let patch = testmesh::grass_patch(4.0).gltf;
+    let imported = import_gltf_slice(&patch, "patch.gltf", None, &ImportSettings::default()).unwrap();
+    bake(&imported, "patch.gltf", &grass.plan().unwrap(), &mut NoProgress)
+        .unwrap()
+        .to_writer()
+        .write_atomic(&dir.path().join("grass.fbk"))
+        .unwrap();
+    let toml = r#"
+[camera]
+eye = [-0.8, 0.75, 0.0]
+target = [0.6, 0.0, 0.0]
+fov_y_deg = 50.0
+[[packs]]
+name = "fox"
+path = "fox.fbk"
+scale = 0.01
+[[packs]]
+name = "grass"
+path = "grass.fbk"
+scale = 0.5
+[effects.wind]
+velocity_m_per_s = [2.0, 0.0, 0.5]
+"#;
+    let scene = furbake_runtime::Scene::from_toml_str(toml, std::path::Path::new("s.toml"), dir.path()).unwrap();
+    let mut world = World::new(scene).unwrap();
+    world.step().unwrap();
+    let target = RenderTarget::new(device, WIDTH, HEIGHT).unwrap();
+    let mut plain = SceneRenderer::new(device, queue, &world).unwrap();
+    plain.render_world(device, queue, &target, &world).unwrap();
+    let without = read_back(device, queue, &target).unwrap();
+    let drawn_without = plain.packs()[1].blades.as_ref().unwrap().read_culling(device, queue).unwrap().drawn();
+    plain.set_grass_occlusion(gpu().pipelines(), Some((WIDTH, HEIGHT))).unwrap();
+    plain.render_world(device, queue, &target, &world).unwrap();
+    let with = read_back(device, queue, &target).unwrap();
+    let blades = plain.packs()[1].blades.as_ref().unwrap();
+    let (drawn, occluded) =
+        (blades.read_culling(device, queue).unwrap().drawn(), blades.read_occluded(device, queue).unwrap());
+    println!("scene: {drawn_without} blades drawn without the test, {drawn} with, {occluded} occluded by the Fox");
+    assert!(with == without, "grass occlusion changed the scene's frame");
+    assert!(occluded > 100 && drawn + occluded as usize >= drawn_without, "{drawn} drawn, {occluded} occluded");
+    // A target of another size than the pyramid's is refused.
+    let small = RenderTarget::new(device, 64, 64).unwrap();
+    let e = plain.render_world(device, queue, &small, &world).unwrap_err().to_string();
+    assert!(e.contains("occlusion"), "{e}");
+}
