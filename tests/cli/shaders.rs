@@ -77,6 +77,12 @@ fn every_target_writes_what_its_manifest_lists_the_same_every_run() {
             "fs_blade",
             "cs_cull_clusters",
             "cs_compact",
+            "cs_step",
+            "cs_xpbd_step",
+            "cs_pose_rest",
+            "cs_guard",
+            "cs_depth_copy",
+            "cs_depth_reduce",
         ] {
             assert!(
                 manifest["files"].as_array().unwrap().iter().any(|f| f["entry_point"] == entry),

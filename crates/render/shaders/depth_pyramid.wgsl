@@ -14,7 +14,9 @@ struct PyramidLevel {
 }
 
 @group(0) @binding(0) var<uniform> level: PyramidLevel;
-@group(0) @binding(1) var depth_in: texture_depth_2d;
+// The host's depth, read as an unfilterable float texture (what every depth format allows, and
+// what the GLSL, HLSL and MSL exports can read with a plain texel fetch).
+@group(0) @binding(1) var depth_in: texture_2d<f32>;
 @group(0) @binding(2) var level_in: texture_2d<f32>;
 @group(0) @binding(3) var level_out: texture_storage_2d<r32float, write>;
 
@@ -28,7 +30,7 @@ fn cs_depth_copy(@builtin(global_invocation_id) gid: vec3<u32>) {
     if gid.x >= level.sizes.z || gid.y >= level.sizes.w {
         return;
     }
-    textureStore(level_out, vec2<i32>(gid.xy), vec4<f32>(textureLoad(depth_in, vec2<i32>(gid.xy), 0), 0.0, 0.0, 1.0));
+    textureStore(level_out, vec2<i32>(gid.xy), vec4<f32>(textureLoad(depth_in, vec2<i32>(gid.xy), 0).r, 0.0, 0.0, 1.0));
 }
 
 // Level i + 1 from level i: the farthest of the 2×2 input texels (3 wide or tall at an odd edge).

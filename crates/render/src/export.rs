@@ -17,7 +17,10 @@ use naga::{AddressSpace, ShaderStage, StorageAccess, TypeInner};
 use serde_json::{Value, json};
 
 use crate::RenderError;
-use crate::shaders::{BLADE_CULL_WGSL, BLADES_WGSL, FIN_WGSL, SHELL_WGSL, SILHOUETTE_WGSL, SKIN_WGSL, SKINNING_WGSL};
+use crate::shaders::{
+    BLADE_CULL_WGSL, BLADES_WGSL, DEPTH_PYRAMID_WGSL, FIN_WGSL, FUR_PHYSICS_WGSL, SHELL_WGSL, SILHOUETTE_WGSL,
+    SKIN_WGSL, SKINNING_WGSL,
+};
 
 /// A shading language the shaders are exported to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -88,7 +91,7 @@ pub struct ShaderExport {
 }
 
 /// The renderer's shader modules: name, WGSL.
-const MODULES: [(&str, &str); 7] = [
+const MODULES: [(&str, &str); 9] = [
     ("skin", SKIN_WGSL),
     ("shell", SHELL_WGSL),
     ("fin", FIN_WGSL),
@@ -96,6 +99,8 @@ const MODULES: [(&str, &str); 7] = [
     ("silhouette", SILHOUETTE_WGSL),
     ("blades", BLADES_WGSL),
     ("blade_cull", BLADE_CULL_WGSL),
+    ("fur_physics", FUR_PHYSICS_WGSL),
+    ("depth_pyramid", DEPTH_PYRAMID_WGSL),
 ];
 
 /// What feeds each binding, by variable name: the C interface's view, or how the renderer

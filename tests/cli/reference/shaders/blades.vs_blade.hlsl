@@ -32,6 +32,8 @@ struct CullUniforms {
     uint4 index_count;
     uint4 first_index;
     uint4 counts;
+    row_major float4x4 clip_;
+    uint4 occlusion;
 };
 
 struct BladeUniforms {
@@ -89,6 +91,7 @@ struct BladeOut {
 static const uint SALT_THINNING = 1759714724u;
 static const uint SALT_LOD = 3039394381u;
 static const uint CULLED = 4294967295u;
+static const uint OCCLUDED = 4294967294u;
 static const float PI = 3.1415927;
 static const float TAU = 6.2831855;
 static const uint STATIC_VERTEX = 4294967295u;

@@ -49,6 +49,8 @@ struct CullUniforms {
     metal::uint4 index_count;
     metal::uint4 first_index;
     metal::uint4 counts;
+    metal::float4x4 clip;
+    metal::uint4 occlusion;
 };
 struct BladeUniforms {
     metal::float4 color;
@@ -103,6 +105,7 @@ struct BladeOut {
 constant uint SALT_THINNING = 1759714724u;
 constant uint SALT_LOD = 3039394381u;
 constant uint CULLED = 4294967295u;
+constant uint OCCLUDED = 4294967294u;
 constant float PI = 3.1415927;
 constant float TAU = 6.2831855;
 constant uint STATIC_VERTEX = 4294967295u;
