@@ -585,3 +585,61 @@ fn cs_pose_between(@builtin(global_invocation_id) gid: vec3<u32>) {
         pose_xpbd_links[b.xpbd].rest = rest;
     }
 }
+
+// ---- Energy, on request (crates/sim/src/simulator.rs `energy`) ----
+// Per free mass: ½ m v², its links' ½ k (l − l₀)² (halved for a link to another free mass, which
+// lists it too), and the restoring link's ½ w L (1 − n·s)²; summed per workgroup in f32 and
+// written as one partial sum each, which the host adds up in f64 once it reads them back.
+const ENERGY_THREADS: u32 = 256u;
+
+@group(0) @binding(40) var<storage, read> energy_x: array<vec4<f32>>;
+@group(0) @binding(41) var<storage, read> energy_v: array<vec4<f32>>;
+@group(0) @binding(42) var<storage, read> energy_masses: array<PhysicsMass>;
+@group(0) @binding(43) var<storage, read> energy_links: array<PhysicsLink>;
+// Per workgroup: kinetic, spring, restoring energy (J), unused.
+@group(0) @binding(44) var<storage, read_write> energy_partials: array<vec4<f32>>;
+
+var<workgroup> energy_sums: array<vec4<f32>, 256>;
+
+@compute @workgroup_size(256)
+fn cs_energy(
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(local_invocation_index) lid: u32,
+    @builtin(workgroup_id) wid: vec3<u32>,
+) {
+    let k = gid.x;
+    var e = vec4<f32>(0.0);
+    if k < step.counts.x {
+        let m = energy_masses[k];
+        let xi = energy_x[k].xyz;
+        let vi = energy_v[k].xyz;
+        e.x = 0.5 * m.mass * dot(vi, vi);
+        for (var i = m.links_start; i < m.links_end; i++) {
+            let l = energy_links[i];
+            let stretch = length(energy_x[l.other].xyz - xi) - l.rest;
+            let share = select(1.0, 0.5, l.other < step.counts.x);
+            e.y += share * 0.5 * l.k * stretch * stretch;
+        }
+        let w = step.alpha.w;
+        if m.restoring_parent != NO_LINK {
+            let s = xi - energy_x[m.restoring_parent].xyz;
+            let len = length(s);
+            var c = 1.0;
+            if len > 0.0 {
+                c = 1.0 - dot(m.restoring_n.xyz, s / len);
+            }
+            e.z = 0.5 * w * m.restoring_n.w * c * c;
+        }
+    }
+    energy_sums[lid] = e;
+    workgroupBarrier();
+    for (var half = ENERGY_THREADS / 2u; half > 0u; half >>= 1u) {
+        if lid < half {
+            energy_sums[lid] += energy_sums[lid + half];
+        }
+        workgroupBarrier();
+    }
+    if lid == 0u {
+        energy_partials[wid.x] = energy_sums[0];
+    }
+}

@@ -100,8 +100,16 @@ mod tests {
     fn no_other_file_submits_or_waits() {
         let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
         let mut checked = 0;
-        for entry in std::fs::read_dir(&dir).unwrap() {
-            let path = entry.unwrap().path();
+        // Every source file, submodules' folders included.
+        let mut paths = Vec::new();
+        let mut folders = vec![dir];
+        while let Some(folder) = folders.pop() {
+            for entry in std::fs::read_dir(&folder).unwrap() {
+                let path = entry.unwrap().path();
+                if path.is_dir() { folders.push(path) } else { paths.push(path) }
+            }
+        }
+        for path in paths {
             if path.extension().is_none_or(|e| e != "rs") || path.ends_with("blocking.rs") {
                 continue;
             }

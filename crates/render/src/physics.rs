@@ -12,9 +12,10 @@
 //! the measured agreement with the CPU.
 //!
 //! An animated skin is posed on the GPU before each step as `Simulator::pose_skin` poses it
-//! ([`GpuStep::pose`], `physics/pose.rs`). Not yet on the GPU: the implicit, reference and
-//! local/global solvers and energy tracking; [`furbake_sim::Simulator::compute_model`] refuses
-//! what has no compute form.
+//! ([`GpuStep::pose`], `physics/pose.rs`); the state's energy comes back on request
+//! ([`GpuFurPhysics::request_energy`]). Not yet on the GPU: the implicit, reference and
+//! local/global solvers; [`furbake_sim::Simulator::compute_model`] refuses what has no compute
+//! form.
 
 use furbake_sim::{ComputeModel, ComputeUpdate, ForceSet, GuardSettings, NO_LINK, SkinTransform};
 use wgpu::util::DeviceExt;
@@ -176,7 +177,9 @@ pub struct GpuFurPhysics {
     /// Steps and substeps of the last record.
     last_record: (u32, u32),
     /// The statistics readback ([`GpuFurPhysics::request_stats`]).
-    stats_readback: StatsReadback,
+    stats_readback: Readback,
+    /// The energy of the state, on request ([`GpuFurPhysics::request_energy`]).
+    energy: EnergyPass,
 }
 
 /// One step for [`GpuFurPhysics::record_steps`]: its forces and the teleport that moves the fur
@@ -220,11 +223,11 @@ pub struct GpuPhysicsStats {
     pub frozen: u32,
 }
 
-/// The counters' way back to the host, without waiting: copied into `buffer` by a request,
+/// A small buffer's way back to the host, without waiting: copied into `buffer` by a request,
 /// mapped at the first poll after the host's submission, read at a later poll.
-struct StatsReadback {
+struct Readback {
     buffer: wgpu::Buffer,
-    state: StatsState,
+    state: ReadbackState,
     /// Set by the mapping's callback (1 mapped, 2 failed).
     mapped: std::sync::Arc<std::sync::atomic::AtomicU8>,
     /// The record the copy belongs to.
@@ -232,10 +235,81 @@ struct StatsReadback {
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
-enum StatsState {
+enum ReadbackState {
     Idle,
     Copied,
     Mapping,
+}
+
+impl Readback {
+    fn new(device: &wgpu::Device, label: &str, size: u64) -> Readback {
+        Readback {
+            buffer: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size,
+                usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+                mapped_at_creation: false,
+            }),
+            state: ReadbackState::Idle,
+            mapped: Default::default(),
+            record: (0, 0),
+        }
+    }
+
+    /// Records the copy of `source` into `encoder`; false while an earlier request is on its way.
+    fn request(&mut self, encoder: &mut wgpu::CommandEncoder, source: &wgpu::Buffer, record: (u32, u32)) -> bool {
+        if self.state != ReadbackState::Idle {
+            return false;
+        }
+        encoder.copy_buffer_to_buffer(source, 0, &self.buffer, 0, self.buffer.size());
+        self.state = ReadbackState::Copied;
+        self.record = record;
+        true
+    }
+
+    /// `read` of the copied bytes and the record they belong to, once mapped; `None` until then.
+    fn try_read<T>(&mut self, what: &str, read: impl FnOnce(&[u8]) -> T) -> Result<Read<T>, RenderError> {
+        use std::sync::atomic::Ordering;
+        match self.state {
+            ReadbackState::Idle => Ok(None),
+            ReadbackState::Copied => {
+                self.mapped.store(0, Ordering::Release);
+                let flag = self.mapped.clone();
+                self.buffer.slice(..).map_async(wgpu::MapMode::Read, move |res| {
+                    flag.store(if res.is_ok() { 1 } else { 2 }, Ordering::Release);
+                });
+                self.state = ReadbackState::Mapping;
+                Ok(None)
+            }
+            ReadbackState::Mapping => match self.mapped.load(Ordering::Acquire) {
+                0 => Ok(None),
+                1 => {
+                    let out = self.buffer.slice(..).get_mapped_range().map(|view| read(&view));
+                    self.buffer.unmap();
+                    self.state = ReadbackState::Idle;
+                    let out = out.map_err(|e| RenderError::Gpu { what: format!("{what}: {e}") })?;
+                    Ok(Some((out, self.record)))
+                }
+                _ => {
+                    self.state = ReadbackState::Idle;
+                    Err(RenderError::Gpu { what: format!("mapping the {what} failed") })
+                }
+            },
+        }
+    }
+}
+
+/// What a [`Readback`] read, with the record it belongs to; `None` until it is mapped.
+type Read<T> = Option<(T, (u32, u32))>;
+
+/// The energy pass (`cs_energy`) and its partial sums' way back.
+struct EnergyPass {
+    pipeline: wgpu::ComputePipeline,
+    /// Over state buffers 0 and 1.
+    groups: [wgpu::BindGroup; 2],
+    partials: wgpu::Buffer,
+    workgroups: u32,
+    readback: Readback,
 }
 
 impl FurRenderer {
@@ -472,6 +546,7 @@ impl GpuFurPhysics {
                 guard: &guard_state,
             };
             let pose = pose::Pose::new(device, model, &module, &targets, xpbd.as_ref().map(|x| &x.links))?;
+            let energy = EnergyPass::new(device, &module, model, forces, &x, &v, &mass_buffer, &links);
             Ok(GpuFurPhysics {
                 xpbd,
                 tip_buffer,
@@ -507,17 +582,8 @@ impl GpuFurPhysics {
                 scratch: Vec::with_capacity(steps_capacity as usize),
                 scratch_bytes: Vec::with_capacity(steps_capacity as usize * STEP_STRIDE as usize),
                 last_record: (0, 0),
-                stats_readback: StatsReadback {
-                    buffer: device.create_buffer(&wgpu::BufferDescriptor {
-                        label: Some("furbake physics counters readback"),
-                        size: 16,
-                        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-                        mapped_at_creation: false,
-                    }),
-                    state: StatsState::Idle,
-                    mapped: Default::default(),
-                    record: (0, 0),
-                },
+                stats_readback: Readback::new(device, "furbake physics counters readback", 16),
+                energy,
             })
         })
     }
@@ -718,14 +784,7 @@ impl GpuFurPhysics {
     /// submitted it, [`GpuFurPhysics::poll_stats`] hands them over once the GPU is done. False
     /// (nothing recorded) while an earlier request is still on its way.
     pub fn request_stats(&mut self, encoder: &mut wgpu::CommandEncoder) -> bool {
-        let r = &mut self.stats_readback;
-        if r.state != StatsState::Idle {
-            return false;
-        }
-        encoder.copy_buffer_to_buffer(&self.stats, 0, &r.buffer, 0, 16);
-        r.state = StatsState::Copied;
-        r.record = self.last_record;
-        true
+        self.stats_readback.request(encoder, &self.stats, self.last_record)
     }
 
     /// The counters [`GpuFurPhysics::request_stats`] asked for, once the GPU has written them;
@@ -733,42 +792,53 @@ impl GpuFurPhysics {
     /// submission starts the mapping, and the host's own device polling (its next frame's submit
     /// or `Device::poll`) completes it. A failed mapping is a [`RenderError::Gpu`].
     pub fn poll_stats(&mut self) -> Result<Option<GpuPhysicsStats>, RenderError> {
-        use std::sync::atomic::Ordering;
-        let r = &mut self.stats_readback;
-        match r.state {
-            StatsState::Idle => Ok(None),
-            StatsState::Copied => {
-                r.mapped.store(0, Ordering::Release);
-                let flag = r.mapped.clone();
-                r.buffer.slice(..).map_async(wgpu::MapMode::Read, move |res| {
-                    flag.store(if res.is_ok() { 1 } else { 2 }, Ordering::Release);
-                });
-                r.state = StatsState::Mapping;
-                Ok(None)
-            }
-            StatsState::Mapping => match r.mapped.load(Ordering::Acquire) {
-                0 => Ok(None),
-                1 => {
-                    let read =
-                        r.buffer.slice(..).get_mapped_range().map(|view| bytemuck::pod_read_unaligned(&view[..16]));
-                    r.buffer.unmap();
-                    r.state = StatsState::Idle;
-                    let c: [u32; 4] =
-                        read.map_err(|e| RenderError::Gpu { what: format!("GPU physics counters: {e}") })?;
-                    Ok(Some(GpuPhysicsStats {
-                        steps: r.record.0,
-                        substeps: r.record.1,
-                        non_finite: c[0],
-                        guard_triggers: c[1],
-                        frozen: c[2],
-                    }))
-                }
-                _ => {
-                    r.state = StatsState::Idle;
-                    Err(RenderError::Gpu { what: "mapping the GPU physics counters failed".into() })
-                }
-            },
+        let read = |view: &[u8]| -> [u32; 4] { bytemuck::pod_read_unaligned(&view[..16]) };
+        Ok(self.stats_readback.try_read("GPU physics counters", read)?.map(|(c, record)| GpuPhysicsStats {
+            steps: record.0,
+            substeps: record.1,
+            non_finite: c[0],
+            guard_triggers: c[1],
+            frozen: c[2],
+        }))
+    }
+
+    /// Asks for the energy of the current state (after the records so far), as
+    /// `Simulator::energy` measures it: records one compute pass of per-workgroup partial sums and
+    /// their copy into `encoder`. Then, after the host's submission,
+    /// [`GpuFurPhysics::poll_energy`] hands it over without waiting. False (nothing recorded)
+    /// while an earlier request is still on its way.
+    pub fn request_energy(&mut self, encoder: &mut wgpu::CommandEncoder) -> bool {
+        let e = &mut self.energy;
+        if e.readback.state != ReadbackState::Idle {
+            return false;
         }
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("furbake fur physics energy"),
+                timestamp_writes: None,
+            });
+            pass.set_pipeline(&e.pipeline);
+            pass.set_bind_group(0, &e.groups[self.current], &[0]);
+            pass.dispatch_workgroups(e.workgroups, 1, 1);
+        }
+        e.readback.request(encoder, &e.partials, self.last_record)
+    }
+
+    /// The energy [`GpuFurPhysics::request_energy`] asked for (kinetic, spring and restoring
+    /// energy, joules; the partial sums added in f64), once the GPU has written it; `None` until
+    /// then. Never waits, as [`GpuFurPhysics::poll_stats`].
+    pub fn poll_energy(&mut self) -> Result<Option<furbake_sim::Energy>, RenderError> {
+        let read = |view: &[u8]| {
+            let mut sum = [0.0f64; 3];
+            for p in view.chunks_exact(16) {
+                let p: [f32; 4] = bytemuck::pod_read_unaligned(p);
+                for (s, v) in sum.iter_mut().zip(p) {
+                    *s += v as f64;
+                }
+            }
+            furbake_sim::Energy { kinetic_j: sum[0], spring_j: sum[1], restoring_j: sum[2] }
+        };
+        Ok(self.energy.readback.try_read("GPU physics energy", read)?.map(|(e, _)| e))
     }
 
     /// The uniforms of one record as bytes, each substep at its stride (reusing the scratch's
@@ -885,6 +955,83 @@ impl GpuFurPhysics {
             scale: g.iter().map(|s| ([s[0], s[1], s[2]], s[3] != 0.0)).collect(),
             counters: [c[0], c[1], c[2]],
         })
+    }
+}
+
+impl EnergyPass {
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        device: &wgpu::Device,
+        module: &wgpu::ShaderModule,
+        model: &ComputeModel,
+        forces: &ForceSet,
+        x: &[wgpu::Buffer; 2],
+        v: &[wgpu::Buffer; 2],
+        masses: &wgpu::Buffer,
+        links: &wgpu::Buffer,
+    ) -> EnergyPass {
+        const THREADS: u32 = 256;
+        let workgroups = model.free.div_ceil(THREADS).max(1);
+        // Its own uniforms: the free masses and the restoring weight, fixed for the physics.
+        let mut uniforms: PhysicsStep = bytemuck::Zeroable::zeroed();
+        uniforms.counts = [model.free, model.tips.len() as u32, model.shell_tip.len() as u32, 0];
+        uniforms.alpha[3] = forces.restoring_weight_n;
+        let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("furbake physics energy uniforms"),
+            contents: bytemuck::bytes_of(&uniforms),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let partials = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("furbake physics energy partial sums"),
+            size: workgroups as u64 * 16,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("furbake physics energy"),
+            entries: &[
+                layout_entry(0, dynamic_uniform::<PhysicsStep>()),
+                layout_entry(40, storage_binding(true)),
+                layout_entry(41, storage_binding(true)),
+                layout_entry(42, storage_binding(true)),
+                layout_entry(43, storage_binding(true)),
+                layout_entry(44, storage_binding(false)),
+            ],
+        });
+        let groups = [0, 1].map(|at| {
+            device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("furbake physics energy"),
+                layout: &layout,
+                entries: &[
+                    steps_entry(&uniform),
+                    entry(40, &x[at]),
+                    entry(41, &v[at]),
+                    entry(42, masses),
+                    entry(43, links),
+                    entry(44, &partials),
+                ],
+            })
+        });
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("furbake physics energy"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("cs_energy"),
+            layout: Some(&pipeline_layout),
+            module,
+            entry_point: Some("cs_energy"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        EnergyPass {
+            pipeline,
+            groups,
+            readback: Readback::new(device, "furbake physics energy readback", partials.size()),
+            partials,
+            workgroups,
+        }
     }
 }
 

@@ -328,6 +328,7 @@ pub(crate) mod tests {
                 "cs_cull_clusters",
                 "cs_depth_copy",
                 "cs_depth_reduce",
+                "cs_energy",
                 "cs_guard",
                 "cs_pose_all",
                 "cs_pose_anchored",

@@ -645,6 +645,68 @@ fn crowd_physics_frame_cost() {
 }
 
 #[test]
+fn the_energy_comes_back_when_asked_and_the_budget_holds() {
+    // The GPU's energy of its state (cs_energy, partial sums added on the host) is the CPU's of
+    // its own state, 1 s into the same run; then, with every force but the restoring one off, the
+    // fur swings back and its energy never grows (no work is done on it: the budget is the energy
+    // at the release), falling by the links' damping, on both.
+    let g = gpu();
+    let (asset, topo) = sphere("prisms");
+    let renderer =
+        FurRenderer::new(g.pipelines(), &g.queue, &asset, &RenderSettings::default(), &RenderTarget::desc()).unwrap();
+    let mut sim = Simulator::new(&topo, SolverSettings::of(SolverKind::Xpbd)).unwrap();
+    let push = forces(0.05);
+    sim.set_forces(push.clone()).unwrap();
+    let model = sim.compute_model().unwrap();
+    let mut physics = renderer.gpu_physics(&g.device, &g.queue, &model, &push, sim.stable_step_s(), 100).unwrap();
+    let energy_of = |physics: &mut GpuFurPhysics| {
+        let mut encoder = g.device.create_command_encoder(&Default::default());
+        assert!(physics.request_energy(&mut encoder));
+        g.queue.submit([encoder.finish()]);
+        assert_eq!(physics.poll_energy().unwrap(), None, "nothing before the mapping");
+        g.device.poll(wgpu::PollType::wait_indefinitely()).unwrap();
+        physics.poll_energy().unwrap().expect("mapped")
+    };
+    let step = |sim: &mut Simulator, physics: &mut GpuFurPhysics| {
+        sim.step(1.0 / 60.0).unwrap();
+        let mut encoder = g.device.create_command_encoder(&Default::default());
+        physics.record(&g.device, &g.queue, &mut encoder, 1.0 / 60.0).unwrap();
+        g.queue.submit([encoder.finish()]);
+    };
+    for _ in 0..60 {
+        step(&mut sim, &mut physics);
+    }
+    let (cpu, gpu_e) = (sim.energy(), energy_of(&mut physics));
+    eprintln!("energy after 1 s: CPU {cpu:?}, GPU {gpu_e:?}");
+    assert!(cpu.total_j() > 1e-6, "the push and the wind put energy into the fur: {cpu:?}");
+    for (what, a, b) in [
+        ("kinetic", cpu.kinetic_j, gpu_e.kinetic_j),
+        ("spring", cpu.spring_j, gpu_e.spring_j),
+        ("restoring", cpu.restoring_j, gpu_e.restoring_j),
+    ] {
+        assert!((a - b).abs() <= 1e-3 * a.abs() + 1e-9, "{what} energy: CPU {a} J, GPU {b} J");
+    }
+    // Released: only the restoring force acts; its (approximate) potential joins the budget.
+    let released = ForceSet { restoring_weight_n: push.restoring_weight_n, ..ForceSet::default() };
+    sim.set_forces(released.clone()).unwrap();
+    physics.set_forces(&released).unwrap();
+    let released_at = energy_of(&mut physics);
+    let start = released_at.total_j() + released_at.restoring_j;
+    let mut peak_ratio = 0.0f64;
+    for _ in 0..30 {
+        step(&mut sim, &mut physics);
+        let e = energy_of(&mut physics);
+        peak_ratio = peak_ratio.max((e.total_j() + e.restoring_j) / start.max(1e-12));
+    }
+    let end = energy_of(&mut physics);
+    eprintln!(
+        "released: GPU energy {start:.3e} J → {:.3e} J in 0.5 s, at most {peak_ratio:.3} of the release",
+        end.total_j()
+    );
+    assert!(peak_ratio <= 1.0 + 1e-3, "the released fur gained energy: {peak_ratio} of its energy at the release");
+}
+
+#[test]
 fn statistics_come_back_when_asked_without_waiting() {
     // The counters of a record come back through request_stats + poll_stats: nothing before the
     // host's submission and its device polling, then exactly what the GPU counted, as the CPU
