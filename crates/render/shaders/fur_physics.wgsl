@@ -33,6 +33,9 @@ struct PhysicsStep {
     pose: vec4<f32>,
     // the pose's first transform, its speed slot, every mass, links between hairs
     pose_at: vec4<u32>,
+    // a pose blended here (cs_pose_blend): its first skinning matrix, its first morph weight,
+    // influence slots per vertex | morph targets << 8, welded skin vertices
+    pose_skin: vec4<u32>,
     // per local force: centre xyz and radius w (m), then strength x (N)
     locals: array<vec4<f32>, 32>,
 }
@@ -476,6 +479,66 @@ fn pose_direction(s: u32, n: vec3<f32>) -> vec3<f32> {
 // The skin moved faster than the cut speed: the fur is carried along.
 fn pose_cut() -> bool {
     return bitcast<f32>(atomicLoad(&pose_speed[step.pose_at.y])) > step.pose.y;
+}
+
+// The skin's transform per shell vertex, blended here from the step's skinning matrices and
+// morph weights as the CPU's Animator blends it (crates/runtime/src/animation.rs
+// vertex_transform): the morph offset Σ wₜ·Δpₜ, the matrix Σ wᵢ·Mᵢ over the vertex's influence
+// slots in slot order (zero weights skipped; the identity without skin weights), and its normal
+// matrix, the cofactor times the sign of the determinant (crates/sim/src/skin.rs normal_matrix).
+@group(0) @binding(50) var<storage, read> blend_binds: array<u32>;
+@group(0) @binding(51) var<storage, read> blend_weights: array<f32>;
+@group(0) @binding(52) var<storage, read> blend_deltas: array<f32>;
+@group(0) @binding(53) var<storage, read> blend_matrices: array<mat4x4<f32>>;
+@group(0) @binding(54) var<storage, read> blend_morph_weights: array<f32>;
+// per shell vertex: its welded skin vertex
+@group(0) @binding(55) var<storage, read> blend_shell_vertices: array<u32>;
+@group(0) @binding(56) var<storage, read_write> blend_out: array<PoseTransform>;
+
+@compute @workgroup_size(64)
+fn cs_pose_blend(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let s = gid.x;
+    if s >= step.counts.z {
+        return;
+    }
+    let v = blend_shell_vertices[s];
+    let per = step.pose_skin.z & 0xffu;
+    let targets = step.pose_skin.z >> 8u;
+    let skin_vertices = step.pose_skin.w;
+    var offset = vec3<f32>(0.0);
+    for (var t = 0u; t < targets; t++) {
+        let w = blend_morph_weights[step.pose_skin.y + t];
+        if w != 0.0 {
+            let i = 3u * (t * skin_vertices + v);
+            offset = offset + w * vec3<f32>(blend_deltas[i], blend_deltas[i + 1u], blend_deltas[i + 2u]);
+        }
+    }
+    var m = mat4x4<f32>(vec4<f32>(1.0, 0.0, 0.0, 0.0), vec4<f32>(0.0, 1.0, 0.0, 0.0), vec4<f32>(0.0, 0.0, 1.0, 0.0), vec4<f32>(0.0, 0.0, 0.0, 1.0));
+    if per > 0u {
+        m = mat4x4<f32>();
+        let first = v * per;
+        for (var k = 0u; k < per; k++) {
+            let w = blend_weights[first + k];
+            if w != 0.0 {
+                let slot = first + k;
+                let bind = (blend_binds[slot >> 1u] >> ((slot & 1u) * 16u)) & 0xffffu;
+                m = m + blend_matrices[step.pose_skin.x + bind] * w;
+            }
+        }
+    }
+    let c0 = m[0].xyz;
+    let c1 = m[1].xyz;
+    let c2 = m[2].xyz;
+    let sign = select(1.0, -1.0, dot(c0, cross(c1, c2)) < 0.0);
+    blend_out[step.pose_at.x + s] = PoseTransform(
+        vec4<f32>(c0, offset.x),
+        vec4<f32>(c1, offset.y),
+        vec4<f32>(c2, offset.z),
+        vec4<f32>(m[3].xyz, 0.0),
+        vec4<f32>(cross(c1, c2) * sign, 0.0),
+        vec4<f32>(cross(c2, c0) * sign, 0.0),
+        vec4<f32>(cross(c0, c1) * sign, 0.0),
+    );
 }
 
 @compute @workgroup_size(64)

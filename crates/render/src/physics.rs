@@ -46,6 +46,7 @@ pub(crate) struct PhysicsStep {
     teleport: [f32; 4],
     pose: [f32; 4],
     pose_at: [u32; 4],
+    pose_skin: [u32; 4],
     locals: [[f32; 4]; 2 * MAX_LOCAL_FORCES],
 }
 
@@ -195,15 +196,33 @@ pub struct GpuStep<'a> {
     pub pose: Option<GpuPose<'a>>,
 }
 
-/// An animated skin's pose for one GPU step ([`GpuStep::pose`]): one [`SkinTransform`] per
-/// shell vertex (bind pose → now) and the cut speed above which the fur is carried along
-/// (mesh-frame metres per second), as `Simulator::pose_skin` takes them.
+/// An animated skin's pose for one GPU step ([`GpuStep::pose`]): how the skin moved (bind pose
+/// → the step's end) and the cut speed above which the fur is carried along (mesh-frame metres
+/// per second), as `Simulator::pose_skin` takes them.
 #[derive(Clone, Copy, Debug)]
 pub struct GpuPose<'a> {
-    /// Per shell vertex, bind pose → now.
-    pub transforms: &'a [SkinTransform],
+    /// The skin's motion.
+    pub skin: GpuSkin<'a>,
     /// The fastest anchor speed that still drags the fur through its springs, m/s.
     pub cut_speed_m_per_s: f32,
+}
+
+/// How an animated skin moved, for [`GpuPose`].
+#[derive(Clone, Copy, Debug)]
+pub enum GpuSkin<'a> {
+    /// One [`SkinTransform`] per shell vertex, blended by the host.
+    Transforms(&'a [SkinTransform]),
+    /// The pack's skinning matrices (one per bind, `world(joint) × inverseBind`) and morph
+    /// weights (one per target), as its renderer's skinning pass takes them
+    /// ([`FurRenderer::set_pose`]): the transforms are blended on the GPU from the pack's
+    /// influences and morph deltas (`cs_pose_blend`), so a step uploads a few matrices instead
+    /// of a transform per shell vertex. Needs the physics of an animated asset's renderer.
+    Skinning {
+        /// One per bind.
+        matrices: &'a [glam::Mat4],
+        /// One per morph target.
+        morph_weights: &'a [f32],
+    },
 }
 
 /// What one record of the GPU physics counted ([`GpuFurPhysics::poll_stats`]).
@@ -349,7 +368,9 @@ impl FurRenderer {
             });
         }
         self.set_scale_layout(queue, layout);
-        GpuFurPhysics::new(device, model, forces, stable_step_s, max_substeps, self.scale_buffer())
+        let skin =
+            self.skinning_pass().map(|s| s.physics_inputs(layout == furbake_runtime::ShellVertexLayout::PerCorner));
+        GpuFurPhysics::new(device, model, forces, stable_step_s, max_substeps, self.scale_buffer(), skin)
     }
 }
 
@@ -361,6 +382,7 @@ impl GpuFurPhysics {
         stable_step_s: f64,
         max_substeps: u32,
         scale_out: &wgpu::Buffer,
+        skin: Option<crate::skinning::SkinInputs>,
     ) -> Result<GpuFurPhysics, RenderError> {
         check_forces(forces)?;
         let nf = model.free as usize;
@@ -545,7 +567,7 @@ impl GpuFurPhysics {
                 tips: &tip_buffer,
                 guard: &guard_state,
             };
-            let pose = pose::Pose::new(device, model, &module, &targets, xpbd.as_ref().map(|x| &x.links))?;
+            let pose = pose::Pose::new(device, model, &module, &targets, xpbd.as_ref().map(|x| &x.links), skin)?;
             let energy = EnergyPass::new(device, &module, model, forces, &x, &v, &mass_buffer, &links);
             Ok(GpuFurPhysics {
                 xpbd,
@@ -719,7 +741,7 @@ impl GpuFurPhysics {
                 let teleport = if sub == 0 { step.teleport_m } else { [0.0; 3] };
                 let mut u = self.uniforms(step.forces, teleport, t + sub as f64 * h, h as f32);
                 if let (0, Some(p), Some(pose)) = (sub, &step.pose, &self.pose) {
-                    (u.pose, u.pose_at) = pose.uniforms(poses, n, dt_s, p.cut_speed_m_per_s);
+                    (u.pose, u.pose_at, u.pose_skin) = pose.uniforms(poses, n, dt_s, p.cut_speed_m_per_s);
                     poses += 1;
                 }
                 self.scratch.push(u);
@@ -747,10 +769,11 @@ impl GpuFurPhysics {
                 pass.set_bind_group(1, &self.tips, &[]);
                 pass.dispatch_workgroups(free_groups, 1, 1);
             }
-            if let (Some(_), Some(pose)) = (&step.pose, &self.pose) {
+            if let (Some(p), Some(pose)) = (&step.pose, &self.pose) {
                 // The skin moves to its pose at the step's end before the step (as the CPU
                 // world poses the simulator before stepping it).
-                pose.record(&mut pass, (first as u64 * STEP_STRIDE) as u32, self.current);
+                let blend = matches!(p.skin, GpuSkin::Skinning { .. });
+                pose.record(&mut pass, (first as u64 * STEP_STRIDE) as u32, self.current, blend);
             }
             if let Some(x) = &self.xpbd {
                 x.record(&mut pass, (first as u64 * STEP_STRIDE) as u32, self.current);
@@ -913,6 +936,7 @@ impl GpuFurPhysics {
             teleport: v4(teleport_m, 0.0),
             pose: [0.0; 4],
             pose_at: [0; 4],
+            pose_skin: [0; 4],
             locals,
         }
     }
@@ -1312,6 +1336,7 @@ mod tests {
             ("teleport", offset_of!(PhysicsStep, teleport)),
             ("pose", offset_of!(PhysicsStep, pose)),
             ("pose_at", offset_of!(PhysicsStep, pose_at)),
+            ("pose_skin", offset_of!(PhysicsStep, pose_skin)),
             ("locals", offset_of!(PhysicsStep, locals)),
         ];
         assert_eq!(check_layout("PhysicsStep", size_of::<PhysicsStep>(), &step), 1);

@@ -675,6 +675,11 @@ impl FurRenderer {
         self.skinning.is_some()
     }
 
+    /// The skinning pass of an animated asset, for the crate's own passes.
+    pub(crate) fn skinning_pass(&self) -> Option<&SkinningPass> {
+        self.skinning.as_ref()
+    }
+
     #[cfg(feature = "testing")]
     /// The skinning pass of an animated asset (`None` for a static one): its counts, its output
     /// buffer, and its readback for tests.

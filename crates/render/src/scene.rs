@@ -37,7 +37,7 @@ use crate::target::RenderTarget;
 use crate::upload::{FrameUpload, Upload};
 use crate::{
     BladeForces, BladeRenderSettings, BladeRenderer, DepthPyramid, FurAsset, FurGpuAsset, FurRenderer, GpuFurPhysics,
-    GpuPhysicsStats, GpuPose, GpuStep, PipelineCache, RenderError, RenderSettings, TargetDesc, View,
+    GpuPhysicsStats, GpuPose, GpuSkin, GpuStep, PipelineCache, RenderError, RenderSettings, TargetDesc, View,
 };
 
 /// The fixed GPU (or, on lavapipe, host) memory of one fur or blade renderer beyond its data —
@@ -682,7 +682,10 @@ impl SceneRenderer {
                 GpuStep {
                     forces: s.forces,
                     teleport_m: s.teleport_m,
-                    pose: s.pose.map(|(transforms, cut_speed_m_per_s)| GpuPose { transforms, cut_speed_m_per_s }),
+                    pose: s.pose.map(|p| GpuPose {
+                        skin: GpuSkin::Skinning { matrices: p.skinning_matrices, morph_weights: p.morph_weights },
+                        cut_speed_m_per_s: p.cut_speed_m_per_s,
+                    }),
                 }
             }
             let mut refs = [gpu_step(first); furbake_runtime::GPU_PHYSICS_STEPS_KEPT];

@@ -333,6 +333,7 @@ pub(crate) mod tests {
                 "cs_pose_all",
                 "cs_pose_anchored",
                 "cs_pose_between",
+                "cs_pose_blend",
                 "cs_pose_free",
                 "cs_pose_rest",
                 "cs_pose_tips",

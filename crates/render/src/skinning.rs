@@ -102,6 +102,8 @@ pub struct SkinningPass {
     vertex_count: u32,
     bind_count: u32,
     target_count: u32,
+    /// What GPU fur physics blends an animated skin's transforms from ([`SkinInputs`]).
+    inputs: SkinBuffers,
     matrices: wgpu::Buffer,
     morph_weights: wgpu::Buffer,
     skinned: wgpu::Buffer,
@@ -111,7 +113,57 @@ pub struct SkinningPass {
     workgroups: (u32, u32),
 }
 
+/// The static skin data a GPU blend reads, shared with the skinning pass.
+#[derive(Clone)]
+struct SkinBuffers {
+    binds: wgpu::Buffer,
+    weights: wgpu::Buffer,
+    deltas: wgpu::Buffer,
+    corners: wgpu::Buffer,
+    vertices: wgpu::Buffer,
+    influences_per_vertex: u32,
+}
+
+/// What GPU fur physics needs to blend an animated skin's per-shell-vertex transforms from a
+/// step's skinning matrices and morph weights, as `furbake_runtime::animation` blends them on the
+/// CPU: the pack's influences and morph deltas as the skinning pass holds them, and the welded
+/// vertex of each shell vertex.
+#[derive(Clone)]
+pub(crate) struct SkinInputs {
+    /// Bind index per influence slot, two `u16` per word.
+    pub binds: wgpu::Buffer,
+    /// Weight per influence slot.
+    pub weights: wgpu::Buffer,
+    /// Morph deltas, xyz triples, position deltas target-major first.
+    pub deltas: wgpu::Buffer,
+    /// Per shell vertex, its welded skin vertex.
+    pub shell_vertices: wgpu::Buffer,
+    /// Influence slots per vertex (0 without skin weights).
+    pub influences_per_vertex: u32,
+    /// Skinning matrices (binds) and morph targets a pose has.
+    pub bind_count: u32,
+    pub target_count: u32,
+    /// Welded skin vertices.
+    pub vertex_count: u32,
+}
+
 impl SkinningPass {
+    /// The skin data for GPU fur physics whose shell vertices are this skin's welded vertices,
+    /// or (`per_corner`) its triangles' corners.
+    pub(crate) fn physics_inputs(&self, per_corner: bool) -> SkinInputs {
+        let b = &self.inputs;
+        SkinInputs {
+            binds: b.binds.clone(),
+            weights: b.weights.clone(),
+            deltas: b.deltas.clone(),
+            shell_vertices: if per_corner { b.corners.clone() } else { b.vertices.clone() },
+            influences_per_vertex: b.influences_per_vertex,
+            bind_count: self.bind_count,
+            target_count: self.target_count,
+            vertex_count: self.vertex_count,
+        }
+    }
+
     /// Uploads the bind pose of `mesh`, the influences of `weights` and the deltas of `morphs`
     /// (at least one of the two must be given) and builds the pipeline. The pose starts as
     /// identity skinning matrices and the targets' default weights, so before the first
@@ -252,7 +304,22 @@ impl SkinningPass {
             },
             cache: None,
         });
+        // Per triangle corner, its welded vertex (the shell vertices of a per-corner layout).
+        let corners: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
+        let inputs = SkinBuffers {
+            binds: binds_buffer.clone(),
+            weights: weights_buffer.clone(),
+            deltas: deltas_buffer.clone(),
+            corners: init("furbake skin corner vertices", bytemuck::cast_slice(&corners), storage),
+            vertices: init(
+                "furbake skin vertex indices",
+                bytemuck::cast_slice(&(0..v as u32).collect::<Vec<u32>>()),
+                storage,
+            ),
+            influences_per_vertex: params.influences_per_vertex,
+        };
         SkinningPass {
+            inputs,
             vertex_count: v as u32,
             bind_count,
             target_count: params.target_count,

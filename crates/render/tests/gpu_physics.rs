@@ -281,7 +281,8 @@ fn posed_run(topology: &str, kind: SolverKind, motion: Motion) -> (f32, f32, f32
         cuts += u32::from(moved.cut);
         sim.step(dt).unwrap();
         let mut encoder = g.device.create_command_encoder(&Default::default());
-        let pose = furbake_render::GpuPose { transforms: &transforms, cut_speed_m_per_s: 50.0 };
+        let pose =
+            furbake_render::GpuPose { skin: furbake_render::GpuSkin::Transforms(&transforms), cut_speed_m_per_s: 50.0 };
         let gpu_step = GpuStep { forces: &f, teleport_m: [0.0; 3], pose: Some(pose) };
         physics.record_steps(&g.device, &g.queue, &mut encoder, dt, &[gpu_step]).unwrap();
         g.queue.submit([encoder.finish()]);

@@ -105,8 +105,8 @@ pub use scene::{
 };
 pub use stages::{PlannedStage, StageKind, StageStats};
 pub use world::{
-    FurFrame, GPU_PHYSICS_STEPS_KEPT, GpuPhysicsSteps, GpuStepInputs, GrassFrame, MAX_MASS_UPDATES_PER_STEP, PackState,
-    ShellVertexLayout, World, WorldOptions,
+    FurFrame, GPU_PHYSICS_STEPS_KEPT, GpuPhysicsSteps, GpuSkinPose, GpuStepInputs, GrassFrame,
+    MAX_MASS_UPDATES_PER_STEP, PackState, ShellVertexLayout, World, WorldOptions,
 };
 
 /// Why a runtime operation failed.

@@ -148,12 +148,14 @@ struct GpuSteps {
     teleports: Vec<[f32; 3]>,
     /// Teleports since the last step, applied at the start of the next.
     teleport_m: [f32; 3],
-    /// Per kept step of an animated pack: the skin's transforms (one per shell vertex) and cut
-    /// speed it was posed with before the step (`Simulator::pose_skin`), or `None`.
-    poses: Vec<Vec<SkinTransform>>,
+    /// Per kept step of an animated pack: the skin's skinning matrices and morph weights and the
+    /// cut speed it was posed with before the step (`Simulator::pose_skin`), or `None`.
+    skinning: Vec<Vec<Mat4>>,
+    morph_weights: Vec<Vec<f32>>,
     cut_speeds: Vec<Option<f32>>,
     /// The pose of the step being taken (the animation stage runs before the solver stage).
-    pose_pending: Vec<SkinTransform>,
+    skinning_pending: Vec<Mat4>,
+    morph_weights_pending: Vec<f32>,
     cut_pending: Option<f32>,
     dt_s: f64,
     /// Steps taken since the start (step `n` is slot `n % GPU_PHYSICS_STEPS_KEPT`).
@@ -168,22 +170,51 @@ impl GpuSteps {
         // clone_from keeps the slot's list of local forces: no allocation once warm.
         self.forces[slot].clone_from(forces);
         self.teleports[slot] = std::mem::take(&mut self.teleport_m);
-        // A swap: the ring's transforms were sized when the world was built, so no allocation.
-        std::mem::swap(&mut self.poses[slot], &mut self.pose_pending);
+        // Swaps: the ring's vectors were sized at the first pose, so no allocation once warm.
+        std::mem::swap(&mut self.skinning[slot], &mut self.skinning_pending);
+        std::mem::swap(&mut self.morph_weights[slot], &mut self.morph_weights_pending);
         self.cut_speeds[slot] = self.cut_pending.take();
         self.taken += 1;
     }
 
-    /// Keeps the pose of the step being taken.
-    fn pose(&mut self, transforms: &[SkinTransform], cut_speed: f32) {
-        if self.pose_pending.len() == transforms.len() {
-            self.pose_pending.copy_from_slice(transforms);
-        } else {
-            self.pose_pending.clear();
-            self.pose_pending.extend_from_slice(transforms);
-        }
+    /// Keeps the pose of the step being taken: `anim`'s skinning matrices and morph weights.
+    fn pose(&mut self, anim: &Animator, cut_speed: f32) {
+        copy_into(&mut self.skinning_pending, anim.skinning_matrices());
+        copy_into(&mut self.morph_weights_pending, anim.morph_weights());
         self.cut_pending = Some(cut_speed);
     }
+
+    /// Sizes the ring for a skin of `binds` skinning matrices and `targets` morph weights.
+    fn reserve_poses(&mut self, binds: usize, targets: usize) {
+        for v in self.skinning.iter_mut().chain(std::iter::once(&mut self.skinning_pending)) {
+            v.resize(binds, Mat4::IDENTITY);
+        }
+        for v in self.morph_weights.iter_mut().chain(std::iter::once(&mut self.morph_weights_pending)) {
+            v.resize(targets, 0.0);
+        }
+    }
+}
+
+/// Copies `from` into `to` (allocating only when the length changes).
+fn copy_into<T: Copy>(to: &mut Vec<T>, from: &[T]) {
+    if to.len() == from.len() {
+        to.copy_from_slice(from);
+    } else {
+        to.clear();
+        to.extend_from_slice(from);
+    }
+}
+
+/// An animated GPU-physics pack's skin before a step ([`GpuStepInputs::pose`]): what its
+/// renderer's skinning pass takes, from which the GPU blends the fur's anchors.
+#[derive(Clone, Copy, Debug)]
+pub struct GpuSkinPose<'a> {
+    /// One per bind, `world(joint) × inverseBind` (`Animator::skinning_matrices`).
+    pub skinning_matrices: &'a [Mat4],
+    /// One per morph target (`Animator::morph_weights`).
+    pub morph_weights: &'a [f32],
+    /// The anchor speed above which the fur is carried along, mesh-frame m/s.
+    pub cut_speed_m_per_s: f32,
 }
 
 /// One step a GPU-physics pack took ([`GpuPhysicsSteps::step`]).
@@ -193,9 +224,8 @@ pub struct GpuStepInputs<'a> {
     pub forces: &'a ForceSet,
     /// The teleport that moves the fur at its start (mesh frame, metres; `Simulator::teleport`).
     pub teleport_m: [f32; 3],
-    /// An animated pack's skin before the step: one transform per shell vertex (bind pose → the
-    /// step's end) and the cut speed, mesh-frame m/s (`Simulator::pose_skin`).
-    pub pose: Option<(&'a [SkinTransform], f32)>,
+    /// An animated pack's skin at the step's end, posed before the step (`Simulator::pose_skin`).
+    pub pose: Option<GpuSkinPose<'a>>,
 }
 
 /// A pack whose fur physics runs on the GPU (`[solver] device = "gpu"`; [`World::gpu_physics`]):
@@ -254,7 +284,11 @@ impl<'a> GpuPhysicsSteps<'a> {
         (n >= kept && n < s.taken).then(|| GpuStepInputs {
             forces: &s.forces[slot],
             teleport_m: s.teleports[slot],
-            pose: s.cut_speeds[slot].map(|cut| (&s.poses[slot][..], cut)),
+            pose: s.cut_speeds[slot].map(|cut| GpuSkinPose {
+                skinning_matrices: &s.skinning[slot],
+                morph_weights: &s.morph_weights[slot],
+                cut_speed_m_per_s: cut,
+            }),
         })
     }
 }
@@ -285,6 +319,12 @@ impl FurState {
         path: &std::path::Path,
         on_cpu: bool,
     ) -> Result<(), RuntimeError> {
+        if let Some(gpu) = self.sim.as_mut().and_then(|s| s.gpu.as_mut()).filter(|_| !on_cpu) {
+            // The GPU blends the anchors from the skinning matrices itself (and draws from its
+            // own scale vectors): nothing per vertex here.
+            gpu.pose(anim, cut_speed);
+            return Ok(());
+        }
         let normals = anim.normals();
         if self.corner_vertices.is_empty() {
             self.rest.copy_from_slice(normals);
@@ -298,9 +338,10 @@ impl FurState {
             Some(sim) => {
                 let transforms =
                     if self.corner_vertices.is_empty() { anim.transforms() } else { &self.shell_transforms[..] };
-                if let (Some(gpu), false) = (sim.gpu.as_mut(), on_cpu) {
-                    gpu.pose(transforms, cut_speed);
-                    return Ok(());
+                if let Some(gpu) = sim.gpu.as_mut() {
+                    // The world's first pose: the simulator the GPU starts from is posed, and
+                    // the ring is sized for the skin.
+                    gpu.reserve_poses(anim.skinning_matrices().len(), anim.morph_weights().len());
                 }
                 sim.last_move = sim
                     .simulator
@@ -1046,7 +1087,7 @@ fn build_fur(
     let mut simulator = Simulator::new(&topology, settings).map_err(sim_err)?;
     let gpu = match device {
         PhysicsDevice::Cpu => None,
-        PhysicsDevice::Gpu => Some(gpu_steps(scene, pack, &mut simulator, animated, frame0)?),
+        PhysicsDevice::Gpu => Some(gpu_steps(scene, pack, &mut simulator, frame0)?),
     };
     // Every force stage overwrites its own term each step; a term without a stage stays off. The
     // restoring weight is set by the solver stage, in the mesh's units of its step.
@@ -1085,28 +1126,28 @@ struct FurInputs<'a> {
 }
 
 /// The GPU side of a simulated pack (`[solver] device = "gpu"`): refused for solvers without a
-/// compute form; the stable step at the restoring weight of time 0; an animated pack's ring of
-/// skin poses sized once.
+/// compute form; the stable step at the restoring weight of time 0 (an animated pack's ring of
+/// skin poses is sized at its first pose).
 fn gpu_steps(
     scene: &Scene,
     pack: &Pack,
     simulator: &mut Simulator,
-    animated: bool,
     frame0: &MeshFrame,
 ) -> Result<GpuSteps, RuntimeError> {
     let path = pack.display_path();
     let err = |source| RuntimeError::Simulation { path: path.clone(), source };
     simulator.compute_model().map_err(err)?;
-    let shell = simulator.shell_vertex_count();
     let restoring_weight_n = frame::restoring_weight(&scene.effects, frame0);
     simulator.set_forces(ForceSet { restoring_weight_n, ..ForceSet::none() }).map_err(err)?;
     Ok(GpuSteps {
         forces: vec![ForceSet::none(); GPU_PHYSICS_STEPS_KEPT],
         teleports: vec![[0.0; 3]; GPU_PHYSICS_STEPS_KEPT],
         teleport_m: [0.0; 3],
-        poses: vec![vec![SkinTransform::IDENTITY; if animated { shell } else { 0 }]; GPU_PHYSICS_STEPS_KEPT],
+        skinning: vec![Vec::new(); GPU_PHYSICS_STEPS_KEPT],
+        morph_weights: vec![Vec::new(); GPU_PHYSICS_STEPS_KEPT],
         cut_speeds: vec![None; GPU_PHYSICS_STEPS_KEPT],
-        pose_pending: vec![SkinTransform::IDENTITY; if animated { shell } else { 0 }],
+        skinning_pending: Vec::new(),
+        morph_weights_pending: Vec::new(),
         cut_pending: None,
         dt_s: scene.time_step_s as f64,
         taken: 0,

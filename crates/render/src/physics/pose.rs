@@ -1,13 +1,16 @@
 //! An animated skin's pose on the GPU: the bind pose of a [`furbake_sim::ComputeModel`]
 //! ([`furbake_sim::ComputePose`]), each posed step's [`SkinTransform`]s uploaded with the step's
-//! uniforms, and the five `cs_pose_*` passes of `shaders/fur_physics.wgsl` that pose the model
+//! uniforms or blended here from its skinning matrices (`cs_pose_blend`), and the five passes of `shaders/fur_physics.wgsl` that pose the model
 //! before the step as furbake-sim's `skin.rs` does (docs/design.md, "Fur physics on the GPU").
 
 use furbake_sim::{ComputeModel, NO_LINK, SkinTransform};
 use wgpu::util::DeviceExt;
 
-use super::{GpuPose, PhysicsStep, WORKGROUP, dynamic_uniform, entry, layout_entry, steps_entry, storage_binding};
+use super::{
+    GpuPose, GpuSkin, PhysicsStep, WORKGROUP, dynamic_uniform, entry, layout_entry, steps_entry, storage_binding,
+};
 use crate::RenderError;
+use crate::skinning::SkinInputs;
 
 /// One shell vertex's transform (`PoseTransform` in `fur_physics.wgsl`): the skinning matrix's
 /// columns with the morph offset in the first three `w`s, then the normal matrix's columns.
@@ -77,11 +80,14 @@ pub(super) struct PoseTargets<'a> {
     pub guard: &'a wgpu::Buffer,
 }
 
-/// The five passes, in order.
-const PASSES: [&str; 5] = ["cs_pose_rest", "cs_pose_free", "cs_pose_anchored", "cs_pose_tips", "cs_pose_between"];
+/// The passes, in order: the blend (only for a pose given as skinning matrices), then the five
+/// that pose the model.
+const PASSES: [&str; 6] =
+    ["cs_pose_blend", "cs_pose_rest", "cs_pose_free", "cs_pose_anchored", "cs_pose_tips", "cs_pose_between"];
 
 /// The bindings of each pass (besides the step uniforms at 0), and whether each is read-only.
-const BINDINGS: [&[(u32, bool)]; 5] = [
+const BINDINGS: [&[(u32, bool)]; 6] = [
+    &[(50, true), (51, true), (52, true), (53, true), (54, true), (55, true), (56, false)],
     &[(21, true), (22, true), (23, false), (24, false), (25, false)],
     &[(21, true), (22, true), (23, false), (24, false), (25, false), (26, false), (29, false)],
     &[(23, false), (24, false), (25, false), (26, false), (27, false), (28, false)],
@@ -109,6 +115,14 @@ pub(super) struct Pose {
     between_buffer: wgpu::Buffer,
     /// XPBD's links (a one-link stand-in for the other solvers).
     xpbd_links: wgpu::Buffer,
+    /// The skin's influences for poses given as skinning matrices (an animated asset's).
+    skin: Option<SkinInputs>,
+    /// Per posed step of a record: its skinning matrices and morph weights (grow-only).
+    matrices: wgpu::Buffer,
+    morph_weights: wgpu::Buffer,
+    /// One record's matrices and morph weights as bytes, reused.
+    matrix_bytes: Vec<u8>,
+    weight_bytes: Vec<u8>,
     layouts: Vec<wgpu::BindGroupLayout>,
     pipelines: Vec<wgpu::ComputePipeline>,
     /// Per pass, a group per current state buffer (the same group twice for passes that do not
@@ -126,6 +140,7 @@ impl Pose {
         module: &wgpu::ShaderModule,
         targets: &PoseTargets<'_>,
         xpbd_links: Option<&wgpu::Buffer>,
+        skin: Option<SkinInputs>,
     ) -> Result<Option<Pose>, RenderError> {
         let Some(bind) = &model.pose else { return Ok(None) };
         let nf = model.free as usize;
@@ -216,7 +231,13 @@ impl Pose {
             })
             .collect();
         let (transforms, speed) = (transform_buffer(device, 1, model.shell_tip.len() as u32), speed_buffer(device, 4));
+        let (binds, targets_n) = skin.as_ref().map_or((0, 0), |s| (s.bind_count, s.target_count));
         let mut pose = Pose {
+            matrices: skin_buffer(device, "furbake physics skinning matrices", binds as u64 * 64),
+            morph_weights: skin_buffer(device, "furbake physics morph weights", targets_n as u64 * 4),
+            skin,
+            matrix_bytes: Vec::new(),
+            weight_bytes: Vec::new(),
             shell: model.shell_tip.len() as u32,
             masses: model.masses,
             free: model.free,
@@ -243,15 +264,34 @@ impl Pose {
     /// Checks one step's pose: a transform per shell vertex, all finite, a cut speed.
     pub fn check(&self, pose: &GpuPose<'_>) -> Result<(), RenderError> {
         let bad = |what: String| Err(RenderError::Parameter { what });
-        if pose.transforms.len() != self.shell as usize {
-            return bad(format!("{} skin transforms for {} shell vertices", pose.transforms.len(), self.shell));
-        }
-        if let Some(s) = pose
-            .transforms
-            .iter()
-            .position(|t| !(t.matrix.is_finite() && t.normal_matrix.is_finite() && t.morph_offset_m.is_finite()))
-        {
-            return bad(format!("the skin transform of shell vertex {s} is not finite"));
+        match pose.skin {
+            GpuSkin::Transforms(transforms) => {
+                if transforms.len() != self.shell as usize {
+                    return bad(format!("{} skin transforms for {} shell vertices", transforms.len(), self.shell));
+                }
+                if let Some(s) = transforms.iter().position(|t| {
+                    !(t.matrix.is_finite() && t.normal_matrix.is_finite() && t.morph_offset_m.is_finite())
+                }) {
+                    return bad(format!("the skin transform of shell vertex {s} is not finite"));
+                }
+            }
+            GpuSkin::Skinning { matrices, morph_weights } => {
+                let Some(skin) = &self.skin else {
+                    return bad("skinning matrices for GPU physics of a renderer without a skin".into());
+                };
+                if matrices.len() != skin.bind_count as usize || morph_weights.len() != skin.target_count as usize {
+                    return bad(format!(
+                        "{} skinning matrices and {} morph weights for a skin of {} binds and {} targets",
+                        matrices.len(),
+                        morph_weights.len(),
+                        skin.bind_count,
+                        skin.target_count
+                    ));
+                }
+                if !(matrices.iter().all(|m| m.is_finite()) && morph_weights.iter().all(|w| w.is_finite())) {
+                    return bad("a skinning matrix or morph weight is not finite".into());
+                }
+            }
         }
         if pose.cut_speed_m_per_s.is_nan() || pose.cut_speed_m_per_s < 0.0 {
             return bad(format!("cut speed {} m/s (must be zero or more)", pose.cut_speed_m_per_s));
@@ -274,6 +314,17 @@ impl Pose {
             self.speed = speed_buffer(device, self.speed_capacity);
             grown = true;
         }
+        if let Some(skin) = &self.skin {
+            let (m, w) = (poses as u64 * skin.bind_count as u64 * 64, poses as u64 * skin.target_count as u64 * 4);
+            if m > self.matrices.size() {
+                self.matrices = skin_buffer(device, "furbake physics skinning matrices", m.next_power_of_two());
+                grown = true;
+            }
+            if w > self.morph_weights.size() {
+                self.morph_weights = skin_buffer(device, "furbake physics morph weights", w.next_power_of_two());
+                grown = true;
+            }
+        }
         grown
     }
 
@@ -295,7 +346,14 @@ impl Pose {
                 32 => &self.tip_n,
                 33 => &self.between_buffer,
                 34 => t.links,
-                _ => &self.xpbd_links,
+                35 => &self.xpbd_links,
+                50 => self.skin.as_ref().map_or(&self.posed, |s| &s.binds),
+                51 => self.skin.as_ref().map_or(&self.posed, |s| &s.weights),
+                52 => self.skin.as_ref().map_or(&self.posed, |s| &s.deltas),
+                53 => &self.matrices,
+                54 => &self.morph_weights,
+                55 => self.skin.as_ref().map_or(&self.posed, |s| &s.shell_vertices),
+                _ => &self.transforms,
             }
         };
         self.groups = BINDINGS
@@ -319,14 +377,37 @@ impl Pose {
     /// Uploads the transforms of a record's posed steps, in order (staged until the host's next
     /// submission, as the step uniforms are).
     pub fn write<'p>(&mut self, queue: &wgpu::Queue, poses: impl Iterator<Item = &'p GpuPose<'p>>) {
-        self.bytes.clear();
-        for p in poses {
-            for t in p.transforms {
-                self.bytes.extend_from_slice(bytemuck::bytes_of(&PoseTransform::of(t)));
+        self.matrix_bytes.clear();
+        self.weight_bytes.clear();
+        let (binds, targets) = self.skin.as_ref().map_or((0, 0), |s| (s.bind_count as usize, s.target_count as usize));
+        for (k, p) in poses.enumerate() {
+            match p.skin {
+                GpuSkin::Transforms(transforms) => {
+                    // This pose's slot of the transforms (a blended pose's slot is written by
+                    // cs_pose_blend).
+                    self.bytes.clear();
+                    for t in transforms {
+                        self.bytes.extend_from_slice(bytemuck::bytes_of(&PoseTransform::of(t)));
+                    }
+                    let at = k as u64 * self.shell as u64 * size_of::<PoseTransform>() as u64;
+                    queue.write_buffer(&self.transforms, at, &self.bytes);
+                }
+                GpuSkin::Skinning { matrices, morph_weights } => {
+                    // Slot k of the matrices and weights (the uniforms point there).
+                    self.matrix_bytes.resize(k * binds * 64, 0);
+                    self.weight_bytes.resize(k * targets * 4, 0);
+                    for m in matrices {
+                        self.matrix_bytes.extend_from_slice(bytemuck::bytes_of(&m.to_cols_array()));
+                    }
+                    self.weight_bytes.extend_from_slice(bytemuck::cast_slice(morph_weights));
+                }
             }
         }
-        if !self.bytes.is_empty() {
-            queue.write_buffer(&self.transforms, 0, &self.bytes);
+        if !self.matrix_bytes.is_empty() {
+            queue.write_buffer(&self.matrices, 0, &self.matrix_bytes);
+        }
+        if !self.weight_bytes.is_empty() {
+            queue.write_buffer(&self.morph_weights, 0, &self.weight_bytes);
         }
     }
 
@@ -337,13 +418,27 @@ impl Pose {
 
     /// The uniforms' pose fields for the record's `posed`-th pose, applied before its `step`-th
     /// step of `dt_s` seconds.
-    pub fn uniforms(&self, posed: u32, step: u32, dt_s: f64, cut_speed_m_per_s: f32) -> ([f32; 4], [u32; 4]) {
-        ([(1.0 / dt_s) as f32, cut_speed_m_per_s, 0.0, 0.0], [posed * self.shell, step, self.masses, self.between])
+    pub fn uniforms(&self, posed: u32, step: u32, dt_s: f64, cut_speed_m_per_s: f32) -> ([f32; 4], [u32; 4], [u32; 4]) {
+        let skin = self.skin.as_ref().map_or([0; 4], |s| {
+            [
+                posed * s.bind_count,
+                posed * s.target_count,
+                s.influences_per_vertex | s.target_count << 8,
+                s.vertex_count,
+            ]
+        });
+        (
+            [(1.0 / dt_s) as f32, cut_speed_m_per_s, 0.0, 0.0],
+            [posed * self.shell, step, self.masses, self.between],
+            skin,
+        )
     }
 
-    /// Records the five passes with the step uniforms at `offset`, the state in buffers `current`.
-    pub fn record(&self, pass: &mut wgpu::ComputePass<'_>, offset: u32, current: usize) {
-        let threads = [self.masses, self.free, self.masses - self.free, self.tips, self.between];
+    /// Records the passes with the step uniforms at `offset`, the state in buffers `current`:
+    /// with `blend`, the transforms blended from the step's skinning matrices first.
+    pub fn record(&self, pass: &mut wgpu::ComputePass<'_>, offset: u32, current: usize, blend: bool) {
+        let shell = if blend { self.shell } else { 0 };
+        let threads = [shell, self.masses, self.free, self.masses - self.free, self.tips, self.between];
         for ((pipeline, groups), n) in self.pipelines.iter().zip(&self.groups).zip(threads) {
             if n == 0 {
                 continue;
@@ -366,6 +461,16 @@ fn transform_buffer(device: &wgpu::Device, poses: u32, shell: u32) -> wgpu::Buff
     device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("furbake physics skin transforms"),
         size: (poses.max(1) as u64 * shell.max(1) as u64) * size_of::<PoseTransform>() as u64,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
+}
+
+/// A storage buffer the host writes (at least 64 bytes: bindings cannot be empty).
+fn skin_buffer(device: &wgpu::Device, label: &str, bytes: u64) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size: bytes.max(64),
         usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     })
