@@ -539,6 +539,9 @@ pub struct Animator {
     /// Whether the pose comes from the host ([`Animator::set_joint_matrices`]) instead of the
     /// clip player.
     host_pose: bool,
+    /// Whether [`Animator::update`] poses every skin vertex on the CPU
+    /// ([`Animator::set_vertex_posing`]).
+    vertex_posing: bool,
     world: Vec<Mat4>,
     skinning: Vec<Mat4>,
     transforms: Vec<SkinTransform>,
@@ -605,6 +608,7 @@ impl Animator {
             player,
             pose,
             host_pose: false,
+            vertex_posing: true,
         };
         check_skin_inputs(
             &a.mesh,
@@ -692,8 +696,24 @@ impl Animator {
         self.host_pose
     }
 
+    /// Whether [`Animator::update`] poses each skin vertex on the CPU (its transform, position
+    /// and normal; on by default). A host whose GPU skins the mesh and blends the fur's anchors
+    /// from [`Animator::skinning_matrices`] and [`Animator::morph_weights`] (GPU fur physics,
+    /// docs/design.md "Fur physics on the GPU") turns it off and saves the per-vertex blend,
+    /// which grows with every character of a crowd; [`Animator::transforms`],
+    /// [`Animator::positions`] and [`Animator::normals`] then keep the last pose that had it on.
+    pub fn set_vertex_posing(&mut self, on: bool) {
+        self.vertex_posing = on;
+    }
+
+    /// Whether [`Animator::update`] poses each skin vertex ([`Animator::set_vertex_posing`]).
+    pub fn is_vertex_posing(&self) -> bool {
+        self.vertex_posing
+    }
+
     /// Poses the skin at the player's current time, or from the host's joint matrices: pose,
-    /// joint and skinning matrices, vertex transforms, skinned positions and normals.
+    /// joint and skinning matrices, and (unless [`Animator::set_vertex_posing`] turned it off)
+    /// vertex transforms, skinned positions and normals.
     pub fn update(&mut self) -> Result<(), AnimationError> {
         if !self.host_pose {
             let groups = self.morphs.as_ref().map_or(&[][..], |m| m.groups.as_slice());
@@ -704,6 +724,9 @@ impl Animator {
                 joint_world_matrices(s, &self.pose, &mut self.world)?;
             }
             skinning_matrices(s, &self.world, &mut self.skinning)?;
+        }
+        if !self.vertex_posing {
+            return Ok(());
         }
         let weights = self.weights.as_deref();
         let morphs = self.morphs.as_deref().map(|m| (m, self.pose.morph_weights.as_slice()));
@@ -727,6 +750,7 @@ impl Animator {
         let mut bounds = grow((Vec3::INFINITY, Vec3::NEG_INFINITY), &self.positions);
         let mut sweep = self.clone();
         sweep.host_pose = false;
+        sweep.vertex_posing = true;
         let duration = self.clips.clips.get(self.player.current().clip).map_or(0.0, |c| c.duration_s);
         for k in 0..samples {
             sweep.player.seek(&sweep.clips, duration * k as f32 / samples as f32);

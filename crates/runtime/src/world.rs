@@ -520,7 +520,7 @@ impl World {
         let mut world_packs = Vec::with_capacity(packs.len());
         for (i, (sp, pack)) in packs.into_iter().enumerate() {
             let planned = |k: StageKind| stages.iter().any(|s| s.pack == i && s.kind == k);
-            let anim = match &sp.animation {
+            let mut anim = match &sp.animation {
                 Some(a) => {
                     let animator = Animator::new(&pack, a.clip.as_deref(), a.speed, a.looping, a.start_s)?;
                     // Every clip an event switches to must exist now, not mid-run.
@@ -552,6 +552,11 @@ impl World {
                             .map_err(|source| RuntimeError::Simulation { path: sp.path.clone(), source })?;
                         fill_rest(&mut fur.scale_vectors, &fur.rest);
                     }
+                }
+                if let (Some(a), Some(true)) = (anim.as_mut(), fur.sim.as_ref().map(|s| s.gpu.is_some())) {
+                    // From here on the GPU blends the skin (the renderer's skinning pass) and the
+                    // fur's anchors (GPU physics) from the matrices: the step poses no vertex.
+                    a.set_vertex_posing(false);
                 }
                 Some(fur)
             } else {
@@ -704,7 +709,10 @@ impl World {
     }
 
     /// The animation of pack `index` — clip, skinning matrices, morph weights, skinned positions
-    /// and normals of the latest step; `None` when the scene gives the pack none.
+    /// and normals of the latest step; `None` when the scene gives the pack none. A pack whose fur
+    /// physics runs on the GPU has its vertex posing off after the world's first pose
+    /// ([`Animator::set_vertex_posing`]: the GPU blends its skin and anchors from the matrices);
+    /// [`World::animation_mut`] turns it back on for a host that reads its vertices.
     pub fn animation(&self, index: usize) -> Option<&Animator> {
         self.packs[index].anim.as_ref()
     }
@@ -721,6 +729,14 @@ impl World {
     /// the GPU has its state there: a [`RuntimeError::Parameter`].
     pub fn pack_state(&self, index: usize) -> Result<PackState, RuntimeError> {
         let p = &self.packs[index];
+        if p.fur.as_ref().and_then(|f| f.sim.as_ref()).is_some_and(|s| s.gpu.is_some()) {
+            return Err(RuntimeError::Parameter {
+                what: format!(
+                    "pack {:?}: its fur physics runs on the GPU ([solver] device = \"gpu\"), so the world holds no mass state",
+                    p.scene.name
+                ),
+            });
+        }
         let model = p.model_at(self.time_s);
         let (scale, rotation, origin) = model.to_scale_rotation_translation();
         let mesh = p.pack.skin_mesh()?;
@@ -740,14 +756,6 @@ impl World {
         state.scale_vectors =
             fur.scale_vectors.iter().map(|&s| (rotation * Vec3::from(s)).normalize_or_zero().to_array()).collect();
         let Some(sim) = &fur.sim else { return Ok(state) };
-        if sim.gpu.is_some() {
-            return Err(RuntimeError::Parameter {
-                what: format!(
-                    "pack {:?}: its fur physics runs on the GPU ([solver] device = \"gpu\"), so the world holds no mass state",
-                    p.scene.name
-                ),
-            });
-        }
         state.topology = Some(sim.topology.to_string());
         // World velocity of a mass: the frame's own velocity at that point plus the mass's
         // velocity relative to the frame, rotated and scaled into world units.

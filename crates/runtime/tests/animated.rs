@@ -320,3 +320,31 @@ fn the_host_drives_the_animation() {
     assert_eq!(anim.clip_name(anim.playback().clip), "Run");
     assert_eq!(anim.playback().time_s, 0.25);
 }
+
+/// Fur physics on the GPU blends the skin from the matrices there: the world's steps pose no
+/// vertex on the CPU (the per-vertex blend grows with every character of a crowd), the matrices
+/// still move, and a host that turns vertex posing back on reads the same skin as a CPU world.
+#[test]
+fn a_gpu_physics_pack_poses_matrices_not_vertices() {
+    let body = "[solver]\ndevice = \"gpu\"\n[packs.animation]\nclip = \"Walk\"\n[effects.gravity]\n";
+    let mut gpu = world(body);
+    let mut cpu = world("[packs.animation]\nclip = \"Walk\"\n[effects.gravity]\n");
+    assert!(!gpu.animation(0).unwrap().is_vertex_posing() && cpu.animation(0).unwrap().is_vertex_posing());
+    let first = gpu.animation(0).unwrap().positions().to_vec();
+    let matrices = gpu.animation(0).unwrap().skinning_matrices().to_vec();
+    for _ in 0..10 {
+        gpu.step().unwrap();
+        cpu.step().unwrap();
+    }
+    let anim = gpu.animation(0).unwrap();
+    assert_eq!(anim.positions(), &first[..], "no vertex posed while posing is off");
+    assert_ne!(anim.skinning_matrices(), &matrices[..], "the skeleton walks");
+    assert_eq!(anim.skinning_matrices(), cpu.animation(0).unwrap().skinning_matrices());
+    let msg = gpu.pack_state(0).unwrap_err().to_string();
+    assert!(msg.contains("GPU"), "{msg}");
+    let a = gpu.animation_mut(0).unwrap();
+    a.set_vertex_posing(true);
+    a.update().unwrap();
+    assert_eq!(a.positions(), cpu.animation(0).unwrap().positions());
+    assert_eq!(a.normals(), cpu.animation(0).unwrap().normals());
+}
