@@ -11,7 +11,7 @@ use std::sync::Arc;
 use crate::common::gpu;
 use furbake_bake::{BakeSettings, NoProgress, bake};
 use furbake_import::{ImportSettings, import_gltf_slice, testmesh};
-use furbake_render::headless::RenderTarget;
+use furbake_render::headless::{HeadlessGpu, RenderTarget};
 use furbake_render::{FurAsset, FurRenderer, GpuFurPhysics, GpuStep, RenderSettings};
 use furbake_sim::{
     ForceSet, FrameMotion, LocalForce, Simulator, SolverKind, SolverSettings, SpringTopology, WindForce,
@@ -35,6 +35,11 @@ fn sphere(topology: &str) -> (FurAsset, SpringTopology) {
     let topology = baked.topologies.pop().expect("the topology was asked for");
     let asset = FurAsset::new(Arc::new(baked.mesh), Arc::new(baked.shells), Arc::new(baked.uv_map), None).unwrap();
     (asset, topology)
+}
+
+/// The default renderer of `asset` for the headless target.
+fn renderer_of(g: &HeadlessGpu, asset: &FurAsset) -> FurRenderer {
+    FurRenderer::new(g.pipelines(), &g.queue, asset, &RenderSettings::default(), &RenderTarget::desc()).unwrap()
 }
 
 /// Every force the GPU applies: gravity, a gusting wind, a spinning and accelerating frame, a
@@ -75,8 +80,7 @@ struct Run {
 fn run(topology: &str, kind: SolverKind, steps: u32, push_n: f32) -> Run {
     let g = gpu();
     let (asset, topo) = sphere(topology);
-    let renderer =
-        FurRenderer::new(g.pipelines(), &g.queue, &asset, &RenderSettings::default(), &RenderTarget::desc()).unwrap();
+    let renderer = renderer_of(g, &asset);
     let mut sim = Simulator::new(&topo, SolverSettings::of(kind)).unwrap();
     sim.set_forces(forces(push_n)).unwrap();
     let rest = sim.positions();
@@ -183,8 +187,7 @@ fn several_steps_in_one_record_are_the_steps_one_by_one() {
     // runs after each).
     let g = gpu();
     let (asset, topo) = sphere("prisms");
-    let renderer =
-        FurRenderer::new(g.pipelines(), &g.queue, &asset, &RenderSettings::default(), &RenderTarget::desc()).unwrap();
+    let renderer = renderer_of(g, &asset);
     let mut sim = Simulator::new(&topo, SolverSettings::of(SolverKind::Xpbd)).unwrap();
     sim.set_forces(forces(5e-3)).unwrap();
     let model = sim.compute_model().unwrap();
@@ -251,8 +254,7 @@ fn posed_run(topology: &str, kind: SolverKind, motion: Motion) -> (f32, f32, f32
         mesh.positions.iter().map(|&p| glam::Vec3::from(p)).collect()
     };
     let asset = FurAsset::new(Arc::new(baked.mesh), Arc::new(baked.shells), Arc::new(baked.uv_map), None).unwrap();
-    let renderer =
-        FurRenderer::new(g.pipelines(), &g.queue, &asset, &RenderSettings::default(), &RenderTarget::desc()).unwrap();
+    let renderer = renderer_of(g, &asset);
     let settings = SolverSettings { max_substeps: 2_000, ..SolverSettings::of(kind) };
     let max_substeps = settings.max_substeps;
     let mut sim = Simulator::new(&topo, settings.clone()).unwrap();
@@ -653,8 +655,7 @@ fn the_energy_comes_back_when_asked_and_the_budget_holds() {
     // at the release), falling by the links' damping, on both.
     let g = gpu();
     let (asset, topo) = sphere("prisms");
-    let renderer =
-        FurRenderer::new(g.pipelines(), &g.queue, &asset, &RenderSettings::default(), &RenderTarget::desc()).unwrap();
+    let renderer = renderer_of(g, &asset);
     let mut sim = Simulator::new(&topo, SolverSettings::of(SolverKind::Xpbd)).unwrap();
     let push = forces(0.05);
     sim.set_forces(push.clone()).unwrap();
@@ -714,8 +715,7 @@ fn statistics_come_back_when_asked_without_waiting() {
     // counts them (the hard push freezes tips).
     let g = gpu();
     let (asset, topo) = sphere("sticks");
-    let renderer =
-        FurRenderer::new(g.pipelines(), &g.queue, &asset, &RenderSettings::default(), &RenderTarget::desc()).unwrap();
+    let renderer = renderer_of(g, &asset);
     let mut sim = Simulator::new(&topo, SolverSettings::of(SolverKind::Stick)).unwrap();
     sim.set_forces(forces(0.5)).unwrap();
     let model = sim.compute_model().unwrap();

@@ -75,6 +75,16 @@ fn wind() -> ForceField {
     forces
 }
 
+/// The posed world positions of blade `b` of [`field`] in `forces`, as the blade shader poses it
+/// (nearest keyframe), into `posed`.
+fn pose_blade(decoder: &KeyframeDecoder, forces: &ForceField, b: usize, posed: &mut [Vec3]) {
+    let f = field();
+    let root = Vec3::from(f.positions[b]);
+    let force = forces.blade_force(f.grid.corner_indices(f.cluster[b]), f.weights[b], root);
+    let force = Vec3::new(force.x, 0.0, force.y);
+    decoder.world_positions(root, f.yaw_rad[b], f.height_scale[b], force, PoseInterpolation::Nearest, posed);
+}
+
 fn renderer(culling: GrassCulling) -> BladeRenderer {
     let settings = BladeRenderSettings { culling, ..BladeRenderSettings::default() };
     let r = BladeRenderer::new(gpu().pipelines(), &gpu().queue, field(), table(), &settings, &RenderTarget::desc())
@@ -259,18 +269,7 @@ fn frustum_culling_keeps_every_blade_in_view_and_draws_the_same_image() {
         let f_ = field();
         let mut in_view = 0;
         for b in 0..f_.blade_count() {
-            let corners = f_.grid.corner_indices(f_.cluster[b]);
-            let root = Vec3::from(f_.positions[b]);
-            let force = forces.blade_force(corners, f_.weights[b], root);
-            let force = Vec3::new(force.x, 0.0, force.y);
-            decoder.world_positions(
-                root,
-                f_.yaw_rad[b],
-                f_.height_scale[b],
-                force,
-                PoseInterpolation::Nearest,
-                &mut posed,
-            );
+            pose_blade(&decoder, &forces, b, &mut posed);
             let visible = posed.iter().any(|p| {
                 let c = m * p.extend(1.0);
                 c.x.abs() < c.w * 0.999 && c.y.abs() < c.w * 0.999 && c.z > 0.0 && c.z < c.w
@@ -642,18 +641,7 @@ fn blades_behind_a_box_are_not_drawn_and_the_image_is_unchanged() {
         let eye = Vec3::from(eye);
         let (mut hidden, mut hidden_drawn) = (0, 0);
         for b in 0..f_.blade_count() {
-            let corners = f_.grid.corner_indices(f_.cluster[b]);
-            let root = Vec3::from(f_.positions[b]);
-            let force = forces.blade_force(corners, f_.weights[b], root);
-            let force = Vec3::new(force.x, 0.0, force.y);
-            decoder.world_positions(
-                root,
-                f_.yaw_rad[b],
-                f_.height_scale[b],
-                force,
-                PoseInterpolation::Nearest,
-                &mut posed,
-            );
+            pose_blade(&decoder, &forces, b, &mut posed);
             if all.lods[0].binary_search(&(b as u32)).is_ok() && posed.iter().all(|&p| wall.hides(eye, p, 0.05)) {
                 hidden += 1;
                 hidden_drawn += usize::from(lists.lods[0].binary_search(&(b as u32)).is_ok());
