@@ -11,8 +11,9 @@ use std::sync::Arc;
 use crate::common::gpu;
 use furbake_bake::{BakeSettings, NoProgress, bake};
 use furbake_import::{ImportSettings, import_gltf_slice, testmesh};
-use furbake_render::headless::{HeadlessGpu, RenderTarget};
-use furbake_render::{FurAsset, FurRenderer, GpuFurPhysics, GpuStep, RenderSettings};
+use furbake_render::headless::{HeadlessGpu, RenderTarget, read_back};
+use furbake_render::{FurAsset, FurRenderer, GpuFurPhysics, GpuStep, RenderSettings, SceneRenderer};
+use furbake_runtime::World;
 use furbake_sim::{
     ForceSet, FrameMotion, LocalForce, Simulator, SolverKind, SolverSettings, SpringTopology, WindForce,
 };
@@ -40,6 +41,12 @@ fn sphere(topology: &str) -> (FurAsset, SpringTopology) {
 /// The default renderer of `asset` for the headless target.
 fn renderer_of(g: &HeadlessGpu, asset: &FurAsset) -> FurRenderer {
     FurRenderer::new(g.pipelines(), &g.queue, asset, &RenderSettings::default(), &RenderTarget::desc()).unwrap()
+}
+
+/// `world`'s current frame drawn by `renderer` into `target`, read back.
+fn frame_of(g: &HeadlessGpu, renderer: &SceneRenderer, world: &World, target: &RenderTarget) -> image::RgbaImage {
+    renderer.render_world(&g.device, &g.queue, target, world).unwrap();
+    read_back(&g.device, &g.queue, target).unwrap()
 }
 
 /// Every force the GPU applies: gravity, a gusting wind, a spinning and accelerating frame, a
@@ -340,9 +347,6 @@ fn the_walking_fox_runs_its_fur_physics_on_the_gpu() {
     // solver the scene picks (auto), gravity and a gusting breeze; the same scene with the fur on
     // the CPU and on the GPU, drawn every other step: the GPU world's scale vectors agree with
     // the CPU world's and the frames look the same.
-    use furbake_render::SceneRenderer;
-    use furbake_render::headless::read_back;
-    use furbake_runtime::World;
     let g = gpu();
     let dir = tempfile::tempdir().unwrap();
     let fox = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/real/Fox.glb");
@@ -397,10 +401,7 @@ gust_amplitude = 0.5
             cpu.step().unwrap();
             gpu_world.step().unwrap();
         }
-        r_cpu.render_world(&g.device, &g.queue, &target, &cpu).unwrap();
-        let a = read_back(&g.device, &g.queue, &target).unwrap();
-        r_gpu.render_world(&g.device, &g.queue, &target, &gpu_world).unwrap();
-        let b = read_back(&g.device, &g.queue, &target).unwrap();
+        let (a, b) = (frame_of(g, &r_cpu, &cpu, &target), frame_of(g, &r_gpu, &gpu_world, &target));
         worst_px = worst_px.max(a.as_raw().iter().zip(b.as_raw()).map(|(x, y)| x.abs_diff(*y)).max().unwrap());
         let gpu_scale = r_gpu.packs()[0].fur.as_ref().unwrap().shell_scale_vectors(&g.device, &g.queue).unwrap();
         worst_d = worst_d.max(worst(cpu.fur(0).unwrap().scale_vectors, &gpu_scale));
@@ -462,9 +463,6 @@ fn a_scene_runs_its_fur_physics_on_the_gpu() {
     // The same scene with `[solver] device = "cpu"` and `"gpu"`, stepped 1 s and drawn every
     // third step (so a frame records three world steps): the GPU world's renderer draws the scale
     // vectors the CPU world computes, within f32 rounding, and the frames look the same.
-    use furbake_render::SceneRenderer;
-    use furbake_render::headless::read_back;
-    use furbake_runtime::World;
     let g = gpu();
     let dir = tempfile::tempdir().unwrap();
     let (mut cpu, mut gpu_world) = (
@@ -484,12 +482,8 @@ fn a_scene_runs_its_fur_physics_on_the_gpu() {
             cpu.step().unwrap();
             gpu_world.step().unwrap();
         }
-        r_cpu.render_world(&g.device, &g.queue, &target, &cpu).unwrap();
-        let a = read_back(&g.device, &g.queue, &target).unwrap();
-        r_gpu.render_world(&g.device, &g.queue, &target, &gpu_world).unwrap();
-        let b = read_back(&g.device, &g.queue, &target).unwrap();
-        let diff = a.as_raw().iter().zip(b.as_raw()).map(|(x, y)| x.abs_diff(*y)).max().unwrap();
-        worst_px = worst_px.max(diff);
+        let (a, b) = (frame_of(g, &r_cpu, &cpu, &target), frame_of(g, &r_gpu, &gpu_world, &target));
+        worst_px = worst_px.max(a.as_raw().iter().zip(b.as_raw()).map(|(x, y)| x.abs_diff(*y)).max().unwrap());
         if frame == 19 {
             let dir = std::env::temp_dir().join("furbake-render-tests");
             std::fs::create_dir_all(&dir).unwrap();
@@ -523,8 +517,6 @@ fn a_scene_runs_its_fur_physics_on_the_gpu() {
 fn a_pack_entry_chooses_its_own_physics_device() {
     // `physics_device` on a `[[packs]]` entry overrides the scene's `[solver] device` for it: of
     // two entries of one pack, the GPU one is stepped by the renderer and agrees with the CPU one.
-    use furbake_render::SceneRenderer;
-    use furbake_runtime::World;
     let g = gpu();
     let dir = tempfile::tempdir().unwrap();
     let _ = sphere_scene(dir.path(), "xpbd", "cpu"); // bakes fur.fbk
@@ -596,8 +588,6 @@ fn crowd_physics_frame_cost() {
     // frames after 5 warm-up frames, for N spheres with CPU and with GPU physics. On lavapipe the
     // "GPU" is the same CPU, so compare the host-time columns; the wall column is what a machine
     // without a GPU pays in all.
-    use furbake_render::SceneRenderer;
-    use furbake_runtime::World;
     use std::time::Instant;
     let g = gpu();
     let dir = tempfile::tempdir().unwrap();
@@ -750,8 +740,6 @@ fn a_teleport_moves_gpu_fur_as_it_moves_cpu_fur() {
     // A teleport event mid-run: the GPU world's renderer applies it at the start of the next step
     // it records (cs_teleport), as the CPU simulator's teleport does, and the fur pulled back by
     // its springs agrees with the CPU world's.
-    use furbake_render::SceneRenderer;
-    use furbake_runtime::World;
     let g = gpu();
     let dir = tempfile::tempdir().unwrap();
     let jump = "\n[[events]]\nkind = \"teleport\"\nat_s = 0.2\npack = \"fur\"\noffset_m = [0.3, 0.1, 0.0]\n";
