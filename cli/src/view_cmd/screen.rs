@@ -144,7 +144,7 @@ impl Screen {
         let present = PresentPass::new(&device, format);
         let frame = FrameTarget::new(&device, &present, width, height);
         let adapter = format!("{} ({:?})", info.name, info.backend);
-        let screen = Screen {
+        let mut screen = Screen {
             window,
             instance,
             surface,
@@ -161,8 +161,20 @@ impl Screen {
             reconfigure: false,
             failures,
         };
+        screen.occlude_grass().map_err(|e| render_failure(e, path))?;
         screen.check(path)?;
         Ok(screen)
+    }
+
+    /// Culls the scene's grass against the depth of what is drawn before it (the fur, and the
+    /// grass pack's own ground), at the frame's size: the same picture with fewer blades
+    /// (docs/design.md "Depth pyramid and occlusion culling"). For scenes with grass blades.
+    fn occlude_grass(&mut self) -> Result<(), RenderError> {
+        if self.renderer.packs().iter().any(|p| p.blades.is_some()) {
+            let size = self.size();
+            self.renderer.set_grass_occlusion(&self.pipelines, Some(size))?;
+        }
+        Ok(())
     }
 
     /// The frame's size in pixels (the surface's).
@@ -252,6 +264,7 @@ impl Screen {
         // The new renderers keep each blade field's culling as the G key left it.
         let culling: Vec<_> = self.renderer.packs().iter().map(|p| p.blades.as_ref().map(|b| *b.culling())).collect();
         self.renderer = SceneRenderer::for_target_with(&self.pipelines, &self.queue, world, &self.target, &o)?;
+        self.occlude_grass()?;
         for (pack, culling) in self.renderer.packs_mut().iter_mut().zip(culling) {
             if let (Some(blades), Some(culling)) = (pack.blades.as_mut(), culling) {
                 blades.set_culling(&self.queue, culling)?;
@@ -326,6 +339,10 @@ impl Screen {
         path: &Path,
     ) -> Result<(), Failure> {
         let (width, height) = self.size();
+        if self.renderer.grass_occlusion().is_some_and(|size| size != (width, height)) {
+            // The window was resized: the pyramid follows the frame.
+            self.occlude_grass().map_err(|e| render_failure(e, path))?;
+        }
         let uniforms = view.uniforms(width, height);
         let mut encoder =
             self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("furbake view") });
@@ -333,29 +350,16 @@ impl Screen {
         self.renderer
             .prepare_world(&self.queue, &mut encoder, world, &uniforms)
             .map_err(|e| render_failure(e, path))?;
-        {
-            let [r, g, b, a] = self.renderer.frame().background.map(f64::from);
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("furbake view world"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &self.frame.color_view,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color { r, g, b, a }),
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: &self.frame.depth_view,
-                    depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Discard }),
-                    stencil_ops: None,
-                }),
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
-            self.renderer.render(&mut pass);
+        let background = self.renderer.frame().background.map(f64::from);
+        if self.renderer.grass_occlusion().is_some() {
+            // The fur (and the ground) first, the grass culled against their depth, then drawn.
+            self.renderer.render_fur(&mut self.frame.world_pass(&mut encoder, Some(background), true));
+            self.renderer
+                .prepare_grass(&self.device, &mut encoder, &self.frame.depth)
+                .map_err(|e| render_failure(e, path))?;
+            self.renderer.render_grass(&mut self.frame.world_pass(&mut encoder, None, false));
+        } else {
+            self.renderer.render(&mut self.frame.world_pass(&mut encoder, Some(background), false));
         }
         let surface_view = texture.texture.create_view(&Default::default());
         {
@@ -481,12 +485,46 @@ impl PresentPass {
 struct FrameTarget {
     color: wgpu::Texture,
     color_view: wgpu::TextureView,
+    /// Also read by the grass occlusion's depth pyramid (`SceneRenderer::prepare_grass`).
+    depth: wgpu::Texture,
     depth_view: wgpu::TextureView,
     /// The present pass's binding of `color`.
     present_group: wgpu::BindGroup,
 }
 
 impl FrameTarget {
+    /// A pass into the frame's colour and depth: cleared to `clear` (and depth 1), or loading
+    /// what an earlier pass of the frame drew; its depth kept for a later pass when `keep_depth`.
+    fn world_pass<'e>(
+        &self,
+        encoder: &'e mut wgpu::CommandEncoder,
+        clear: Option<[f64; 4]>,
+        keep_depth: bool,
+    ) -> wgpu::RenderPass<'e> {
+        let store = if keep_depth { wgpu::StoreOp::Store } else { wgpu::StoreOp::Discard };
+        let (color, depth) = match clear {
+            Some([r, g, b, a]) => (wgpu::LoadOp::Clear(wgpu::Color { r, g, b, a }), wgpu::LoadOp::Clear(1.0)),
+            None => (wgpu::LoadOp::Load, wgpu::LoadOp::Load),
+        };
+        encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("furbake view world"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: &self.color_view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations { load: color, store: wgpu::StoreOp::Store },
+            })],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: &self.depth_view,
+                depth_ops: Some(wgpu::Operations { load: depth, store }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        })
+    }
+
     fn new(device: &wgpu::Device, present: &PresentPass, width: u32, height: u32) -> FrameTarget {
         let raw = COLOR_FORMAT.remove_srgb_suffix();
         let texture = |label, format, usage, view_formats| {
@@ -506,7 +544,8 @@ impl FrameTarget {
             | wgpu::TextureUsages::COPY_SRC;
         let raw_formats = [raw];
         let color = texture("furbake view colour", COLOR_FORMAT, usage, &raw_formats[..]);
-        let depth = texture("furbake view depth", DEPTH_FORMAT, wgpu::TextureUsages::RENDER_ATTACHMENT, &[][..]);
+        let depth_usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
+        let depth = texture("furbake view depth", DEPTH_FORMAT, depth_usage, &[][..]);
         let color_view = color.create_view(&Default::default());
         let present_view = match present.srgb {
             true => color.create_view(&Default::default()),
@@ -520,7 +559,8 @@ impl FrameTarget {
                 resource: wgpu::BindingResource::TextureView(&present_view),
             }],
         });
-        FrameTarget { color, color_view, depth_view: depth.create_view(&Default::default()), present_group }
+        let depth_view = depth.create_view(&Default::default());
+        FrameTarget { color, color_view, depth, depth_view, present_group }
     }
 }
 
