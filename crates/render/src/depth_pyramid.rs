@@ -35,6 +35,10 @@ pub struct DepthPyramid {
     reduce: wgpu::ComputePipeline,
     /// `reduce_groups[i]` reads level `i` and writes level `i + 1`.
     reduce_groups: Vec<wgpu::BindGroup>,
+    /// The copy pass's bind group for the last depth texture recorded from: a host that draws
+    /// into the same depth texture every frame builds it once (a new texture, after a resize,
+    /// replaces it; the old one is held until then).
+    copy_group: std::sync::Mutex<Option<(wgpu::Texture, wgpu::BindGroup)>>,
 }
 
 impl std::fmt::Debug for DepthPyramid {
@@ -211,6 +215,7 @@ impl DepthPyramid {
                 uniforms,
                 copy_layout,
                 reduce_groups,
+                copy_group: std::sync::Mutex::new(None),
             })
         })
     }
@@ -264,6 +269,33 @@ impl DepthPyramid {
                 ),
             });
         }
+        let mut cached = self.copy_group.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        if cached.as_ref().is_none_or(|(texture, _)| texture != depth) {
+            *cached = Some((depth.clone(), self.copy_group_for(device, depth)));
+        }
+        let copy_group = &cached.as_ref().expect("set above").1;
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("furbake depth pyramid"),
+            timestamp_writes: None,
+        });
+        let groups = |w: u32, h: u32| (w.div_ceil(8), h.div_ceil(8));
+        pass.set_pipeline(&self.copy);
+        pass.set_bind_group(0, copy_group, &[0]);
+        let (gx, gy) = groups(self.size.0, self.size.1);
+        pass.dispatch_workgroups(gx, gy, 1);
+        pass.set_pipeline(&self.reduce);
+        for (i, group) in self.reduce_groups.iter().enumerate() {
+            let level = i as u32 + 1;
+            let (w, h) = ((self.size.0 >> level).max(1), (self.size.1 >> level).max(1));
+            pass.set_bind_group(0, group, &[(level as u64 * LEVEL_STRIDE) as u32]);
+            let (gx, gy) = groups(w, h);
+            pass.dispatch_workgroups(gx, gy, 1);
+        }
+        Ok(())
+    }
+
+    /// The copy pass's bind group reading `depth` and writing level 0.
+    fn copy_group_for(&self, device: &wgpu::Device, depth: &wgpu::Texture) -> wgpu::BindGroup {
         let depth_view = depth.create_view(&wgpu::TextureViewDescriptor {
             aspect: wgpu::TextureAspect::DepthOnly,
             mip_level_count: Some(1),
@@ -274,7 +306,7 @@ impl DepthPyramid {
             mip_level_count: Some(1),
             ..Default::default()
         });
-        let copy_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("furbake depth pyramid copy"),
             layout: &self.copy_layout,
             entries: &[
@@ -289,25 +321,7 @@ impl DepthPyramid {
                 wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&depth_view) },
                 wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::TextureView(&level0) },
             ],
-        });
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("furbake depth pyramid"),
-            timestamp_writes: None,
-        });
-        let groups = |w: u32, h: u32| (w.div_ceil(8), h.div_ceil(8));
-        pass.set_pipeline(&self.copy);
-        pass.set_bind_group(0, &copy_group, &[0]);
-        let (gx, gy) = groups(self.size.0, self.size.1);
-        pass.dispatch_workgroups(gx, gy, 1);
-        pass.set_pipeline(&self.reduce);
-        for (i, group) in self.reduce_groups.iter().enumerate() {
-            let level = i as u32 + 1;
-            let (w, h) = ((self.size.0 >> level).max(1), (self.size.1 >> level).max(1));
-            pass.set_bind_group(0, group, &[(level as u64 * LEVEL_STRIDE) as u32]);
-            let (gx, gy) = groups(w, h);
-            pass.dispatch_workgroups(gx, gy, 1);
-        }
-        Ok(())
+        })
     }
 }
 

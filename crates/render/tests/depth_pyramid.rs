@@ -87,3 +87,23 @@ fn a_depth_texture_of_another_size_is_refused() {
     assert!(e.contains("8×16") && e.contains("16×16"), "{e}");
     assert!(DepthPyramid::new(&g.device, 0, 4, false).is_err());
 }
+
+/// One pyramid fed by a host that swaps depth textures (double-buffered depth, a new texture
+/// after a resize): each record reads the texture it is given, not the one it read before (the
+/// copy pass's bind group is kept per texture).
+#[test]
+fn each_record_reads_the_texture_it_is_given() {
+    let g = gpu();
+    let (a, b) = (depth_texture(20, 12, 1), depth_texture(20, 12, 2));
+    let pyramid = DepthPyramid::new(&g.device, 20, 12, false).unwrap();
+    let level0 = |depth: &wgpu::Texture| {
+        let mut encoder = g.device.create_command_encoder(&Default::default());
+        pyramid.record(&g.device, &mut encoder, depth).unwrap();
+        g.queue.submit([encoder.finish()]);
+        pyramid.read_level(&g.device, &g.queue, 0).unwrap()
+    };
+    let (first_a, first_b, again_a) = (level0(&a), level0(&b), level0(&a));
+    assert_ne!(first_a, first_b, "the two textures hold different depths");
+    assert_eq!(first_a, again_a);
+    assert_eq!(level0(&b), first_b);
+}
