@@ -43,6 +43,21 @@ fn renderer_of(g: &HeadlessGpu, asset: &FurAsset) -> FurRenderer {
     FurRenderer::new(g.pipelines(), &g.queue, asset, &RenderSettings::default(), &RenderTarget::desc()).unwrap()
 }
 
+/// What `poll` hands back once the device has been polled to completion. The tests share one
+/// device across threads: another test's `Device::poll` may be running this readback's mapping
+/// callback while this thread's poll returns, so it polls again (a bounded number of times)
+/// rather than expecting the result after the first.
+fn once_mapped<T>(g: &HeadlessGpu, mut poll: impl FnMut() -> Option<T>) -> T {
+    for _ in 0..1000 {
+        g.device.poll(wgpu::PollType::wait_indefinitely()).unwrap();
+        if let Some(t) = poll() {
+            return t;
+        }
+        std::thread::yield_now();
+    }
+    panic!("the readback never came back after 1000 device polls");
+}
+
 /// `world`'s current frame drawn by `renderer` into `target`, read back.
 fn frame_of(g: &HeadlessGpu, renderer: &SceneRenderer, world: &World, target: &RenderTarget) -> image::RgbaImage {
     renderer.render_world(&g.device, &g.queue, target, world).unwrap();
@@ -504,8 +519,7 @@ fn a_scene_runs_its_fur_physics_on_the_gpu() {
     assert_eq!(r_gpu.request_gpu_physics_stats(&mut encoder), 1);
     g.queue.submit([encoder.finish()]);
     assert_eq!(r_gpu.poll_gpu_physics_stats(0).unwrap(), None);
-    g.device.poll(wgpu::PollType::wait_indefinitely()).unwrap();
-    let stats = r_gpu.poll_gpu_physics_stats(0).unwrap().expect("mapped");
+    let stats = once_mapped(g, || r_gpu.poll_gpu_physics_stats(0).unwrap());
     assert_eq!((stats.steps, stats.non_finite), (3, 0), "{stats:?}");
     assert_eq!(r_cpu.poll_gpu_physics_stats(0).unwrap(), None, "CPU physics has no GPU counters");
     // The world keeps no mass state for GPU packs, and says so.
@@ -656,8 +670,7 @@ fn the_energy_comes_back_when_asked_and_the_budget_holds() {
         assert!(physics.request_energy(&mut encoder));
         g.queue.submit([encoder.finish()]);
         assert_eq!(physics.poll_energy().unwrap(), None, "nothing before the mapping");
-        g.device.poll(wgpu::PollType::wait_indefinitely()).unwrap();
-        physics.poll_energy().unwrap().expect("mapped")
+        once_mapped(g, || physics.poll_energy().unwrap())
     };
     let step = |sim: &mut Simulator, physics: &mut GpuFurPhysics| {
         sim.step(1.0 / 60.0).unwrap();
@@ -726,8 +739,7 @@ fn statistics_come_back_when_asked_without_waiting() {
         g.queue.submit([encoder.finish()]);
     }
     assert_eq!(physics.poll_stats().unwrap(), None, "the first poll only starts the mapping");
-    g.device.poll(wgpu::PollType::wait_indefinitely()).unwrap();
-    let got = physics.poll_stats().unwrap().expect("mapped once the device was polled");
+    let got = once_mapped(g, || physics.poll_stats().unwrap());
     let cpu = cpu.unwrap();
     assert_eq!((got.steps, got.substeps), (1, cpu.substeps));
     assert_eq!((got.non_finite, got.guard_triggers, got.frozen), (0, cpu.guard_triggers, cpu.frozen_scale_vectors));
