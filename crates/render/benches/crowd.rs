@@ -2,10 +2,10 @@
 //! grass blades, their fur physics on the CPU or on the GPU, grass culled by frustum and distance
 //! alone or also against the depth of the Foxes, one frame per world step at 60 Hz. Per
 //! configuration: the host's CPU time for furbake's part of a frame (World::step, prepare, the
-//! passes recorded into the host's encoder and wgpu's encoding of them in `finish`), the GPU time of the frame (timestamp queries, where
-//! the adapter has them), the whole frame with its submission and wait, blades considered /
-//! drawn / occluded, and the host part's allocations (wgpu's own included). Medians over the
-//! measured frames after warm-up frames.
+//! passes recorded into the host's encoder and wgpu's encoding of them in `finish`), the GPU
+//! time of the frame (timestamp queries, where the adapter has them), the whole frame with its
+//! submission and wait, blades considered / drawn / occluded, and the host part's allocations
+//! (wgpu's own included). Medians over the measured frames after warm-up frames.
 //!
 //! ```text
 //! cargo bench -p furbake-render --bench crowd -- --foxes 1,10,100 --blades 1000000 --size 1920x1080
