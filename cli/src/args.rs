@@ -357,6 +357,11 @@ pub struct RenderFlags {
     /// Draw every shell layer at any distance (no level of detail).
     #[arg(long)]
     pub no_lod: bool,
+    /// Anisotropic filtering of the blended shell and fin atlases: 1 (off), 2, 4, 8 or 16.
+    /// Default 16 on a GPU, 1 on a software adapter such as lavapipe (where it costs 1.3–5× a
+    /// frame)
+    #[arg(long, value_name = "N")]
+    pub anisotropy: Option<u16>,
 }
 
 /// `--blend`.
@@ -384,6 +389,7 @@ impl RenderFlags {
             strand_shading: self.flat.then_some(false),
             blade_shading: self.flat.then_some(false),
             lod: self.no_lod.then_some(false),
+            anisotropy: self.anisotropy,
         };
         options.validate().map_err(|(key, what)| {
             let flag =

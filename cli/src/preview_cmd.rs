@@ -205,9 +205,14 @@ impl SceneRun {
         // The headless target: colour and depth, 4 bytes a pixel each.
         let world = open_scene_world(path, 8 * w as u64 * h as u64, max_memory)?;
         let gpu = HeadlessGpu::new().map_err(|e| render_failure(e, path))?;
-        let mut renderer =
-            SceneRenderer::for_target_with(gpu.pipelines(), &gpu.queue, &world, &RenderTarget::desc(), render)
-                .map_err(|e| render_failure(e, path))?;
+        let mut renderer = SceneRenderer::for_target_with(
+            gpu.pipelines(),
+            &gpu.queue,
+            &world,
+            &RenderTarget::desc(),
+            &furbake_render::headless::options_for_adapter(render, &gpu.info, Some(world.scene())),
+        )
+        .map_err(|e| render_failure(e, path))?;
         // Grass hidden behind the scene's fur is culled against the depth the fur leaves
         // (docs/design.md "Depth pyramid and occlusion culling"): the same picture, fewer blades.
         if renderer.packs().iter().any(|p| p.blades.is_some()) {

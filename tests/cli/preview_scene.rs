@@ -250,6 +250,7 @@ fn preview_flag_misuse_is_a_usage_error_that_writes_nothing() {
         vec!["preview", s(&pack), "-o", s(&png), "--alpha-threshold", "1"],
         vec!["preview", s(&pack), "-o", s(&png), "--shells", "2000"],
         vec!["preview", s(&pack), "-o", s(&png), "--blend", "additive"],
+        vec!["preview", s(&pack), "-o", s(&png), "--anisotropy", "3"],
     ];
     let mut checked = 0;
     for args in &cases {
@@ -263,6 +264,8 @@ fn preview_flag_misuse_is_a_usage_error_that_writes_nothing() {
     assert!(err.contains("--silhouette-band") && err.contains("[0, 1]"), "{err}");
     let err = stderr(&furbake(&["preview", s(&junk), "-o", s(&png)]));
     assert!(err.contains("notes.txt") && err.contains("SCENE.toml"), "{err}");
+    let err = stderr(&furbake(&["preview", s(&pack), "-o", s(&png), "--anisotropy", "3"]));
+    assert!(err.contains("--anisotropy") && err.contains("1, 2, 4, 8 or 16"), "{err}");
 }
 
 #[test]

@@ -139,6 +139,8 @@ impl Screen {
         let target = TargetDesc::new(COLOR_FORMAT).with_depth(DEPTH_FORMAT, wgpu::CompareFunction::LessEqual);
         target.validate(&device, Some(&adapter), true).map_err(|e| render_failure(e, path))?;
         let pipelines = PipelineCache::with_adapter(&device, &adapter);
+        // As `furbake preview` draws on this adapter (isotropic atlases on a software one).
+        let options = furbake_render::headless::options_for_adapter(&options, &info, Some(world.scene()));
         let renderer = SceneRenderer::for_target_with(&pipelines, &queue, world, &target, &options)
             .map_err(|e| render_failure(e, path))?;
         let present = PresentPass::new(&device, format);

@@ -233,6 +233,11 @@ typedef struct FurbakeFurLook {
   float root_occlusion;
   // Colour multiplier at the tips (RGB).
   float tip_color[3];
+  // The anisotropy clamp of the host's shell and fin atlas samplers, in [1, 16] (1 for the
+  // alpha test, which reads level 0; furbake's default 16 for blended fur); the shell shader
+  // picks the mip level of its stacking exponents as such a sampler does. 0, or a struct from
+  // before this field (a smaller `size`), means 16.
+  float anisotropy;
 } FurbakeFurLook;
 
 // A host's view, for the shell level of detail.

@@ -17,7 +17,7 @@ use glam::{Mat4, Vec3};
 
 use crate::error::{Error, FurbakeResult, guard};
 use crate::pack::{FurbakePack, missing, pack_ref};
-use crate::views::{Zeroed, read_desc, write_view};
+use crate::views::{Zeroed, read_desc, write_grown_view, write_view};
 use crate::world::{FurbakeWorld, world_mut};
 
 /// A pack's draw data, each part built on its first request.
@@ -152,6 +152,11 @@ pub struct FurbakeFurLook {
     pub root_occlusion: f32,
     /// Colour multiplier at the tips (RGB).
     pub tip_color: [f32; 3],
+    /// The anisotropy clamp of the host's shell and fin atlas samplers, in [1, 16] (1 for the
+    /// alpha test, which reads level 0; furbake's default 16 for blended fur); the shell shader
+    /// picks the mip level of its stacking exponents as such a sampler does. 0, or a struct from
+    /// before this field (a smaller `size`), means 16.
+    pub anisotropy: f32,
 }
 
 /// A host's view, for the shell level of detail.
@@ -196,7 +201,10 @@ pub struct FurbakeShellLevel {
     pub continuous: f32,
 }
 
-impl Zeroed for FurbakeFurLook {}
+impl Zeroed for FurbakeFurLook {
+    // `anisotropy` was added at the end: a host built before it passes the smaller struct.
+    const MIN_SIZE: usize = std::mem::offset_of!(FurbakeFurLook, anisotropy);
+}
 impl Zeroed for FurbakeCamera {}
 impl Zeroed for FurbakeShellLod {}
 
@@ -427,6 +435,7 @@ fn to_c(look: &FurLook) -> FurbakeFurLook {
         back_light: s.back_light,
         root_occlusion: s.root_occlusion,
         tip_color: s.tip_color,
+        anisotropy: look.anisotropy,
     }
 }
 
@@ -457,12 +466,17 @@ fn from_c(c: &FurbakeFurLook) -> Result<FurLook, Error> {
     if c.tint.iter().any(|t| !t.is_finite() || *t < 0.0) {
         return bad("tint must be finite and non-negative");
     }
+    let anisotropy = if c.anisotropy == 0.0 { FurLook::default().anisotropy } else { c.anisotropy };
+    if !(1.0..=16.0).contains(&anisotropy) {
+        return bad("anisotropy must be 0 (the default) or in [1, 16]");
+    }
     Ok(FurLook {
         tint: c.tint,
         shear_exponent: c.shear_exponent,
         alpha_threshold: c.alpha_threshold,
         shading,
         stacking_correction: c.stacking_correction != 0,
+        anisotropy,
     })
 }
 
@@ -472,7 +486,7 @@ fn from_c(c: &FurbakeFurLook) -> Result<FurLook, Error> {
 /// `look` points to a `FurbakeFurLook` whose `size` is set.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn furbake_fur_look_default(look: *mut FurbakeFurLook) -> FurbakeResult {
-    guard(|| write_view("look", look, to_c(&FurLook::default())))
+    guard(|| write_grown_view("look", look, to_c(&FurLook::default())))
 }
 
 /// Writes the `Fur` uniform block (the manifest's struct `Fur`, 128 bytes) for `*look` and the

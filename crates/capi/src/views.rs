@@ -302,16 +302,26 @@ pub struct FurbakeClipInfo {
 }
 
 /// Checks an output view's `size` and writes `value` into the caller's bytes: at most the
-/// caller's `size`, which must cover the struct's first version (today: all of it); the
-/// caller's `size` field is left as it was.
+/// caller's `size`, which must cover the struct's first version (today: all of it, but for the
+/// structs [`write_grown_view`] writes); the caller's `size` field is left as it was.
 pub(crate) fn write_view<T: Copy>(what: &str, dst: *mut T, value: T) -> Result<(), Error> {
+    write_view_from(what, dst, value, std::mem::size_of::<T>())
+}
+
+/// [`write_view`] for a struct that has grown fields at its end since its first version
+/// ([`Zeroed::MIN_SIZE`]): a caller built before them gets the fields it knows.
+pub(crate) fn write_grown_view<T: Copy + Zeroed>(what: &str, dst: *mut T, value: T) -> Result<(), Error> {
+    write_view_from(what, dst, value, T::MIN_SIZE)
+}
+
+fn write_view_from<T: Copy>(what: &str, dst: *mut T, value: T, min_size: usize) -> Result<(), Error> {
     if dst.is_null() {
         return Err(Error::argument(format!("{what} is a null pointer")));
     }
     // SAFETY: the struct begins with a u32 `size` the caller set; read unaligned in case the
     // caller's allocation is packed.
     let size = unsafe { (dst as *const u32).read_unaligned() } as usize;
-    check_size(what, size, std::mem::size_of::<T>())?;
+    check_size(what, size, min_size)?;
     let n = size.min(std::mem::size_of::<T>());
     // SAFETY: the caller owns `size` writable bytes at `dst`; `value` is a plain C struct.
     unsafe {
@@ -329,7 +339,7 @@ pub(crate) fn read_desc<T: Copy + Zeroed>(what: &str, src: *const T) -> Result<T
     }
     // SAFETY: as in `write_view`.
     let size = unsafe { (src as *const u32).read_unaligned() } as usize;
-    check_size(what, size, std::mem::size_of::<T>())?;
+    check_size(what, size, T::MIN_SIZE)?;
     let mut value = T::zeroed();
     let n = size.min(std::mem::size_of::<T>());
     // SAFETY: the caller owns `size` readable bytes at `src`; every field of `T` is valid zeroed.
@@ -337,7 +347,8 @@ pub(crate) fn read_desc<T: Copy + Zeroed>(what: &str, src: *const T) -> Result<T
     Ok(value)
 }
 
-/// The first version of every struct is its whole present size: nothing can be left out yet.
+/// A struct's `size` must hold at least its first version ([`Zeroed::MIN_SIZE`]); fields added at
+/// its end since then read as zero.
 fn check_size(what: &str, size: usize, needed: usize) -> Result<(), Error> {
     if size < needed {
         return Err(Error::argument(format!(
@@ -349,6 +360,8 @@ fn check_size(what: &str, size: usize, needed: usize) -> Result<(), Error> {
 
 /// Structs whose every field may be zero (numbers and pointers).
 pub(crate) trait Zeroed: Sized {
+    /// The size of the struct's first version: a caller's `size` below it is an error.
+    const MIN_SIZE: usize = std::mem::size_of::<Self>();
     fn zeroed() -> Self {
         // SAFETY: implemented only for C structs of numbers, arrays of numbers and raw pointers.
         unsafe { std::mem::zeroed() }

@@ -37,7 +37,9 @@ pub struct FurUniforms {
     /// Primary shift, secondary shift, back-light strength, Kajiya–Kay share of the diffuse term.
     pub strand: [f32; 4],
     /// x: 1 to blend the shells with the stacking exponents (`shell.wgsl` `stacked_alpha`,
-    /// docs/design.md "Shell opacity"), 0 to blend each layer's alpha as it is; yzw unused.
+    /// docs/design.md "Shell opacity"), 0 to blend each layer's alpha as it is; y: the anisotropy
+    /// clamp of the atlas samplers (1 to 16), which `shell.wgsl` follows in picking the mip level
+    /// of its exponents; zw unused.
     pub stacking: [f32; 4],
 }
 

@@ -24,6 +24,10 @@ pub struct FurLook {
     /// With blending, blend each layer with the asset's stacking exponent (`shell.wgsl`
     /// `stacked_alpha`, [`crate::stacking`]). Default true.
     pub stacking_correction: bool,
+    /// The anisotropy clamp of the host's shell and fin atlas samplers (1 = isotropic; at most
+    /// 16): the shell shader takes the mip level of its stacking exponents from the pixel
+    /// footprint as that sampler does. Default 16, as `furbake-render` draws blended fur.
+    pub anisotropy: f32,
 }
 
 impl FurLook {
@@ -52,7 +56,7 @@ impl FurLook {
             secondary_tint: [sr, sg, sb, s.secondary_noise],
             specular: [s.primary_strength, s.primary_exponent, s.secondary_strength, s.secondary_exponent],
             strand: [s.primary_shift, s.secondary_shift, s.back_light, s.kajiya_kay_diffuse],
-            stacking: [if self.stacking_correction { 1.0 } else { 0.0 }, 0.0, 0.0, 0.0],
+            stacking: [if self.stacking_correction { 1.0 } else { 0.0 }, self.anisotropy.clamp(1.0, 16.0), 0.0, 0.0],
         }
     }
 }
@@ -65,6 +69,7 @@ impl Default for FurLook {
             alpha_threshold: Self::BLEND_ALPHA_THRESHOLD,
             shading: FurShading::default(),
             stacking_correction: true,
+            anisotropy: 16.0,
         }
     }
 }

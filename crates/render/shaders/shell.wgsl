@@ -153,11 +153,15 @@ fn fs_shell(in: ShellOut) -> @location(0) vec4<f32> {
     if ALPHA_TO_COVERAGE {
         edge = fwidth(alpha);
     }
-    // The mip level the blending samples at (taken where control flow is still uniform).
+    // The mip level the blending samples at (taken where control flow is still uniform): an
+    // anisotropic sampler (clamp fur.stacking.y, `RenderSettings::anisotropy`) takes it from the
+    // pixel footprint's short axis, unless the footprint is longer than the clamp times that.
     var lod = 0.0;
     if ALPHA_BLEND {
         let texel = in.uv * vec2<f32>(textureDimensions(shell_alpha));
-        lod = log2(max(max(length(dpdx(texel)), length(dpdy(texel))), 1e-6));
+        let across = length(dpdx(texel));
+        let down = length(dpdy(texel));
+        lod = log2(max(max(min(across, down), max(across, down) / max(fur.stacking.y, 1.0)), 1e-6));
     }
     if alpha_discarded(alpha, edge) {
         discard;

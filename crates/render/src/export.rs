@@ -115,7 +115,12 @@ fn source_of(module: &str, variable: &str) -> &'static str {
         (_, "shadow") => "furbake_pack_shell_atlas().shadow",
         (_, "shell_alpha") => "furbake_pack_shell_atlas().alpha as an R8 2D array texture with mipmaps",
         (_, "fin_alpha") => "furbake_pack_fin_atlas().alpha as an R8 2D texture with mipmaps",
-        (_, "repeat_sampler" | "fin_sampler") => "host: a linear, repeating sampler",
+        (_, "repeat_sampler") => {
+            "host: a trilinear sampler repeating in u and v, anisotropic up to the look's anisotropy (FurbakeFurLook, Fur.stacking.y: 16 by default; 1 for the alpha test)"
+        }
+        (_, "fin_sampler") => {
+            "host: a trilinear sampler repeating in u, clamped in v, anisotropic up to the look's anisotropy (as repeat_sampler)"
+        }
         (_, "skinned" | "sil_vertices" | "vertices") => {
             "the skinning pass's output (skinning.cs_skin skinned_out), or the bind pose of furbake_pack_skin_mesh for a static pack"
         }

@@ -258,7 +258,8 @@ pub fn render_image(
 /// framed automatically (three-quarter view; an animated pack in its rest pose) and rendered on a
 /// new headless device with `options` over the default fur and blade settings (shell count,
 /// fins, blending, shading switches), plus its grass blades when it has a blade field (every
-/// blade in view at full detail: `GrassCulling::frustum_only`). Reads only the skin mesh, shell
+/// blade in view at full detail: `GrassCulling::frustum_only`), the options taken as
+/// [`options_for_adapter`] says. Reads only the skin mesh, shell
 /// atlas, UV map, fin atlas and fin edges (and the blade field and keyframe table, skin weights
 /// and morph targets when present).
 pub fn render_preview(
@@ -268,8 +269,32 @@ pub fn render_preview(
     options: &furbake_runtime::RenderOptions,
 ) -> Result<image::RgbaImage, RenderError> {
     options.validate().map_err(|(field, what)| RenderError::Parameter { what: format!("{field}: {what}") })?;
+    let gpu = HeadlessGpu::new()?;
+    let options = &options_for_adapter(options, &gpu.info, None);
     let blades = preview_blade_settings().with_options(options);
-    render_pack_with(pack, width, height, None, &RenderSettings::default().with_options(options), &blades)
+    render_pack_on(&gpu, pack, width, height, None, &RenderSettings::default().with_options(options), &blades)
+}
+
+/// `options` (a command's flags, over `scene`'s keys when it draws a scene) as `furbake preview`
+/// and `furbake view` draw with them on the adapter `info` describes: on a software adapter
+/// (`DeviceType::Cpu`, such as lavapipe) the atlases are filtered isotropically unless the flags
+/// or the scene choose an anisotropy, because there anisotropic filtering cost 1.3–5× a fur
+/// frame (docs/performance.md "Anisotropic filtering"), while a GPU filters anisotropically in
+/// its texture units.
+pub fn options_for_adapter(
+    options: &furbake_runtime::RenderOptions,
+    info: &wgpu::AdapterInfo,
+    scene: Option<&furbake_runtime::Scene>,
+) -> furbake_runtime::RenderOptions {
+    let chosen = options.anisotropy.is_some()
+        || scene.is_some_and(|s| {
+            s.render().anisotropy.is_some() || s.packs().iter().any(|p| p.render.anisotropy.is_some())
+        });
+    let software = info.device_type == wgpu::DeviceType::Cpu;
+    match software && !chosen {
+        true => furbake_runtime::RenderOptions { anisotropy: Some(1), ..*options },
+        false => *options,
+    }
 }
 
 /// The blade settings of a pack previewed alone: every blade in view at full detail (a pack has
@@ -287,10 +312,11 @@ pub fn render_pack(
     view: Option<View>,
     settings: &RenderSettings,
 ) -> Result<image::RgbaImage, RenderError> {
-    render_pack_with(pack, width, height, view, settings, &preview_blade_settings())
+    render_pack_on(&HeadlessGpu::new()?, pack, width, height, view, settings, &preview_blade_settings())
 }
 
-fn render_pack_with(
+fn render_pack_on(
+    gpu: &HeadlessGpu,
     pack: &Pack,
     width: u32,
     height: u32,
@@ -299,7 +325,6 @@ fn render_pack_with(
     blade_settings: &BladeRenderSettings,
 ) -> Result<image::RgbaImage, RenderError> {
     let asset = FurAsset::from_pack(pack, settings.fins)?;
-    let gpu = HeadlessGpu::new()?;
     let rest = rest_pose(pack)?;
     let aspect = width as f32 / height.max(1) as f32;
     let view = view.unwrap_or_else(|| match &rest {

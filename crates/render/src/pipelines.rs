@@ -111,6 +111,9 @@ struct Inner {
     render: Mutex<HashMap<PipelineKey, wgpu::RenderPipeline>>,
     /// Target descriptions already validated (with and without blending).
     validated: Mutex<Vec<(TargetDesc, bool)>>,
+    /// The shell and fin atlas samplers, `[shells, fins]`, by anisotropy clamp
+    /// ([`PipelineCache::atlas_samplers`]).
+    atlas_samplers: Mutex<HashMap<u16, [wgpu::Sampler; 2]>>,
 }
 
 /// Every pipeline of the fur and blade renderers on one device (see the module documentation).
@@ -169,6 +172,7 @@ impl PipelineCache {
                 blade_cull: Mutex::new(None),
                 render: Mutex::new(HashMap::new()),
                 validated: Mutex::new(Vec::new()),
+                atlas_samplers: Mutex::new(HashMap::new()),
             }),
         }
     }
@@ -197,6 +201,34 @@ impl PipelineCache {
     }
 
     /// The fur bind group layout (group 0 of `skin.wgsl`, `shell.wgsl`, `fin.wgsl`).
+    /// The trilinear samplers of the shell atlas (repeating) and the fin atlas (repeating along
+    /// the edge, clamped root to tip), filtering anisotropically up to `anisotropy` (1: off); one
+    /// pair per clamp for every renderer of the device.
+    pub(crate) fn atlas_samplers(&self, anisotropy: u16) -> [wgpu::Sampler; 2] {
+        let mut samplers = lock(&self.inner.atlas_samplers);
+        let device = &self.inner.device;
+        let pair = samplers.entry(anisotropy.max(1)).or_insert_with(|| {
+            [
+                ("furbake shell sampler", wgpu::AddressMode::Repeat),
+                ("furbake fin sampler", wgpu::AddressMode::ClampToEdge),
+            ]
+            .map(|(label, address_mode_v)| {
+                device.create_sampler(&wgpu::SamplerDescriptor {
+                    label: Some(label),
+                    address_mode_u: wgpu::AddressMode::Repeat,
+                    address_mode_v,
+                    address_mode_w: wgpu::AddressMode::ClampToEdge,
+                    mag_filter: wgpu::FilterMode::Linear,
+                    min_filter: wgpu::FilterMode::Linear,
+                    mipmap_filter: wgpu::MipmapFilterMode::Linear,
+                    anisotropy_clamp: anisotropy.max(1),
+                    ..Default::default()
+                })
+            })
+        });
+        pair.clone()
+    }
+
     pub(crate) fn fur_layout(&self) -> &wgpu::BindGroupLayout {
         &self.inner.fur_layout
     }

@@ -141,6 +141,12 @@ pub struct RenderSettings {
     /// frame's viewport ([`FrameUniforms::with_viewport`]; [`crate::View::uniforms`] sets it).
     /// Default `Some(ShellLod::default())`.
     pub lod: Option<crate::ShellLod>,
+    /// With blending, the shell and fin atlases are filtered anisotropically, averaging up to this
+    /// many texels along the pixel footprint's long axis and taking the mip level from its short
+    /// axis (docs/design.md "Rendering accuracy": the isotropic mip blurred the strands at oblique
+    /// views into a haze): 1 (off), 2, 4, 8 or 16. The alpha test always reads level 0
+    /// isotropically. Default 16.
+    pub anisotropy: u16,
 }
 
 impl Default for RenderSettings {
@@ -164,6 +170,7 @@ impl Default for RenderSettings {
             shading: FurShading::default(),
             stacking_correction: true,
             lod: Some(crate::ShellLod::default()),
+            anisotropy: 16,
         }
     }
 }
@@ -221,6 +228,7 @@ impl RenderSettings {
             }
         }
         self.shading.enabled = o.strand_shading.unwrap_or(self.shading.enabled);
+        self.anisotropy = o.anisotropy.unwrap_or(self.anisotropy);
         self
     }
 
@@ -232,6 +240,10 @@ impl RenderSettings {
             alpha_threshold: self.alpha_threshold,
             shading: self.shading,
             stacking_correction: self.stacking_correction,
+            anisotropy: match self.blend {
+                ShellBlend::AlphaBlend => f32::from(self.anisotropy),
+                ShellBlend::AlphaTest => 1.0,
+            },
         }
     }
 
@@ -259,6 +271,9 @@ impl RenderSettings {
         if let Some(lod) = &self.lod {
             lod.validate().map_err(|what| RenderError::Parameter { what })?;
         }
+        if !furbake_runtime::scene::ANISOTROPY_RATIOS.contains(&self.anisotropy) {
+            return bad("anisotropy must be 1, 2, 4, 8 or 16");
+        }
         crate::shading::check(&self.shading)
     }
 }
@@ -282,8 +297,6 @@ pub struct FurGpuAsset {
     fins: Option<(wgpu::Buffer, u32)>,
     shell_view: wgpu::TextureView,
     fin_view: wgpu::TextureView,
-    repeat_sampler: wgpu::Sampler,
-    fin_sampler: wgpu::Sampler,
     /// The interior edges that may carry a silhouette fin, with what their draw reads.
     silhouette: Option<SilhouetteData>,
 }
@@ -356,20 +369,6 @@ impl FurGpuAsset {
             dimension: Some(wgpu::TextureViewDimension::D2Array),
             ..Default::default()
         });
-        let sampler = |label, v_mode| {
-            device.create_sampler(&wgpu::SamplerDescriptor {
-                label: Some(label),
-                address_mode_u: wgpu::AddressMode::Repeat,
-                address_mode_v: v_mode,
-                address_mode_w: wgpu::AddressMode::ClampToEdge,
-                mag_filter: wgpu::FilterMode::Linear,
-                min_filter: wgpu::FilterMode::Linear,
-                mipmap_filter: wgpu::MipmapFilterMode::Linear,
-                ..Default::default()
-            })
-        };
-        let repeat_sampler = sampler("furbake repeat sampler", wgpu::AddressMode::Repeat);
-        let fin_sampler = sampler("furbake fin sampler", wgpu::AddressMode::ClampToEdge);
 
         // Silhouette fins need the fin atlas; derived from the skin's triangles at load time.
         let edges = match (with_fins, asset.fins()) {
@@ -414,8 +413,6 @@ impl FurGpuAsset {
             fins,
             shell_view,
             fin_view,
-            repeat_sampler,
-            fin_sampler,
             silhouette,
         }))
     }
@@ -568,6 +565,9 @@ impl FurRenderer {
             ),
         };
 
+        // The alpha test reads level 0 isotropically: an anisotropic sampler still averages
+        // along the pixel's long axis there on lavapipe, which thinned the tested tips.
+        let samplers = cache.atlas_samplers(fur.stacking[1] as u16);
         let view_slot = || -> Result<ViewSlot, RenderError> {
             let frame = device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("furbake frame uniforms"),
@@ -584,9 +584,9 @@ impl FurRenderer {
                     wgpu::BindGroupEntry { binding: 2, resource: scale_buffer.as_entire_binding() },
                     wgpu::BindGroupEntry { binding: 3, resource: gpu.shadow.as_entire_binding() },
                     wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::TextureView(&gpu.shell_view) },
-                    wgpu::BindGroupEntry { binding: 5, resource: wgpu::BindingResource::Sampler(&gpu.repeat_sampler) },
+                    wgpu::BindGroupEntry { binding: 5, resource: wgpu::BindingResource::Sampler(&samplers[0]) },
                     wgpu::BindGroupEntry { binding: 6, resource: wgpu::BindingResource::TextureView(&gpu.fin_view) },
-                    wgpu::BindGroupEntry { binding: 7, resource: wgpu::BindingResource::Sampler(&gpu.fin_sampler) },
+                    wgpu::BindGroupEntry { binding: 7, resource: wgpu::BindingResource::Sampler(&samplers[1]) },
                     wgpu::BindGroupEntry { binding: 8, resource: posed_vertices.as_entire_binding() },
                     wgpu::BindGroupEntry { binding: 9, resource: gpu.stacking.as_entire_binding() },
                 ],

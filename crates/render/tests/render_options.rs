@@ -81,6 +81,8 @@ fn bad_render_keys_name_their_key() {
         (format!("[render]\nsilhouette_band = 1.5\n{pack}"), "render.silhouette_band"),
         (format!("[render]\nalpha_threshold = 1.0\n{pack}"), "render.alpha_threshold"),
         (format!("{pack}[packs.render]\nalpha_threshold = nan\n"), "packs[0].render.alpha_threshold"),
+        (format!("[render]\nanisotropy = 3\n{pack}"), "render.anisotropy"),
+        (format!("{pack}[packs.render]\nanisotropy = 32\n"), "packs[0].render.anisotropy"),
     ] {
         match scene(dir.path(), &text) {
             Err(SceneError::Invalid { field: f, .. }) => assert_eq!(f, field, "{text}"),
@@ -103,6 +105,8 @@ fn options_change_the_preview() {
         furbake_render::headless::render_preview(&pack, 96, 96, &Default::default()).unwrap(),
         "no options: the default preview"
     );
+    let software = HeadlessGpu::new().unwrap().info.device_type == wgpu::DeviceType::Cpu;
+    let other_anisotropy = if software { 16 } else { 1 };
     let differ =
         |a: &image::RgbaImage, b: &image::RgbaImage| a.pixels().zip(b.pixels()).filter(|(p, q)| p != q).count();
     for (what, options) in [
@@ -110,10 +114,56 @@ fn options_change_the_preview() {
         ("flat", RenderOptions { strand_shading: Some(false), blade_shading: Some(false), ..Default::default() }),
         ("alpha test", RenderOptions { blend: Some(ShellBlendMode::AlphaTest), ..Default::default() }),
         ("no fins", RenderOptions { fins: Some(false), silhouette_fins: Some(false), ..Default::default() }),
+        // The other filtering than this adapter's default (`options_for_adapter`).
+        ("other atlas filtering", RenderOptions { anisotropy: Some(other_anisotropy), ..Default::default() }),
     ] {
         let changed = differ(&default, &render(&options));
         assert!(changed > 50, "{what}: only {changed} pixels changed");
     }
+}
+
+#[test]
+fn the_anisotropy_key_reaches_the_settings_and_bad_ratios_are_refused() {
+    assert_eq!(RenderSettings::default().anisotropy, 16);
+    let two = RenderSettings::default().with_options(&RenderOptions { anisotropy: Some(2), ..Default::default() });
+    assert_eq!(two.anisotropy, 2);
+    assert_eq!(two.with_options(&RenderOptions::default()).anisotropy, 2, "a key left out keeps the setting");
+    let dir = sphere_dir();
+    let scene =
+        scene(dir.path(), "[render]\nanisotropy = 4\n[[packs]]\nname = \"a\"\npath = \"sphere.fbk\"\n").unwrap();
+    assert_eq!(scene.render().anisotropy, Some(4));
+    let gpu = HeadlessGpu::new().unwrap();
+    let world = World::new(scene).unwrap();
+    let renderer = SceneRenderer::new(&gpu.device, &gpu.queue, &world).unwrap();
+    assert_eq!(renderer.packs()[0].fur.as_ref().unwrap().settings().anisotropy, 4);
+    // The renderer refuses what the scene would have (a ratio the samplers do not take).
+    let pack = furbake_runtime::Pack::open(dir.path().join("sphere.fbk")).unwrap();
+    let asset = furbake_render::FurAsset::from_pack(&pack, true).unwrap();
+    let bad = RenderSettings { anisotropy: 3, ..Default::default() };
+    let refused = furbake_render::FurRenderer::new(gpu.pipelines(), &gpu.queue, &asset, &bad, &RenderTarget::desc());
+    assert!(matches!(refused, Err(furbake_render::RenderError::Parameter { what }) if what.contains("anisotropy")));
+}
+
+#[test]
+fn previews_on_a_software_adapter_filter_isotropically_unless_asked() {
+    use furbake_render::headless::options_for_adapter;
+    let gpu = HeadlessGpu::new().unwrap();
+    let (mut software, mut hardware) = (gpu.info.clone(), gpu.info.clone());
+    software.device_type = wgpu::DeviceType::Cpu;
+    hardware.device_type = wgpu::DeviceType::DiscreteGpu;
+    let none = RenderOptions::default();
+    assert_eq!(options_for_adapter(&none, &software, None).anisotropy, Some(1));
+    assert_eq!(options_for_adapter(&none, &hardware, None), none, "a GPU keeps the renderer's default");
+    let flags = RenderOptions { anisotropy: Some(8), shell_layers: Some(4), ..Default::default() };
+    assert_eq!(options_for_adapter(&flags, &software, None), flags, "a flag wins");
+    // A scene that chooses an anisotropy anywhere (here one pack's key) keeps its choice.
+    let dir = sphere_dir();
+    let pack = "[[packs]]\nname = \"a\"\npath = \"sphere.fbk\"\n";
+    let other = "[[packs]]\nname = \"b\"\npath = \"sphere.fbk\"\n";
+    let keyed = scene(dir.path(), &format!("{pack}{other}[packs.render]\nanisotropy = 16\n")).unwrap();
+    assert_eq!(options_for_adapter(&none, &software, Some(&keyed)), none);
+    let plain = scene(dir.path(), pack).unwrap();
+    assert_eq!(options_for_adapter(&none, &software, Some(&plain)).anisotropy, Some(1));
 }
 
 #[test]

@@ -702,6 +702,9 @@ pub enum ShellBlendMode {
     AlphaTest,
 }
 
+/// The anisotropic filtering ratios the renderer accepts (`anisotropy` of [`RenderOptions`]).
+pub const ANISOTROPY_RATIOS: [u16; 5] = [1, 2, 4, 8, 16];
+
 /// Render settings a scene (`[render]`), a scene pack (`[packs.render]`) or a command's flags
 /// (`furbake preview`, `furbake view`) choose; every key is optional and a key left out keeps
 /// what the level below says (flags over the pack's keys, over the scene's, over the
@@ -732,6 +735,9 @@ pub struct RenderOptions {
     /// The shells' level of detail (fewer layers where the fur projects short; off: every view
     /// draws `shell_layers`).
     pub lod: Option<bool>,
+    /// Anisotropic filtering of the blended shell and fin atlases, the most texels averaged
+    /// along the pixel footprint's long axis: 1 (off), 2, 4, 8 or 16 (the default).
+    pub anisotropy: Option<u16>,
 }
 
 impl RenderOptions {
@@ -747,6 +753,7 @@ impl RenderOptions {
             strand_shading: self.strand_shading.or(below.strand_shading),
             blade_shading: self.blade_shading.or(below.blade_shading),
             lod: self.lod.or(below.lod),
+            anisotropy: self.anisotropy.or(below.anisotropy),
         }
     }
 
@@ -765,6 +772,11 @@ impl RenderOptions {
             && !(t.is_finite() && (0.0..1.0).contains(&t))
         {
             return Err(("alpha_threshold".into(), format!("{t} is not in [0, 1)")));
+        }
+        if let Some(a) = self.anisotropy
+            && !ANISOTROPY_RATIOS.contains(&a)
+        {
+            return Err(("anisotropy".into(), format!("{a} is not one of 1, 2, 4, 8 or 16")));
         }
         Ok(())
     }

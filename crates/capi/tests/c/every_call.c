@@ -13,6 +13,7 @@
 #include "furbake.h"
 
 #include <math.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -191,6 +192,26 @@ static void draw_data(const FurbakePack *fox, const FurbakePack *plane) {
     CHECK(length == atlas.fur_length_m, "the block carries the fur length (%g)", (double)length);
     CHECK(furbake_pack_fur_block(fox, &look, atlas.layers, small, sizeof small) == FURBAKE_RESULT_INVALID_ARGUMENT,
           "a block of the wrong size");
+    /* The samplers' anisotropy rides in Fur.stacking.y (bytes 116..120): 16 by default, also for
+     * 0 and for a host built before the field (a smaller size: the library reads no further). */
+    float anisotropy = 0.0f;
+    memcpy(&anisotropy, &block[116], sizeof anisotropy);
+    CHECK(look.anisotropy == 16.0f && anisotropy == 16.0f, "the default anisotropy (%g)", (double)anisotropy);
+    FurbakeFurLook older = look;
+    older.size = (uint32_t)offsetof(FurbakeFurLook, anisotropy);
+    older.anisotropy = 99.0f;
+    MUST(furbake_pack_fur_block(fox, &older, atlas.layers, block, sizeof block));
+    memcpy(&anisotropy, &block[116], sizeof anisotropy);
+    CHECK(anisotropy == 16.0f, "a look from before the field draws the default (%g)", (double)anisotropy);
+    look.anisotropy = 4.0f;
+    MUST(furbake_pack_fur_block(fox, &look, atlas.layers, block, sizeof block));
+    memcpy(&anisotropy, &block[116], sizeof anisotropy);
+    CHECK(anisotropy == 4.0f, "the look's anisotropy (%g)", (double)anisotropy);
+    look.anisotropy = 17.0f;
+    CHECK(furbake_pack_fur_block(fox, &look, atlas.layers, block, sizeof block) == FURBAKE_RESULT_INVALID_ARGUMENT &&
+              strstr(furbake_last_error(), "anisotropy") != NULL,
+          "an anisotropy out of range, named: %s", furbake_last_error());
+    look.anisotropy = 0.0f;
     look.alpha_threshold = 1.5f;
     CHECK(furbake_pack_fur_block(fox, &look, atlas.layers, block, sizeof block) == FURBAKE_RESULT_INVALID_ARGUMENT &&
               strstr(furbake_last_error(), "alpha_threshold") != NULL,

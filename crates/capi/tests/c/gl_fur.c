@@ -193,8 +193,10 @@ static GLuint storage_buffer(const void *data, size_t bytes) {
     return buffer;
 }
 
-/* An R8 2D texture (array) of `atlas` with every mip level furbake makes, on texture unit `unit`. */
-static GLuint atlas_texture(const FurbakePack *pack, uint32_t atlas, GLuint unit) {
+/* An R8 2D texture (array) of `atlas` with every mip level furbake makes, on texture unit `unit`,
+ * filtered anisotropically up to `anisotropy` (the look's, for blended fur; 1 for the alpha test,
+ * which reads level 0). */
+static GLuint atlas_texture(const FurbakePack *pack, uint32_t atlas, GLuint unit, float anisotropy) {
     GLenum kind = atlas == FURBAKE_ATLAS_SHELL ? GL_TEXTURE_2D_ARRAY : GL_TEXTURE_2D;
     GLuint texture;
     glGenTextures(1, &texture);
@@ -219,6 +221,7 @@ static GLuint atlas_texture(const FurbakePack *pack, uint32_t atlas, GLuint unit
     glTexParameteri(kind, GL_TEXTURE_WRAP_S, GL_REPEAT);
     glTexParameteri(kind, GL_TEXTURE_WRAP_T, atlas == FURBAKE_ATLAS_SHELL ? GL_REPEAT : GL_CLAMP_TO_EDGE);
     glTexParameteri(kind, GL_TEXTURE_MAX_LEVEL, (GLint)mip.level_count - 1);
+    glTexParameterf(kind, GL_TEXTURE_MAX_ANISOTROPY, anisotropy);
     return texture;
 }
 
@@ -240,11 +243,11 @@ static void to_object(const Mat4 *model, const float p[3], float out[3]) {
  * each module on its own), so each is bound just before its program runs. */
 static void draw_fins(int argc, char **argv, const char *dir, const FurbakePack *fox, const FurbakeSkinPose *pose,
                       const FurbakeSkinMeshView *mesh, const Mat4 *model, const float eye[3], GLuint frame,
-                      GLuint scale_vectors, GLuint shadow) {
+                      GLuint scale_vectors, GLuint shadow, float anisotropy) {
     FurbakeArrayView quads = {.size = sizeof quads}, edges = {.size = sizeof edges};
     MUST(furbake_pack_fin_quads(fox, &quads));
     MUST(furbake_pack_silhouette_edges(fox, &edges));
-    GLuint fin_texture = atlas_texture(fox, FURBAKE_ATLAS_FIN, binding_of(argc, argv, "fin_alpha"));
+    GLuint fin_texture = atlas_texture(fox, FURBAKE_ATLAS_FIN, binding_of(argc, argv, "fin_alpha"), anisotropy);
     GLuint fins = program_of(dir, "fin.vs_fin.shear-strand.vert", "fin.fs_fin.alpha_blend-lambert-shadow-strand.light_slots1.frag");
     GLuint silhouette_fins = program_of(dir, "fin.vs_silhouette_fin.shear-strand.vert",
                                         "fin.fs_fin.alpha_blend-lambert-shadow-strand.light_slots1.frag");
@@ -509,6 +512,7 @@ int main(int argc, char **argv) {
     MUST(furbake_fur_look_default(&look));
     if (!furbake_look) {
         look.alpha_threshold = (float)atof(argv[8]);
+        look.anisotropy = 1.0f; /* the alpha test reads level 0 isotropically, as furbake's */
     }
     unsigned char fur[128];
     MUST(furbake_pack_fur_block(fox, &look, atlas.layers, fur, sizeof fur));
@@ -536,7 +540,8 @@ int main(int argc, char **argv) {
                  stacking.exponents, GL_STATIC_DRAW);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, binding_of(argc, argv, "stacking"), buffers[4]);
     /* The shell atlas: an R8 2D array texture with furbake's mip chain. */
-    GLuint shell_texture = atlas_texture(fox, FURBAKE_ATLAS_SHELL, binding_of(argc, argv, "shell_alpha"));
+    GLuint shell_texture = atlas_texture(fox, FURBAKE_ATLAS_SHELL, binding_of(argc, argv, "shell_alpha"),
+                                         furbake_look ? look.anisotropy : 1.0f);
 
     /* An sRGB colour target and a float depth target, as the headless renderer's. */
     GLuint fbo, color, depth;
@@ -577,7 +582,7 @@ int main(int argc, char **argv) {
     glUseProgram(shells);
     glDrawArraysInstanced(GL_TRIANGLES, 0, (GLsizei)furry_corners, (GLsizei)layers);
     if (furbake_look && !without_fins) {
-        draw_fins(argc, argv, shader_dir, fox, &pose, &mesh, &model, eye, buffers[0], buffers[3], buffers[2]);
+        draw_fins(argc, argv, shader_dir, fox, &pose, &mesh, &model, eye, buffers[0], buffers[3], buffers[2], look.anisotropy);
     }
     glDeleteTextures(1, &shell_texture);
     GLenum error = glGetError();

@@ -606,30 +606,37 @@ fn find(rows: &[Row], scene: SceneKind, angle: f32, shells: u32, fins: FinMode) 
 
 /// What the images of the run showed, written by hand after looking at them.
 const OBSERVATIONS: &str = "**What was measured, honestly.** With the calibrated stacking of \
-docs/design.md \"Shell opacity\" and fins faded towards the root (\"Fin opacity\") every cell of \
-the first table lies between 0.045 and 0.125 (the report before both, which blended each layer's \
-alpha as it was into an 8-bit target: 0.107 to 0.446; patch at 45° and 16 shells 0.273 → 0.085, \
-sphere at 0° 0.127 → 0.045, Fox at 70° 0.119 → 0.049). Up to the atlas's 16 layers the error \
-falls with shells at every angle on the sphere and the Fox and at 0° on the patch; at 45° and 70° \
-on the patch 8 shells score best (0.067 against 0.085 at 16 at 45°): the table matches the \
-stack's mean transmittance to the volume's, and what is left is the look of the layers \
-themselves (more layers show more of the darker, self-shadowed lower coat through the gaps). Past \
-the atlas's count the error rises by at most 0.013: 32 and 64 shells repeat slices. Drawn into an \
-8-bit target (`rendering_report --srgb8-target`) it rises faster (patch at 0°: 0.061 at 16, 0.141 \
-at 64): the faint layers that 64 shells blend round to zero or one step of 8 bits, so hosts that \
-draw fur should use a float target. Fins lower the error at 70° at every shell count on the sphere \
-and the Fox and from 8 shells on the patch (at 4 shells on the patch 0.0630 without, 0.0638 with); \
-before they were faded towards the root they raised it everywhere, by 0.002 to 0.012. The \
-level-of-detail sweep puts the knee at 8 shells for fur from 0.25 to 8 px long, 16 at 16 px and \
-32 at 32 px, about one layer per pixel of fur with a floor of 8, which is the renderer's default \
-(`ShellLod::default`). \n\n\
+docs/design.md \"Shell opacity\", fins faded towards the root (\"Fin opacity\") and the atlases \
+filtered anisotropically (16×; the mip level follows the pixel footprint's short axis) every cell \
+of the first table lies between 0.043 and 0.128 (the report before the stacking and the fin fade, \
+which blended each layer's alpha as it was into an 8-bit target: 0.107 to 0.446). Anisotropic \
+filtering, against the isotropic mip the atlases had before (chosen by the footprint's long axis, \
+which at oblique views blurred the strands into a haze): the mean over the nine scene-angle cells \
+0.0580 → 0.0562 at 8 shells, 0.0578 → 0.0542 at 16, 0.0634 → 0.0602 at 64, lower in every cell \
+from 16 shells up (patch at 70°: 0.0702 → 0.0589 at 16, 0.0579 → 0.0487 at 8); but at 4 shells \
+higher in every cell (mean 0.0844 → 0.0953, patch at 45° 0.085 → 0.112), where the sharper \
+layers show their gaps; the default level of detail never draws fewer than 8. Up to the atlas's \
+16 layers the error falls with shells at every angle on the sphere and the Fox and at 0° on the \
+patch; at 45° and 70° on the patch 8 shells score best (0.060 against 0.077 at 16 at 45°): the \
+table matches the stack's mean transmittance to the volume's, and what is left is the look of the \
+layers themselves (more, fainter layers average the strands' contrast away). Past the atlas's \
+count the error rises by at most 0.013: 32 and 64 shells repeat slices. Slicing at the bottom of \
+each slab instead of its middle makes the error fall in all nine cells but costs the counts drawn \
+most (docs/design.md \"Rendering accuracy\"). Drawn into an 8-bit target \
+(`rendering_report --srgb8-target`) it rises faster: the faint layers that 64 shells blend round \
+to zero or one step of 8 bits, so hosts that draw fur should use a float target. Fins lower the \
+error at 70° at every shell count on the sphere and the Fox and from 8 shells on the patch (at 4 \
+shells on the patch 0.0750 without, 0.0754 with); before they were faded towards the root they \
+raised it everywhere, by 0.002 to 0.012. The level-of-detail sweep puts the knee at 8 shells for \
+fur from 0.25 to 8 px long, 16 at 16 px and 32 at 32 px, about one layer per pixel of fur with a \
+floor of 8, which is the renderer's default (`ShellLod::default`). \n\n\
 **What the images show.** The reference has individual strands, a bright fuzzy fringe on the \
-silhouettes (sphere and Fox at 70°) and dark gaps between coat hairs; the shells render a smooth \
-haze with the same overall colour and tone but no strands (the mip chain averages them at this \
-distance), a polygonal outline softened by the fins' tips, and at 70° a grey polygonal band at \
-the sphere's limb (the outer shells beyond the skin's outline, clearer than the reference's dense \
-fringe there); the FLIP maps are brightest along \
-silhouettes and nearly dark over the coat.";
+silhouettes (sphere and Fox at 70°) and dark gaps between coat hairs; 8 shells show a strand-like \
+texture over the coat (finer and streakier with anisotropic filtering than the isotropic mip's \
+blotches), 32 shells a smoother haze with the same overall colour and tone, a polygonal outline \
+softened by the fins' tips, and at 70° a grey polygonal band at the sphere's limb (the outer \
+shells beyond the skin's outline, clearer than the reference's dense fringe there); the FLIP maps \
+are brightest along silhouettes and nearly dark over the coat.";
 
 impl RenderingReport {
     /// Writes the images, the chart and [`DOCUMENT_NAME`] into `dir` (created if missing).

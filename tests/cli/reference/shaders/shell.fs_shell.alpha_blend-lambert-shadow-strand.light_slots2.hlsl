@@ -434,13 +434,16 @@ float4 fs_shell(FragmentInput_fs_shell fragmentinput_fs_shell) : SV_Target0
     if (ALPHA_BLEND) {
         float2 texel = (in_.uv * float2(NagaDimensions2DArray(shell_alpha)));
         float2 _e29 = ddx(texel);
+        float across = length(_e29);
         float2 _e31 = ddy(texel);
-        lod = log2(max(max(length(_e29), length(_e31)), 1e-6));
+        float down = length(_e31);
+        float _e38 = fur.stacking.y;
+        lod = log2(max(max(min(across, down), (max(across, down) / max(_e38, 1.0))), 1e-6));
     }
-    float _e37 = alpha;
-    float _e38 = edge;
-    const bool _e39 = alpha_discarded(_e37, _e38);
-    if (_e39) {
+    float _e46 = alpha;
+    float _e47 = edge;
+    const bool _e48 = alpha_discarded(_e46, _e47);
+    if (_e48) {
         discard;
     }
     if ((in_.fade < 1.0)) {
@@ -448,68 +451,68 @@ float4 fs_shell(FragmentInput_fs_shell fragmentinput_fs_shell) : SV_Target0
     } else {
         local = false;
     }
-    bool _e49 = local;
-    if (_e49) {
-        const float _e55 = dither_4x4_(in_.clip_.xy);
-        local_1 = (in_.fade <= _e55);
+    bool _e58 = local;
+    if (_e58) {
+        const float _e64 = dither_4x4_(in_.clip_.xy);
+        local_1 = (in_.fade <= _e64);
     } else {
         local_1 = false;
     }
-    bool _e58 = local_1;
-    if (_e58) {
+    bool _e67 = local_1;
+    if (_e67) {
         discard;
     }
-    float4 _e61 = frame.camera_pos;
-    float3 to_eye_2 = normalize((_e61.xyz - in_.world));
+    float4 _e70 = frame.camera_pos;
+    float3 to_eye_2 = normalize((_e70.xyz - in_.world));
     if (ALPHA_BLEND) {
-        float _e67 = alpha;
-        float _e70 = lod;
-        const float _e71 = stacked_alpha(_e67, to_eye_2, normalize(in_.tangent), _e70);
-        alpha = (_e71 * in_.fade);
+        float _e76 = alpha;
+        float _e79 = lod;
+        const float _e80 = stacked_alpha(_e76, to_eye_2, normalize(in_.tangent), _e79);
+        alpha = (_e80 * in_.fade);
     }
     if (STRAND) {
         local_2 = LAMBERT;
     } else {
         local_2 = false;
     }
-    bool _e80 = local_2;
-    if (_e80) {
+    bool _e89 = local_2;
+    if (_e89) {
         if (SHADOW) {
-            float _e87 = asfloat(shadow.Load(in_.slice*4));
-            direct = _e87;
+            float _e96 = asfloat(shadow.Load(in_.slice*4));
+            direct = _e96;
         }
         float2 size = float2(NagaDimensions2DArray(shell_alpha));
         int2 cell = naga_f2i32(min(floor((frac(in_.uv) * size)), (size - (1.0).xx)));
-        float4 _e104 = fur.tint;
-        float3 albedo_1 = (in_.color.xyz * _e104.xyz);
-        float _e111 = direct;
-        const float _e114 = strand_mask(cell.x, cell.y);
-        const float3 _e115 = strand_shade(albedo_1, in_.normal, in_.tangent, in_.world, to_eye_2, in_.height, _e111, _e114);
-        rgb = _e115;
+        float4 _e113 = fur.tint;
+        float3 albedo_1 = (in_.color.xyz * _e113.xyz);
+        float _e120 = direct;
+        const float _e123 = strand_mask(cell.x, cell.y);
+        const float3 _e124 = strand_shade(albedo_1, in_.normal, in_.tangent, in_.world, to_eye_2, in_.height, _e120, _e123);
+        rgb = _e124;
     } else {
-        const float3 _e118 = lambert(in_.normal, in_.world);
-        shade = _e118;
+        const float3 _e127 = lambert(in_.normal, in_.world);
+        shade = _e127;
         if (SHADOW) {
-            float3 _e121 = shade;
-            float _e125 = asfloat(shadow.Load(in_.slice*4));
-            shade = (_e121 * _e125);
+            float3 _e130 = shade;
+            float _e134 = asfloat(shadow.Load(in_.slice*4));
+            shade = (_e130 * _e134);
         }
-        float4 _e131 = fur.tint;
-        float3 _e134 = shade;
-        rgb = ((in_.color.xyz * _e131.xyz) * _e134);
+        float4 _e140 = fur.tint;
+        float3 _e143 = shade;
+        rgb = ((in_.color.xyz * _e140.xyz) * _e143);
     }
     if (ALPHA_BLEND) {
-        float3 _e137 = rgb;
-        float _e138 = alpha;
-        return float4(_e137, _e138);
+        float3 _e146 = rgb;
+        float _e147 = alpha;
+        return float4(_e146, _e147);
     }
     if (ALPHA_TO_COVERAGE) {
-        float3 _e141 = rgb;
-        float _e142 = alpha;
-        float _e143 = edge;
-        const float _e144 = coverage_alpha(_e142, _e143);
-        return float4(_e141, _e144);
+        float3 _e150 = rgb;
+        float _e151 = alpha;
+        float _e152 = edge;
+        const float _e153 = coverage_alpha(_e151, _e152);
+        return float4(_e150, _e153);
     }
-    float3 _e146 = rgb;
-    return float4(_e146, 1.0);
+    float3 _e155 = rgb;
+    return float4(_e155, 1.0);
 }

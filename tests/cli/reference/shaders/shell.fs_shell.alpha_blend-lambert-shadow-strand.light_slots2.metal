@@ -474,13 +474,16 @@ fragment fs_shellOutput fs_shell(
     if (ALPHA_BLEND) {
         metal::float2 texel = in.uv * static_cast<metal::float2>(metal::uint2(shell_alpha.get_width(), shell_alpha.get_height()));
         metal::float2 _e29 = metal::dfdx(texel);
+        float across = metal::length(_e29);
         metal::float2 _e31 = metal::dfdy(texel);
-        lod = metal::log2(metal::max(metal::max(metal::length(_e29), metal::length(_e31)), 0.000001));
+        float down = metal::length(_e31);
+        float _e38 = fur.stacking.y;
+        lod = metal::log2(metal::max(metal::max(metal::min(across, down), metal::max(across, down) / metal::max(_e38, 1.0)), 0.000001));
     }
-    float _e37 = alpha;
-    float _e38 = edge;
-    bool _e39 = alpha_discarded(_e37, _e38, fur);
-    if (_e39) {
+    float _e46 = alpha;
+    float _e47 = edge;
+    bool _e48 = alpha_discarded(_e46, _e47, fur);
+    if (_e48) {
         metal::discard_fragment();
     }
     if (in.fade < 1.0) {
@@ -488,68 +491,68 @@ fragment fs_shellOutput fs_shell(
     } else {
         local = false;
     }
-    bool _e49 = local;
-    if (_e49) {
-        float _e55 = dither_4x4_(in.clip.xy);
-        local_1 = in.fade <= _e55;
+    bool _e58 = local;
+    if (_e58) {
+        float _e64 = dither_4x4_(in.clip.xy);
+        local_1 = in.fade <= _e64;
     } else {
         local_1 = false;
     }
-    bool _e58 = local_1;
-    if (_e58) {
+    bool _e67 = local_1;
+    if (_e67) {
         metal::discard_fragment();
     }
-    metal::float4 _e61 = frame.camera_pos;
-    metal::float3 to_eye_2 = metal::normalize(_e61.xyz - in.world);
+    metal::float4 _e70 = frame.camera_pos;
+    metal::float3 to_eye_2 = metal::normalize(_e70.xyz - in.world);
     if (ALPHA_BLEND) {
-        float _e67 = alpha;
-        float _e70 = lod;
-        float _e71 = stacked_alpha(_e67, to_eye_2, metal::normalize(in.tangent), _e70, frame, fur, stacking, _buffer_sizes);
-        alpha = _e71 * in.fade;
+        float _e76 = alpha;
+        float _e79 = lod;
+        float _e80 = stacked_alpha(_e76, to_eye_2, metal::normalize(in.tangent), _e79, frame, fur, stacking, _buffer_sizes);
+        alpha = _e80 * in.fade;
     }
     if (STRAND) {
         local_2 = LAMBERT;
     } else {
         local_2 = false;
     }
-    bool _e80 = local_2;
-    if (_e80) {
+    bool _e89 = local_2;
+    if (_e89) {
         if (SHADOW) {
-            float _e87 = shadow[in.slice];
-            direct = _e87;
+            float _e96 = shadow[in.slice];
+            direct = _e96;
         }
         metal::float2 size = static_cast<metal::float2>(metal::uint2(shell_alpha.get_width(), shell_alpha.get_height()));
         metal::int2 cell = naga_f2i32(metal::min(metal::floor(metal::fract(in.uv) * size), size - metal::float2(1.0)));
-        metal::float4 _e104 = fur.tint;
-        metal::float3 albedo_1 = in.color.xyz * _e104.xyz;
-        float _e111 = direct;
-        float _e114 = strand_mask(cell.x, cell.y, fur);
-        metal::float3 _e115 = strand_shade(albedo_1, in.normal, in.tangent, in.world, to_eye_2, in.height, _e111, _e114, frame, fur);
-        rgb = _e115;
+        metal::float4 _e113 = fur.tint;
+        metal::float3 albedo_1 = in.color.xyz * _e113.xyz;
+        float _e120 = direct;
+        float _e123 = strand_mask(cell.x, cell.y, fur);
+        metal::float3 _e124 = strand_shade(albedo_1, in.normal, in.tangent, in.world, to_eye_2, in.height, _e120, _e123, frame, fur);
+        rgb = _e124;
     } else {
-        metal::float3 _e118 = lambert(in.normal, in.world, frame);
-        shade = _e118;
+        metal::float3 _e127 = lambert(in.normal, in.world, frame);
+        shade = _e127;
         if (SHADOW) {
-            metal::float3 _e121 = shade;
-            float _e125 = shadow[in.slice];
-            shade = _e121 * _e125;
+            metal::float3 _e130 = shade;
+            float _e134 = shadow[in.slice];
+            shade = _e130 * _e134;
         }
-        metal::float4 _e131 = fur.tint;
-        metal::float3 _e134 = shade;
-        rgb = (in.color.xyz * _e131.xyz) * _e134;
+        metal::float4 _e140 = fur.tint;
+        metal::float3 _e143 = shade;
+        rgb = (in.color.xyz * _e140.xyz) * _e143;
     }
     if (ALPHA_BLEND) {
-        metal::float3 _e137 = rgb;
-        float _e138 = alpha;
-        return fs_shellOutput { metal::float4(_e137, _e138) };
+        metal::float3 _e146 = rgb;
+        float _e147 = alpha;
+        return fs_shellOutput { metal::float4(_e146, _e147) };
     }
     if (ALPHA_TO_COVERAGE) {
-        metal::float3 _e141 = rgb;
-        float _e142 = alpha;
-        float _e143 = edge;
-        float _e144 = coverage_alpha(_e142, _e143, fur);
-        return fs_shellOutput { metal::float4(_e141, _e144) };
+        metal::float3 _e150 = rgb;
+        float _e151 = alpha;
+        float _e152 = edge;
+        float _e153 = coverage_alpha(_e151, _e152, fur);
+        return fs_shellOutput { metal::float4(_e150, _e153) };
     }
-    metal::float3 _e146 = rgb;
-    return fs_shellOutput { metal::float4(_e146, 1.0) };
+    metal::float3 _e155 = rgb;
+    return fs_shellOutput { metal::float4(_e155, 1.0) };
 }
