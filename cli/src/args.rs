@@ -358,8 +358,8 @@ pub struct RenderFlags {
     #[arg(long)]
     pub no_lod: bool,
     /// Anisotropic filtering of the blended shell and fin atlases: 1 (off), 2, 4, 8 or 16.
-    /// Default 16 on a GPU, 1 on a software adapter such as lavapipe (where it costs 1.3–5× a
-    /// frame)
+    /// Default 16 on a GPU, 1 on a software adapter such as lavapipe (where it costs 1.2–5× a
+    /// fur frame).
     #[arg(long, value_name = "N")]
     pub anisotropy: Option<u16>,
 }

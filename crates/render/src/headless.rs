@@ -278,7 +278,7 @@ pub fn render_preview(
 /// `options` (a command's flags, over `scene`'s keys when it draws a scene) as `furbake preview`
 /// and `furbake view` draw with them on the adapter `info` describes: on a software adapter
 /// (`DeviceType::Cpu`, such as lavapipe) the atlases are filtered isotropically unless the flags
-/// or the scene choose an anisotropy, because there anisotropic filtering cost 1.3–5× a fur
+/// or the scene choose an anisotropy, because there anisotropic filtering cost 1.2–5× a fur
 /// frame (docs/performance.md "Anisotropic filtering"), while a GPU filters anisotropically in
 /// its texture units.
 pub fn options_for_adapter(

@@ -200,7 +200,6 @@ impl PipelineCache {
         Ok(())
     }
 
-    /// The fur bind group layout (group 0 of `skin.wgsl`, `shell.wgsl`, `fin.wgsl`).
     /// The trilinear samplers of the shell atlas (repeating) and the fin atlas (repeating along
     /// the edge, clamped root to tip), filtering anisotropically up to `anisotropy` (1: off); one
     /// pair per clamp for every renderer of the device.
@@ -229,6 +228,7 @@ impl PipelineCache {
         pair.clone()
     }
 
+    /// The fur bind group layout (group 0 of `skin.wgsl`, `shell.wgsl`, `fin.wgsl`).
     pub(crate) fn fur_layout(&self) -> &wgpu::BindGroupLayout {
         &self.inner.fur_layout
     }

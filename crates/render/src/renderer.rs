@@ -240,10 +240,17 @@ impl RenderSettings {
             alpha_threshold: self.alpha_threshold,
             shading: self.shading,
             stacking_correction: self.stacking_correction,
-            anisotropy: match self.blend {
-                ShellBlend::AlphaBlend => f32::from(self.anisotropy),
-                ShellBlend::AlphaTest => 1.0,
-            },
+            anisotropy: f32::from(self.atlas_anisotropy()),
+        }
+    }
+
+    /// The anisotropy clamp the atlases are sampled with: [`RenderSettings::anisotropy`] when
+    /// blending, 1 for the alpha test (it reads level 0, and an anisotropic sampler still averages
+    /// along the pixel's long axis there on lavapipe, which thinned the tested tips).
+    fn atlas_anisotropy(&self) -> u16 {
+        match self.blend {
+            ShellBlend::AlphaBlend => self.anisotropy,
+            ShellBlend::AlphaTest => 1,
         }
     }
 
@@ -565,9 +572,7 @@ impl FurRenderer {
             ),
         };
 
-        // The alpha test reads level 0 isotropically: an anisotropic sampler still averages
-        // along the pixel's long axis there on lavapipe, which thinned the tested tips.
-        let samplers = cache.atlas_samplers(fur.stacking[1] as u16);
+        let samplers = cache.atlas_samplers(settings.atlas_anisotropy());
         let view_slot = || -> Result<ViewSlot, RenderError> {
             let frame = device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("furbake frame uniforms"),
