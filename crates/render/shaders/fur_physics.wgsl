@@ -5,6 +5,13 @@
 // (crates/sim/src/solvers/fused.rs) over the flat model of crates/sim/src/compute.rs; the data
 // layouts are crates/render/src/physics.rs. One invocation per free mass gathers its own links in
 // adjacency order, so the result does not depend on scheduling.
+//
+// A herd: the packs of one asset step together, their per-pack arrays laid one after another in
+// the same buffers, one dispatch per pass for up to HERD_CHUNK packs (the dispatch's y). Each pack
+// has its own substep uniforms (`steps[si]`, si = the invocation's y) holding where its part of
+// each array starts (`base`, `base2`); the indices stored in the arrays (link ends, parents, tips'
+// masses) already include those starts, while the arrays the asset shares (bind pose, links
+// between hairs, skin influences, shell-vertex tips, XPBD colours) hold indices within one pack.
 
 const NO_LINK: u32 = 0xffffffffu;
 const LOCALS: u32 = 16u;
@@ -38,7 +45,17 @@ struct PhysicsStep {
     pose_skin: vec4<u32>,
     // per local force: centre xyz and radius w (m), then strength x (N)
     locals: array<vec4<f32>, 32>,
+    // where this pack's part starts: its first mass, link entry, tip and shell vertex
+    base: vec4<u32>,
+    // its first XPBD link, its counters' slot, unused, unused
+    base2: vec4<u32>,
+    pad0: vec4<u32>,
+    pad1: vec4<u32>,
 }
+
+// The packs one dispatch steps (the uniform array's length: 64 × 768 bytes fits WebGPU's smallest
+// uniform binding of 64 KiB).
+const HERD_CHUNK: u32 = 64u;
 
 struct PhysicsMass {
     // the restoring link's rest direction (xyz) and rest length (w, m)
@@ -75,15 +92,23 @@ struct PhysicsTip {
     pad1: u32,
 }
 
-@group(0) @binding(0) var<uniform> step: PhysicsStep;
+// Each pack's uniforms of this substep (the dynamic offset picks the substep and the chunk).
+@group(0) @binding(0) var<uniform> steps: array<PhysicsStep, HERD_CHUNK>;
+// The invoking pack's slot in `steps` (every entry point sets it first).
+var<private> si: u32;
 @group(0) @binding(1) var<storage, read> x_in: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read> v_in: array<vec4<f32>>;
 @group(0) @binding(3) var<storage, read_write> x_out: array<vec4<f32>>;
 @group(0) @binding(4) var<storage, read_write> v_out: array<vec4<f32>>;
 @group(0) @binding(6) var<storage, read> masses: array<PhysicsMass>;
 @group(0) @binding(7) var<storage, read> links: array<PhysicsLink>;
-// non-finite masses, guard triggers, frozen tips (read back only when asked for)
-@group(0) @binding(8) var<storage, read_write> stats: array<atomic<u32>, 4>;
+// per pack: non-finite masses, guard triggers, frozen tips, unused (read back only when asked for)
+@group(0) @binding(8) var<storage, read_write> stats: array<atomic<u32>>;
+
+// Adds to this pack's counter `c`.
+fn count(c: u32) {
+    atomicAdd(&stats[4u * steps[si].base2.y + c], 1u);
+}
 
 fn finite3(v: vec3<f32>) -> bool {
     // NaN fails every comparison; ±inf exceeds the largest finite float.
@@ -93,24 +118,24 @@ fn finite3(v: vec3<f32>) -> bool {
 // The external forces on free mass k (crates/sim/src/forces.rs ForceEval::external).
 fn external_force(pm: PhysicsMass, x: vec3<f32>, v: vec3<f32>) -> vec3<f32> {
     let m = pm.mass;
-    var f = step.accel.xyz * m;
-    if step.flags.z != 0u {
-        let w = step.omega.xyz;
-        let inertial = cross(step.alpha.xyz, x) + cross(w, cross(w, x)) + 2.0 * cross(w, v);
+    var f = steps[si].accel.xyz * m;
+    if steps[si].flags.z != 0u {
+        let w = steps[si].omega.xyz;
+        let inertial = cross(steps[si].alpha.xyz, x) + cross(w, cross(w, x)) + 2.0 * cross(w, v);
         f = f - inertial * m;
     }
-    if step.wind.w != 0.0 {
-        let d = step.wind_dir.xyz;
-        let phase = TAU * (step.wind.y * step.omega.w - dot(d, pm.rest_pos.xyz) * step.wind.z);
-        f = f + d * (step.wind_dir.w * (1.0 + step.wind.x * sin(phase)));
+    if steps[si].wind.w != 0.0 {
+        let d = steps[si].wind_dir.xyz;
+        let phase = TAU * (steps[si].wind.y * steps[si].omega.w - dot(d, pm.rest_pos.xyz) * steps[si].wind.z);
+        f = f + d * (steps[si].wind_dir.w * (1.0 + steps[si].wind.x * sin(phase)));
     }
-    for (var i = 0u; i < min(step.counts.w, LOCALS); i++) {
-        let c = step.locals[2u * i];
+    for (var i = 0u; i < min(steps[si].counts.w, LOCALS); i++) {
+        let c = steps[si].locals[2u * i];
         let delta = x - c.xyz;
         let dist = length(delta);
         if dist < c.w && dist > 1e-12 {
             let fall = 1.0 - dist / c.w;
-            f = f + delta * (step.locals[2u * i + 1u].x * fall * fall / dist);
+            f = f + delta * (steps[si].locals[2u * i + 1u].x * fall * fall / dist);
         }
     }
     return f;
@@ -118,7 +143,7 @@ fn external_force(pm: PhysicsMass, x: vec3<f32>, v: vec3<f32>) -> vec3<f32> {
 
 // The restoring force of eq. 3.37 on a free mass at `xi`, towards its rest direction.
 fn restoring_force(m: PhysicsMass, xi: vec3<f32>) -> vec3<f32> {
-    let w = step.alpha.w;
+    let w = steps[si].alpha.w;
     if w == 0.0 || m.restoring_parent == NO_LINK {
         return vec3<f32>(0.0);
     }
@@ -148,14 +173,15 @@ fn project_on_stick(m: PhysicsMass, x: ptr<function, vec3<f32>>, v: ptr<function
 // and the projection onto an anchored stick.
 @compute @workgroup_size(64)
 fn cs_step(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let k = gid.x;
-    if k >= step.counts.x {
+    si = gid.y;
+    if gid.x >= steps[si].counts.x {
         return;
     }
+    let k = steps[si].base.x + gid.x;
     let m = masses[k];
     let xi = x_in[k].xyz;
     let vi = v_in[k].xyz;
-    let h = step.accel.w;
+    let h = steps[si].accel.w;
     // Links (Hooke eq. 3.23 + viscosity eq. 3.24) from this mass's side, in adjacency order.
     var fl = vec3<f32>(0.0);
     for (var e = m.links_start; e < m.links_end; e++) {
@@ -168,7 +194,7 @@ fn cs_step(@builtin(global_invocation_id) gid: vec3<u32>) {
     let f = (external_force(m, xi, vi) + restoring_force(m, xi)) + fl;
     let s = h * m.inv_mass;
     var vn = vi + f * s;
-    if step.flags.x == 1u && m.stick_parent != NO_LINK {
+    if steps[si].flags.x == 1u && m.stick_parent != NO_LINK {
         // The stick solver damps the rigid link implicitly towards the parent's velocity.
         let ac = s * m.stick_c;
         vn = (vn + v_in[m.stick_parent].xyz * ac) / (1.0 + ac);
@@ -180,11 +206,11 @@ fn cs_step(@builtin(global_invocation_id) gid: vec3<u32>) {
 fn write_state(k: u32, m: PhysicsMass, x: vec3<f32>, v: vec3<f32>) {
     var xn = x;
     var vn = v;
-    if step.flags.y != 0u && m.stick_parent != NO_LINK {
+    if steps[si].flags.y != 0u && m.stick_parent != NO_LINK {
         project_on_stick(m, &xn, &vn);
     }
     if !(finite3(xn) && finite3(vn)) {
-        atomicAdd(&stats[0], 1u);
+        count(0u);
     }
     x_out[k] = vec4<f32>(xn, 0.0);
     v_out[k] = vec4<f32>(vn, 0.0);
@@ -224,8 +250,9 @@ struct PhysicsColours {
 @group(0) @binding(11) var<storage, read_write> xpbd_lambda: array<vec4<f32>>;
 @group(0) @binding(12) var<uniform> xpbd_colours: PhysicsColours;
 
+// Where colour c's links start in the herd's XPBD links, for this pack.
 fn colour_start(c: u32) -> u32 {
-    return xpbd_colours.starts[c / 4u][c % 4u];
+    return steps[si].base2.x + xpbd_colours.starts[c / 4u][c % 4u];
 }
 
 // One link projected (distance, then damper) on the displacements in v_out.
@@ -253,7 +280,7 @@ fn xpbd_link(i: u32, h: f32) {
         }
     }
     if l.c > 0.0 {
-        // An anchored end moves, for the damper, with the skin's velocity over the step.
+        // An anchored end moves, for the damper, with the skin's velocity over the steps[si].
         let hc = h * l.c;
         var moved_b = v_in[l.b].xyz * h;
         if free_b {
@@ -272,14 +299,16 @@ fn xpbd_link(i: u32, h: f32) {
 }
 
 @compute @workgroup_size(256)
-fn cs_xpbd_step(@builtin(local_invocation_index) lid: u32) {
-    let free = step.counts.x;
-    let h = step.accel.w;
-    let w = step.alpha.w;
-    for (var i = lid; i < xpbd_colours.count.z; i += XPBD_THREADS) {
+fn cs_xpbd_step(@builtin(local_invocation_index) lid: u32, @builtin(workgroup_id) wid: vec3<u32>) {
+    si = wid.y;
+    let first = steps[si].base.x;
+    let free = first + steps[si].counts.x;
+    let h = steps[si].accel.w;
+    let w = steps[si].alpha.w;
+    for (var i = colour_start(0u) + lid; i < colour_start(0u) + xpbd_colours.count.z; i += XPBD_THREADS) {
         xpbd_lambda[i] = vec4<f32>(0.0);
     }
-    for (var k = lid; k < free; k += XPBD_THREADS) {
+    for (var k = first + lid; k < free; k += XPBD_THREADS) {
         let m = masses[k];
         let xi = x_in[k].xyz;
         let vi = v_in[k].xyz;
@@ -307,7 +336,7 @@ fn cs_xpbd_step(@builtin(local_invocation_index) lid: u32) {
             }
         }
     }
-    for (var k = lid; k < free; k += XPBD_THREADS) {
+    for (var k = first + lid; k < free; k += XPBD_THREADS) {
         let d = v_out[k].xyz;
         write_state(k, masses[k], x_in[k].xyz + d, d * (1.0 / h));
     }
@@ -319,14 +348,15 @@ fn cs_xpbd_step(@builtin(local_invocation_index) lid: u32) {
 // state (bindings 3 and 4 of the final-state group).
 @compute @workgroup_size(64)
 fn cs_teleport(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let k = gid.x;
-    if k >= step.counts.x {
+    si = gid.y;
+    if gid.x >= steps[si].counts.x {
         return;
     }
-    var x = x_out[k].xyz - step.teleport.xyz;
+    let k = steps[si].base.x + gid.x;
+    var x = x_out[k].xyz - steps[si].teleport.xyz;
     var v = v_out[k].xyz;
     let m = masses[k];
-    if step.flags.y != 0u && m.stick_parent != NO_LINK {
+    if steps[si].flags.y != 0u && m.stick_parent != NO_LINK {
         project_on_stick(m, &x, &v);
     }
     x_out[k] = vec4<f32>(x, 0.0);
@@ -346,10 +376,11 @@ fn cs_teleport(@builtin(global_invocation_id) gid: vec3<u32>) {
 // along the normal once; otherwise it follows the masses (crates/sim/src/shell.rs).
 @compute @workgroup_size(64)
 fn cs_guard(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let i = gid.x;
-    if i >= step.counts.y {
+    si = gid.y;
+    if gid.x >= steps[si].counts.y {
         return;
     }
+    let i = steps[si].base.z + gid.x;
     let t = tips[i];
     let e = x_out[t.tip].xyz - t.root_pos.xyz;
     let rcp = 1.0 / sqrt(dot(e, e));
@@ -357,17 +388,17 @@ fn cs_guard(@builtin(global_invocation_id) gid: vec3<u32>) {
     let sn = e * rcp;
     let n = t.n.xyz;
     var state = guard_state[i];
-    if step.guard.z == 0.0 {
+    if steps[si].guard.z == 0.0 {
         state = vec4<f32>(select(n, sn, ok), 0.0);
-    } else if ok && dot(n, sn) >= step.guard.x {
+    } else if ok && dot(n, sn) >= steps[si].guard.x {
         state = vec4<f32>(sn, 0.0);
     } else if state.w == 0.0 {
         state.w = 1.0;
-        v_out[t.tip] = vec4<f32>(v_out[t.tip].xyz + step.guard.y * n, 0.0);
-        atomicAdd(&stats[1], 1u);
+        v_out[t.tip] = vec4<f32>(v_out[t.tip].xyz + steps[si].guard.y * n, 0.0);
+        count(1u);
     }
     if state.w != 0.0 {
-        atomicAdd(&stats[2], 1u);
+        count(2u);
     }
     guard_state[i] = state;
 }
@@ -376,13 +407,14 @@ fn cs_guard(@builtin(global_invocation_id) gid: vec3<u32>) {
 // buffer holds, its rest direction: only bare triangles use it, and they draw no fur.
 @compute @workgroup_size(64)
 fn cs_scale(@builtin(global_invocation_id) gid: vec3<u32>) {
+    si = gid.y;
     let i = gid.x;
-    if i >= step.counts.z {
+    if i >= steps[si].counts.z {
         return;
     }
     let s = shell_tip[i];
     if s != NO_LINK {
-        scale_out[i] = vec4<f32>(guard_state[s].xyz, 0.0);
+        scale_out[steps[si].base.w + i] = vec4<f32>(guard_state[steps[si].base.z + s].xyz, 0.0);
     }
 }
 
@@ -456,7 +488,7 @@ fn pose_point(s: u32, p: vec3<f32>) -> vec3<f32> {
     if s == NO_LINK {
         return p;
     }
-    let t = pose_transforms[step.pose_at.x + s];
+    let t = pose_transforms[steps[si].pose_at.x + s];
     let q = p + vec3<f32>(t.c0.w, t.c1.w, t.c2.w);
     return t.c0.xyz * q.x + t.c1.xyz * q.y + t.c2.xyz * q.z + t.c3.xyz;
 }
@@ -467,7 +499,7 @@ fn pose_direction(s: u32, n: vec3<f32>) -> vec3<f32> {
     if s == NO_LINK {
         return n;
     }
-    let t = pose_transforms[step.pose_at.x + s];
+    let t = pose_transforms[steps[si].pose_at.x + s];
     let d = t.n0.xyz * n.x + t.n1.xyz * n.y + t.n2.xyz * n.z;
     let rcp = 1.0 / length(d);
     if rcp > 0.0 && rcp <= 3.4028235e38 {
@@ -478,7 +510,7 @@ fn pose_direction(s: u32, n: vec3<f32>) -> vec3<f32> {
 
 // The skin moved faster than the cut speed: the fur is carried along.
 fn pose_cut() -> bool {
-    return bitcast<f32>(atomicLoad(&pose_speed[step.pose_at.y])) > step.pose.y;
+    return bitcast<f32>(atomicLoad(&pose_speed[steps[si].pose_at.y])) > steps[si].pose.y;
 }
 
 // The skin's transform per shell vertex, blended here from the step's skinning matrices and
@@ -497,17 +529,18 @@ fn pose_cut() -> bool {
 
 @compute @workgroup_size(64)
 fn cs_pose_blend(@builtin(global_invocation_id) gid: vec3<u32>) {
+    si = gid.y;
     let s = gid.x;
-    if s >= step.counts.z {
+    if s >= steps[si].counts.z {
         return;
     }
     let v = blend_shell_vertices[s];
-    let per = step.pose_skin.z & 0xffu;
-    let targets = step.pose_skin.z >> 8u;
-    let skin_vertices = step.pose_skin.w;
+    let per = steps[si].pose_skin.z & 0xffu;
+    let targets = steps[si].pose_skin.z >> 8u;
+    let skin_vertices = steps[si].pose_skin.w;
     var offset = vec3<f32>(0.0);
     for (var t = 0u; t < targets; t++) {
-        let w = blend_morph_weights[step.pose_skin.y + t];
+        let w = blend_morph_weights[steps[si].pose_skin.y + t];
         if w != 0.0 {
             let i = 3u * (t * skin_vertices + v);
             offset = offset + w * vec3<f32>(blend_deltas[i], blend_deltas[i + 1u], blend_deltas[i + 2u]);
@@ -522,7 +555,7 @@ fn cs_pose_blend(@builtin(global_invocation_id) gid: vec3<u32>) {
             if w != 0.0 {
                 let slot = first + k;
                 let bind = (blend_binds[slot >> 1u] >> ((slot & 1u) * 16u)) & 0xffffu;
-                m = m + blend_matrices[step.pose_skin.x + bind] * w;
+                m = m + blend_matrices[steps[si].pose_skin.x + bind] * w;
             }
         }
     }
@@ -530,7 +563,7 @@ fn cs_pose_blend(@builtin(global_invocation_id) gid: vec3<u32>) {
     let c1 = m[1].xyz;
     let c2 = m[2].xyz;
     let sign = select(1.0, -1.0, dot(c0, cross(c1, c2)) < 0.0);
-    blend_out[step.pose_at.x + s] = PoseTransform(
+    blend_out[steps[si].pose_at.x + s] = PoseTransform(
         vec4<f32>(c0, offset.x),
         vec4<f32>(c1, offset.y),
         vec4<f32>(c2, offset.z),
@@ -543,31 +576,34 @@ fn cs_pose_blend(@builtin(global_invocation_id) gid: vec3<u32>) {
 
 @compute @workgroup_size(64)
 fn cs_pose_rest(@builtin(global_invocation_id) gid: vec3<u32>) {
+    si = gid.y;
     let k = gid.x;
-    if k >= step.pose_at.z {
+    if k >= steps[si].pose_at.z {
         return;
     }
     let pm = pose_masses[k];
     let p = pose_point(pm.attach, pm.rest.xyz);
-    posed[k] = vec4<f32>(p, 0.0);
-    if k >= step.counts.x {
+    let g = steps[si].base.x + k;
+    posed[g] = vec4<f32>(p, 0.0);
+    if k >= steps[si].counts.x {
         // Non-negative floats order as their bits; a NaN (above +inf's bits) is skipped, as the
         // CPU's maximum skips it.
-        let bits = bitcast<u32>(length(p - pose_x[k].xyz) * step.pose.x);
+        let bits = bitcast<u32>(length(p - pose_x[g].xyz) * steps[si].pose.x);
         if bits <= 0x7f800000u {
-            atomicMax(&pose_speed[step.pose_at.y], bits);
+            atomicMax(&pose_speed[steps[si].pose_at.y], bits);
         }
     }
 }
 
 @compute @workgroup_size(64)
 fn cs_pose_free(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let k = gid.x;
-    if k >= step.counts.x {
+    si = gid.y;
+    if gid.x >= steps[si].counts.x {
         return;
     }
+    let k = steps[si].base.x + gid.x;
     var m = pose_physics[k];
-    let pm = pose_masses[k];
+    let pm = pose_masses[gid.x];
     let p = posed[k].xyz;
     var x = pose_x[k].xyz;
     var v = pose_v[k].xyz;
@@ -578,7 +614,7 @@ fn cs_pose_free(@builtin(global_invocation_id) gid: vec3<u32>) {
     m.restoring_n = vec4<f32>(pose_direction(pm.attach, pm.n.xyz), m.restoring_n.w);
     if m.stick_parent != NO_LINK {
         m.stick_anchor = vec4<f32>(posed[m.stick_parent].xyz, 0.0);
-        if step.flags.y != 0u {
+        if steps[si].flags.y != 0u {
             project_on_stick(m, &x, &v);
         }
     }
@@ -589,14 +625,15 @@ fn cs_pose_free(@builtin(global_invocation_id) gid: vec3<u32>) {
 
 @compute @workgroup_size(64)
 fn cs_pose_anchored(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let k = step.counts.x + gid.x;
-    if k >= step.pose_at.z {
+    si = gid.y;
+    if steps[si].counts.x + gid.x >= steps[si].pose_at.z {
         return;
     }
+    let k = steps[si].base.x + steps[si].counts.x + gid.x;
     let p = posed[k].xyz;
     var vel = vec3<f32>(0.0);
     if !pose_cut() {
-        vel = (p - pose_x[k].xyz) * step.pose.x;
+        vel = (p - pose_x[k].xyz) * steps[si].pose.x;
     }
     pose_x[k] = vec4<f32>(p, 0.0);
     pose_x_other[k] = vec4<f32>(p, 0.0);
@@ -606,20 +643,21 @@ fn cs_pose_anchored(@builtin(global_invocation_id) gid: vec3<u32>) {
 
 @compute @workgroup_size(64)
 fn cs_pose_tips(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let i = gid.x;
-    if i >= step.counts.y {
+    si = gid.y;
+    if gid.x >= steps[si].counts.y {
         return;
     }
+    let i = steps[si].base.z + gid.x;
     var t = pose_tips[i];
-    let n = pose_direction(pose_masses[t.tip].attach, pose_tip_n[i].xyz);
+    let n = pose_direction(pose_masses[t.tip - steps[si].base.x].attach, pose_tip_n[gid.x].xyz);
     t.n = vec4<f32>(n, 0.0);
     t.root_pos = vec4<f32>(posed[t.root].xyz, 0.0);
     pose_tips[i] = t;
     // A scale vector now past the guard's angle from its rest direction starts again from it
     // (crates/sim/src/shell.rs follow_rest_directions).
     var cos_a = -1.0;
-    if step.guard.z != 0.0 {
-        cos_a = step.guard.x;
+    if steps[si].guard.z != 0.0 {
+        cos_a = steps[si].guard.x;
     }
     let g = pose_guard[i];
     if dot(n, g.xyz) < cos_a {
@@ -629,23 +667,25 @@ fn cs_pose_tips(@builtin(global_invocation_id) gid: vec3<u32>) {
 
 @compute @workgroup_size(64)
 fn cs_pose_between(@builtin(global_invocation_id) gid: vec3<u32>) {
+    si = gid.y;
     let i = gid.x;
-    if i >= step.pose_at.w {
+    if i >= steps[si].pose_at.w {
         return;
     }
     let b = pose_between[i];
+    let base = steps[si].base;
     var rest = b.rest;
     if b.bind_distance > 0.0 {
-        rest = b.rest * (distance(posed[b.a].xyz, posed[b.b].xyz) / b.bind_distance);
+        rest = b.rest * (distance(posed[base.x + b.a].xyz, posed[base.x + b.b].xyz) / b.bind_distance);
     }
     if b.e0 != NO_LINK {
-        pose_links[b.e0].rest = rest;
+        pose_links[base.y + b.e0].rest = rest;
     }
     if b.e1 != NO_LINK {
-        pose_links[b.e1].rest = rest;
+        pose_links[base.y + b.e1].rest = rest;
     }
     if b.xpbd != NO_LINK {
-        pose_xpbd_links[b.xpbd].rest = rest;
+        pose_xpbd_links[steps[si].base2.x + b.xpbd].rest = rest;
     }
 }
 
@@ -670,9 +710,10 @@ fn cs_energy(
     @builtin(local_invocation_index) lid: u32,
     @builtin(workgroup_id) wid: vec3<u32>,
 ) {
-    let k = gid.x;
+    si = 0u;
+    let k = steps[si].base.x + gid.x;
     var e = vec4<f32>(0.0);
-    if k < step.counts.x {
+    if gid.x < steps[si].counts.x {
         let m = energy_masses[k];
         let xi = energy_x[k].xyz;
         let vi = energy_v[k].xyz;
@@ -680,10 +721,10 @@ fn cs_energy(
         for (var i = m.links_start; i < m.links_end; i++) {
             let l = energy_links[i];
             let stretch = length(energy_x[l.other].xyz - xi) - l.rest;
-            let share = select(1.0, 0.5, l.other < step.counts.x);
+            let share = select(1.0, 0.5, l.other < steps[si].base.x + steps[si].counts.x);
             e.y += share * 0.5 * l.k * stretch * stretch;
         }
-        let w = step.alpha.w;
+        let w = steps[si].alpha.w;
         if m.restoring_parent != NO_LINK {
             let s = xi - energy_x[m.restoring_parent].xyz;
             let len = length(s);

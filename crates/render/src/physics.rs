@@ -27,8 +27,12 @@ mod pose;
 
 /// Local forces a GPU step applies (more are a [`RenderError::Parameter`]).
 pub const MAX_LOCAL_FORCES: usize = 16;
-/// Bytes between substeps' uniforms (a multiple of every adapter's uniform offset alignment).
+/// Bytes between packs' uniforms, [`PhysicsStep`]'s size (a multiple of every adapter's uniform
+/// offset alignment).
 const STEP_STRIDE: u64 = 768;
+/// The packs one dispatch steps (`HERD_CHUNK` in `fur_physics.wgsl`): the step uniforms are bound
+/// as an array of this many, 48 KiB, under WebGPU's smallest uniform binding limit of 64 KiB.
+const HERD_CHUNK: u64 = 64;
 const WORKGROUP: u32 = 64;
 
 /// One substep's uniforms (`PhysicsStep` in `fur_physics.wgsl`).
@@ -48,6 +52,10 @@ pub(crate) struct PhysicsStep {
     pose_at: [u32; 4],
     pose_skin: [u32; 4],
     locals: [[f32; 4]; 2 * MAX_LOCAL_FORCES],
+    base: [u32; 4],
+    base2: [u32; 4],
+    pad0: [u32; 4],
+    pad1: [u32; 4],
 }
 
 /// One free mass (`PhysicsMass`).
@@ -475,7 +483,7 @@ impl GpuFurPhysics {
             let state_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                 label: Some("furbake physics state"),
                 entries: &[
-                    entry(0, dynamic_uniform::<PhysicsStep>()),
+                    entry(0, dynamic_steps()),
                     entry(1, buffer(true)),
                     entry(2, buffer(true)),
                     entry(3, buffer(false)),
@@ -490,7 +498,7 @@ impl GpuFurPhysics {
             let final_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                 label: Some("furbake physics final state"),
                 entries: &[
-                    entry(0, dynamic_uniform::<PhysicsStep>()),
+                    entry(0, dynamic_steps()),
                     entry(3, buffer(false)),
                     entry(4, buffer(false)),
                     entry(6, buffer(true)),
@@ -938,6 +946,10 @@ impl GpuFurPhysics {
             pose_at: [0; 4],
             pose_skin: [0; 4],
             locals,
+            base: [0; 4],
+            base2: [0; 4],
+            pad0: [0; 4],
+            pad1: [0; 4],
         }
     }
 }
@@ -1000,9 +1012,11 @@ impl EnergyPass {
         let mut uniforms: PhysicsStep = bytemuck::Zeroable::zeroed();
         uniforms.counts = [model.free, model.tips.len() as u32, model.shell_tip.len() as u32, 0];
         uniforms.alpha[3] = forces.restoring_weight_n;
+        let mut contents = vec![0u8; STEPS_WINDOW as usize];
+        contents[..size_of::<PhysicsStep>()].copy_from_slice(bytemuck::bytes_of(&uniforms));
         let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("furbake physics energy uniforms"),
-            contents: bytemuck::bytes_of(&uniforms),
+            contents: &contents,
             usage: wgpu::BufferUsages::UNIFORM,
         });
         let partials = device.create_buffer(&wgpu::BufferDescriptor {
@@ -1014,7 +1028,7 @@ impl EnergyPass {
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("furbake physics energy"),
             entries: &[
-                layout_entry(0, dynamic_uniform::<PhysicsStep>()),
+                layout_entry(0, dynamic_steps()),
                 layout_entry(40, storage_binding(true)),
                 layout_entry(41, storage_binding(true)),
                 layout_entry(42, storage_binding(true)),
@@ -1128,7 +1142,7 @@ impl Xpbd {
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("furbake physics xpbd"),
             entries: &[
-                layout_entry(0, dynamic_uniform::<PhysicsStep>()),
+                layout_entry(0, dynamic_steps()),
                 layout_entry(1, storage_binding(true)),
                 layout_entry(2, storage_binding(true)),
                 layout_entry(3, storage_binding(false)),
@@ -1260,17 +1274,20 @@ impl StateParts<'_> {
     }
 }
 
-/// The step uniforms' binding (0), one substep's worth at a dynamic offset.
+/// The step uniforms' binding (0): a chunk of packs' uniforms of one substep at a dynamic offset.
 fn steps_entry(steps: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
     wgpu::BindGroupEntry {
         binding: 0,
         resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
             buffer: steps,
             offset: 0,
-            size: wgpu::BufferSize::new(size_of::<PhysicsStep>() as u64),
+            size: wgpu::BufferSize::new(STEPS_WINDOW),
         }),
     }
 }
+
+/// Bytes of the step uniforms' binding.
+const STEPS_WINDOW: u64 = HERD_CHUNK * STEP_STRIDE;
 
 fn layout_entry(binding: u32, ty: wgpu::BindingType) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry { binding, visibility: wgpu::ShaderStages::COMPUTE, ty, count: None }
@@ -1284,12 +1301,12 @@ fn storage_binding(read_only: bool) -> wgpu::BindingType {
     }
 }
 
-/// A uniform `T` at a dynamic offset (one per substep or colour).
-fn dynamic_uniform<T>() -> wgpu::BindingType {
+/// The step uniforms at a dynamic offset (a chunk of packs of one substep).
+fn dynamic_steps() -> wgpu::BindingType {
     wgpu::BindingType::Buffer {
         ty: wgpu::BufferBindingType::Uniform,
         has_dynamic_offset: true,
-        min_binding_size: wgpu::BufferSize::new(size_of::<T>() as u64),
+        min_binding_size: wgpu::BufferSize::new(STEPS_WINDOW),
     }
 }
 
@@ -1297,10 +1314,11 @@ fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
     wgpu::BindGroupEntry { binding, resource: buffer.as_entire_binding() }
 }
 
+/// Room for `capacity` packs' substep uniforms, and the binding window past the last one.
 fn step_buffer(device: &wgpu::Device, capacity: u32) -> wgpu::Buffer {
     device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("furbake physics steps"),
-        size: capacity as u64 * STEP_STRIDE,
+        size: (capacity as u64 - 1) * STEP_STRIDE + STEPS_WINDOW,
         usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     })
@@ -1338,9 +1356,14 @@ mod tests {
             ("pose_at", offset_of!(PhysicsStep, pose_at)),
             ("pose_skin", offset_of!(PhysicsStep, pose_skin)),
             ("locals", offset_of!(PhysicsStep, locals)),
+            ("base", offset_of!(PhysicsStep, base)),
+            ("base2", offset_of!(PhysicsStep, base2)),
+            ("pad0", offset_of!(PhysicsStep, pad0)),
+            ("pad1", offset_of!(PhysicsStep, pad1)),
         ];
         assert_eq!(check_layout("PhysicsStep", size_of::<PhysicsStep>(), &step), 1);
-        assert!(size_of::<PhysicsStep>() as u64 <= STEP_STRIDE && STEP_STRIDE.is_multiple_of(256));
+        assert!(size_of::<PhysicsStep>() as u64 == STEP_STRIDE && STEP_STRIDE.is_multiple_of(256));
+        assert!(STEPS_WINDOW <= 65536);
         let mass = [
             ("restoring_n", offset_of!(PhysicsMass, restoring_n)),
             ("rest_pos", offset_of!(PhysicsMass, rest_pos)),

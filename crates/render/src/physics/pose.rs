@@ -6,9 +6,7 @@
 use furbake_sim::{ComputeModel, NO_LINK, SkinTransform};
 use wgpu::util::DeviceExt;
 
-use super::{
-    GpuPose, GpuSkin, PhysicsStep, WORKGROUP, dynamic_uniform, entry, layout_entry, steps_entry, storage_binding,
-};
+use super::{GpuPose, GpuSkin, WORKGROUP, dynamic_steps, entry, layout_entry, steps_entry, storage_binding};
 use crate::RenderError;
 use crate::skinning::SkinInputs;
 
@@ -205,7 +203,7 @@ impl Pose {
             .iter()
             .zip(PASSES)
             .map(|(bindings, name)| {
-                let mut entries = vec![layout_entry(0, dynamic_uniform::<PhysicsStep>())];
+                let mut entries = vec![layout_entry(0, dynamic_steps())];
                 entries.extend(bindings.iter().map(|&(b, read_only)| layout_entry(b, storage_binding(read_only))));
                 device
                     .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some(name), entries: &entries })
