@@ -1289,6 +1289,11 @@ fn steps_entry(steps: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
 /// Bytes of the step uniforms' binding.
 const STEPS_WINDOW: u64 = HERD_CHUNK * STEP_STRIDE;
 
+// A step is one uniform array element of the shader's layout, its offsets fit the 256-byte
+// dynamic-offset alignment, and a chunk's window fits the 64 KiB uniform binding every adapter has.
+const _: () =
+    assert!(size_of::<PhysicsStep>() as u64 == STEP_STRIDE && STEP_STRIDE.is_multiple_of(256) && STEPS_WINDOW <= 65536);
+
 fn layout_entry(binding: u32, ty: wgpu::BindingType) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry { binding, visibility: wgpu::ShaderStages::COMPUTE, ty, count: None }
 }
@@ -1362,8 +1367,6 @@ mod tests {
             ("pad1", offset_of!(PhysicsStep, pad1)),
         ];
         assert_eq!(check_layout("PhysicsStep", size_of::<PhysicsStep>(), &step), 1);
-        assert!(size_of::<PhysicsStep>() as u64 == STEP_STRIDE && STEP_STRIDE.is_multiple_of(256));
-        assert!(STEPS_WINDOW <= 65536);
         let mass = [
             ("restoring_n", offset_of!(PhysicsMass, restoring_n)),
             ("rest_pos", offset_of!(PhysicsMass, rest_pos)),
