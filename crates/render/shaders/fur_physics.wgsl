@@ -34,9 +34,11 @@ struct PhysicsStep {
     counts: vec4<u32>,
     // update (0 explicit, 1 stick, 2 XPBD), project sticks (1), rotating frame (1), unused
     flags: vec4<u32>,
-    // xyz: the teleport applied before this step (m, mesh frame; cs_teleport)
+    // xyz: the teleport applied before this step (m, mesh frame; cs_teleport); w: 1 where there is
+    // one (a herd's other packs skip the pass)
     teleport: vec4<f32>,
-    // the skin's pose before this step (cs_pose_*): 1/step (1/s), cut speed (m/s), unused, unused
+    // the skin's pose before this step (cs_pose_*): 1/step (1/s), cut speed (m/s), posed (1: the
+    // pose passes run for this pack), blended (1: cs_pose_blend runs for it)
     pose: vec4<f32>,
     // the pose's first transform, its speed slot, every mass, links between hairs
     pose_at: vec4<u32>,
@@ -352,6 +354,9 @@ fn cs_teleport(@builtin(global_invocation_id) gid: vec3<u32>) {
     if gid.x >= steps[si].counts.x {
         return;
     }
+    if steps[si].teleport.w == 0.0 {
+        return;
+    }
     let k = steps[si].base.x + gid.x;
     var x = x_out[k].xyz - steps[si].teleport.xyz;
     var v = v_out[k].xyz;
@@ -531,7 +536,7 @@ fn pose_cut() -> bool {
 fn cs_pose_blend(@builtin(global_invocation_id) gid: vec3<u32>) {
     si = gid.y;
     let s = gid.x;
-    if s >= steps[si].counts.z {
+    if s >= steps[si].counts.z || steps[si].pose.w == 0.0 {
         return;
     }
     let v = blend_shell_vertices[s];
@@ -578,7 +583,7 @@ fn cs_pose_blend(@builtin(global_invocation_id) gid: vec3<u32>) {
 fn cs_pose_rest(@builtin(global_invocation_id) gid: vec3<u32>) {
     si = gid.y;
     let k = gid.x;
-    if k >= steps[si].pose_at.z {
+    if k >= steps[si].pose_at.z || steps[si].pose.z == 0.0 {
         return;
     }
     let pm = pose_masses[k];
@@ -598,7 +603,7 @@ fn cs_pose_rest(@builtin(global_invocation_id) gid: vec3<u32>) {
 @compute @workgroup_size(64)
 fn cs_pose_free(@builtin(global_invocation_id) gid: vec3<u32>) {
     si = gid.y;
-    if gid.x >= steps[si].counts.x {
+    if gid.x >= steps[si].counts.x || steps[si].pose.z == 0.0 {
         return;
     }
     let k = steps[si].base.x + gid.x;
@@ -626,7 +631,7 @@ fn cs_pose_free(@builtin(global_invocation_id) gid: vec3<u32>) {
 @compute @workgroup_size(64)
 fn cs_pose_anchored(@builtin(global_invocation_id) gid: vec3<u32>) {
     si = gid.y;
-    if steps[si].counts.x + gid.x >= steps[si].pose_at.z {
+    if steps[si].counts.x + gid.x >= steps[si].pose_at.z || steps[si].pose.z == 0.0 {
         return;
     }
     let k = steps[si].base.x + steps[si].counts.x + gid.x;
@@ -644,7 +649,7 @@ fn cs_pose_anchored(@builtin(global_invocation_id) gid: vec3<u32>) {
 @compute @workgroup_size(64)
 fn cs_pose_tips(@builtin(global_invocation_id) gid: vec3<u32>) {
     si = gid.y;
-    if gid.x >= steps[si].counts.y {
+    if gid.x >= steps[si].counts.y || steps[si].pose.z == 0.0 {
         return;
     }
     let i = steps[si].base.z + gid.x;
@@ -669,7 +674,7 @@ fn cs_pose_tips(@builtin(global_invocation_id) gid: vec3<u32>) {
 fn cs_pose_between(@builtin(global_invocation_id) gid: vec3<u32>) {
     si = gid.y;
     let i = gid.x;
-    if i >= steps[si].pose_at.w {
+    if i >= steps[si].pose_at.w || steps[si].pose.z == 0.0 {
         return;
     }
     let b = pose_between[i];
@@ -709,8 +714,10 @@ fn cs_energy(
     @builtin(global_invocation_id) gid: vec3<u32>,
     @builtin(local_invocation_index) lid: u32,
     @builtin(workgroup_id) wid: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
 ) {
-    si = 0u;
+    // One pack per y (its own uniforms at si, its partial sums after the earlier packs').
+    si = wid.y;
     let k = steps[si].base.x + gid.x;
     var e = vec4<f32>(0.0);
     if gid.x < steps[si].counts.x {
@@ -744,6 +751,6 @@ fn cs_energy(
         workgroupBarrier();
     }
     if lid == 0u {
-        energy_partials[wid.x] = energy_sums[0];
+        energy_partials[steps[si].base2.y * groups.x + wid.x] = energy_sums[0];
     }
 }

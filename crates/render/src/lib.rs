@@ -159,7 +159,9 @@ pub use export::{ExportedShader, ShaderExport, ShaderTarget, export_shaders};
 pub use lod::ShellLod;
 #[cfg(feature = "testing")]
 pub use physics::PhysicsReadback;
-pub use physics::{GpuFurPhysics, GpuPhysicsStats, GpuPose, GpuSkin, GpuStep, MAX_LOCAL_FORCES, MAX_XPBD_COLOURS};
+pub use physics::{
+    GpuFurPhysics, GpuPhysicsStats, GpuPose, GpuSkin, GpuStep, MAX_LOCAL_FORCES, MAX_XPBD_COLOURS, same_herd,
+};
 pub use pipelines::PipelineCache;
 pub use renderer::{FurGpuAsset, FurRenderer, RenderSettings, ShellBlend};
 pub use scene::{PackInput, PackRenderers, SceneFrame, SceneRenderer};

@@ -114,9 +114,12 @@ pub const MAX_XPBD_COLOURS: usize = 63;
 struct Xpbd {
     /// `bind[i]` steps state `i` into `1 − i`.
     bind: [wgpu::BindGroup; 2],
+    layout: wgpu::BindGroupLayout,
     pipeline: wgpu::ComputePipeline,
     /// The links (their rest lengths follow a posed skin).
     links: wgpu::Buffer,
+    lambda: wgpu::Buffer,
+    colours: wgpu::Buffer,
 }
 
 /// One tip (`PhysicsTip`).
@@ -135,11 +138,17 @@ fn v4(v: [f32; 3], w: f32) -> [f32; 4] {
     [v[0], v[1], v[2], w]
 }
 
-/// A pack's fur physics on the GPU, bound to the renderer whose scale vectors it writes
-/// ([`FurRenderer::gpu_physics`]). [`GpuFurPhysics::record`] once per frame, before the frame's
-/// draws in the same submission.
+/// Fur physics on the GPU for one pack, or for a herd of packs of one asset stepped together,
+/// bound to the renderers whose scale vectors it writes ([`FurRenderer::gpu_physics`],
+/// [`GpuFurPhysics::herd`]). [`GpuFurPhysics::record`] once per frame, before the frame's draws in
+/// the same submission.
+///
+/// A herd holds its packs' states one after another in the same buffers and steps them with one
+/// dispatch per pass (up to 64 packs per dispatch), so the host's cost of a frame barely grows
+/// with the number of packs (docs/design.md "Fur physics on the GPU").
 pub struct GpuFurPhysics {
-    forces: ForceSet,
+    /// Per pack, the forces [`GpuFurPhysics::record`] applies.
+    forces: Vec<ForceSet>,
     guard: GuardSettings,
     update: ComputeUpdate,
     project_sticks: bool,
@@ -147,17 +156,22 @@ pub struct GpuFurPhysics {
     stable_step_s: f64,
     max_substeps: u32,
     restoring_weight_n: f32,
+    /// Per pack: free masses, tips, shell vertices.
     counts: [u32; 3],
-    #[cfg_attr(not(feature = "testing"), allow(dead_code))]
-    masses: u32,
+    /// Packs in the herd.
+    packs: u32,
+    /// Per pack: masses, link entries, XPBD links (the strides of its parts).
+    strides: [u32; 3],
     #[cfg_attr(not(feature = "testing"), allow(dead_code))]
     order: Vec<u32>,
     x: [wgpu::Buffer; 2],
     v: [wgpu::Buffer; 2],
     #[cfg_attr(not(feature = "testing"), allow(dead_code))]
     guard_state: wgpu::Buffer,
+    /// Per pack: non-finite masses, guard triggers, frozen tips, unused.
     stats: wgpu::Buffer,
     steps: wgpu::Buffer,
+    /// Uniform entries the step buffer holds (substeps × packs).
     steps_capacity: u32,
     state_layout: wgpu::BindGroupLayout,
     final_layout: wgpu::BindGroupLayout,
@@ -171,6 +185,9 @@ pub struct GpuFurPhysics {
     guard_pipeline: wgpu::ComputePipeline,
     teleport_pipeline: wgpu::ComputePipeline,
     scale_pipeline: wgpu::ComputePipeline,
+    /// A herd's scale vectors, one pack after another, copied into each pack's renderer after the
+    /// scale pass (a pack alone writes its renderer's buffer directly).
+    herd_scale: Option<(wgpu::Buffer, Vec<wgpu::Buffer>)>,
     /// The buffer pair holding the current state.
     current: usize,
     /// The uniforms of one record, reused (grows only when a step needs more substeps).
@@ -187,6 +204,8 @@ pub struct GpuFurPhysics {
     last_record: (u32, u32),
     /// The statistics readback ([`GpuFurPhysics::request_stats`]).
     stats_readback: Readback,
+    /// Per pack, the counters last read back ([`GpuFurPhysics::pack_stats`]).
+    pack_stats: Vec<GpuPhysicsStats>,
     /// The energy of the state, on request ([`GpuFurPhysics::request_energy`]).
     energy: EnergyPass,
 }
@@ -355,109 +374,173 @@ impl FurRenderer {
         stable_step_s: f64,
         max_substeps: u32,
     ) -> Result<GpuFurPhysics, RenderError> {
-        model.validate().map_err(|e| RenderError::Parameter { what: e.to_string() })?;
+        GpuFurPhysics::herd(device, queue, &[(self, model)], forces, stable_step_s, max_substeps)
+    }
+
+    /// The scale-vector layout of `model`'s shell vertices on this renderer.
+    fn physics_layout(&self, model: &ComputeModel) -> Result<furbake_runtime::ShellVertexLayout, RenderError> {
         let shell = model.shell_tip.len() as u32;
-        let layout = if shell == self.vertex_count() {
-            furbake_runtime::ShellVertexLayout::PerVertex
+        if shell == self.vertex_count() {
+            Ok(furbake_runtime::ShellVertexLayout::PerVertex)
         } else if shell == 3 * self.triangle_count() {
-            furbake_runtime::ShellVertexLayout::PerCorner
+            Ok(furbake_runtime::ShellVertexLayout::PerCorner)
         } else {
-            return Err(RenderError::Parameter {
+            Err(RenderError::Parameter {
                 what: format!(
                     "the physics model has {shell} shell vertices; this pack has {} welded vertices and {} corners",
                     self.vertex_count(),
                     3 * self.triangle_count()
                 ),
-            });
+            })
+        }
+    }
+}
+
+/// Whether two packs' models can step in one herd ([`GpuFurPhysics::herd`]): the same topology,
+/// solver, guard, bind pose and XPBD colouring (what the herd holds once), at the same time.
+/// Their states, forces, rest shapes and link parameters may differ.
+pub fn same_herd(a: &ComputeModel, b: &ComputeModel) -> bool {
+    let ends = |m: &ComputeModel| m.xpbd.links.iter().map(|l| (l.ends, l.entry)).collect::<Vec<_>>();
+    let tips = |m: &ComputeModel| m.tips.iter().map(|t| (t.root, t.tip)).collect::<Vec<_>>();
+    a.update == b.update
+        && a.masses == b.masses
+        && a.free == b.free
+        && a.project_sticks == b.project_sticks
+        && a.guard == b.guard
+        && a.time_s == b.time_s
+        && a.links_start == b.links_start
+        && a.link_other == b.link_other
+        && a.restoring_parent == b.restoring_parent
+        && a.stick_parent == b.stick_parent
+        && a.shell_tip == b.shell_tip
+        && a.pose == b.pose
+        && a.xpbd.colour_start == b.xpbd.colour_start
+        && tips(a) == tips(b)
+        && ends(a) == ends(b)
+}
+
+impl GpuFurPhysics {
+    /// Fur physics on the GPU for a herd: `members` are packs of one asset, each with its
+    /// renderer and its model (as [`FurRenderer::gpu_physics`] takes them; every model
+    /// [`same_herd`] as the first), stepped together under one `stable_step_s` and
+    /// `max_substeps`, each starting under `forces` ([`GpuFurPhysics::set_pack_forces`] to give
+    /// each its own). Each renderer's scale vectors are written from now on. One dispatch per
+    /// pass steps up to 64 packs.
+    pub fn herd(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        members: &[(&FurRenderer, &ComputeModel)],
+        forces: &ForceSet,
+        stable_step_s: f64,
+        max_substeps: u32,
+    ) -> Result<GpuFurPhysics, RenderError> {
+        let Some(&(first, model)) = members.first() else {
+            return Err(RenderError::Parameter { what: "a GPU physics herd of no packs".into() });
         };
+        let mut layouts = Vec::with_capacity(members.len());
+        for (k, &(renderer, m)) in members.iter().enumerate() {
+            m.validate().map_err(|e| RenderError::Parameter { what: e.to_string() })?;
+            if !same_herd(model, m) {
+                return Err(RenderError::Parameter {
+                    what: format!("pack {k} of the herd has another topology, solver, bind pose or time than pack 0"),
+                });
+            }
+            layouts.push(renderer.physics_layout(m)?);
+        }
         if stable_step_s.is_nan() || stable_step_s <= 0.0 || max_substeps == 0 {
             return Err(RenderError::Parameter {
                 what: format!("stable step {stable_step_s} s and {max_substeps} substeps (must be positive)"),
             });
         }
-        self.set_scale_layout(queue, layout);
-        let skin =
-            self.skinning_pass().map(|s| s.physics_inputs(layout == furbake_runtime::ShellVertexLayout::PerCorner));
-        GpuFurPhysics::new(device, model, forces, stable_step_s, max_substeps, self.scale_buffer(), skin)
+        check_forces(forces)?;
+        for (&(renderer, _), &layout) in members.iter().zip(&layouts) {
+            renderer.set_scale_layout(queue, layout);
+        }
+        let per_corner = layouts[0] == furbake_runtime::ShellVertexLayout::PerCorner;
+        let skin = first.skinning_pass().map(|s| s.physics_inputs(per_corner));
+        let models: Vec<&ComputeModel> = members.iter().map(|&(_, m)| m).collect();
+        let targets: Vec<wgpu::Buffer> = members.iter().map(|&(r, _)| r.scale_buffer().clone()).collect();
+        GpuFurPhysics::new(device, &models, forces, stable_step_s, max_substeps, targets, skin)
     }
-}
 
-impl GpuFurPhysics {
     fn new(
         device: &wgpu::Device,
-        model: &ComputeModel,
+        models: &[&ComputeModel],
         forces: &ForceSet,
         stable_step_s: f64,
         max_substeps: u32,
-        scale_out: &wgpu::Buffer,
+        scale_targets: Vec<wgpu::Buffer>,
         skin: Option<crate::skinning::SkinInputs>,
     ) -> Result<GpuFurPhysics, RenderError> {
-        check_forces(forces)?;
+        let model = models[0];
+        let packs = models.len() as u32;
+        if packs as u64 * model.masses as u64 >= NO_LINK as u64 {
+            return Err(RenderError::Parameter {
+                what: format!("a herd of {packs} packs of {} masses is too large for 32-bit indices", model.masses),
+            });
+        }
         let nf = model.free as usize;
+        let (nm, nl, nx) = (model.masses, model.link_other.len() as u32, model.xpbd.links.len() as u32);
         let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
         // Storage bindings cannot be empty: every array has at least one element.
-        let padded = |mut v: Vec<[f32; 4]>| {
+        fn padded<T: bytemuck::Zeroable>(mut v: Vec<T>) -> Vec<T> {
             if v.is_empty() {
-                v.push([0.0; 4]);
+                v.push(T::zeroed());
             }
             v
-        };
-        let positions = padded(model.positions.iter().map(|&p| v4(p, 0.0)).collect());
-        let velocities = padded(model.velocities.iter().map(|&p| v4(p, 0.0)).collect());
-        let mut masses: Vec<PhysicsMass> = (0..nf)
-            .map(|k| PhysicsMass {
-                restoring_n: v4(model.restoring_n[k], model.restoring_len[k]),
-                rest_pos: v4(model.rest[k], 0.0),
-                stick_anchor: match model.stick_parent[k] {
+        }
+        // Pack p's masses start at p·masses; its free masses' data is laid out the same way (the
+        // anchored masses' slots unused), its links at p·links, its tips and shell vertices at
+        // p·tips and p·shell vertices. Indices into the state are made global here.
+        let global = |i: u32, p: u32| if i == NO_LINK { NO_LINK } else { i + p * nm };
+        let mut positions = Vec::with_capacity(models.len() * nm as usize);
+        let mut velocities = Vec::with_capacity(models.len() * nm as usize);
+        let mut masses: Vec<PhysicsMass> = Vec::with_capacity(models.len() * nm as usize);
+        let mut links: Vec<PhysicsLink> = Vec::with_capacity(models.len() * nl as usize);
+        let mut tips: Vec<PhysicsTip> = Vec::with_capacity(models.len() * model.tips.len());
+        let mut guard_state: Vec<[f32; 4]> = Vec::with_capacity(models.len() * model.tips.len());
+        for (p, m) in (0..packs).zip(models) {
+            positions.extend(m.positions.iter().map(|&x| v4(x, 0.0)));
+            velocities.extend(m.velocities.iter().map(|&x| v4(x, 0.0)));
+            masses.extend((0..nf).map(|k| PhysicsMass {
+                restoring_n: v4(m.restoring_n[k], m.restoring_len[k]),
+                rest_pos: v4(m.rest[k], 0.0),
+                stick_anchor: match m.stick_parent[k] {
                     NO_LINK => [0.0; 4],
-                    p => v4(model.rest[p as usize], 0.0),
+                    q => v4(m.rest[q as usize], 0.0),
                 },
-                mass: model.mass[k],
-                inv_mass: 1.0 / model.mass[k],
-                links_start: model.links_start[k],
-                links_end: model.links_start[k + 1],
-                restoring_parent: model.restoring_parent[k],
-                stick_parent: model.stick_parent[k],
-                stick_len: model.stick[k][0],
-                stick_c: model.stick[k][1],
-            })
-            .collect();
-        if masses.is_empty() {
-            masses.push(bytemuck::Zeroable::zeroed());
-        }
-        let mut links: Vec<PhysicsLink> = model
-            .link_other
-            .iter()
-            .zip(&model.link_params)
-            .map(|(&other, p)| PhysicsLink { other, rest: p[0], k: p[1], c: p[2] })
-            .collect();
-        if links.is_empty() {
-            links.push(bytemuck::Zeroable::zeroed());
-        }
-        let mut tips: Vec<PhysicsTip> = model
-            .tips
-            .iter()
-            .map(|t| PhysicsTip {
+                mass: m.mass[k],
+                inv_mass: 1.0 / m.mass[k],
+                links_start: m.links_start[k] + p * nl,
+                links_end: m.links_start[k + 1] + p * nl,
+                restoring_parent: global(m.restoring_parent[k], p),
+                stick_parent: global(m.stick_parent[k], p),
+                stick_len: m.stick[k][0],
+                stick_c: m.stick[k][1],
+            }));
+            if p + 1 < packs {
+                masses.resize(((p + 1) * nm) as usize, bytemuck::Zeroable::zeroed());
+            }
+            links.extend(m.link_other.iter().zip(&m.link_params).map(|(&other, q)| PhysicsLink {
+                other: global(other, p),
+                rest: q[0],
+                k: q[1],
+                c: q[2],
+            }));
+            tips.extend(m.tips.iter().map(|t| PhysicsTip {
                 n: v4(t.n, 0.0),
-                root_pos: v4(model.rest[t.root as usize], 0.0),
-                root: t.root,
-                tip: t.tip,
+                root_pos: v4(m.rest[t.root as usize], 0.0),
+                root: global(t.root, p),
+                tip: global(t.tip, p),
                 pad0: 0,
                 pad1: 0,
-            })
-            .collect();
-        if tips.is_empty() {
-            tips.push(bytemuck::Zeroable::zeroed());
+            }));
+            guard_state.extend(m.scale.iter().zip(&m.frozen).map(|(&s, &f)| v4(s, if f { 1.0 } else { 0.0 })));
         }
-        let mut guard_state: Vec<[f32; 4]> =
-            model.scale.iter().zip(&model.frozen).map(|(&s, &f)| v4(s, if f { 1.0 } else { 0.0 })).collect();
-        if guard_state.is_empty() {
-            guard_state.push([0.0; 4]);
-        }
-        let mut shell_tip = model.shell_tip.clone();
-        if shell_tip.is_empty() {
-            shell_tip.push(NO_LINK);
-        }
+        let (positions, velocities, masses, links) =
+            (padded(positions), padded(velocities), padded(masses), padded(links));
+        let (tips, guard_state, shell_tip) = (padded(tips), padded(guard_state), padded(model.shell_tip.clone()));
+        let shell = model.shell_tip.len() as u64;
         crate::gpu_scope(device, "creating the fur physics", || {
             let init = |label: &str, contents: &[u8], usage| {
                 device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage })
@@ -476,8 +559,18 @@ impl GpuFurPhysics {
             let tip_buffer = init("furbake physics tips", bytemuck::cast_slice(&tips), read);
             let guard_state = init("furbake physics guard", bytemuck::cast_slice(&guard_state), storage);
             let shell_tip = init("furbake physics shell tips", bytemuck::cast_slice(&shell_tip), read);
-            let stats = init("furbake physics counters", &[0u8; 16], storage);
-            let steps_capacity = 4;
+            let stats = init("furbake physics counters", &vec![0u8; 16 * packs as usize], storage);
+            let herd_scale = (packs > 1).then(|| {
+                let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("furbake physics herd scale vectors"),
+                    size: (packs as u64 * shell).max(1) * 16,
+                    usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                    mapped_at_creation: false,
+                });
+                (buffer, scale_targets.clone())
+            });
+            let scale_out = herd_scale.as_ref().map_or(&scale_targets[0], |(b, _)| b);
+            let steps_capacity = 4 * packs;
             let steps = step_buffer(device, steps_capacity);
             let (entry, buffer) = (layout_entry, storage_binding);
             let state_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -560,7 +653,7 @@ impl GpuFurPhysics {
             let xpbd = match model.update {
                 ComputeUpdate::Xpbd { iterations } => Some(Xpbd::new(
                     device,
-                    model,
+                    models,
                     iterations,
                     XpbdParts { x: &x, v: &v, module: &module, state: &parts },
                 )?),
@@ -575,13 +668,14 @@ impl GpuFurPhysics {
                 tips: &tip_buffer,
                 guard: &guard_state,
             };
-            let pose = pose::Pose::new(device, model, &module, &targets, xpbd.as_ref().map(|x| &x.links), skin)?;
-            let energy = EnergyPass::new(device, &module, model, forces, &x, &v, &mass_buffer, &links);
+            let pose = pose::Pose::new(device, model, packs, &module, &targets, xpbd.as_ref().map(|x| &x.links), skin)?;
+            let strides = [nm, nl, nx];
+            let energy = EnergyPass::new(device, &module, model, packs, strides, forces, &x, &v, &mass_buffer, &links);
             Ok(GpuFurPhysics {
                 xpbd,
                 tip_buffer,
                 pose,
-                forces: forces.clone(),
+                forces: vec![forces.clone(); packs as usize],
                 guard: model.guard.clone(),
                 update: model.update,
                 project_sticks: model.project_sticks,
@@ -590,7 +684,8 @@ impl GpuFurPhysics {
                 max_substeps,
                 restoring_weight_n: forces.restoring_weight_n,
                 counts: [model.free, model.tips.len() as u32, model.shell_tip.len() as u32],
-                masses: model.masses,
+                packs,
+                strides,
                 order: model.order.clone(),
                 x,
                 v,
@@ -608,22 +703,45 @@ impl GpuFurPhysics {
                 guard_pipeline: pipeline("cs_guard", &tips_layout),
                 teleport_pipeline: pipeline("cs_teleport", &tips_layout),
                 scale_pipeline: pipeline("cs_scale", &tips_layout),
+                herd_scale,
                 current: 0,
                 scratch: Vec::with_capacity(steps_capacity as usize),
                 scratch_bytes: Vec::with_capacity(steps_capacity as usize * STEP_STRIDE as usize),
                 last_record: (0, 0),
-                stats_readback: Readback::new(device, "furbake physics counters readback", 16),
+                stats_readback: Readback::new(device, "furbake physics counters readback", 16 * packs as u64),
+                pack_stats: vec![GpuPhysicsStats::default(); packs as usize],
                 energy,
             })
         })
     }
 
-    /// Replaces the forces. The restoring weight stays the one the stable step was computed for
-    /// (a different one is a [`RenderError::Parameter`]: build again from a simulator with it).
+    /// Packs in this physics (1 unless built as a herd).
+    pub fn pack_count(&self) -> usize {
+        self.packs as usize
+    }
+
+    /// Replaces the forces of every pack. The restoring weight stays the one the stable step was
+    /// computed for (a different one is a [`RenderError::Parameter`]: build again from a
+    /// simulator with it).
     pub fn set_forces(&mut self, forces: &ForceSet) -> Result<(), RenderError> {
         check_forces(forces)?;
         self.check_restoring(forces)?;
-        self.forces.clone_from(forces);
+        for f in &mut self.forces {
+            f.clone_from(forces);
+        }
+        Ok(())
+    }
+
+    /// Replaces the forces of pack `pack` of a herd, as [`GpuFurPhysics::set_forces`].
+    pub fn set_pack_forces(&mut self, pack: usize, forces: &ForceSet) -> Result<(), RenderError> {
+        check_forces(forces)?;
+        self.check_restoring(forces)?;
+        let packs = self.packs;
+        let f = self
+            .forces
+            .get_mut(pack)
+            .ok_or_else(|| RenderError::Parameter { what: format!("pack {pack} of a GPU physics herd of {packs}") })?;
+        f.clone_from(forces);
         Ok(())
     }
 
@@ -637,6 +755,7 @@ impl GpuFurPhysics {
     /// substep count. Writes the step's uniforms with `queue.write_buffer` (staged until the
     /// host's next submission), so one record per submission; never submits or waits. A step
     /// needing more than the allowed substeps is a [`RenderError::Parameter`] and records nothing.
+    /// A herd steps every pack under its own forces.
     pub fn record(
         &mut self,
         device: &wgpu::Device,
@@ -645,13 +764,11 @@ impl GpuFurPhysics {
         dt_s: f64,
     ) -> Result<u32, RenderError> {
         let forces = std::mem::take(&mut self.forces);
-        let out = self.record_steps(
-            device,
-            queue,
-            encoder,
-            dt_s,
-            &[GpuStep { forces: &forces, teleport_m: [0.0; 3], pose: None }],
-        );
+        let out = self.record_herd(device, queue, encoder, dt_s, 1, |p, _| GpuStep {
+            forces: &forces[p],
+            teleport_m: [0.0; 3],
+            pose: None,
+        });
         self.forces = forces;
         out
     }
@@ -661,6 +778,7 @@ impl GpuFurPhysics {
     /// scale vectors; returns the substeps recorded. One record per submission, as
     /// [`GpuFurPhysics::record`]. The forces must keep the restoring weight the physics was built
     /// for; a step with too many substeps, bad forces or a non-finite teleport records nothing.
+    /// A herd records with [`GpuFurPhysics::record_herd`].
     pub fn record_steps(
         &mut self,
         device: &wgpu::Device,
@@ -669,27 +787,57 @@ impl GpuFurPhysics {
         dt_s: f64,
         steps: &[GpuStep<'_>],
     ) -> Result<u32, RenderError> {
+        if self.packs != 1 {
+            return Err(RenderError::Parameter {
+                what: format!("record_steps of a herd of {} packs (record_herd gives each its steps)", self.packs),
+            });
+        }
+        self.record_herd(device, queue, encoder, dt_s, steps.len() as u32, |_, n| steps[n as usize])
+    }
+
+    /// Records `count` steps of `dt_s` seconds for every pack of the herd, `step(pack, n)` being
+    /// pack `pack`'s step `n` (its forces, teleport and pose), as [`GpuFurPhysics::record_steps`]
+    /// records one pack's: every pack takes the same substeps, and each pass is one dispatch per
+    /// 64 packs. `step` is called several times per step (to check, then to write); a bad step of
+    /// any pack records nothing.
+    pub fn record_herd<'s>(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+        dt_s: f64,
+        count: u32,
+        step: impl Fn(usize, u32) -> GpuStep<'s>,
+    ) -> Result<u32, RenderError> {
         if !(dt_s.is_finite() && dt_s > 0.0) {
             return Err(RenderError::Parameter {
                 what: format!("physics step {dt_s} s (must be finite and positive)"),
             });
         }
-        for step in steps {
-            self.check_restoring(step.forces)?;
-            check_forces(step.forces)?;
-            if !step.teleport_m.iter().all(|c| c.is_finite()) {
-                return Err(RenderError::Parameter { what: format!("teleport {:?} is not finite", step.teleport_m) });
-            }
-            if let Some(p) = &step.pose {
-                match &self.pose {
-                    Some(pose) => pose.check(p)?,
-                    None => {
-                        return Err(RenderError::Parameter {
-                            what: "a skin pose for GPU physics built from a static skin (pose the simulator once, \
-                                   Simulator::pose_skin, before its compute_model)"
-                                .into(),
-                        });
+        let packs = self.packs as usize;
+        let mut posed = 0u32;
+        for n in 0..count {
+            for p in 0..packs {
+                let step = step(p, n);
+                self.check_restoring(step.forces)?;
+                check_forces(step.forces)?;
+                if !step.teleport_m.iter().all(|c| c.is_finite()) {
+                    return Err(RenderError::Parameter {
+                        what: format!("teleport {:?} is not finite", step.teleport_m),
+                    });
+                }
+                if let Some(q) = &step.pose {
+                    match &self.pose {
+                        Some(pose) => pose.check(q)?,
+                        None => {
+                            return Err(RenderError::Parameter {
+                                what: "a skin pose for GPU physics built from a static skin (pose the simulator \
+                                       once, Simulator::pose_skin, before its compute_model)"
+                                    .into(),
+                            });
+                        }
                     }
+                    posed += 1;
                 }
             }
         }
@@ -707,22 +855,26 @@ impl GpuFurPhysics {
                 ),
             });
         }
-        let (substeps, count) = (substeps as u32, steps.len() as u32);
+        let substeps = substeps as u32;
         if count == 0 {
             return Ok(0);
         }
         let total = substeps * count;
-        let posed = steps.iter().filter(|s| s.pose.is_some()).count() as u32;
+        let entries = total * self.packs;
         let mut rebind_pose = false;
-        if total > self.steps_capacity {
+        if entries > self.steps_capacity {
             // Grows, never shrinks: a steady frame rate allocates nothing here.
-            self.steps_capacity = total.next_power_of_two();
+            self.steps_capacity = entries.next_power_of_two();
             self.steps = step_buffer(device, self.steps_capacity);
             self.state = self.parts().bind_all(device, &self.x, &self.v);
+            if let Some(mut xpbd) = self.xpbd.take() {
+                xpbd.rebind(device, &self.parts(), &self.x, &self.v);
+                self.xpbd = Some(xpbd);
+            }
             rebind_pose = true;
         }
         if let Some(pose) = self.pose.as_mut() {
-            rebind_pose |= pose.reserve(device, posed, count);
+            rebind_pose |= pose.reserve(device, posed, count * self.packs);
             if rebind_pose {
                 let targets = pose::PoseTargets {
                     steps: &self.steps,
@@ -739,20 +891,26 @@ impl GpuFurPhysics {
         let h = dt_s / substeps as f64;
         self.scratch.clear();
         // Time advances step by step, as the CPU simulator's does (so one record of n steps and n
-        // records of one agree to the bit).
+        // records of one agree to the bit). Uniforms lie step by step, substep by substep, pack
+        // by pack; the poses take slots in the same order.
         let mut t = self.time_s;
-        let mut poses = 0;
-        for (n, step) in (0..count).zip(steps) {
+        let mut slot = 0;
+        for n in 0..count {
             for sub in 0..substeps {
-                // The teleport and the pose belong to the step's first substep (cs_teleport and
-                // the pose passes read them there).
-                let teleport = if sub == 0 { step.teleport_m } else { [0.0; 3] };
-                let mut u = self.uniforms(step.forces, teleport, t + sub as f64 * h, h as f32);
-                if let (0, Some(p), Some(pose)) = (sub, &step.pose, &self.pose) {
-                    (u.pose, u.pose_at, u.pose_skin) = pose.uniforms(poses, n, dt_s, p.cut_speed_m_per_s);
-                    poses += 1;
+                for p in 0..packs {
+                    let step = step(p, n);
+                    // The teleport and the pose belong to the step's first substep (cs_teleport
+                    // and the pose passes read them there).
+                    let teleport = if sub == 0 { step.teleport_m } else { [0.0; 3] };
+                    let mut u = self.uniforms(step.forces, teleport, t + sub as f64 * h, h as f32, p as u32);
+                    if let (0, Some(q), Some(pose)) = (sub, &step.pose, &self.pose) {
+                        let blend = matches!(q.skin, GpuSkin::Skinning { .. });
+                        let speed = n * self.packs + p as u32;
+                        (u.pose, u.pose_at, u.pose_skin) = pose.uniforms(slot, speed, dt_s, q.cut_speed_m_per_s, blend);
+                        slot += 1;
+                    }
+                    self.scratch.push(u);
                 }
-                self.scratch.push(u);
             }
             t += dt_s;
         }
@@ -761,48 +919,93 @@ impl GpuFurPhysics {
         self.scratch_bytes = bytes;
         encoder.clear_buffer(&self.stats, 0, None);
         if let (Some(pose), true) = (self.pose.as_mut(), posed > 0) {
-            pose.write(queue, steps.iter().filter_map(|s| s.pose.as_ref()));
+            let steps = (0..count).flat_map(|n| (0..packs).map(move |p| (p, n)));
+            pose.write(queue, steps.filter_map(|(p, n)| step(p, n).pose));
             pose.clear(encoder);
         }
-        let free_groups = self.counts[0].div_ceil(WORKGROUP).max(1);
-        for (n, step) in (0..count).zip(steps) {
+        let groups = |n: u32| n.div_ceil(WORKGROUP).max(1);
+        let (free_groups, tip_groups, shell_groups) =
+            (groups(self.counts[0]), groups(self.counts[1]), groups(self.counts[2]));
+        let chunks = self.packs.div_ceil(HERD_CHUNK as u32);
+        // The dynamic offset of substep `sub`'s (counted over the record) chunk `c`, and the packs
+        // in that chunk.
+        let packs_u = self.packs;
+        let chunk = move |sub: u32, c: u32| {
+            let first = c * HERD_CHUNK as u32;
+            ((((sub * packs_u + first) as u64) * STEP_STRIDE) as u32, (packs_u - first).min(HERD_CHUNK as u32))
+        };
+        for n in 0..count {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("furbake fur physics"),
                 timestamp_writes: None,
             });
             let first = n * substeps;
-            if step.teleport_m != [0.0; 3] {
+            if (0..packs).any(|p| step(p, n).teleport_m != [0.0; 3]) {
                 pass.set_pipeline(&self.teleport_pipeline);
-                pass.set_bind_group(0, &self.state.last[self.current], &[(first as u64 * STEP_STRIDE) as u32]);
                 pass.set_bind_group(1, &self.tips, &[]);
-                pass.dispatch_workgroups(free_groups, 1, 1);
+                for c in 0..chunks {
+                    let (offset, y) = chunk(first, c);
+                    pass.set_bind_group(0, &self.state.last[self.current], &[offset]);
+                    pass.dispatch_workgroups(free_groups, y, 1);
+                }
             }
-            if let (Some(p), Some(pose)) = (&step.pose, &self.pose) {
+            if let Some(pose) = &self.pose {
                 // The skin moves to its pose at the step's end before the step (as the CPU
                 // world poses the simulator before stepping it).
-                let blend = matches!(p.skin, GpuSkin::Skinning { .. });
-                pose.record(&mut pass, (first as u64 * STEP_STRIDE) as u32, self.current, blend);
+                let mut any = false;
+                let mut blend = false;
+                for p in 0..packs {
+                    if let Some(q) = step(p, n).pose {
+                        any = true;
+                        blend |= matches!(q.skin, GpuSkin::Skinning { .. });
+                    }
+                }
+                if any {
+                    for c in 0..chunks {
+                        let (offset, y) = chunk(first, c);
+                        pose.record(&mut pass, offset, self.current, blend, y);
+                    }
+                }
             }
             if let Some(x) = &self.xpbd {
-                x.record(&mut pass, (first as u64 * STEP_STRIDE) as u32, self.current);
+                for c in 0..chunks {
+                    let (offset, y) = chunk(first, c);
+                    x.record(&mut pass, offset, self.current, y);
+                }
                 self.current = 1 - self.current;
             } else {
                 pass.set_pipeline(&self.step_pipeline);
                 for sub in first..first + substeps {
-                    pass.set_bind_group(0, &self.state.step[self.current], &[(sub as u64 * STEP_STRIDE) as u32]);
-                    pass.dispatch_workgroups(free_groups, 1, 1);
+                    for c in 0..chunks {
+                        let (offset, y) = chunk(sub, c);
+                        pass.set_bind_group(0, &self.state.step[self.current], &[offset]);
+                        pass.dispatch_workgroups(free_groups, y, 1);
+                    }
                     self.current = 1 - self.current;
                 }
             }
             // The guard reads and kicks the step's final state, with its last substep's uniforms.
-            let last = ((first + substeps - 1) as u64 * STEP_STRIDE) as u32;
             pass.set_pipeline(&self.guard_pipeline);
-            pass.set_bind_group(0, &self.state.last[self.current], &[last]);
             pass.set_bind_group(1, &self.tips, &[]);
-            pass.dispatch_workgroups(self.counts[1].div_ceil(WORKGROUP).max(1), 1, 1);
+            for c in 0..chunks {
+                let (offset, y) = chunk(first + substeps - 1, c);
+                pass.set_bind_group(0, &self.state.last[self.current], &[offset]);
+                pass.dispatch_workgroups(tip_groups, y, 1);
+            }
             if n + 1 == count {
                 pass.set_pipeline(&self.scale_pipeline);
-                pass.dispatch_workgroups(self.counts[2].div_ceil(WORKGROUP).max(1), 1, 1);
+                for c in 0..chunks {
+                    let (offset, y) = chunk(first + substeps - 1, c);
+                    pass.set_bind_group(0, &self.state.last[self.current], &[offset]);
+                    pass.dispatch_workgroups(shell_groups, y, 1);
+                }
+            }
+        }
+        if let Some((herd, targets)) = &self.herd_scale {
+            // Each pack's part into its renderer's scale vectors.
+            let bytes = self.counts[2] as u64 * 16;
+            for (p, target) in targets.iter().enumerate() {
+                encoder.copy_buffer_to_buffer(herd, p as u64 * bytes, target, 0, bytes);
             }
         }
         self.time_s = t;
@@ -818,26 +1021,43 @@ impl GpuFurPhysics {
         self.stats_readback.request(encoder, &self.stats, self.last_record)
     }
 
-    /// The counters [`GpuFurPhysics::request_stats`] asked for, once the GPU has written them;
-    /// `None` until then (and without a request). Never waits: the first call after the host's
-    /// submission starts the mapping, and the host's own device polling (its next frame's submit
-    /// or `Device::poll`) completes it. A failed mapping is a [`RenderError::Gpu`].
+    /// The counters [`GpuFurPhysics::request_stats`] asked for, once the GPU has written them,
+    /// summed over a herd's packs ([`GpuFurPhysics::pack_stats`] has each pack's); `None` until
+    /// then (and without a request). Never waits: the first call after the host's submission
+    /// starts the mapping, and the host's own device polling (its next frame's submit or
+    /// `Device::poll`) completes it. A failed mapping is a [`RenderError::Gpu`].
     pub fn poll_stats(&mut self) -> Result<Option<GpuPhysicsStats>, RenderError> {
-        let read = |view: &[u8]| -> [u32; 4] { bytemuck::pod_read_unaligned(&view[..16]) };
-        Ok(self.stats_readback.try_read("GPU physics counters", read)?.map(|(c, record)| GpuPhysicsStats {
-            steps: record.0,
-            substeps: record.1,
-            non_finite: c[0],
-            guard_triggers: c[1],
-            frozen: c[2],
-        }))
+        let stats = &mut self.pack_stats;
+        let read = |view: &[u8]| {
+            for (s, c) in stats.iter_mut().zip(view.chunks_exact(16)) {
+                let c: [u32; 4] = bytemuck::pod_read_unaligned(c);
+                (s.non_finite, s.guard_triggers, s.frozen) = (c[0], c[1], c[2]);
+            }
+        };
+        let Some(((), record)) = self.stats_readback.try_read("GPU physics counters", read)? else {
+            return Ok(None);
+        };
+        let mut total = GpuPhysicsStats { steps: record.0, substeps: record.1, ..Default::default() };
+        for s in &mut self.pack_stats {
+            (s.steps, s.substeps) = record;
+            total.non_finite += s.non_finite;
+            total.guard_triggers += s.guard_triggers;
+            total.frozen += s.frozen;
+        }
+        Ok(Some(total))
+    }
+
+    /// Pack `pack`'s counters as the last [`GpuFurPhysics::poll_stats`] that returned some read
+    /// them (zero before any).
+    pub fn pack_stats(&self, pack: usize) -> Option<GpuPhysicsStats> {
+        self.pack_stats.get(pack).copied()
     }
 
     /// Asks for the energy of the current state (after the records so far), as
-    /// `Simulator::energy` measures it: records one compute pass of per-workgroup partial sums and
-    /// their copy into `encoder`. Then, after the host's submission,
-    /// [`GpuFurPhysics::poll_energy`] hands it over without waiting. False (nothing recorded)
-    /// while an earlier request is still on its way.
+    /// `Simulator::energy` measures it, summed over a herd's packs: records one compute pass of
+    /// per-workgroup partial sums and their copy into `encoder`. Then, after the host's
+    /// submission, [`GpuFurPhysics::poll_energy`] hands it over without waiting. False (nothing
+    /// recorded) while an earlier request is still on its way.
     pub fn request_energy(&mut self, encoder: &mut wgpu::CommandEncoder) -> bool {
         let e = &mut self.energy;
         if e.readback.state != ReadbackState::Idle {
@@ -849,8 +1069,11 @@ impl GpuFurPhysics {
                 timestamp_writes: None,
             });
             pass.set_pipeline(&e.pipeline);
-            pass.set_bind_group(0, &e.groups[self.current], &[0]);
-            pass.dispatch_workgroups(e.workgroups, 1, 1);
+            for c in 0..self.packs.div_ceil(HERD_CHUNK as u32) {
+                let first = c * HERD_CHUNK as u32;
+                pass.set_bind_group(0, &e.groups[self.current], &[(first as u64 * STEP_STRIDE) as u32]);
+                pass.dispatch_workgroups(e.workgroups, (self.packs - first).min(HERD_CHUNK as u32), 1);
+            }
         }
         e.readback.request(encoder, &e.partials, self.last_record)
     }
@@ -907,8 +1130,9 @@ impl GpuFurPhysics {
         }
     }
 
-    /// The uniforms of the substep starting at `t` (as `furbake_sim`'s `ForceEval::new`).
-    fn uniforms(&self, f: &ForceSet, teleport_m: [f32; 3], t: f64, h: f32) -> PhysicsStep {
+    /// Pack `pack`'s uniforms of the substep starting at `t` (as `furbake_sim`'s
+    /// `ForceEval::new`), with where its parts start.
+    fn uniforms(&self, f: &ForceSet, teleport_m: [f32; 3], t: f64, h: f32, pack: u32) -> PhysicsStep {
         let sub = |a: [f32; 3], b: [f32; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
         let m = &f.motion;
         let rotating = m.angular_velocity_rad_per_s != [0.0; 3] || m.angular_accel_rad_per_s2 != [0.0; 3];
@@ -941,13 +1165,18 @@ impl GpuFurPhysics {
                 rotating as u32,
                 0,
             ],
-            teleport: v4(teleport_m, 0.0),
+            teleport: v4(teleport_m, if teleport_m == [0.0; 3] { 0.0 } else { 1.0 }),
             pose: [0.0; 4],
             pose_at: [0; 4],
             pose_skin: [0; 4],
             locals,
-            base: [0; 4],
-            base2: [0; 4],
+            base: [
+                pack * self.strides[0],
+                pack * self.strides[1],
+                pack * self.counts[1],
+                if self.herd_scale.is_some() { pack * self.counts[2] } else { 0 },
+            ],
+            base2: [pack * self.strides[2], pack, 0, 0],
             pad0: [0; 4],
             pad1: [0; 4],
         }
@@ -970,26 +1199,42 @@ pub struct PhysicsReadback {
 
 #[cfg(feature = "testing")]
 impl GpuFurPhysics {
-    /// Reads the current state back (submits and waits: tests and tools only).
+    /// Reads the current state back (submits and waits: tests and tools only); a herd's first
+    /// pack.
     pub fn read_back(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<PhysicsReadback, RenderError> {
+        self.read_back_pack(device, queue, 0)
+    }
+
+    /// Reads pack `pack`'s current state back (submits and waits: tests and tools only).
+    pub fn read_back_pack(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        pack: usize,
+    ) -> Result<PhysicsReadback, RenderError> {
         use crate::blocking::read_buffer;
-        let n = self.masses as u64;
+        let (n, tips, packs) = (self.strides[0] as usize, self.counts[1] as usize, self.packs as usize);
+        if pack >= packs {
+            return Err(RenderError::Parameter { what: format!("pack {pack} of a GPU physics herd of {packs}") });
+        }
         let order = |v: Vec<[f32; 4]>| {
-            let mut out = vec![[0.0f32; 3]; n as usize];
+            let mut out = vec![[0.0f32; 3]; n];
             for (k, &i) in self.order.iter().enumerate() {
-                out[i as usize] = [v[k][0], v[k][1], v[k][2]];
+                let s = v[pack * n + k];
+                out[i as usize] = [s[0], s[1], s[2]];
             }
             out
         };
-        let x: Vec<[f32; 4]> = read_buffer(device, queue, &self.x[self.current], n, "physics positions")?;
-        let v: Vec<[f32; 4]> = read_buffer(device, queue, &self.v[self.current], n, "physics velocities")?;
-        let g: Vec<[f32; 4]> = read_buffer(device, queue, &self.guard_state, self.counts[1] as u64, "physics guard")?;
-        let c: Vec<u32> = read_buffer(device, queue, &self.stats, 3, "physics counters")?;
+        let all = (n * packs) as u64;
+        let x: Vec<[f32; 4]> = read_buffer(device, queue, &self.x[self.current], all, "physics positions")?;
+        let v: Vec<[f32; 4]> = read_buffer(device, queue, &self.v[self.current], all, "physics velocities")?;
+        let g: Vec<[f32; 4]> = read_buffer(device, queue, &self.guard_state, (tips * packs) as u64, "physics guard")?;
+        let c: Vec<u32> = read_buffer(device, queue, &self.stats, 4 * packs as u64, "physics counters")?;
         Ok(PhysicsReadback {
             positions: order(x),
             velocities: order(v),
-            scale: g.iter().map(|s| ([s[0], s[1], s[2]], s[3] != 0.0)).collect(),
-            counters: [c[0], c[1], c[2]],
+            scale: g[pack * tips..(pack + 1) * tips].iter().map(|s| ([s[0], s[1], s[2]], s[3] != 0.0)).collect(),
+            counters: [c[4 * pack], c[4 * pack + 1], c[4 * pack + 2]],
         })
     }
 }
@@ -1000,6 +1245,8 @@ impl EnergyPass {
         device: &wgpu::Device,
         module: &wgpu::ShaderModule,
         model: &ComputeModel,
+        packs: u32,
+        strides: [u32; 3],
         forces: &ForceSet,
         x: &[wgpu::Buffer; 2],
         v: &[wgpu::Buffer; 2],
@@ -1008,12 +1255,18 @@ impl EnergyPass {
     ) -> EnergyPass {
         const THREADS: u32 = 256;
         let workgroups = model.free.div_ceil(THREADS).max(1);
-        // Its own uniforms: the free masses and the restoring weight, fixed for the physics.
-        let mut uniforms: PhysicsStep = bytemuck::Zeroable::zeroed();
-        uniforms.counts = [model.free, model.tips.len() as u32, model.shell_tip.len() as u32, 0];
-        uniforms.alpha[3] = forces.restoring_weight_n;
-        let mut contents = vec![0u8; STEPS_WINDOW as usize];
-        contents[..size_of::<PhysicsStep>()].copy_from_slice(bytemuck::bytes_of(&uniforms));
+        // Its own uniforms per pack: the free masses, the restoring weight and where the pack
+        // starts, fixed for the physics; a whole window past the last chunk's first pack.
+        let mut contents = vec![0u8; (packs as u64).next_multiple_of(HERD_CHUNK) as usize * STEP_STRIDE as usize];
+        for p in 0..packs {
+            let mut uniforms: PhysicsStep = bytemuck::Zeroable::zeroed();
+            uniforms.counts = [model.free, model.tips.len() as u32, model.shell_tip.len() as u32, 0];
+            uniforms.alpha[3] = forces.restoring_weight_n;
+            uniforms.base = [p * strides[0], p * strides[1], 0, 0];
+            uniforms.base2 = [0, p, 0, 0];
+            let at = p as usize * STEP_STRIDE as usize;
+            contents[at..at + size_of::<PhysicsStep>()].copy_from_slice(bytemuck::bytes_of(&uniforms));
+        }
         let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("furbake physics energy uniforms"),
             contents: &contents,
@@ -1021,7 +1274,7 @@ impl EnergyPass {
         });
         let partials = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("furbake physics energy partial sums"),
-            size: workgroups as u64 * 16,
+            size: workgroups as u64 * packs as u64 * 16,
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
@@ -1091,33 +1344,36 @@ struct XpbdParts<'a> {
 impl Xpbd {
     fn new(
         device: &wgpu::Device,
-        model: &ComputeModel,
+        models: &[&ComputeModel],
         iterations: u32,
         parts: XpbdParts<'_>,
     ) -> Result<Xpbd, RenderError> {
         let XpbdParts { x, v, module, state } = parts;
+        let model = models[0];
         let colours = model.xpbd.colour_start.len().saturating_sub(1);
         if colours > MAX_XPBD_COLOURS {
             return Err(RenderError::Parameter {
                 what: format!("XPBD's links take {colours} colours; the GPU physics takes at most {MAX_XPBD_COLOURS}"),
             });
         }
-        let mut links: Vec<PhysicsXpbdLink> = model
-            .xpbd
-            .links
-            .iter()
-            .map(|l| PhysicsXpbdLink {
-                a: l.ends[0],
-                b: l.ends[1],
-                rest: l.rest,
-                compliance: l.compliance,
-                c: l.c,
-                wa: l.inv_mass[0],
-                wb: l.inv_mass[1],
-                pad0: 0.0,
+        // Each pack's links after the last's, their ends global (colour starts stay per pack).
+        let masses = model.masses;
+        let mut links: Vec<PhysicsXpbdLink> = (0u32..)
+            .zip(models)
+            .flat_map(|(p, m)| {
+                m.xpbd.links.iter().map(move |l| PhysicsXpbdLink {
+                    a: l.ends[0] + p * masses,
+                    b: l.ends[1] + p * masses,
+                    rest: l.rest,
+                    compliance: l.compliance,
+                    c: l.c,
+                    wa: l.inv_mass[0],
+                    wb: l.inv_mass[1],
+                    pad0: 0.0,
+                })
             })
             .collect();
-        let count = links.len();
+        let count = model.xpbd.links.len();
         if links.is_empty() {
             links.push(bytemuck::Zeroable::zeroed());
         }
@@ -1161,24 +1417,6 @@ impl Xpbd {
                 ),
             ],
         });
-        let bind = |from: usize| {
-            device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("furbake physics xpbd"),
-                layout: &layout,
-                entries: &[
-                    state.steps_entry(),
-                    entry(1, &x[from]),
-                    entry(2, &v[from]),
-                    entry(3, &x[1 - from]),
-                    entry(4, &v[1 - from]),
-                    entry(6, state.masses),
-                    entry(8, state.stats),
-                    entry(10, &links_buffer),
-                    entry(11, &lambda),
-                    entry(12, &colours_buffer),
-                ],
-            })
-        };
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("furbake physics xpbd"),
             bind_group_layouts: &[Some(&layout)],
@@ -1192,17 +1430,53 @@ impl Xpbd {
             compilation_options: Default::default(),
             cache: None,
         });
-        let bind = [bind(0), bind(1)];
-        Ok(Xpbd { bind, pipeline, links: links_buffer })
+        let bind = [0, 1]
+            .map(|from| xpbd_group(device, &layout, state, x, v, [&links_buffer, &lambda, &colours_buffer], from));
+        Ok(Xpbd { bind, layout, pipeline, links: links_buffer, lambda, colours: colours_buffer })
     }
 
-    /// Records one XPBD step from state `from` into `1 − from` with the step uniforms at
-    /// `step_offset`: one workgroup does the whole step (`cs_xpbd_step`).
-    fn record(&self, pass: &mut wgpu::ComputePass<'_>, step_offset: u32, from: usize) {
+    /// Binds the groups again (after the step uniforms' buffer was replaced).
+    fn rebind(&mut self, device: &wgpu::Device, state: &StateParts<'_>, x: &[wgpu::Buffer; 2], v: &[wgpu::Buffer; 2]) {
+        let own = [&self.links, &self.lambda, &self.colours];
+        self.bind = [0, 1].map(|from| xpbd_group(device, &self.layout, state, x, v, own, from));
+    }
+
+    /// Records one XPBD step of `packs` packs from state `from` into `1 − from` with the step
+    /// uniforms at `step_offset`: one workgroup does a pack's whole step (`cs_xpbd_step`).
+    fn record(&self, pass: &mut wgpu::ComputePass<'_>, step_offset: u32, from: usize, packs: u32) {
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, &self.bind[from], &[step_offset]);
-        pass.dispatch_workgroups(1, 1, 1);
+        pass.dispatch_workgroups(1, packs, 1);
     }
+}
+
+/// XPBD's group stepping state `from` into `1 − from`; `own` are its links, multipliers and
+/// colours.
+fn xpbd_group(
+    device: &wgpu::Device,
+    layout: &wgpu::BindGroupLayout,
+    state: &StateParts<'_>,
+    x: &[wgpu::Buffer; 2],
+    v: &[wgpu::Buffer; 2],
+    own: [&wgpu::Buffer; 3],
+    from: usize,
+) -> wgpu::BindGroup {
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("furbake physics xpbd"),
+        layout,
+        entries: &[
+            state.steps_entry(),
+            entry(1, &x[from]),
+            entry(2, &v[from]),
+            entry(3, &x[1 - from]),
+            entry(4, &v[1 - from]),
+            entry(6, state.masses),
+            entry(8, state.stats),
+            entry(10, own[0]),
+            entry(11, own[1]),
+            entry(12, own[2]),
+        ],
+    })
 }
 
 /// The buffers every state bind group shares.

@@ -306,19 +306,35 @@ pub struct SceneRenderer {
     /// The frame's writes for all packs, uploaded at once (docs/design.md "One upload per
     /// frame"); behind a lock because `prepare_world` takes `&self`, never contended in a frame.
     upload: std::sync::Mutex<FrameUpload>,
-    /// Per pack, its fur physics on the GPU when the world runs it there (`[solver] device =
-    /// "gpu"`): built at the first `prepare_world`, then stepped by the world's steps.
-    physics: Vec<Option<std::sync::Mutex<GpuPhysicsSlot>>>,
+    /// The fur physics of the packs the world runs on the GPU (`[solver] device = "gpu"`), in
+    /// herds of one asset's packs: built at the first `prepare_world`, then stepped by the world's
+    /// steps.
+    physics: std::sync::Mutex<GpuHerds>,
+    /// Per pack, whether its fur physics runs on the GPU.
+    on_gpu: Vec<bool>,
     /// Grass occlusion ([`SceneRenderer::set_grass_occlusion`]): the depth pyramid every blade
     /// renderer tests against; blade culling is then recorded by
     /// [`SceneRenderer::prepare_grass`] after the fur is drawn instead of by the prepare.
     occlusion: Option<DepthPyramid>,
 }
 
-/// One pack's GPU physics and how many of the world's steps it has recorded.
-struct GpuPhysicsSlot {
-    physics: Option<GpuFurPhysics>,
+/// A scene's GPU physics: packs of one opened asset whose models can step together share one
+/// [`GpuFurPhysics`] herd (one dispatch per pass for up to 64 of them).
+#[derive(Default)]
+struct GpuHerds {
+    herds: Vec<GpuHerd>,
+    /// Per pack: its herd and its place in it (packs on the CPU: none).
+    member: Vec<Option<(usize, usize)>>,
+}
+
+/// One herd: its physics, its packs (scene indices) and how many of the world's steps it has
+/// recorded.
+struct GpuHerd {
+    physics: GpuFurPhysics,
+    packs: Vec<usize>,
     recorded: u64,
+    /// Per member: counters read back and not yet handed over.
+    fresh: Vec<bool>,
 }
 
 impl SceneRenderer {
@@ -455,14 +471,11 @@ impl SceneRenderer {
                 clip_bounds,
             });
         }
-        let physics = (0..world.pack_count())
-            .map(|i| {
-                let on_gpu = world.gpu_physics(i).is_some() && packs[i].fur.is_some();
-                on_gpu.then(|| std::sync::Mutex::new(GpuPhysicsSlot { physics: None, recorded: 0 }))
-            })
-            .collect();
+        let on_gpu =
+            (0..world.pack_count()).map(|i| world.gpu_physics(i).is_some() && packs[i].fur.is_some()).collect();
         Ok(SceneRenderer {
-            physics,
+            physics: Default::default(),
+            on_gpu,
             frame: SceneFrame::from_scene(scene),
             packs,
             target: target.clone(),
@@ -615,7 +628,7 @@ impl SceneRenderer {
             let skinned = drawn.fur.as_ref().is_some_and(|f| f.is_animated());
             let pose = world.animation(i).filter(|_| skinned).map(|a| (a.skinning_matrices(), a.morph_weights()));
             // GPU physics writes its scale vectors in place (recorded below).
-            let gpu = self.physics[i].is_some();
+            let gpu = self.on_gpu[i];
             PackInput {
                 pose,
                 model: Some(world.model_matrix(i)),
@@ -635,7 +648,7 @@ impl SceneRenderer {
     }
 
     /// Records, for every pack whose fur physics runs on the GPU, the world's steps since the
-    /// last record (building its solver from the world's model at the first), into `encoder`
+    /// last record (building the herds from the world's models at the first), into `encoder`
     /// after the frame's upload, before the frame's draws read the scale vectors.
     fn record_gpu_physics(
         &self,
@@ -643,42 +656,43 @@ impl SceneRenderer {
         encoder: &mut wgpu::CommandEncoder,
         world: &World,
     ) -> Result<(), RenderError> {
-        for (i, slot) in self.physics.iter().enumerate() {
-            let (Some(slot), Some(steps), Some(renderer)) = (slot, world.gpu_physics(i), &self.packs[i].fur) else {
-                continue;
-            };
-            let mut slot = slot.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-            let slot = &mut *slot;
-            if slot.physics.is_none() || steps.taken() < slot.recorded {
-                // First frame, or a world that started over: the solver from the world's start.
-                let model = steps.compute_model()?;
-                let forces = ForceSet { restoring_weight_n: steps.restoring_weight_n(), ..ForceSet::none() };
-                slot.physics = Some(renderer.gpu_physics(
-                    &self.device,
-                    queue,
-                    &model,
-                    &forces,
-                    steps.stable_step_s(),
-                    steps.max_substeps(),
-                )?);
-                slot.recorded = 0;
-            }
-            let physics = slot.physics.as_mut().expect("built above");
-            if steps.taken() == slot.recorded {
+        if !self.on_gpu.contains(&true) {
+            return Ok(());
+        }
+        let mut herds = self.physics.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        let restarted = herds
+            .herds
+            .iter()
+            .any(|h| h.packs.iter().any(|&i| world.gpu_physics(i).is_none_or(|steps| steps.taken() < h.recorded)));
+        if herds.herds.is_empty() || restarted {
+            // First frame, or a world that started over: the solvers from the world's start.
+            *herds = self.build_herds(queue, world)?;
+        }
+        for herd in &mut herds.herds {
+            let GpuHerd { physics, packs, recorded, .. } = herd;
+            let steps_of = |i: usize| world.gpu_physics(i).expect("the world runs the pack on the GPU");
+            let taken = steps_of(packs[0]).taken();
+            if taken == *recorded {
                 continue;
             }
-            let Some(first) = steps.step(slot.recorded) else {
-                return Err(RenderError::Parameter {
-                    what: format!(
-                        "pack {:?}: the world took {} steps since the last frame; GPU physics records at most {} per frame",
-                        self.packs[i].name,
-                        steps.taken() - slot.recorded,
-                        furbake_runtime::GPU_PHYSICS_STEPS_KEPT
-                    ),
-                });
-            };
-            // On the stack: a frame allocates nothing here.
-            fn gpu_step(s: furbake_runtime::GpuStepInputs<'_>) -> GpuStep<'_> {
+            for &i in packs.iter() {
+                let steps = steps_of(i);
+                if steps.taken() != taken || steps.step(*recorded).is_none() {
+                    return Err(RenderError::Parameter {
+                        what: format!(
+                            "pack {:?}: the world took {} steps since the last frame; GPU physics records at most {} per frame",
+                            self.packs[i].name,
+                            steps.taken() - *recorded,
+                            furbake_runtime::GPU_PHYSICS_STEPS_KEPT
+                        ),
+                    });
+                }
+            }
+            let first = *recorded;
+            let step = |m: usize, n: u32| {
+                let s = steps_of(packs[m])
+                    .step(first + n as u64)
+                    .expect("the world keeps every step from the first unrecorded one");
                 GpuStep {
                     forces: s.forces,
                     teleport_m: s.teleport_m,
@@ -687,16 +701,78 @@ impl SceneRenderer {
                         cut_speed_m_per_s: p.cut_speed_m_per_s,
                     }),
                 }
-            }
-            let mut refs = [gpu_step(first); furbake_runtime::GPU_PHYSICS_STEPS_KEPT];
-            let count = (steps.taken() - slot.recorded) as usize;
-            for (r, n) in refs.iter_mut().zip(slot.recorded..steps.taken()) {
-                *r = gpu_step(steps.step(n).expect("the world keeps every step from the first unrecorded one"));
-            }
-            physics.record_steps(&self.device, queue, encoder, steps.dt_s(), &refs[..count])?;
-            slot.recorded = steps.taken();
+            };
+            let dt_s = steps_of(packs[0]).dt_s();
+            physics.record_herd(&self.device, queue, encoder, dt_s, (taken - first) as u32, step)?;
+            *recorded = taken;
         }
         Ok(())
+    }
+
+    /// The herds of the world's GPU packs at its start: packs placing the same opened asset whose
+    /// models [`crate::same_herd`] and whose solvers take the same stable step, substep limit and
+    /// restoring weight step together; each other pack is a herd of its own.
+    fn build_herds(&self, queue: &wgpu::Queue, world: &World) -> Result<GpuHerds, RenderError> {
+        struct Candidate<'w> {
+            pack: usize,
+            model: furbake_sim::ComputeModel,
+            steps: furbake_runtime::GpuPhysicsSteps<'w>,
+            renderer: &'w FurRenderer,
+        }
+        let mut groups: Vec<Vec<Candidate<'_>>> = Vec::new();
+        for (i, drawn) in self.packs.iter().enumerate() {
+            let (true, Some(steps), Some(renderer)) = (self.on_gpu[i], world.gpu_physics(i), drawn.fur.as_ref()) else {
+                continue;
+            };
+            let model = steps.compute_model()?;
+            let joins = |g: &Vec<Candidate<'_>>| {
+                let c = &g[0];
+                std::sync::Arc::ptr_eq(world.pack(c.pack), world.pack(i))
+                    && c.steps.stable_step_s() == steps.stable_step_s()
+                    && c.steps.max_substeps() == steps.max_substeps()
+                    && c.steps.restoring_weight_n() == steps.restoring_weight_n()
+                    && c.renderer.is_animated() == renderer.is_animated()
+                    && crate::same_herd(&c.model, &model)
+            };
+            let at = groups.iter().position(joins);
+            let candidate = Candidate { pack: i, model, steps, renderer };
+            match at {
+                Some(k) => groups[k].push(candidate),
+                None => groups.push(vec![candidate]),
+            }
+        }
+        let mut out = GpuHerds { herds: Vec::with_capacity(groups.len()), member: vec![None; self.packs.len()] };
+        for group in groups {
+            let c = &group[0];
+            let forces = ForceSet { restoring_weight_n: c.steps.restoring_weight_n(), ..ForceSet::none() };
+            let members: Vec<(&FurRenderer, &furbake_sim::ComputeModel)> =
+                group.iter().map(|c| (c.renderer, &c.model)).collect();
+            let physics = GpuFurPhysics::herd(
+                &self.device,
+                queue,
+                &members,
+                &forces,
+                c.steps.stable_step_s(),
+                c.steps.max_substeps(),
+            )?;
+            for (m, c) in group.iter().enumerate() {
+                out.member[c.pack] = Some((out.herds.len(), m));
+            }
+            out.herds.push(GpuHerd {
+                physics,
+                packs: group.iter().map(|c| c.pack).collect(),
+                recorded: 0,
+                fresh: vec![false; group.len()],
+            });
+        }
+        Ok(out)
+    }
+
+    /// How many herds step the packs whose fur physics runs on the GPU (0 before the first
+    /// `prepare_world`): each herd is one set of dispatches per frame, however many packs it
+    /// holds.
+    pub fn gpu_physics_herds(&self) -> usize {
+        self.physics.lock().unwrap_or_else(std::sync::PoisonError::into_inner).herds.len()
     }
 
     /// Asks every pack whose fur physics runs on the GPU for the counters of its last record
@@ -705,14 +781,8 @@ impl SceneRenderer {
     /// the host's submission is done. Returns how many packs were asked (a pack whose earlier
     /// request is still on its way is not).
     pub fn request_gpu_physics_stats(&self, encoder: &mut wgpu::CommandEncoder) -> usize {
-        let mut asked = 0;
-        for slot in self.physics.iter().flatten() {
-            let mut slot = slot.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-            if let Some(physics) = slot.physics.as_mut() {
-                asked += physics.request_stats(encoder) as usize;
-            }
-        }
-        asked
+        let mut herds = self.physics.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        herds.herds.iter_mut().map(|h| if h.physics.request_stats(encoder) { h.packs.len() } else { 0 }).sum()
     }
 
     /// Pack `index`'s GPU physics counters asked for by
@@ -720,12 +790,16 @@ impl SceneRenderer {
     /// then, without a request, or for a pack whose physics is not on the GPU. Never waits
     /// ([`GpuFurPhysics::poll_stats`]).
     pub fn poll_gpu_physics_stats(&self, index: usize) -> Result<Option<GpuPhysicsStats>, RenderError> {
-        let Some(Some(slot)) = self.physics.get(index) else { return Ok(None) };
-        let mut slot = slot.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-        match slot.physics.as_mut() {
-            Some(physics) => physics.poll_stats(),
-            None => Ok(None),
+        let mut herds = self.physics.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        let Some(&Some((h, m))) = herds.member.get(index) else { return Ok(None) };
+        let herd = &mut herds.herds[h];
+        if herd.physics.poll_stats()?.is_some() {
+            herd.fresh.fill(true);
         }
+        if !std::mem::replace(&mut herd.fresh[m], false) {
+            return Ok(None);
+        }
+        Ok(herd.physics.pack_stats(m))
     }
 
     /// [`SceneRenderer::prepare_world`] with explicit inputs: `inputs[i]` belongs to `packs[i]`

@@ -356,6 +356,18 @@ fn a_moving_skin_drags_gpu_fur_as_it_drags_cpu_fur() {
     }
 }
 
+/// The bundled Fox baked with 8 layers of 32² and the prisms topology into `dir/fox.fbk`.
+fn bake_fox(dir: &std::path::Path) {
+    let fox = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/real/Fox.glb");
+    let imported = furbake_import::import_gltf(&fox, &ImportSettings::default()).unwrap();
+    let mut settings = BakeSettings::preset("fur").unwrap();
+    settings.volume.layers = 8;
+    settings.volume.resolution = 32;
+    settings.topologies = vec!["prisms".into()];
+    let baked = bake(&imported, "fox", &settings.plan().unwrap(), &mut NoProgress).unwrap();
+    baked.to_writer().write_atomic(&dir.join("fox.fbk")).unwrap();
+}
+
 #[test]
 fn the_walking_fox_runs_its_fur_physics_on_the_gpu() {
     // The demo's case: the bundled Fox walking 80 cm in 1 s with its clip, prisms topology, the
@@ -364,14 +376,7 @@ fn the_walking_fox_runs_its_fur_physics_on_the_gpu() {
     // the CPU world's and the frames look the same.
     let g = gpu();
     let dir = tempfile::tempdir().unwrap();
-    let fox = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/real/Fox.glb");
-    let imported = furbake_import::import_gltf(&fox, &ImportSettings::default()).unwrap();
-    let mut settings = BakeSettings::preset("fur").unwrap();
-    settings.volume.layers = 8;
-    settings.volume.resolution = 32;
-    settings.topologies = vec!["prisms".into()];
-    let baked = bake(&imported, "fox", &settings.plan().unwrap(), &mut NoProgress).unwrap();
-    baked.to_writer().write_atomic(&dir.path().join("fox.fbk")).unwrap();
+    bake_fox(dir.path());
     let scene = |device: &str| {
         let toml = format!(
             r#"
@@ -776,4 +781,183 @@ fn a_teleport_moves_gpu_fur_as_it_moves_cpu_fur() {
     let bent = worst(cpu.fur(0).unwrap().scale_vectors, rest_world.fur(0).unwrap().scale_vectors);
     eprintln!("teleport: scale vectors {bent:.3} from rest, GPU−CPU at most {worst_after:.2e}");
     assert!(bent > 0.1, "the teleport moved the fur by {bent}");
+}
+
+/// A herd of `packs` spheres of one bake, each under its own push (pack p pushes
+/// `push_n · (1 + p)`, odd packs pull), its own skin motion (a swing started p·0.1 s later, with
+/// pack 1 left unposed every third step) and pack 2 teleported at step 20, stepped `steps` times
+/// by one `GpuFurPhysics::herd` — against each pack stepped alone by its own GPU physics (the
+/// same arithmetic: bit-identical) and by the CPU simulator. Returns the largest GPU−CPU gap in
+/// positions and scale vectors over the packs.
+fn herd_run(topology: &str, kind: SolverKind, packs: usize, steps: u32, checked: &[usize]) -> (f32, f32) {
+    use furbake_render::{GpuPose, GpuSkin};
+    use furbake_sim::SkinTransform;
+    let g = gpu();
+    let mut baked = baked_sphere(topology, 0.15);
+    let topo = baked.topologies.pop().unwrap();
+    let mesh = &baked.mesh;
+    let shell: Vec<glam::Vec3> = if shell_per_corner(topology) {
+        mesh.triangles.iter().flatten().map(|&i| glam::Vec3::from(mesh.positions[i as usize])).collect()
+    } else {
+        mesh.positions.iter().map(|&p| glam::Vec3::from(p)).collect()
+    };
+    let asset = FurAsset::new(Arc::new(baked.mesh), Arc::new(baked.shells), Arc::new(baked.uv_map), None).unwrap();
+    let settings = SolverSettings { max_substeps: 2_000, ..SolverSettings::of(kind) };
+    let dt = 1.0 / 60.0;
+    let pose_at = |p: usize, t: f32, out: &mut Vec<SkinTransform>| {
+        out.clear();
+        out.extend(shell.iter().map(|&q| {
+            let (m, morph) = swing(q, t + 0.1 * p as f32);
+            SkinTransform::new(m, morph)
+        }));
+    };
+    let push = |p: usize| if p.is_multiple_of(2) { 5e-3 * (1 + p) as f32 } else { -5e-3 };
+    let mut sims = Vec::new();
+    let mut transforms: Vec<Vec<SkinTransform>> = vec![Vec::new(); packs];
+    let mut all_forces = Vec::new();
+    let mut models = Vec::new();
+    for (p, t) in transforms.iter_mut().enumerate() {
+        let mut sim = Simulator::new(&topo, settings.clone()).unwrap();
+        let f = ForceSet { wind: None, ..forces(push(p)) };
+        sim.set_forces(f.clone()).unwrap();
+        pose_at(p, 0.0, t);
+        sim.pose_skin(t, dt, 0.0).unwrap();
+        models.push(sim.compute_model().unwrap());
+        all_forces.push(f);
+        sims.push(sim);
+    }
+    let herd_renderers: Vec<FurRenderer> = (0..packs).map(|_| renderer_of(g, &asset)).collect();
+    let members: Vec<(&FurRenderer, &furbake_sim::ComputeModel)> = herd_renderers.iter().zip(&models).collect();
+    let (stable, max_substeps) = (sims[0].stable_step_s(), settings.max_substeps);
+    let mut herd = GpuFurPhysics::herd(&g.device, &g.queue, &members, &all_forces[0], stable, max_substeps).unwrap();
+    assert_eq!(herd.pack_count(), packs);
+    let single_renderers: Vec<FurRenderer> = checked.iter().map(|_| renderer_of(g, &asset)).collect();
+    let mut singles: Vec<GpuFurPhysics> = checked
+        .iter()
+        .zip(&single_renderers)
+        .map(|(&p, r)| r.gpu_physics(&g.device, &g.queue, &models[p], &all_forces[p], stable, max_substeps).unwrap())
+        .collect();
+    for step in 1..=steps {
+        let posed = |p: usize| !(p == 1 && step % 3 == 0);
+        let teleport = |p: usize| if p == 2 && step == 20 { [0.3, -0.1, 0.2] } else { [0.0f32; 3] };
+        for (p, sim) in sims.iter_mut().enumerate() {
+            if teleport(p) != [0.0; 3] {
+                sim.teleport(teleport(p));
+            }
+            if posed(p) {
+                pose_at(p, step as f32 * dt as f32, &mut transforms[p]);
+                sim.pose_skin(&transforms[p], dt, 50.0).unwrap();
+            }
+            sim.step(dt).unwrap();
+        }
+        let gpu_step = |p: usize, _n: u32| GpuStep {
+            forces: &all_forces[p],
+            teleport_m: teleport(p),
+            pose: posed(p).then(|| GpuPose { skin: GpuSkin::Transforms(&transforms[p]), cut_speed_m_per_s: 50.0 }),
+        };
+        let mut encoder = g.device.create_command_encoder(&Default::default());
+        herd.record_herd(&g.device, &g.queue, &mut encoder, dt, 1, gpu_step).unwrap();
+        for (single, &p) in singles.iter_mut().zip(checked) {
+            single.record_steps(&g.device, &g.queue, &mut encoder, dt, &[gpu_step(p, 0)]).unwrap();
+        }
+        g.queue.submit([encoder.finish()]);
+    }
+    let (mut d, mut s) = (0.0f32, 0.0f32);
+    for (k, &p) in checked.iter().enumerate() {
+        let (h, one) =
+            (herd.read_back_pack(&g.device, &g.queue, p).unwrap(), singles[k].read_back(&g.device, &g.queue).unwrap());
+        assert_eq!(h.positions, one.positions, "{topology} pack {p}: the herd steps it as it steps alone");
+        assert_eq!(h.velocities, one.velocities, "{topology} pack {p}: velocities");
+        assert_eq!(h.counters, one.counters, "{topology} pack {p}: counters");
+        let (hs, os) = (
+            herd_renderers[p].shell_scale_vectors(&g.device, &g.queue).unwrap(),
+            single_renderers[k].shell_scale_vectors(&g.device, &g.queue).unwrap(),
+        );
+        assert_eq!(hs, os, "{topology} pack {p}: its renderer's scale vectors");
+        d = d.max(worst(&sims[p].positions(), &h.positions));
+        s = s.max(worst(&sims[p].scale_vectors(), &hs));
+    }
+    // The packs really differ (their own forces, poses and teleports).
+    let a = herd.read_back_pack(&g.device, &g.queue, checked[0]).unwrap();
+    let b = herd.read_back_pack(&g.device, &g.queue, *checked.last().unwrap()).unwrap();
+    assert!(worst(&a.positions, &b.positions) > 1e-3, "{topology}: the packs moved apart");
+    (d, s)
+}
+
+#[test]
+fn a_herd_steps_each_pack_as_it_steps_alone() {
+    for (topology, kind) in
+        [("prisms", SolverKind::Explicit), ("sticks", SolverKind::Stick), ("prisms", SolverKind::Xpbd)]
+    {
+        let (d, s) = herd_run(topology, kind, 3, 40, &[0, 1, 2]);
+        eprintln!("herd of 3, {topology} {kind:?}: GPU−CPU {d:.2e} m, scale vectors {s:.2e}");
+        assert!(d <= 1e-5 && s <= 2e-5, "{topology} {kind:?}: the herd's packs differ from the CPU's by {d} m, {s}");
+    }
+}
+
+#[test]
+fn a_herd_larger_than_one_dispatch_steps_every_pack() {
+    // 66 packs: two dispatches per pass (64 + 2), the second chunk's uniforms at its own offset.
+    let (d, s) = herd_run("prisms", SolverKind::Explicit, 66, 8, &[0, 63, 64, 65]);
+    assert!(d <= 1e-5 && s <= 2e-5, "the herd's packs differ from the CPU's by {d} m, {s}");
+}
+
+#[test]
+fn a_herd_of_walking_foxes_runs_as_the_cpu_runs() {
+    // Three Foxes of one pack file, each walking its clip from its own start and path, and a
+    // fourth entry that stays on the CPU: the scene steps the three GPU packs as one herd, and
+    // each one's scale vectors agree with the CPU world's, as one Fox's do; each pack's counters
+    // come back on their own.
+    let g = gpu();
+    let dir = tempfile::tempdir().unwrap();
+    bake_fox(dir.path());
+    let scene = |device: &str| {
+        let mut toml = format!(
+            "time_step_s = 0.02\n[solver]\ndevice = \"{device}\"\n[effects.gravity]\n[effects.wind]\nvelocity_m_per_s = [2.0, 0.0, 0.5]\ngust_amplitude = 0.5\n"
+        );
+        for i in 0..4 {
+            let cpu = if i == 3 { "physics_device = \"cpu\"\n" } else { "" };
+            toml += &format!(
+                "\n[[packs]]\nname = \"fox{i}\"\npath = \"fox.fbk\"\nscale = 0.01\ntranslation = [{}, 0.0, 0.0]\n{cpu}\
+                 animation = {{ clip = \"Walk\", speed = 1.0, loop = true, start_s = {} }}\n\
+                 [[packs.motion]]\ntime_s = 0.0\n[[packs.motion]]\ntime_s = 1.0\ntranslation = [0.0, 0.0, {}]\n",
+                i as f32 * 1.5,
+                i as f32 * 0.23,
+                0.5 + 0.3 * i as f32
+            );
+        }
+        furbake_runtime::Scene::from_toml_str(&toml, std::path::Path::new("foxes.toml"), dir.path()).unwrap()
+    };
+    let (mut cpu, mut gpu_world) = (World::new(scene("cpu")).unwrap(), World::new(scene("gpu")).unwrap());
+    assert!((0..3).all(|i| gpu_world.gpu_physics(i).is_some()) && gpu_world.gpu_physics(3).is_none());
+    let r_gpu = SceneRenderer::new(&g.device, &g.queue, &gpu_world).unwrap();
+    let frame = r_gpu.world_view(&gpu_world).uniforms(64, 64);
+    let mut worst_d = [0.0f32; 3];
+    for _ in 0..15 {
+        for _ in 0..2 {
+            cpu.step().unwrap();
+            gpu_world.step().unwrap();
+        }
+        let mut encoder = g.device.create_command_encoder(&Default::default());
+        r_gpu.prepare_world(&g.queue, &mut encoder, &gpu_world, &frame).unwrap();
+        g.queue.submit([encoder.finish()]);
+        for (i, d) in worst_d.iter_mut().enumerate() {
+            let gpu_scale = r_gpu.packs()[i].fur.as_ref().unwrap().shell_scale_vectors(&g.device, &g.queue).unwrap();
+            *d = d.max(worst(cpu.fur(i).unwrap().scale_vectors, &gpu_scale));
+        }
+    }
+    assert_eq!(r_gpu.gpu_physics_herds(), 1, "the three GPU Foxes step as one herd");
+    let a = cpu.fur(0).unwrap().scale_vectors.to_vec();
+    let b = cpu.fur(2).unwrap().scale_vectors.to_vec();
+    assert!(worst(&a, &b) > 0.05, "the Foxes walk out of step ({})", worst(&a, &b));
+    eprintln!("a herd of 3 walking Foxes, 0.6 s: GPU−CPU scale vectors {worst_d:?}");
+    assert!(worst_d.iter().all(|&d| d <= 1e-4), "GPU and CPU worlds' scale vectors differ by {worst_d:?}");
+    let mut encoder = g.device.create_command_encoder(&Default::default());
+    assert_eq!(r_gpu.request_gpu_physics_stats(&mut encoder), 3, "the three GPU packs are asked");
+    g.queue.submit([encoder.finish()]);
+    for i in 0..3 {
+        let stats = once_mapped(g, || r_gpu.poll_gpu_physics_stats(i).unwrap());
+        assert_eq!((stats.steps, stats.non_finite), (2, 0), "pack {i}: {stats:?}");
+    }
+    assert!(r_gpu.poll_gpu_physics_stats(3).unwrap().is_none(), "the CPU pack has no GPU counters");
 }

@@ -131,10 +131,11 @@ pub(super) struct Pose {
 }
 
 impl Pose {
-    /// The pose of `model` (which has a bind pose), or `None` for a static skin.
+    /// The pose of `packs` packs of `model` (which has a bind pose), or `None` for a static skin.
     pub fn new(
         device: &wgpu::Device,
         model: &ComputeModel,
+        packs: u32,
         module: &wgpu::ShaderModule,
         targets: &PoseTargets<'_>,
         xpbd_links: Option<&wgpu::Buffer>,
@@ -186,7 +187,7 @@ impl Pose {
         let between_buffer = init("furbake physics links between hairs", bytemuck::cast_slice(&between), read);
         let posed = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("furbake physics posed rest positions"),
-            size: masses.len() as u64 * 16,
+            size: masses.len() as u64 * packs as u64 * 16,
             usage: read,
             mapped_at_creation: false,
         });
@@ -228,7 +229,8 @@ impl Pose {
                 })
             })
             .collect();
-        let (transforms, speed) = (transform_buffer(device, 1, model.shell_tip.len() as u32), speed_buffer(device, 4));
+        let (transforms, speed) =
+            (transform_buffer(device, 1, model.shell_tip.len() as u32), speed_buffer(device, 4 * packs));
         let (binds, targets_n) = skin.as_ref().map_or((0, 0), |s| (s.bind_count, s.target_count));
         let mut pose = Pose {
             matrices: skin_buffer(device, "furbake physics skinning matrices", binds as u64 * 64),
@@ -244,7 +246,7 @@ impl Pose {
             transforms,
             transforms_capacity: 1,
             speed,
-            speed_capacity: 4,
+            speed_capacity: 4 * packs,
             pose_masses,
             posed,
             tip_n,
@@ -297,7 +299,7 @@ impl Pose {
         Ok(())
     }
 
-    /// Makes room for `poses` poses in `steps` steps (grows, never shrinks: a steady frame rate
+    /// Makes room for `poses` poses and `steps` speed slots (one per pack and step; grows, never shrinks: a steady frame rate
     /// allocates nothing here); true when the buffers were replaced and the groups must be bound
     /// again.
     pub fn reserve(&mut self, device: &wgpu::Device, poses: u32, steps: u32) -> bool {
@@ -374,7 +376,7 @@ impl Pose {
 
     /// Uploads the transforms of a record's posed steps, in order (staged until the host's next
     /// submission, as the step uniforms are).
-    pub fn write<'p>(&mut self, queue: &wgpu::Queue, poses: impl Iterator<Item = &'p GpuPose<'p>>) {
+    pub fn write<'p>(&mut self, queue: &wgpu::Queue, poses: impl Iterator<Item = GpuPose<'p>>) {
         self.matrix_bytes.clear();
         self.weight_bytes.clear();
         let (binds, targets) = self.skin.as_ref().map_or((0, 0), |s| (s.bind_count as usize, s.target_count as usize));
@@ -414,9 +416,17 @@ impl Pose {
         encoder.clear_buffer(&self.speed, 0, None);
     }
 
-    /// The uniforms' pose fields for the record's `posed`-th pose, applied before its `step`-th
-    /// step of `dt_s` seconds.
-    pub fn uniforms(&self, posed: u32, step: u32, dt_s: f64, cut_speed_m_per_s: f32) -> ([f32; 4], [u32; 4], [u32; 4]) {
+    /// The uniforms' pose fields for the record's `posed`-th pose (counted step by step, pack by
+    /// pack), whose fastest anchor goes to speed slot `speed`, applied before a step of `dt_s`
+    /// seconds; `blend` where it is given as skinning matrices.
+    pub fn uniforms(
+        &self,
+        posed: u32,
+        speed: u32,
+        dt_s: f64,
+        cut_speed_m_per_s: f32,
+        blend: bool,
+    ) -> ([f32; 4], [u32; 4], [u32; 4]) {
         let skin = self.skin.as_ref().map_or([0; 4], |s| {
             [
                 posed * s.bind_count,
@@ -426,15 +436,16 @@ impl Pose {
             ]
         });
         (
-            [(1.0 / dt_s) as f32, cut_speed_m_per_s, 0.0, 0.0],
-            [posed * self.shell, step, self.masses, self.between],
+            [(1.0 / dt_s) as f32, cut_speed_m_per_s, 1.0, if blend { 1.0 } else { 0.0 }],
+            [posed * self.shell, speed, self.masses, self.between],
             skin,
         )
     }
 
-    /// Records the passes with the step uniforms at `offset`, the state in buffers `current`:
-    /// with `blend`, the transforms blended from the step's skinning matrices first.
-    pub fn record(&self, pass: &mut wgpu::ComputePass<'_>, offset: u32, current: usize, blend: bool) {
+    /// Records the passes for `packs` packs with the step uniforms at `offset`, the state in
+    /// buffers `current`: with `blend`, the transforms blended from the step's skinning matrices
+    /// first (for the packs whose pose is given so). A pack not posed in this step skips them.
+    pub fn record(&self, pass: &mut wgpu::ComputePass<'_>, offset: u32, current: usize, blend: bool, packs: u32) {
         let shell = if blend { self.shell } else { 0 };
         let threads = [shell, self.masses, self.free, self.masses - self.free, self.tips, self.between];
         for ((pipeline, groups), n) in self.pipelines.iter().zip(&self.groups).zip(threads) {
@@ -443,7 +454,7 @@ impl Pose {
             }
             pass.set_pipeline(pipeline);
             pass.set_bind_group(0, &groups[current], &[offset]);
-            pass.dispatch_workgroups(n.div_ceil(WORKGROUP), 1, 1);
+            pass.dispatch_workgroups(n.div_ceil(WORKGROUP), packs, 1);
         }
     }
 }
