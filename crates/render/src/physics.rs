@@ -11,6 +11,9 @@
 //! ([`GpuFurPhysics::request_stats`]). docs/design.md "Fur physics on the GPU" has the design and
 //! the measured agreement with the CPU.
 //!
+//! Packs of one asset step as a herd ([`GpuFurPhysics::herd`]): one set of buffers, one
+//! dispatch per pass for up to 64 packs, each pack with its own forces, pose and counters.
+//!
 //! An animated skin is posed on the GPU before each step as `Simulator::pose_skin` poses it
 //! ([`GpuStep::pose`], `physics/pose.rs`); the state's energy comes back on request
 //! ([`GpuFurPhysics::request_energy`]). Not yet on the GPU: the implicit, reference and

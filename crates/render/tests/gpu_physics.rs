@@ -961,3 +961,46 @@ fn a_herd_of_walking_foxes_runs_as_the_cpu_runs() {
     }
     assert!(r_gpu.poll_gpu_physics_stats(3).unwrap().is_none(), "the CPU pack has no GPU counters");
 }
+
+#[test]
+fn a_herd_takes_each_pack_its_own_forces_and_refuses_what_cannot_step_together() {
+    let g = gpu();
+    let (asset, topo) = sphere("prisms");
+    let (_, sticks) = sphere("sticks");
+    let renderers: Vec<FurRenderer> = (0..2).map(|_| renderer_of(g, &asset)).collect();
+    let settings = SolverSettings::of(SolverKind::Explicit);
+    let model_of = |topology: &SpringTopology| {
+        let mut sim = Simulator::new(topology, settings.clone()).unwrap();
+        sim.set_forces(forces(0.0)).unwrap();
+        (sim.compute_model().unwrap(), sim.stable_step_s())
+    };
+    let ((prisms, stable), (other, _)) = (model_of(&topo), model_of(&sticks));
+    let refused = GpuFurPhysics::herd(
+        &g.device,
+        &g.queue,
+        &[(&renderers[0], &prisms), (&renderers[1], &other)],
+        &forces(0.0),
+        stable,
+        100,
+    );
+    let e = refused.err().expect("another topology cannot join the herd").to_string();
+    assert!(e.contains("pack 1") && e.contains("topology"), "{e}");
+    assert!(GpuFurPhysics::herd(&g.device, &g.queue, &[], &forces(0.0), stable, 100).is_err());
+    let members = [(&renderers[0], &prisms), (&renderers[1], &prisms)];
+    let mut herd = GpuFurPhysics::herd(&g.device, &g.queue, &members, &forces(0.0), stable, 100).unwrap();
+    let mut encoder = g.device.create_command_encoder(&Default::default());
+    let step = GpuStep { forces: &forces(0.0), teleport_m: [0.0; 3], pose: None };
+    let e = herd.record_steps(&g.device, &g.queue, &mut encoder, 1.0 / 60.0, &[step]).unwrap_err().to_string();
+    assert!(e.contains("herd of 2"), "{e}");
+    assert!(herd.set_pack_forces(2, &forces(0.0)).is_err(), "a herd of two has no pack 2");
+    herd.set_pack_forces(1, &forces(5e-3)).unwrap();
+    drop(encoder);
+    for _ in 0..20 {
+        let mut encoder = g.device.create_command_encoder(&Default::default());
+        herd.record(&g.device, &g.queue, &mut encoder, 1.0 / 60.0).unwrap();
+        g.queue.submit([encoder.finish()]);
+    }
+    let (a, b) =
+        (herd.read_back_pack(&g.device, &g.queue, 0).unwrap(), herd.read_back_pack(&g.device, &g.queue, 1).unwrap());
+    assert!(worst(&a.positions, &b.positions) > 1e-4, "pack 1's push moved it away from pack 0");
+}
