@@ -877,6 +877,15 @@ fn herd_run(topology: &str, kind: SolverKind, packs: usize, steps: u32, checked:
         d = d.max(worst(&sims[p].positions(), &h.positions));
         s = s.max(worst(&sims[p].scale_vectors(), &hs));
     }
+    if checked.len() == packs {
+        // The herd's energy is its packs' summed (each pack's masses and links on their own).
+        let mut encoder = g.device.create_command_encoder(&Default::default());
+        assert!(herd.request_energy(&mut encoder));
+        g.queue.submit([encoder.finish()]);
+        let gpu_j = once_mapped(g, || herd.poll_energy().unwrap()).total_j();
+        let cpu_j: f64 = sims.iter().map(|s| s.energy().total_j()).sum();
+        assert!((gpu_j - cpu_j).abs() <= 1e-4 * cpu_j, "{topology}: herd energy {gpu_j} J, packs' {cpu_j} J");
+    }
     // The packs really differ (their own forces, poses and teleports).
     let a = herd.read_back_pack(&g.device, &g.queue, checked[0]).unwrap();
     let b = herd.read_back_pack(&g.device, &g.queue, *checked.last().unwrap()).unwrap();
