@@ -423,6 +423,28 @@ pub fn same_herd(a: &ComputeModel, b: &ComputeModel) -> bool {
 }
 
 impl GpuFurPhysics {
+    /// The most packs of `model` one herd holds on a device with `limits`: each of the herd's
+    /// arrays (per pack: the masses' data, link entries, tips, XPBD links, scale vectors and an
+    /// animated skin's transforms) must fit one storage binding and one buffer. At least 1.
+    pub fn herd_capacity(limits: &wgpu::Limits, model: &ComputeModel) -> usize {
+        let limit = limits.max_storage_buffer_binding_size.min(limits.max_buffer_size);
+        let bytes = |n: usize, size: usize| (n * size) as u64;
+        let shell = model.shell_tip.len();
+        let per_pack = [
+            bytes(model.masses as usize, size_of::<PhysicsMass>()),
+            bytes(model.link_other.len(), size_of::<PhysicsLink>()),
+            bytes(model.tips.len(), size_of::<PhysicsTip>()),
+            bytes(model.xpbd.links.len(), size_of::<PhysicsXpbdLink>()),
+            bytes(shell, 16),
+            if model.pose.is_some() { bytes(shell, size_of::<pose::PoseTransform>()) } else { 0 },
+        ]
+        .into_iter()
+        .max()
+        .unwrap_or(0)
+        .max(1);
+        (limit / per_pack).clamp(1, usize::MAX as u64) as usize
+    }
+
     /// Fur physics on the GPU for a herd: `members` are packs of one asset, each with its
     /// renderer and its model (as [`FurRenderer::gpu_physics`] takes them; every model
     /// [`same_herd`] as the first), stepped together under one `stable_step_s` and
@@ -453,6 +475,16 @@ impl GpuFurPhysics {
         if stable_step_s.is_nan() || stable_step_s <= 0.0 || max_substeps == 0 {
             return Err(RenderError::Parameter {
                 what: format!("stable step {stable_step_s} s and {max_substeps} substeps (must be positive)"),
+            });
+        }
+        let capacity = Self::herd_capacity(&device.limits(), model);
+        if members.len() > capacity {
+            return Err(RenderError::Parameter {
+                what: format!(
+                    "a herd of {} packs: this device's storage bindings hold {capacity} packs of this model in one \
+                     herd (GpuFurPhysics::herd_capacity)",
+                    members.len()
+                ),
             });
         }
         check_forces(forces)?;
@@ -818,7 +850,8 @@ impl GpuFurPhysics {
             });
         }
         let packs = self.packs as usize;
-        let mut posed = 0u32;
+        // Poses, those given as transforms, and whether any is blended from skinning matrices.
+        let (mut posed, mut given, mut blended) = (0u32, 0u32, false);
         for n in 0..count {
             for p in 0..packs {
                 let step = step(p, n);
@@ -841,6 +874,10 @@ impl GpuFurPhysics {
                         }
                     }
                     posed += 1;
+                    match q.skin {
+                        GpuSkin::Transforms(_) => given += 1,
+                        GpuSkin::Skinning { .. } => blended = true,
+                    }
                 }
             }
         }
@@ -864,7 +901,15 @@ impl GpuFurPhysics {
         }
         let total = substeps * count;
         let entries = total * self.packs;
-        let mut rebind_pose = false;
+        // The pose's buffers first: a record too large for them fails before anything changes.
+        let mut rebind_pose = match self.pose.as_mut() {
+            // Transforms given by the host each take a slot; a blended pose's are written by the
+            // GPU before its step reads them, so each pack reuses one slot after those.
+            Some(pose) => {
+                pose.reserve(device, given + if blended { self.packs } else { 0 }, posed, count * self.packs)?
+            }
+            None => false,
+        };
         if entries > self.steps_capacity {
             // Grows, never shrinks: a steady frame rate allocates nothing here.
             self.steps_capacity = entries.next_power_of_two();
@@ -876,20 +921,17 @@ impl GpuFurPhysics {
             }
             rebind_pose = true;
         }
-        if let Some(pose) = self.pose.as_mut() {
-            rebind_pose |= pose.reserve(device, posed, count * self.packs);
-            if rebind_pose {
-                let targets = pose::PoseTargets {
-                    steps: &self.steps,
-                    x: &self.x,
-                    v: &self.v,
-                    masses: &self.mass_buffer,
-                    links: &self.links,
-                    tips: &self.tip_buffer,
-                    guard: &self.guard_state,
-                };
-                pose.rebind(device, &targets);
-            }
+        if let (Some(pose), true) = (self.pose.as_mut(), rebind_pose) {
+            let targets = pose::PoseTargets {
+                steps: &self.steps,
+                x: &self.x,
+                v: &self.v,
+                masses: &self.mass_buffer,
+                links: &self.links,
+                tips: &self.tip_buffer,
+                guard: &self.guard_state,
+            };
+            pose.rebind(device, &targets);
         }
         let h = dt_s / substeps as f64;
         self.scratch.clear();
@@ -897,7 +939,7 @@ impl GpuFurPhysics {
         // records of one agree to the bit). Uniforms lie step by step, substep by substep, pack
         // by pack; the poses take slots in the same order.
         let mut t = self.time_s;
-        let mut slot = 0;
+        let (mut slot, mut given_slot) = (0, 0);
         for n in 0..count {
             for sub in 0..substeps {
                 for p in 0..packs {
@@ -909,7 +951,14 @@ impl GpuFurPhysics {
                     if let (0, Some(q), Some(pose)) = (sub, &step.pose, &self.pose) {
                         let blend = matches!(q.skin, GpuSkin::Skinning { .. });
                         let speed = n * self.packs + p as u32;
-                        (u.pose, u.pose_at, u.pose_skin) = pose.uniforms(slot, speed, dt_s, q.cut_speed_m_per_s, blend);
+                        let transforms = if blend {
+                            given + p as u32
+                        } else {
+                            given_slot += 1;
+                            given_slot - 1
+                        };
+                        (u.pose, u.pose_at, u.pose_skin) =
+                            pose.uniforms(slot, transforms, speed, dt_s, q.cut_speed_m_per_s, blend);
                         slot += 1;
                     }
                     self.scratch.push(u);

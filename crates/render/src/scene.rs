@@ -711,7 +711,8 @@ impl SceneRenderer {
 
     /// The herds of the world's GPU packs at its start: packs placing the same opened asset whose
     /// models [`crate::same_herd`] and whose solvers take the same stable step, substep limit and
-    /// restoring weight step together; each other pack is a herd of its own.
+    /// restoring weight step together, as many per herd as the device's storage bindings hold
+    /// ([`GpuFurPhysics::herd_capacity`]); each other pack is a herd of its own.
     fn build_herds(&self, queue: &wgpu::Queue, world: &World) -> Result<GpuHerds, RenderError> {
         struct Candidate<'w> {
             pack: usize,
@@ -741,6 +742,21 @@ impl SceneRenderer {
                 None => groups.push(vec![candidate]),
             }
         }
+        // A herd holds as many packs as the device's storage bindings take.
+        let limits = self.device.limits();
+        let groups: Vec<Vec<Candidate<'_>>> = groups
+            .into_iter()
+            .flat_map(|mut g| {
+                let capacity = GpuFurPhysics::herd_capacity(&limits, &g[0].model);
+                let mut parts = Vec::new();
+                while g.len() > capacity {
+                    let rest = g.split_off(capacity);
+                    parts.push(std::mem::replace(&mut g, rest));
+                }
+                parts.push(g);
+                parts
+            })
+            .collect();
         let mut out = GpuHerds { herds: Vec::with_capacity(groups.len()), member: vec![None; self.packs.len()] };
         for group in groups {
             let c = &group[0];

@@ -1013,3 +1013,82 @@ fn a_herd_takes_each_pack_its_own_forces_and_refuses_what_cannot_step_together()
         (herd.read_back_pack(&g.device, &g.queue, 0).unwrap(), herd.read_back_pack(&g.device, &g.queue, 1).unwrap());
     assert!(worst(&a.positions, &b.positions) > 1e-4, "pack 1's push moved it away from pack 0");
 }
+
+#[test]
+fn a_scene_splits_a_herd_its_device_cannot_hold() {
+    // A device whose storage bindings hold two spheres' arrays: the five spheres of one pack file
+    // step as three herds (2 + 2 + 1), each pack as the CPU world steps it; a herd of three is
+    // refused there, naming the capacity.
+    let dir = tempfile::tempdir().unwrap();
+    let (mut cpu, mut gpu_world) = (
+        World::new(crowd_scene(dir.path(), 5, "cpu")).unwrap(),
+        World::new(crowd_scene(dir.path(), 5, "gpu")).unwrap(),
+    );
+    let model = gpu_world.gpu_physics(0).unwrap().compute_model().unwrap();
+    let capacity = |bytes: u64| {
+        let limits = wgpu::Limits { max_storage_buffer_binding_size: bytes, ..wgpu::Limits::default() };
+        GpuFurPhysics::herd_capacity(&limits, &model)
+    };
+    assert!(capacity(wgpu::Limits::default().max_storage_buffer_binding_size) >= 66);
+    let limit = (1..).map(|k| k * 256).find(|&b| capacity(b) == 2).unwrap();
+    assert_eq!(capacity(2 * limit), 4, "the capacity grows with the binding");
+    let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle());
+    let adapter = pollster_block(
+        instance.request_adapter(&wgpu::RequestAdapterOptions { force_fallback_adapter: false, ..Default::default() }),
+    )
+    .or_else(|_| {
+        pollster_block(
+            instance
+                .request_adapter(&wgpu::RequestAdapterOptions { force_fallback_adapter: true, ..Default::default() }),
+        )
+    })
+    .unwrap();
+    let (device, queue) = pollster_block(adapter.request_device(&wgpu::DeviceDescriptor {
+        required_limits: wgpu::Limits { max_storage_buffer_binding_size: limit, ..wgpu::Limits::default() },
+        ..Default::default()
+    }))
+    .unwrap();
+    let renderer = SceneRenderer::new(&device, &queue, &gpu_world).unwrap();
+    let frame = renderer.world_view(&gpu_world).uniforms(64, 64);
+    let mut worst_d = 0.0f32;
+    for _ in 0..10 {
+        cpu.step().unwrap();
+        gpu_world.step().unwrap();
+        let mut encoder = device.create_command_encoder(&Default::default());
+        renderer.prepare_world(&queue, &mut encoder, &gpu_world, &frame).unwrap();
+        queue.submit([encoder.finish()]);
+        for i in 0..5 {
+            let scale = renderer.packs()[i].fur.as_ref().unwrap().shell_scale_vectors(&device, &queue).unwrap();
+            worst_d = worst_d.max(worst(cpu.fur(i).unwrap().scale_vectors, &scale));
+        }
+    }
+    assert_eq!(renderer.gpu_physics_herds(), 3);
+    assert!(worst_d <= 1e-5, "the split herds' scale vectors differ from the CPU world's by {worst_d}");
+    let fur: Vec<&FurRenderer> = (0..3).map(|i| renderer.packs()[i].fur.as_ref().unwrap()).collect();
+    let steps = gpu_world.gpu_physics(0).unwrap();
+    let e = GpuFurPhysics::herd(
+        &device,
+        &queue,
+        &[(fur[0], &model), (fur[1], &model), (fur[2], &model)],
+        &ForceSet { restoring_weight_n: steps.restoring_weight_n(), ..ForceSet::none() },
+        steps.stable_step_s(),
+        steps.max_substeps(),
+    )
+    .err()
+    .expect("three packs do not fit")
+    .to_string();
+    assert!(e.contains("hold 2 packs"), "{e}");
+}
+
+/// Blocks on a future (wgpu's adapter and device requests).
+fn pollster_block<F: std::future::Future>(f: F) -> F::Output {
+    let waker = std::task::Waker::noop();
+    let mut cx = std::task::Context::from_waker(waker);
+    let mut f = std::pin::pin!(f);
+    loop {
+        if let std::task::Poll::Ready(out) = f.as_mut().poll(&mut cx) {
+            return out;
+        }
+        std::thread::yield_now();
+    }
+}

@@ -299,13 +299,40 @@ impl Pose {
         Ok(())
     }
 
-    /// Makes room for `poses` poses and `steps` speed slots (one per pack and step; grows, never shrinks: a steady frame rate
+    /// Makes room for `transforms` slots of skin transforms, `poses` poses' skinning matrices and
+    /// `steps` speed slots (one per pack and step; grows, never shrinks: a steady frame rate
     /// allocates nothing here); true when the buffers were replaced and the groups must be bound
-    /// again.
-    pub fn reserve(&mut self, device: &wgpu::Device, poses: u32, steps: u32) -> bool {
+    /// again. More than one storage binding holds is a [`RenderError::Parameter`], before
+    /// anything is replaced.
+    pub fn reserve(
+        &mut self,
+        device: &wgpu::Device,
+        transforms: u32,
+        poses: u32,
+        steps: u32,
+    ) -> Result<bool, RenderError> {
+        let limits = device.limits();
+        let limit = limits.max_storage_buffer_binding_size.min(limits.max_buffer_size);
+        let (binds, targets) = self.skin.as_ref().map_or((0, 0), |s| (s.bind_count as u64, s.target_count as u64));
+        let needed = [
+            ("skin transforms", transforms as u64 * self.shell as u64 * size_of::<PoseTransform>() as u64),
+            ("skinning matrices", poses as u64 * binds * 64),
+            ("morph weights", poses as u64 * targets * 4),
+        ];
+        if let Some((what, bytes)) = needed.iter().find(|(_, b)| *b > limit) {
+            return Err(RenderError::Parameter {
+                what: format!(
+                    "one record's {what} take {bytes} bytes, more than the device's storage binding of {limit}: \
+                     record fewer steps or packs at once"
+                ),
+            });
+        }
         let mut grown = false;
-        if poses > self.transforms_capacity {
-            self.transforms_capacity = poses.next_power_of_two();
+        if transforms > self.transforms_capacity {
+            // Doubles, up to what one binding holds.
+            let capacity = transforms.next_power_of_two();
+            let fits = (limit / (self.shell.max(1) as u64 * size_of::<PoseTransform>() as u64)) as u32;
+            self.transforms_capacity = capacity.min(fits.max(transforms));
             self.transforms = transform_buffer(device, self.transforms_capacity, self.shell);
             grown = true;
         }
@@ -314,18 +341,20 @@ impl Pose {
             self.speed = speed_buffer(device, self.speed_capacity);
             grown = true;
         }
-        if let Some(skin) = &self.skin {
-            let (m, w) = (poses as u64 * skin.bind_count as u64 * 64, poses as u64 * skin.target_count as u64 * 4);
+        if self.skin.is_some() {
+            let (m, w) = (needed[1].1, needed[2].1);
             if m > self.matrices.size() {
-                self.matrices = skin_buffer(device, "furbake physics skinning matrices", m.next_power_of_two());
+                let bytes = m.next_power_of_two().min(limit).max(m);
+                self.matrices = skin_buffer(device, "furbake physics skinning matrices", bytes);
                 grown = true;
             }
             if w > self.morph_weights.size() {
-                self.morph_weights = skin_buffer(device, "furbake physics morph weights", w.next_power_of_two());
+                let bytes = w.next_power_of_two().min(limit).max(w);
+                self.morph_weights = skin_buffer(device, "furbake physics morph weights", bytes);
                 grown = true;
             }
         }
-        grown
+        Ok(grown)
     }
 
     /// Binds the pose passes to the physics' buffers (again after any of them was replaced).
@@ -374,12 +403,15 @@ impl Pose {
             .collect();
     }
 
-    /// Uploads the transforms of a record's posed steps, in order (staged until the host's next
-    /// submission, as the step uniforms are).
+    /// Uploads the transforms and skinning matrices of a record's poses, in order (staged until
+    /// the host's next submission, as the step uniforms are): the k-th pose's matrices into slot
+    /// k, the k-th pose given as transforms into transform slot k (the slots
+    /// [`Pose::uniforms`] was given).
     pub fn write<'p>(&mut self, queue: &wgpu::Queue, poses: impl Iterator<Item = GpuPose<'p>>) {
         self.matrix_bytes.clear();
         self.weight_bytes.clear();
         let (binds, targets) = self.skin.as_ref().map_or((0, 0), |s| (s.bind_count as usize, s.target_count as usize));
+        let mut slot = 0u64;
         for (k, p) in poses.enumerate() {
             match p.skin {
                 GpuSkin::Transforms(transforms) => {
@@ -389,8 +421,9 @@ impl Pose {
                     for t in transforms {
                         self.bytes.extend_from_slice(bytemuck::bytes_of(&PoseTransform::of(t)));
                     }
-                    let at = k as u64 * self.shell as u64 * size_of::<PoseTransform>() as u64;
+                    let at = slot * self.shell as u64 * size_of::<PoseTransform>() as u64;
                     queue.write_buffer(&self.transforms, at, &self.bytes);
+                    slot += 1;
                 }
                 GpuSkin::Skinning { matrices, morph_weights } => {
                     // Slot k of the matrices and weights (the uniforms point there).
@@ -417,11 +450,13 @@ impl Pose {
     }
 
     /// The uniforms' pose fields for the record's `posed`-th pose (counted step by step, pack by
-    /// pack), whose fastest anchor goes to speed slot `speed`, applied before a step of `dt_s`
-    /// seconds; `blend` where it is given as skinning matrices.
+    /// pack; its skinning matrices' slot), whose skin transforms are in slot `transforms` and
+    /// whose fastest anchor goes to speed slot `speed`, applied before a step of `dt_s` seconds;
+    /// `blend` where it is given as skinning matrices.
     pub fn uniforms(
         &self,
         posed: u32,
+        transforms: u32,
         speed: u32,
         dt_s: f64,
         cut_speed_m_per_s: f32,
@@ -437,7 +472,7 @@ impl Pose {
         });
         (
             [(1.0 / dt_s) as f32, cut_speed_m_per_s, 1.0, if blend { 1.0 } else { 0.0 }],
-            [posed * self.shell, speed, self.masses, self.between],
+            [transforms * self.shell, speed, self.masses, self.between],
             skin,
         )
     }
