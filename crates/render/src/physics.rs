@@ -447,7 +447,8 @@ impl GpuFurPhysics {
 
     /// Fur physics on the GPU for a herd: `members` are packs of one asset, each with its
     /// renderer and its model (as [`FurRenderer::gpu_physics`] takes them; every model
-    /// [`same_herd`] as the first), stepped together under one `stable_step_s` and
+    /// [`same_herd`] as the first; an animated asset's renderers made from one uploaded asset,
+    /// [`FurRenderer::with_gpu_asset`]), stepped together under one `stable_step_s` and
     /// `max_substeps`, each starting under `forces` ([`GpuFurPhysics::set_pack_forces`] to give
     /// each its own). Each renderer's scale vectors are written from now on. One dispatch per
     /// pass steps up to 64 packs.
@@ -493,6 +494,23 @@ impl GpuFurPhysics {
         }
         let per_corner = layouts[0] == furbake_runtime::ShellVertexLayout::PerCorner;
         let skin = first.skinning_pass().map(|s| s.physics_inputs(per_corner));
+        // Skin transforms are blended from the first pack's influences and morph deltas: an
+        // animated herd's renderers draw one uploaded asset (`FurRenderer::with_gpu_asset`).
+        for (k, &(renderer, _)) in members.iter().enumerate().skip(1) {
+            let same = match (first.is_animated(), renderer.is_animated()) {
+                (false, false) => true,
+                (true, true) => first.shares_gpu_asset(renderer),
+                _ => false,
+            };
+            if !same {
+                return Err(RenderError::Parameter {
+                    what: format!(
+                        "pack {k} of the herd has another skin than pack 0 (an animated herd's renderers share one \
+                         uploaded asset, FurRenderer::with_gpu_asset)"
+                    ),
+                });
+            }
+        }
         let models: Vec<&ComputeModel> = members.iter().map(|&(_, m)| m).collect();
         let targets: Vec<wgpu::Buffer> = members.iter().map(|&(r, _)| r.scale_buffer().clone()).collect();
         GpuFurPhysics::new(device, &models, forces, stable_step_s, max_substeps, targets, skin)

@@ -793,6 +793,11 @@ impl FurRenderer {
         Ok(v.iter().map(|s| [s[0], s[1], s[2]]).collect())
     }
 
+    /// Whether this renderer and `other` draw from one uploaded asset.
+    pub(crate) fn shares_gpu_asset(&self, other: &FurRenderer) -> bool {
+        Arc::ptr_eq(&self.gpu, &other.gpu)
+    }
+
     #[cfg(feature = "testing")]
     /// The asset's static GPU data this renderer draws from (shared by every renderer built on
     /// the same [`FurGpuAsset`]).

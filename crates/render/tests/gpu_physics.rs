@@ -969,6 +969,22 @@ fn a_herd_of_walking_foxes_runs_as_the_cpu_runs() {
         assert_eq!((stats.steps, stats.non_finite), (2, 0), "pack {i}: {stats:?}");
     }
     assert!(r_gpu.poll_gpu_physics_stats(3).unwrap().is_none(), "the CPU pack has no GPU counters");
+    // Renderers that uploaded the Fox each on its own have skins of their own: no herd.
+    let asset = FurAsset::from_pack(gpu_world.pack(0), true).unwrap();
+    let (a, b) = (renderer_of(g, &asset), renderer_of(g, &asset));
+    let steps = gpu_world.gpu_physics(0).unwrap();
+    let model = steps.compute_model().unwrap();
+    let forces = ForceSet { restoring_weight_n: steps.restoring_weight_n(), ..ForceSet::none() };
+    let herd = GpuFurPhysics::herd(
+        &g.device,
+        &g.queue,
+        &[(&a, &model), (&b, &model)],
+        &forces,
+        steps.stable_step_s(),
+        steps.max_substeps(),
+    );
+    let e = herd.err().expect("two uploads of a skinned asset").to_string();
+    assert!(e.contains("another skin"), "{e}");
 }
 
 #[test]
