@@ -143,15 +143,18 @@ impl FurAsset {
 
     /// Bytes of GPU memory a [`crate::FurRenderer`] of this asset allocates for its data (skin
     /// corners, scale vectors, the shell atlas with its mip chain, fins when `with_fins`, and for
-    /// an animated asset the skinning pass's buffers, `SkinningPass::gpu_bytes`), not
-    /// counting the renderer's fixed cost (1 MiB, `RENDERER_OVERHEAD_BYTES`). Computed from the
-    /// sections' sizes alone, before anything is uploaded.
+    /// an animated asset the skinning pass's buffers, `SkinningPass::gpu_bytes`, and the
+    /// renderer's own pose and posed vertices), not counting the renderer's fixed cost (1 MiB,
+    /// `RENDERER_OVERHEAD_BYTES`). Computed from the sections' sizes alone, before anything is
+    /// uploaded.
     pub fn gpu_bytes(&self, with_fins: bool) -> u64 {
         self.shared_gpu_bytes(with_fins).saturating_add(self.instance_gpu_bytes())
     }
 
     /// The part of [`FurAsset::gpu_bytes`] a [`crate::FurGpuAsset`] holds once for every renderer
-    /// of this asset: skin corners, shell atlas with mips, and with fins the fin atlas and quads.
+    /// of this asset: skin corners, shell atlas with mips, with fins the fin atlas and quads, and
+    /// for an animated asset its skinning pass (bind pose, influences, morph deltas), which each
+    /// renderer's own pass shares.
     pub fn shared_gpu_bytes(&self, with_fins: bool) -> u64 {
         use crate::shaders::{FinVertex, SurfaceVertex};
         let f = self.mesh.triangles.len() as u64;
@@ -166,17 +169,19 @@ impl FurAsset {
             // colour and a bind-pose vertex (16 + 32 bytes) per welded vertex. An upper bound.
             bytes += 48 * f + 48 * self.mesh.positions.len() as u64;
         }
-        bytes
+        // The asset's own skinning pass, whose static part each renderer's pass shares.
+        let (weights, morphs) = (self.skin_weights.as_deref(), self.morph_targets.as_deref());
+        bytes.saturating_add(crate::skinning::SkinningPass::gpu_bytes(&self.mesh, weights, morphs))
     }
 
     /// The part of [`FurAsset::gpu_bytes`] each renderer holds of its own: scale vectors (room
     /// for either layout), the silhouette fin instances (a bound) and, for an animated asset,
-    /// its skinning pass.
+    /// its skinning pass's pose and posed vertices.
     pub fn instance_gpu_bytes(&self) -> u64 {
         let (v, f) = (self.mesh.positions.len() as u64, self.mesh.triangles.len() as u64);
         // Scale vectors; the silhouette fin instances (8 bytes per interior edge, at most 3F/2)
         // with their draw arguments and parameters.
-        (16 * v.max(3 * f) + 12 * f + 64).saturating_add(crate::skinning::SkinningPass::gpu_bytes(
+        (16 * v.max(3 * f) + 12 * f + 64).saturating_add(crate::skinning::SkinningPass::instance_gpu_bytes(
             &self.mesh,
             self.skin_weights.as_deref(),
             self.morph_targets.as_deref(),

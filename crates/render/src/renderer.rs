@@ -306,6 +306,9 @@ pub struct FurGpuAsset {
     fin_view: wgpu::TextureView,
     /// The interior edges that may carry a silhouette fin, with what their draw reads.
     silhouette: Option<SilhouetteData>,
+    /// An animated asset's skinning: its bind pose, influences, morph deltas and pipeline, which
+    /// each renderer's own pass shares (`SkinningPass::instance`).
+    skin: Option<SkinningPass>,
 }
 
 /// The shared data of the silhouette fins: the interior edges (`crate::silhouette`), one colour
@@ -327,7 +330,12 @@ impl FurGpuAsset {
         asset: &FurAsset,
         with_fins: bool,
     ) -> Result<Arc<FurGpuAsset>, RenderError> {
-        crate::gpu_scope(device, "uploading a fur asset", || Self::upload(device, queue, asset, with_fins))
+        let skin = if asset.is_animated() {
+            Some(SkinningPass::new(device, asset.mesh(), asset.skin_weights(), asset.morph_targets())?)
+        } else {
+            None
+        };
+        crate::gpu_scope(device, "uploading a fur asset", || Self::upload(device, queue, asset, with_fins, skin))
     }
 
     fn upload(
@@ -335,6 +343,7 @@ impl FurGpuAsset {
         queue: &wgpu::Queue,
         asset: &FurAsset,
         with_fins: bool,
+        skin: Option<SkinningPass>,
     ) -> Result<Arc<FurGpuAsset>, RenderError> {
         let shells = asset.shells();
         let (corners, furry_triangles) = asset.surface_vertices();
@@ -421,6 +430,7 @@ impl FurGpuAsset {
             shell_view,
             fin_view,
             silhouette,
+            skin,
         }))
     }
 }
@@ -536,11 +546,14 @@ impl FurRenderer {
                 limit: limits.max_storage_buffer_binding_size,
             });
         }
-        // An animated asset: one skinning pass writes the posed vertices every stage reads.
-        let skinning = if asset.is_animated() {
-            Some(SkinningPass::new(device, asset.mesh(), asset.skin_weights(), asset.morph_targets())?)
-        } else {
-            None
+        // An animated asset: one skinning pass writes the posed vertices every stage reads (its
+        // static part shared with the asset's other renderers).
+        let skinning = match &gpu.skin {
+            Some(shared) => Some(shared.instance(device)?),
+            None if asset.is_animated() => {
+                Some(SkinningPass::new(device, asset.mesh(), asset.skin_weights(), asset.morph_targets())?)
+            }
+            None => None,
         };
 
         let drawn_layers = settings.shell_layers.unwrap_or(shells.params.layers);

@@ -104,13 +104,26 @@ pub struct SkinningPass {
     target_count: u32,
     /// What GPU fur physics blends an animated skin's transforms from ([`SkinInputs`]).
     inputs: SkinBuffers,
+    /// What every pass of the asset shares ([`SkinningPass::instance`]).
+    shared: std::sync::Arc<SkinShared>,
     matrices: wgpu::Buffer,
     morph_weights: wgpu::Buffer,
     skinned: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
-    pipeline: wgpu::ComputePipeline,
     /// Workgroups dispatched in x and y (2D once one dimension's limit is exceeded).
     workgroups: (u32, u32),
+}
+
+/// The part of a skinning pass every pass of one asset shares: the params, the bind pose (on the
+/// GPU, and on the CPU to start each pass's output from), the morph targets' default weights, the
+/// bind group layout and the pipeline.
+struct SkinShared {
+    params: wgpu::Buffer,
+    bind_pose: wgpu::Buffer,
+    bind_pose_data: Vec<SkinnedVertex>,
+    default_weights: Vec<f32>,
+    layout: wgpu::BindGroupLayout,
+    pipeline: wgpu::ComputePipeline,
 }
 
 /// The static skin data a GPU blend reads, shared with the skinning pass.
@@ -209,6 +222,96 @@ impl SkinningPass {
         BufferSizes::of(mesh, weights, morphs).total()
     }
 
+    /// The part of [`SkinningPass::gpu_bytes`] each further pass of the asset
+    /// ([`SkinningPass::instance`]) allocates again: its posed vertices, skinning matrices and
+    /// morph weights.
+    pub fn instance_gpu_bytes(mesh: &SkinMesh, weights: Option<&SkinWeights>, morphs: Option<&MorphTargets>) -> u64 {
+        if weights.is_none() && morphs.is_none() {
+            return 0;
+        }
+        let b = BufferSizes::of(mesh, weights, morphs);
+        b.vertices.saturating_add(b.matrices).saturating_add(b.morph_weights)
+    }
+
+    /// Another pass of the same asset: the bind pose, influences, morph deltas and pipeline
+    /// shared with this one, its own pose and posed vertices (from the bind pose and the default
+    /// morph, as a new pass starts). What a scene that places one animated pack many times makes
+    /// for each placement.
+    pub(crate) fn instance(&self, device: &wgpu::Device) -> Result<SkinningPass, RenderError> {
+        crate::gpu_scope(device, "creating a skinning pass", || {
+            Ok(Self::with_shared(
+                device,
+                std::sync::Arc::clone(&self.shared),
+                self.inputs.clone(),
+                (self.vertex_count, self.bind_count, self.target_count),
+                self.workgroups,
+            ))
+        })
+    }
+
+    /// A pass over `shared` with its own pose buffers and output.
+    fn with_shared(
+        device: &wgpu::Device,
+        shared: std::sync::Arc<SkinShared>,
+        inputs: SkinBuffers,
+        (vertex_count, bind_count, target_count): (u32, u32, u32),
+        workgroups: (u32, u32),
+    ) -> SkinningPass {
+        let storage = wgpu::BufferUsages::STORAGE;
+        // Storage bindings cannot be empty: an absent input is a zeroed placeholder the shader
+        // never reads.
+        let init = |label, contents: &[u8], usage| {
+            const PLACEHOLDER: [u8; 64] = [0; 64];
+            let contents = if contents.is_empty() { &PLACEHOLDER[..] } else { contents };
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage })
+        };
+        let skinned = init(
+            "furbake skinned vertices",
+            bytemuck::cast_slice(&shared.bind_pose_data),
+            storage | wgpu::BufferUsages::COPY_SRC,
+        );
+        let identity = vec![Mat4::IDENTITY.to_cols_array(); bind_count as usize];
+        let matrices =
+            init("furbake skinning matrices", bytemuck::cast_slice(&identity), storage | wgpu::BufferUsages::COPY_DST);
+        let morph_weights = init(
+            "furbake morph weights",
+            bytemuck::cast_slice(&shared.default_weights),
+            storage | wgpu::BufferUsages::COPY_DST,
+        );
+        let entries = [
+            &shared.params,
+            &shared.bind_pose,
+            &inputs.binds,
+            &inputs.weights,
+            &inputs.deltas,
+            &matrices,
+            &morph_weights,
+            &skinned,
+        ];
+        let entries: Vec<wgpu::BindGroupEntry<'_>> = entries
+            .iter()
+            .enumerate()
+            .map(|(i, b)| wgpu::BindGroupEntry { binding: i as u32, resource: b.as_entire_binding() })
+            .collect();
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("furbake skinning bind group"),
+            layout: &shared.layout,
+            entries: &entries,
+        });
+        SkinningPass {
+            vertex_count,
+            bind_count,
+            target_count,
+            inputs,
+            shared,
+            matrices,
+            morph_weights,
+            skinned,
+            bind_group,
+            workgroups,
+        }
+    }
+
     fn build(
         device: &wgpu::Device,
         mesh: &SkinMesh,
@@ -240,8 +343,6 @@ impl SkinningPass {
         };
         let params_buffer = init("furbake skinning params", bytemuck::bytes_of(&params), wgpu::BufferUsages::UNIFORM);
         let bind_buffer = init("furbake skinning bind pose", bytemuck::cast_slice(&bind_pose), storage);
-        let skinned =
-            init("furbake skinned vertices", bytemuck::cast_slice(&bind_pose), storage | wgpu::BufferUsages::COPY_SRC);
         let (binds, slot_weights): (&[u16], &[f32]) = weights.map_or((&[], &[]), |w| (&w.binds, &w.weights));
         let binds_buffer = init("furbake skin influence binds", bytemuck::cast_slice(binds), storage);
         let weights_buffer = init("furbake skin influence weights", bytemuck::cast_slice(slot_weights), storage);
@@ -250,34 +351,7 @@ impl SkinningPass {
         let deltas: Vec<[f32; 3]> =
             morphs.map(|m| m.position_deltas.iter().chain(&m.normal_deltas).copied().collect()).unwrap_or_default();
         let deltas_buffer = init("furbake morph deltas", bytemuck::cast_slice(&deltas), storage);
-        let identity = vec![Mat4::IDENTITY.to_cols_array(); bind_count as usize];
-        let matrices =
-            init("furbake skinning matrices", bytemuck::cast_slice(&identity), storage | wgpu::BufferUsages::COPY_DST);
-        let defaults: &[f32] = morphs.map_or(&[], |m| &m.default_weights);
-        let morph_weights =
-            init("furbake morph weights", bytemuck::cast_slice(defaults), storage | wgpu::BufferUsages::COPY_DST);
-
         let layout = bind_group_layout(device);
-        let entries = [
-            &params_buffer,
-            &bind_buffer,
-            &binds_buffer,
-            &weights_buffer,
-            &deltas_buffer,
-            &matrices,
-            &morph_weights,
-            &skinned,
-        ];
-        let entries: Vec<wgpu::BindGroupEntry<'_>> = entries
-            .iter()
-            .enumerate()
-            .map(|(i, b)| wgpu::BindGroupEntry { binding: i as u32, resource: b.as_entire_binding() })
-            .collect();
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("furbake skinning bind group"),
-            layout: &layout,
-            entries: &entries,
-        });
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("furbake skinning"),
             source: wgpu::ShaderSource::Wgsl(SKINNING_WGSL.into()),
@@ -307,9 +381,9 @@ impl SkinningPass {
         // Per triangle corner, its welded vertex (the shell vertices of a per-corner layout).
         let corners: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
         let inputs = SkinBuffers {
-            binds: binds_buffer.clone(),
-            weights: weights_buffer.clone(),
-            deltas: deltas_buffer.clone(),
+            binds: binds_buffer,
+            weights: weights_buffer,
+            deltas: deltas_buffer,
             corners: init("furbake skin corner vertices", bytemuck::cast_slice(&corners), storage),
             vertices: init(
                 "furbake skin vertex indices",
@@ -318,18 +392,15 @@ impl SkinningPass {
             ),
             influences_per_vertex: params.influences_per_vertex,
         };
-        SkinningPass {
-            inputs,
-            vertex_count: v as u32,
-            bind_count,
-            target_count: params.target_count,
-            matrices,
-            morph_weights,
-            skinned,
-            bind_group,
+        let shared = std::sync::Arc::new(SkinShared {
+            params: params_buffer,
+            bind_pose: bind_buffer,
+            bind_pose_data: bind_pose,
+            default_weights: morphs.map_or_else(Vec::new, |m| m.default_weights.clone()),
+            layout,
             pipeline,
-            workgroups,
-        }
+        });
+        Self::with_shared(device, shared, inputs, (v as u32, bind_count, params.target_count), workgroups)
     }
 
     #[cfg(feature = "testing")]
@@ -394,7 +465,7 @@ impl SkinningPass {
             label: Some("furbake skinning"),
             timestamp_writes: None,
         });
-        pass.set_pipeline(&self.pipeline);
+        pass.set_pipeline(&self.shared.pipeline);
         pass.set_bind_group(0, &self.bind_group, &[]);
         pass.dispatch_workgroups(self.workgroups.0, self.workgroups.1, 1);
     }

@@ -31,7 +31,7 @@ use furbake_formats::sections::skin_weights::SkinWeights;
 use furbake_import::{ImportSettings, ImportedMesh, import_gltf};
 use furbake_render::headless::{RenderTarget, read_back};
 use furbake_render::testing::SkinningPass;
-use furbake_render::{FurAsset, FurRenderer, RenderError, RenderSettings, View};
+use furbake_render::{FurAsset, FurGpuAsset, FurRenderer, RenderError, RenderSettings, View};
 use furbake_runtime::Pack;
 use furbake_runtime::ShellVertexLayout;
 use furbake_runtime::animation::{AnimationPlayer, Pose, joint_world_matrices, morph_and_skin, skinning_matrices};
@@ -651,4 +651,45 @@ fn the_automatic_framing_covers_the_clip_played() {
         }
     }
     assert!(checked > 1000);
+}
+
+#[test]
+fn renderers_of_one_uploaded_asset_share_its_skin_and_pose_on_their_own() {
+    // Two placements of the Fox from one FurGpuAsset: one skinning pipeline and one copy of the
+    // influences and morph deltas, but each renderer's own pose and posed vertices — each
+    // matches the CPU reference of its own pose, set in either order.
+    let g = gpu();
+    let asset = FurAsset::from_pack(&fox_pack().1, true).unwrap();
+    let shared = FurGpuAsset::new(&g.device, &g.queue, &asset, true).unwrap();
+    let make = || {
+        FurRenderer::with_gpu_asset(
+            g.pipelines(),
+            &asset,
+            shared.clone(),
+            &RenderSettings::default(),
+            &RenderTarget::desc(),
+        )
+        .unwrap()
+    };
+    let (a, b) = (make(), make());
+    let diagonal = diagonal(asset.mesh());
+    let poses = [pose_of(fox(), "Run", 0.3, |_| {}), pose_of(fox(), "Survey", 1.1, |_| {})];
+    b.set_pose(&g.queue, &poses[1].0, &poses[1].1).unwrap();
+    a.set_pose(&g.queue, &poses[0].0, &poses[0].1).unwrap();
+    let mut encoder = g.device.create_command_encoder(&Default::default());
+    for r in [&a, &b] {
+        r.skinning().unwrap().encode(&mut encoder);
+    }
+    g.queue.submit([encoder.finish()]);
+    let mut posed = Vec::new();
+    for (r, (palette, weights)) in [&a, &b].into_iter().zip(&poses) {
+        let out = r.skinning().unwrap().read_back(&g.device, &g.queue).unwrap();
+        let gpu: Posed = out.positions.into_iter().zip(out.normals).collect();
+        let cpu = cpu_skin(asset.mesh(), asset.skin_weights(), asset.morph_targets(), palette, weights);
+        compare("a placement's own pose", &cpu, &gpu, diagonal);
+        posed.push(gpu);
+    }
+    let apart = posed[0].iter().zip(&posed[1]).filter(|(p, q)| p.0 != q.0).count();
+    assert!(apart * 2 > posed[0].len(), "the two placements stand in their own poses ({apart} vertices differ)");
+    g.check().unwrap();
 }
