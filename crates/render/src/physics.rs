@@ -535,13 +535,6 @@ impl GpuFurPhysics {
         let nf = model.free as usize;
         let (nm, nl, nx) = (model.masses, model.link_other.len() as u32, model.xpbd.links.len() as u32);
         let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
-        // Storage bindings cannot be empty: every array has at least one element.
-        fn padded<T: bytemuck::Zeroable>(mut v: Vec<T>) -> Vec<T> {
-            if v.is_empty() {
-                v.push(T::zeroed());
-            }
-            v
-        }
         // Pack p's masses start at p·masses; its free masses' data is laid out the same way (the
         // anchored masses' slots unused), its links at p·links, its tips and shell vertices at
         // p·tips and p·shell vertices. Indices into the state are made global here.
@@ -590,9 +583,14 @@ impl GpuFurPhysics {
             }));
             guard_state.extend(m.scale.iter().zip(&m.frozen).map(|(&s, &f)| v4(s, if f { 1.0 } else { 0.0 })));
         }
-        let (positions, velocities, masses, links) =
-            (padded(positions), padded(velocities), padded(masses), padded(links));
-        let (tips, guard_state, shell_tip) = (padded(tips), padded(guard_state), padded(model.shell_tip.clone()));
+        let mut shell_tip = model.shell_tip.clone();
+        pad(&mut positions);
+        pad(&mut velocities);
+        pad(&mut masses);
+        pad(&mut links);
+        pad(&mut tips);
+        pad(&mut guard_state);
+        pad(&mut shell_tip);
         let shell = model.shell_tip.len() as u64;
         crate::gpu_scope(device, "creating the fur physics", || {
             let init = |label: &str, contents: &[u8], usage| {
@@ -613,16 +611,18 @@ impl GpuFurPhysics {
             let guard_state = init("furbake physics guard", bytemuck::cast_slice(&guard_state), storage);
             let shell_tip = init("furbake physics shell tips", bytemuck::cast_slice(&shell_tip), read);
             let stats = init("furbake physics counters", &vec![0u8; 16 * packs as usize], storage);
-            let herd_scale = (packs > 1).then(|| {
+            // A pack alone writes its renderer's buffer; a herd its own, copied out per pack.
+            let (scale_out, herd_scale) = if packs > 1 {
                 let buffer = device.create_buffer(&wgpu::BufferDescriptor {
                     label: Some("furbake physics herd scale vectors"),
                     size: (packs as u64 * shell).max(1) * 16,
                     usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
                     mapped_at_creation: false,
                 });
-                (buffer, scale_targets.clone())
-            });
-            let scale_out = herd_scale.as_ref().map_or(&scale_targets[0], |(b, _)| b);
+                (buffer.clone(), Some((buffer, scale_targets)))
+            } else {
+                (scale_targets[0].clone(), None)
+            };
             let steps_capacity = 4 * packs;
             let steps = step_buffer(device, steps_capacity);
             let (entry, buffer) = (layout_entry, storage_binding);
@@ -1444,9 +1444,7 @@ impl Xpbd {
             })
             .collect();
         let count = model.xpbd.links.len();
-        if links.is_empty() {
-            links.push(bytemuck::Zeroable::zeroed());
-        }
+        pad(&mut links);
         let mut uniforms =
             PhysicsColours { count: [colours as u32, iterations, count as u32, 0], starts: [[0; 4]; 16] };
         for (c, &start) in model.xpbd.colour_start.iter().enumerate() {
@@ -1637,6 +1635,13 @@ const STEPS_WINDOW: u64 = HERD_CHUNK * STEP_STRIDE;
 // dynamic-offset alignment, and a chunk's window fits the 64 KiB uniform binding every adapter has.
 const _: () =
     assert!(size_of::<PhysicsStep>() as u64 == STEP_STRIDE && STEP_STRIDE.is_multiple_of(256) && STEPS_WINDOW <= 65536);
+
+/// Storage bindings cannot be empty: every array gets at least one (zeroed) element.
+fn pad<T: bytemuck::Zeroable>(v: &mut Vec<T>) {
+    if v.is_empty() {
+        v.push(T::zeroed());
+    }
+}
 
 fn layout_entry(binding: u32, ty: wgpu::BindingType) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry { binding, visibility: wgpu::ShaderStages::COMPUTE, ty, count: None }

@@ -258,13 +258,7 @@ impl SkinningPass {
         workgroups: (u32, u32),
     ) -> SkinningPass {
         let storage = wgpu::BufferUsages::STORAGE;
-        // Storage bindings cannot be empty: an absent input is a zeroed placeholder the shader
-        // never reads.
-        let init = |label, contents: &[u8], usage| {
-            const PLACEHOLDER: [u8; 64] = [0; 64];
-            let contents = if contents.is_empty() { &PLACEHOLDER[..] } else { contents };
-            device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage })
-        };
+        let init = |label, contents: &[u8], usage| init_buffer(device, label, contents, usage);
         let skinned = init(
             "furbake skinned vertices",
             bytemuck::cast_slice(&shared.bind_pose_data),
@@ -334,13 +328,7 @@ impl SkinningPass {
         };
         let bind_count = weights.map_or(0, |w| w.bind_count);
         let storage = wgpu::BufferUsages::STORAGE;
-        // Storage bindings cannot be empty: an absent input (or an empty mesh) is a zeroed
-        // placeholder the shader never reads (its SKIN or MORPH switch is off).
-        let init = |label, contents: &[u8], usage| {
-            const PLACEHOLDER: [u8; 64] = [0; 64];
-            let contents = if contents.is_empty() { &PLACEHOLDER[..] } else { contents };
-            device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage })
-        };
+        let init = |label, contents: &[u8], usage| init_buffer(device, label, contents, usage);
         let params_buffer = init("furbake skinning params", bytemuck::bytes_of(&params), wgpu::BufferUsages::UNIFORM);
         let bind_buffer = init("furbake skinning bind pose", bytemuck::cast_slice(&bind_pose), storage);
         let (binds, slot_weights): (&[u16], &[f32]) = weights.map_or((&[], &[]), |w| (&w.binds, &w.weights));
@@ -529,6 +517,14 @@ impl SkinningPass {
         readback.unmap();
         Ok(out)
     }
+}
+
+/// A buffer holding `contents`. Storage bindings cannot be empty: an absent input (or an empty
+/// mesh) is a zeroed placeholder the shader never reads (its SKIN or MORPH switch is off).
+fn init_buffer(device: &wgpu::Device, label: &str, contents: &[u8], usage: wgpu::BufferUsages) -> wgpu::Buffer {
+    const PLACEHOLDER: [u8; 64] = [0; 64];
+    let contents = if contents.is_empty() { &PLACEHOLDER[..] } else { contents };
+    device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage })
 }
 
 /// Checks the animation sections against the mesh and one another, so the shader indexes in

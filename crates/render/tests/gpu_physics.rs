@@ -267,15 +267,7 @@ fn jump(_: glam::Vec3, t: f32) -> (glam::Mat4, glam::Vec3) {
 fn posed_run(topology: &str, kind: SolverKind, motion: Motion) -> (f32, f32, f32, u32) {
     use furbake_sim::SkinTransform;
     let g = gpu();
-    let mut baked = baked_sphere(topology, 0.15);
-    let topo = baked.topologies.pop().unwrap();
-    let mesh = &baked.mesh;
-    let shell: Vec<glam::Vec3> = if shell_per_corner(topology) {
-        mesh.triangles.iter().flatten().map(|&i| glam::Vec3::from(mesh.positions[i as usize])).collect()
-    } else {
-        mesh.positions.iter().map(|&p| glam::Vec3::from(p)).collect()
-    };
-    let asset = FurAsset::new(Arc::new(baked.mesh), Arc::new(baked.shells), Arc::new(baked.uv_map), None).unwrap();
+    let (asset, topo, shell) = posable_sphere(topology);
     let renderer = renderer_of(g, &asset);
     let settings = SolverSettings { max_substeps: 2_000, ..SolverSettings::of(kind) };
     let max_substeps = settings.max_substeps;
@@ -327,6 +319,21 @@ fn posed_run(topology: &str, kind: SolverKind, motion: Motion) -> (f32, f32, f32
 
 fn shell_per_corner(topology: &str) -> bool {
     topology.starts_with("separable")
+}
+
+/// [`sphere`] with the bind position of each of its shell vertices (welded vertices, or triangle
+/// corners for a separable topology), where a test's skin motion is evaluated.
+fn posable_sphere(topology: &str) -> (FurAsset, SpringTopology, Vec<glam::Vec3>) {
+    let mut baked = baked_sphere(topology, 0.15);
+    let topo = baked.topologies.pop().unwrap();
+    let mesh = &baked.mesh;
+    let shell: Vec<glam::Vec3> = if shell_per_corner(topology) {
+        mesh.triangles.iter().flatten().map(|&i| glam::Vec3::from(mesh.positions[i as usize])).collect()
+    } else {
+        mesh.positions.iter().map(|&p| glam::Vec3::from(p)).collect()
+    };
+    let asset = FurAsset::new(Arc::new(baked.mesh), Arc::new(baked.shells), Arc::new(baked.uv_map), None).unwrap();
+    (asset, topo, shell)
 }
 
 #[test]
@@ -793,15 +800,7 @@ fn herd_run(topology: &str, kind: SolverKind, packs: usize, steps: u32, checked:
     use furbake_render::{GpuPose, GpuSkin};
     use furbake_sim::SkinTransform;
     let g = gpu();
-    let mut baked = baked_sphere(topology, 0.15);
-    let topo = baked.topologies.pop().unwrap();
-    let mesh = &baked.mesh;
-    let shell: Vec<glam::Vec3> = if shell_per_corner(topology) {
-        mesh.triangles.iter().flatten().map(|&i| glam::Vec3::from(mesh.positions[i as usize])).collect()
-    } else {
-        mesh.positions.iter().map(|&p| glam::Vec3::from(p)).collect()
-    };
-    let asset = FurAsset::new(Arc::new(baked.mesh), Arc::new(baked.shells), Arc::new(baked.uv_map), None).unwrap();
+    let (asset, topo, shell) = posable_sphere(topology);
     let settings = SolverSettings { max_substeps: 2_000, ..SolverSettings::of(kind) };
     let dt = 1.0 / 60.0;
     let pose_at = |p: usize, t: f32, out: &mut Vec<SkinTransform>| {

@@ -6,7 +6,7 @@
 use furbake_sim::{ComputeModel, NO_LINK, SkinTransform};
 use wgpu::util::DeviceExt;
 
-use super::{GpuPose, GpuSkin, WORKGROUP, dynamic_steps, entry, layout_entry, steps_entry, storage_binding};
+use super::{GpuPose, GpuSkin, WORKGROUP, dynamic_steps, entry, layout_entry, pad, steps_entry, storage_binding};
 use crate::RenderError;
 use crate::skinning::SkinInputs;
 
@@ -491,13 +491,6 @@ impl Pose {
             pass.set_bind_group(0, &groups[current], &[offset]);
             pass.dispatch_workgroups(n.div_ceil(WORKGROUP), packs, 1);
         }
-    }
-}
-
-/// Storage bindings cannot be empty: every array has at least one element.
-fn pad<T: bytemuck::Zeroable>(v: &mut Vec<T>) {
-    if v.is_empty() {
-        v.push(T::zeroed());
     }
 }
 
