@@ -31,9 +31,11 @@ pub struct FurLook {
 }
 
 impl FurLook {
-    /// The alpha threshold with blending: only empty texels are skipped, so the faint
-    /// mip-averaged coverage of sparse hair tips still softens the silhouette at a distance.
-    pub const BLEND_ALPHA_THRESHOLD: f32 = 0.02;
+    /// The alpha threshold with blending: 0, so only empty texels (alpha exactly 0, also after
+    /// filtering) are skipped. The faint mip-averaged coverage of sparse hair tips is coverage the
+    /// stacking exponents count on: skipping alpha up to 0.02 made a distant coat clearer than the
+    /// hair volume, more so the more layers were drawn (docs/design.md "Rendering accuracy").
+    pub const BLEND_ALPHA_THRESHOLD: f32 = 0.0;
 
     /// The `Fur` block for `shells` laid over the surface at `repeat_m` metres per atlas repeat
     /// (fins repeat their texture as often), drawing `drawn_layers` shell layers (at least 1 is

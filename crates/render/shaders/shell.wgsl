@@ -30,7 +30,9 @@ struct ShellOut {
     // World-space hair direction (unit before interpolation).
     @location(4) tangent: vec3<f32>,
     @location(5) world: vec3<f32>,
-    // Relative height t of the layer, (layer + 1)/layers.
+    // Relative height the layer is shaded at: the middle of the slab it stands for,
+    // (layer + 1)/layers − 0.5/count with count the view's continuous layer count (docs/design.md
+    // "Shell opacity"), as the reference shades a hair at the height the ray meets it.
     @location(6) @interpolate(flat) height: f32,
     // Opacity of the layer in a level-of-detail transition (1 outside one).
     @location(7) @interpolate(flat) fade: f32,
@@ -125,7 +127,7 @@ fn vs_shell(v: SurfaceIn, @builtin(instance_index) layer: u32) -> ShellOut {
     out.uv = v.uv;
     out.slice = shell_slice(layer, layers);
     out.world = world;
-    out.height = f32(layer + 1u) / f32(layers);
+    out.height = f32(layer + 1u) / f32(layers) - 0.5 / max(frame.shells.z, 1.0);
     // A transition between two levels draws the upper level's layers and fades in those the
     // lower one lacks (the even-indexed ones).
     out.fade = select(1.0, frame.shells.y, layer % 2u == 0u);

@@ -102,9 +102,10 @@ pub struct RenderSettings {
     pub silhouette_band: f32,
     /// Blending of shells and fins. Default [`ShellBlend::AlphaBlend`].
     pub blend: ShellBlend,
-    /// Fragments with alpha at or below this are discarded, in [0, 1). Default 0.02: with
-    /// blending it only skips empty texels, so the faint mip-averaged coverage of sparse hair tips
-    /// still softens the silhouette at a distance. Use about 0.4 with [`ShellBlend::AlphaTest`].
+    /// Fragments with alpha at or below this are discarded, in [0, 1). Default 0
+    /// (`FurLook::BLEND_ALPHA_THRESHOLD`): with blending only empty texels are skipped, so the
+    /// faint mip-averaged coverage of sparse hair tips still counts at a distance. Use about 0.4
+    /// with [`ShellBlend::AlphaTest`].
     pub alpha_threshold: f32,
     /// With [`ShellBlend::AlphaTest`] on a multisampled target, turn the shells' and fins' alpha
     /// into sample coverage (alpha to coverage, its step widened to one pixel), so each hair's
@@ -161,7 +162,7 @@ impl Default for RenderSettings {
             silhouette_fins: true,
             silhouette_band: 0.05,
             blend: ShellBlend::AlphaBlend,
-            alpha_threshold: 0.02,
+            alpha_threshold: furbake_draw::FurLook::BLEND_ALPHA_THRESHOLD,
             alpha_to_coverage: true,
             tint: [1.0, 1.0, 1.0],
             background: [0.06, 0.06, 0.07, 1.0],
@@ -177,8 +178,8 @@ impl Default for RenderSettings {
 
 impl RenderSettings {
     /// The alpha threshold [`RenderSettings::with_options`] gives the alpha test when the options
-    /// choose it without a threshold of their own (the blending default, 0.02, would keep nearly
-    /// every texel of the mip-averaged atlas).
+    /// choose it without a threshold of their own (the blending default, 0, would keep every
+    /// covered texel of the mip-averaged atlas).
     pub const ALPHA_TEST_THRESHOLD: f32 = 0.4;
 
     /// The most views one renderer draws in a frame ([`RenderSettings::views`]).
