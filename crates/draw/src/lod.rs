@@ -21,8 +21,10 @@ impl ShellLod {
     /// "Level of detail: the knee"): the knee lies at about one layer per pixel of fur length
     /// (16 layers at 16 px, 32 at 32 px) ...
     pub const DEFAULT_LAYERS_PER_PX: f32 = 1.0;
-    /// ... and never below 8 layers, however short the fur (at 0.25–8 px the knee is 8).
-    pub const DEFAULT_MIN_LAYERS: u32 = 8;
+    /// ... and never below 16 layers, however short the fur (at 0.25–16 px the knee is 16: 8
+    /// layers of the `fur` preset's coat, 4 atlas texels apart along a 45° ray, let the ray
+    /// through between them).
+    pub const DEFAULT_MIN_LAYERS: u32 = 16;
 
     /// Checks the ranges: `layers_per_px` finite and > 0, `min_layers` ≥ 1.
     pub fn validate(&self) -> Result<(), String> {

@@ -3,10 +3,12 @@
 //! (`furbake_report::rendering`). Usage: `rendering_report [OUT_DIR] [--quick]` (default `docs`;
 //! `--quick`: 64 px, 9 samples per pixel, two shell counts, for a smoke run; `--atlas-layers=N`:
 //! bake the atlases with N layers instead of the preset's 16; `--srgb8-target`: draw into the
-//! headless host's 8-bit sRGB target instead of a half-float one).
+//! headless host's 8-bit sRGB target, `--f16-target` into a half-float one, instead of a
+//! single-float one).
 
 use std::path::PathBuf;
 
+use furbake_report::rendering::gpu::ReportTarget;
 use furbake_report::rendering::report::{RenderingOptions, rendering_report};
 
 fn main() {
@@ -16,7 +18,10 @@ fn main() {
     let fixtures = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../fixtures");
     let mut options = RenderingOptions::new(&fixtures);
     if args.iter().any(|a| a == "--srgb8-target") {
-        options.float_target = false;
+        options.target = ReportTarget::Srgb8;
+    }
+    if args.iter().any(|a| a == "--f16-target") {
+        options.target = ReportTarget::Float16;
     }
     if let Some(layers) = args.iter().find_map(|a| a.strip_prefix("--atlas-layers=")) {
         options.bake.volume.layers = layers.parse().expect("--atlas-layers=N takes a count");

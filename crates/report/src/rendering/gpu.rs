@@ -10,27 +10,62 @@ use std::time::Instant;
 use furbake_render::headless::{HeadlessGpu, RenderTarget};
 use furbake_render::{FurAsset, FurRenderer, RenderError, RenderSettings, View};
 
-/// A device made for measuring: furbake's headless device with pipeline statistics where the
-/// adapter has them.
+/// A device made for measuring: furbake's headless device with pipeline statistics and blendable
+/// 32-bit float targets where the adapter has them.
 pub struct MeasuringGpu {
     /// The adapter's name, backend and driver.
     pub info: wgpu::AdapterInfo,
     gpu: HeadlessGpu,
     /// Whether the device counts fragment invocations (the adapter had the feature).
     pub pipeline_statistics: bool,
-    /// Render into an `Rgba16Float` target (as HDR hosts do) instead of the headless host's
-    /// `Rgba8UnormSrgb` one; the frame is read back encoded to sRGB 8-bit.
-    pub float_target: bool,
+    /// Whether the device blends into `Rgba32Float` (`Features::FLOAT32_BLENDABLE`).
+    pub float32_blendable: bool,
+    /// What the frames are drawn into. Default [`ReportTarget::Srgb8`], the headless host's.
+    pub target: ReportTarget,
 }
 
-/// A colour target of `Rgba16Float` and the headless host's depth, for [`MeasuringGpu::measure`].
+/// The colour target furbake's frames are drawn into; every frame is read back encoded to sRGB
+/// 8-bit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ReportTarget {
+    /// `Rgba32Float`: the blending rounds no layer away, so the measured error is the slicing's.
+    Float32,
+    /// `Rgba16Float`, as HDR hosts draw.
+    Float16,
+    /// The headless host's `Rgba8UnormSrgb`.
+    Srgb8,
+}
+
+impl ReportTarget {
+    /// Its colour format, `None` for the headless host's own target.
+    fn format(self) -> Option<wgpu::TextureFormat> {
+        match self {
+            ReportTarget::Float32 => Some(wgpu::TextureFormat::Rgba32Float),
+            ReportTarget::Float16 => Some(wgpu::TextureFormat::Rgba16Float),
+            ReportTarget::Srgb8 => None,
+        }
+    }
+
+    /// How the document names it.
+    pub fn describe(self) -> &'static str {
+        match self {
+            ReportTarget::Float32 => {
+                "an `Rgba32Float` target, so that the blending of many faint layers rounds nothing away (`--f16-target` draws into `Rgba16Float`, as HDR hosts do), read back encoded to sRGB 8-bit"
+            }
+            ReportTarget::Float16 => "an `Rgba16Float` target, as HDR hosts draw, read back encoded to sRGB 8-bit",
+            ReportTarget::Srgb8 => "the headless host's `Rgba8UnormSrgb` target",
+        }
+    }
+}
+
+/// A float colour target and the headless host's depth, for [`MeasuringGpu::measure`].
 struct FloatTarget {
     color: wgpu::Texture,
     depth: wgpu::Texture,
 }
 
 impl FloatTarget {
-    fn new(device: &wgpu::Device, width: u32, height: u32) -> FloatTarget {
+    fn new(device: &wgpu::Device, format: wgpu::TextureFormat, width: u32, height: u32) -> FloatTarget {
         let make = |label, format, usage| {
             device.create_texture(&wgpu::TextureDescriptor {
                 label: Some(label),
@@ -43,18 +78,15 @@ impl FloatTarget {
                 view_formats: &[],
             })
         };
-        let color = make(
-            "report float colour",
-            wgpu::TextureFormat::Rgba16Float,
-            wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-        );
+        let color =
+            make("report float colour", format, wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC);
         let depth =
             make("report float depth", furbake_render::headless::DEPTH_FORMAT, wgpu::TextureUsages::RENDER_ATTACHMENT);
         FloatTarget { color, depth }
     }
 
-    fn desc() -> furbake_render::TargetDesc {
-        furbake_render::TargetDesc::new(wgpu::TextureFormat::Rgba16Float)
+    fn desc(format: wgpu::TextureFormat) -> furbake_render::TargetDesc {
+        furbake_render::TargetDesc::new(format)
             .with_depth(furbake_render::headless::DEPTH_FORMAT, wgpu::CompareFunction::LessEqual)
     }
 
@@ -84,10 +116,12 @@ impl FloatTarget {
         })
     }
 
-    /// The frame, linear half floats encoded to sRGB 8-bit.
+    /// The frame, linear half or single floats encoded to sRGB 8-bit.
     fn read_back(&self, gpu: &MeasuringGpu) -> Result<image::RgbaImage, RenderError> {
         let (w, h) = (self.color.width(), self.color.height());
-        let row = w * 8;
+        let single = self.color.format() == wgpu::TextureFormat::Rgba32Float;
+        let texel = if single { 16 } else { 8 };
+        let row = w * texel;
         let padded = row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
         let device = &gpu.gpu.device;
         let buffer = device.create_buffer(&wgpu::BufferDescriptor {
@@ -122,9 +156,14 @@ impl FloatTarget {
             let view = buffer.get_mapped_range(..).map_err(gpu_error)?;
             for y in 0..h {
                 for x in 0..w {
-                    let at = (y * padded + x * 8) as usize;
+                    let at = (y * padded + x * texel) as usize;
                     let px: [u8; 4] = std::array::from_fn(|c| {
-                        let v = half_to_f32(u16::from_le_bytes([view[at + 2 * c], view[at + 2 * c + 1]]));
+                        let v = if single {
+                            let b = at + 4 * c;
+                            f32::from_le_bytes([view[b], view[b + 1], view[b + 2], view[b + 3]])
+                        } else {
+                            half_to_f32(u16::from_le_bytes([view[at + 2 * c], view[at + 2 * c + 1]]))
+                        };
                         let v = if c == 3 { v } else { linear_to_srgb(v) };
                         (v.clamp(0.0, 1.0) * 255.0).round() as u8
                     });
@@ -171,12 +210,20 @@ fn gpu_error(what: impl std::fmt::Display) -> RenderError {
 
 impl MeasuringGpu {
     /// A hardware adapter, else a fallback (software) one, as `HeadlessGpu::new` picks; the device
-    /// has the default limits and, when available, pipeline statistics queries.
+    /// has the default limits and, when available, pipeline statistics queries and blendable
+    /// 32-bit float targets.
     pub fn new() -> Result<MeasuringGpu, RenderError> {
-        let wanted = wgpu::Features::PIPELINE_STATISTICS_QUERY;
-        let gpu = HeadlessGpu::with_optional_features(wanted)?;
-        let pipeline_statistics = gpu.device.features().contains(wanted);
-        Ok(MeasuringGpu { info: gpu.info.clone(), gpu, pipeline_statistics, float_target: false })
+        let statistics = wgpu::Features::PIPELINE_STATISTICS_QUERY;
+        let blendable = wgpu::Features::FLOAT32_BLENDABLE;
+        let gpu = HeadlessGpu::with_optional_features(statistics | blendable)?;
+        let features = gpu.device.features();
+        Ok(MeasuringGpu {
+            info: gpu.info.clone(),
+            pipeline_statistics: features.contains(statistics),
+            float32_blendable: features.contains(blendable),
+            gpu,
+            target: ReportTarget::Srgb8,
+        })
     }
 
     fn check(&self) -> Result<(), RenderError> {
@@ -199,10 +246,11 @@ impl MeasuringGpu {
         height: u32,
         timed_frames: u32,
     ) -> Result<MeasuredFrame, RenderError> {
-        let desc = if self.float_target { FloatTarget::desc() } else { RenderTarget::desc() };
+        let format = self.target.format();
+        let desc = format.map_or_else(RenderTarget::desc, FloatTarget::desc);
         let renderer = FurRenderer::new(self.gpu.pipelines(), &self.gpu.queue, asset, settings, &desc)?;
         let target = RenderTarget::new(&self.gpu.device, width, height)?;
-        let float = self.float_target.then(|| FloatTarget::new(&self.gpu.device, width, height));
+        let float = format.map(|f| FloatTarget::new(&self.gpu.device, f, width, height));
         let frame = view.uniforms(width, height);
         let query = self.pipeline_statistics.then(|| {
             let set = self.gpu.device.create_query_set(&wgpu::QuerySetDescriptor {
