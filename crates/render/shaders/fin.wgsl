@@ -148,6 +148,10 @@ fn vs_silhouette_fin(@builtin(vertex_index) vi: u32, @builtin(instance_index) ii
     return out;
 }
 
+// cos 80°: the last view angle of the shells' stacking table (shell.wgsl `STACK_ANGLES`, 10°
+// apart from 0°).
+const FIN_FACING: f32 = 0.17364818;
+
 @fragment
 fn fs_fin(in: FinOut) -> @location(0) vec4<f32> {
     var texel: f32;
@@ -158,12 +162,14 @@ fn fs_fin(in: FinOut) -> @location(0) vec4<f32> {
     }
     let to_eye = normalize(frame.camera_pos.xyz - in.world);
     let facing = abs(dot(normalize(in.face_normal), to_eye));
-    // Faded towards the root by height² (docs/design.md "Fin opacity"): where a fin stands seen
-    // edge-on to the skin, the view crosses the shells' whole stack at the fin's lower part,
-    // which the stacking already makes as opaque as the hair volume; the fin adds the hair the
-    // shells miss towards the tips. Unfaded, fins doubled the coat at their roots and drew a dark,
-    // self-shadowed root line along every silhouette and crease.
-    let alpha = texel * (1.0 - facing) * in.fade * in.height * in.height;
+    // Fins take over where the shells' stacking table ends (docs/design.md "Fin opacity"): the
+    // table is calibrated for views up to 80° from the hair, so a fin fades in only as the skin
+    // turns beyond that (|n·v| below cos 80°), and is faded towards the root by height²: there
+    // the view crosses the shells' whole stack, which the stacking already makes as opaque as the
+    // hair volume; the fin adds the hair the shells miss towards the tips. Fins over the whole
+    // range (1 − |n·v|) doubled the coat the shells already drew at 70°; unfaded towards the
+    // root they drew a dark, self-shadowed root line along every silhouette and crease.
+    let alpha = texel * (1.0 - smoothstep(0.0, FIN_FACING, facing)) * in.fade * in.height * in.height;
     // One pixel's change of alpha, for alpha to coverage only (taken where control flow is
     // still uniform).
     var edge = 0.0;
@@ -175,19 +181,21 @@ fn fs_fin(in: FinOut) -> @location(0) vec4<f32> {
     }
     var rgb: vec3<f32>;
     if STRAND && LAMBERT {
+        // Shaded as the coat's top: a ray grazing a silhouette travels down through the sparse
+        // outer coat and meets its first hair there, near the tips, whatever the fin's own height
+        // (shaded at it, the fins darkened the sphere's limb where the hair volume is bright).
         var direct = 1.0;
         if SHADOW {
-            direct = shadow[min(fur.atlas_layers - 1u, u32(in.height * f32(fur.atlas_layers)))];
+            direct = shadow[fur.atlas_layers - 1u];
         }
         // A fin texel column is one hair (u along the edge, v root to tip).
         let width = f32(textureDimensions(fin_alpha).x);
         let column = i32(min(floor(fract(in.uv.x) * width), width - 1.0));
-        rgb = strand_shade(in.color.rgb * fur.tint.rgb, in.normal, in.tangent, in.world, to_eye, in.height, direct, strand_mask(column, -1));
+        rgb = strand_shade(in.color.rgb * fur.tint.rgb, in.normal, in.tangent, in.world, to_eye, 1.0, direct, strand_mask(column, -1));
     } else {
         var shade = lambert(in.normal, in.world);
         if SHADOW {
-            let layer = min(fur.atlas_layers - 1u, u32(in.height * f32(fur.atlas_layers)));
-            shade = shade * shadow[layer];
+            shade = shade * shadow[fur.atlas_layers - 1u];
         }
         rgb = in.color.rgb * fur.tint.rgb * shade;
     }

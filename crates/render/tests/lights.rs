@@ -92,10 +92,12 @@ fn light_adds_up() {
     assert!(mean_linear(&a, 0, SIZE) > 0.01 && mean_linear(&b, 0, SIZE) > 0.01, "both lights light the sphere");
     // The framebuffer stores 8-bit sRGB after every blended shell, so each of the 8 layers
     // rounds by up to half a step (about 0.002 in linear units at mid-grey): a few pixels of
-    // the rim, where many layers overlap, reach 0.04; most are within rounding (99th percentile
-    // 0.0122 since blending skips no faint texel, 0.0118 with the former 0.02 alpha threshold).
+    // the rim, where many layers overlap, reach 0.04; most are within rounding. The 99th
+    // percentile was 0.0118; blending every faint texel (no 0.02 alpha threshold) made it 0.0122
+    // and fins shaded as the coat's top (brighter colours at the rim, whose 8-bit steps are
+    // larger in linear units) 0.0141.
     assert!(
-        p99 < 0.014 && mean < 0.0015,
+        p99 < 0.016 && mean < 0.0015,
         "two lights are the sum of each alone: 99th percentile {p99:.4}, mean {mean:.5}"
     );
 }
