@@ -470,8 +470,10 @@ fn print_frame_costs(labels: [&str; 2], settings: [RenderSettings; 2], sizes: &[
 
 /// The GPU cost of the stacking exponents and of the level of detail (docs/performance.md
 /// "Shell opacity and level of detail"), measured as `strand_shading_frame_cost` is: stacking on
-/// and off in `View::framing` at 640×480; the default level of detail against every layer with
-/// the camera 6× farther (the fur a few pixels long). A measurement:
+/// and off, and blending every covered texel against skipping alpha up to 0.02 (the former
+/// threshold), in `View::framing` at 640×480; the default level of detail against every layer
+/// and against the former floor of 8 layers with the camera 6× farther (the fur a few pixels
+/// long). A measurement:
 /// `cargo test -p furbake-render --test render -- --ignored --nocapture stacking_and_lod_frame_cost`.
 // Ignored in `make test` on purpose, as `strand_shading_frame_cost`: it asserts nothing (speed
 // belongs in docs/performance.md, not in timed tests) and its 146 waited-for frames took 28 s on
@@ -489,6 +491,13 @@ fn stacking_and_lod_frame_cost() {
             .map(|stacking_correction| renderer(RenderSettings { stacking_correction, ..Default::default() }));
         let [on, off] = alternate_frames(&stacking, 640, 480, &near);
         println!("{name} 640×480: stacking on {on:.1} ms, off {off:.1} ms, ratio {:.2}", on / off);
+        let thresholds =
+            [0.0, 0.02].map(|alpha_threshold| renderer(RenderSettings { alpha_threshold, ..Default::default() }));
+        let [every, skipping] = alternate_frames(&thresholds, 640, 480, &near);
+        println!(
+            "{name} 640×480: alpha threshold 0 {every:.1} ms, 0.02 {skipping:.1} ms, ratio {:.2}",
+            every / skipping
+        );
         let mut far = near;
         let (eye, target) = (Vec3::from(far.camera.eye), Vec3::from(far.camera.target));
         far.camera.eye = (target + (eye - target) * 6.0).into();
@@ -502,6 +511,14 @@ fn stacking_and_lod_frame_cost() {
         println!(
             "{name} 640×480 at 6× the framing distance: every layer {all:.1} ms, default level of detail ({layers} layers) {fewer:.1} ms, ratio {:.2}",
             fewer / all
+        );
+        let floors =
+            [furbake_render::ShellLod::default(), furbake_render::ShellLod { min_layers: 8, ..Default::default() }]
+                .map(|lod| renderer(RenderSettings { lod: Some(lod), ..Default::default() }));
+        let [sixteen, eight] = alternate_frames(&floors, 640, 480, &far);
+        println!(
+            "{name} 640×480 at 6× the framing distance: floor 16 {sixteen:.1} ms, floor 8 {eight:.1} ms, ratio {:.2}",
+            sixteen / eight
         );
     }
 }

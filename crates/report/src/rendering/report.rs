@@ -608,38 +608,40 @@ fn find(rows: &[Row], scene: SceneKind, angle: f32, shells: u32, fins: FinMode) 
 }
 
 /// What the images of the run showed, written by hand after looking at them.
-const OBSERVATIONS: &str = "**What was measured, honestly.** With the calibrated stacking of \
-docs/design.md \"Shell opacity\", fins faded towards the root (\"Fin opacity\") and the atlases \
-filtered anisotropically (16×; the mip level follows the pixel footprint's short axis) every cell \
-of the first table lies between 0.043 and 0.128 (the report before the stacking and the fin fade, \
-which blended each layer's alpha as it was into an 8-bit target: 0.107 to 0.446). Anisotropic \
-filtering, against the isotropic mip the atlases had before (chosen by the footprint's long axis, \
-which at oblique views blurred the strands into a haze): the mean over the nine scene-angle cells \
-0.0580 → 0.0562 at 8 shells, 0.0578 → 0.0542 at 16, 0.0634 → 0.0602 at 64, lower in every cell \
-from 16 shells up (patch at 70°: 0.0702 → 0.0589 at 16, 0.0579 → 0.0487 at 8); but at 4 shells \
-higher in every cell (mean 0.0844 → 0.0953, patch at 45° 0.085 → 0.112), where the sharper \
-layers show their gaps; the default level of detail never draws fewer than 8. Up to the atlas's \
-16 layers the error falls with shells at every angle on the sphere and the Fox and at 0° on the \
-patch; at 45° and 70° on the patch 8 shells score best (0.060 against 0.077 at 16 at 45°): the \
-table matches the stack's mean transmittance to the volume's, and what is left is the look of the \
-layers themselves (more, fainter layers average the strands' contrast away). Past the atlas's \
-count the error rises by at most 0.013: 32 and 64 shells repeat slices. Slicing at the bottom of \
-each slab instead of its middle makes the error fall in all nine cells but costs the counts drawn \
-most (docs/design.md \"Rendering accuracy\"). Drawn into an 8-bit target \
-(`rendering_report --srgb8-target`) it rises faster: the faint layers that 64 shells blend round \
-to zero or one step of 8 bits, so hosts that draw fur should use a float target. Fins lower the \
-error at 70° at every shell count on the sphere and the Fox and from 8 shells on the patch (at 4 \
-shells on the patch 0.0750 without, 0.0754 with); before they were faded towards the root they \
-raised it everywhere, by 0.002 to 0.012. The level-of-detail sweep puts the knee at 8 shells for \
-fur from 0.25 to 8 px long, 16 at 16 px and 32 at 32 px, about one layer per pixel of fur with a \
-floor of 8, which is the renderer's default (`ShellLod::default`). \n\n\
+const OBSERVATIONS: &str = "**What was measured, honestly.** The error falls with shells at every \
+angle on all three scenes, each doubling lowering it or keeping it within 2 %, and drawing more \
+layers than the atlas's 16 (repeating slices) costs nothing. It did not before 2026-12-07, when it \
+rose past 16 shells everywhere and past 8 on the patch at 45° and 70° (patch at 45°: 0.060 at 8, \
+0.077 at 16, 0.090 at 64); three causes, found by drawing the frames with diagnostic colours \
+(docs/design.md \"Rendering accuracy\"): blended shells discarded texels of alpha up to 0.02, \
+which at a distance are a hair tip's coverage averaged by the mip chain, so the stack was clearer \
+than the hair volume and more so the more layers it had; each layer was shaded at the top of its \
+slab instead of its middle, so few layers came out too light and many too dark; and the \
+half-float target darkens a stack of 64 faint layers by about half a percent on lavapipe, so this \
+report draws into `Rgba32Float` (`rendering_report --f16-target`: the patch rises from 32 to 64 \
+shells there, 0.0512 → 0.0553 at 45°). Against the committed run before them (mean over the nine \
+scene-angle cells): 16 shells 0.0542 → 0.0469, 32 shells 0.0569 → 0.0464, 64 shells 0.0602 → \
+0.0464; 8 shells 0.0562 → 0.0584 and 4 shells 0.0953 → 0.0975, which the old shading height had \
+flattered; the Fox seen face-on is the one view that lost at every count (16 shells 0.0512 → \
+0.0625), the light rim over its back below. Fins, which now take over only where the skin turns \
+beyond the stacking table's 80° and are shaded as the coat's top (docs/design.md \"Fin \
+opacity\"), lower the error at 70° at every count on the sphere, whose limb is in view (16 shells \
+0.0453 → 0.0421), and move the patch and the Fox, which show few silhouette pixels at that view, \
+by at most 0.0004 either way (a **no** in the table). Drawn into an 8-bit target \
+(`rendering_report --srgb8-target`) the error rises past the atlas's count: the faint layers that \
+64 shells blend round to zero or one step of 8 bits, so hosts that draw fur should use a float \
+target. The level-of-detail sweep puts the knee at 16 shells for fur from 0.25 to 16 px long \
+(8 shells score 15–27 % worse: 4 atlas texels apart along a 45° ray, their layers let it through \
+between the hairs) and 32 at 32 px, one layer per pixel of fur with a floor of 16, which is the \
+renderer's default (`ShellLod::default`). \n\n\
 **What the images show.** The reference has individual strands, a bright fuzzy fringe on the \
 silhouettes (sphere and Fox at 70°) and dark gaps between coat hairs; 8 shells show a strand-like \
-texture over the coat (finer and streakier with anisotropic filtering than the isotropic mip's \
-blotches), 32 shells a smoother haze with the same overall colour and tone, a polygonal outline \
-softened by the fins' tips, and at 70° a grey polygonal band at the sphere's limb (the outer \
-shells beyond the skin's outline, clearer than the reference's dense fringe there); the FLIP maps \
-are brightest along silhouettes and nearly dark over the coat.";
+texture over the coat, 32 shells a smoother one with the same overall colour and tone, a \
+polygonal outline softened by the fins, and at 70° a band at the sphere's limb (the outer shells \
+beyond the skin's outline) lighter and less speckled than before, where the fins' tips fill it, \
+but still polygonal where the reference's fringe is round; the \
+Fox seen face-on has a light rim along its back where the reference's sparse tips let the \
+background through. The FLIP maps are brightest along silhouettes and nearly dark over the coat.";
 
 impl RenderingReport {
     /// Writes the images, the chart and [`DOCUMENT_NAME`] into `dir` (created if missing).

@@ -219,19 +219,20 @@ VertexOutput_vs_shell vs_shell(SurfaceIn v, uint layer : SV_InstanceID)
     const uint _e38 = shell_slice(layer, layers_3);
     out_.slice = _e38;
     out_.world = _e16;
-    out_.height = (float((layer + 1u)) / float(layers_3));
-    float _e50 = frame.shells.y;
-    out_.fade = ((naga_mod(layer, 2u) == 0u) ? _e50 : 1.0);
+    float _e49 = frame.shells.z;
+    out_.height = ((float((layer + 1u)) / float(layers_3)) - (0.5 / max(_e49, 1.0)));
+    float _e59 = frame.shells.y;
+    out_.fade = ((naga_mod(layer, 2u) == 0u) ? _e59 : 1.0);
     if (STRAND) {
-        const float3 _e62 = shell_tangent(v.vertex_index, v.position, v.normal, _e11, layer, layers_3);
-        const float3 _e63 = normal_to_world(_e62);
-        out_.tangent = _e63;
+        const float3 _e71 = shell_tangent(v.vertex_index, v.position, v.normal, _e11, layer, layers_3);
+        const float3 _e72 = normal_to_world(_e71);
+        out_.tangent = _e72;
     } else {
-        float3 _e66 = out_.normal;
-        out_.tangent = _e66;
+        float3 _e75 = out_.normal;
+        out_.tangent = _e75;
     }
-    ShellOut _e67 = out_;
-    const ShellOut shellout = _e67;
+    ShellOut _e76 = out_;
+    const ShellOut shellout = _e76;
     const VertexOutput_vs_shell shellout_1 = { shellout.normal, shellout.color, shellout.uv, shellout.slice, shellout.tangent, shellout.world, shellout.height, shellout.fade, shellout.clip_ };
     return shellout_1;
 }

@@ -274,18 +274,19 @@ vertex vs_shellOutput vs_shell(
     uint _e38 = shell_slice(layer, layers_3, fur);
     out.slice = _e38;
     out.world = _e16;
-    out.height = static_cast<float>(layer + 1u) / static_cast<float>(layers_3);
-    float _e50 = frame.shells.y;
-    out.fade = (naga_mod(layer, 2u) == 0u) ? _e50 : 1.0;
+    float _e49 = frame.shells.z;
+    out.height = (static_cast<float>(layer + 1u) / static_cast<float>(layers_3)) - (0.5 / metal::max(_e49, 1.0));
+    float _e59 = frame.shells.y;
+    out.fade = (naga_mod(layer, 2u) == 0u) ? _e59 : 1.0;
     if (STRAND) {
-        metal::float3 _e62 = shell_tangent(v.vertex_index, v.position, v.normal, _e11, layer, layers_3, fur, scale_vectors, skinned, _buffer_sizes);
-        metal::float3 _e63 = normal_to_world(_e62, frame);
-        out.tangent = _e63;
+        metal::float3 _e71 = shell_tangent(v.vertex_index, v.position, v.normal, _e11, layer, layers_3, fur, scale_vectors, skinned, _buffer_sizes);
+        metal::float3 _e72 = normal_to_world(_e71, frame);
+        out.tangent = _e72;
     } else {
-        metal::float3 _e66 = out.normal;
-        out.tangent = _e66;
+        metal::float3 _e75 = out.normal;
+        out.tangent = _e75;
     }
-    ShellOut _e67 = out;
-    const auto _tmp = _e67;
+    ShellOut _e76 = out;
+    const auto _tmp = _e76;
     return vs_shellOutput { _tmp.clip, _tmp.normal, _tmp.color, _tmp.uv, _tmp.slice, _tmp.tangent, _tmp.world, _tmp.height, _tmp.fade };
 }
