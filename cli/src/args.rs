@@ -347,7 +347,7 @@ pub struct RenderFlags {
     #[arg(long, value_enum)]
     pub blend: Option<BlendFlag>,
     /// Shell and fin fragments with alpha at or below this are discarded, in [0, 1). Default
-    /// 0.02 blending, 0.4 with --blend alpha-test.
+    /// 0 blending (only empty texels are skipped), 0.4 with --blend alpha-test.
     #[arg(long, value_name = "X")]
     pub alpha_threshold: Option<f32>,
     /// Draw the earlier flat look: fur Lambert × self-shadow (no strand shading), grass a flat

@@ -32,7 +32,7 @@ struct ShellOut {
     @location(5) world: vec3<f32>,
     // Relative height the layer is shaded at: the middle of the slab it stands for,
     // (layer + 1)/layers − 0.5/count with count the view's continuous layer count (docs/design.md
-    // "Shell opacity"), as the reference shades a hair at the height the ray meets it.
+    // "Rendering accuracy"), as the reference shades a hair at the height the ray meets it.
     @location(6) @interpolate(flat) height: f32,
     // Opacity of the layer in a level-of-detail transition (1 outside one).
     @location(7) @interpolate(flat) fade: f32,
