@@ -179,25 +179,21 @@ fn fs_fin(in: FinOut) -> @location(0) vec4<f32> {
     if alpha_discarded(alpha, edge) {
         discard;
     }
+    // Shaded as the coat's top: a ray grazing a silhouette travels down through the sparse outer
+    // coat and meets its first hair there, near the tips, whatever the fin's own height (shaded
+    // at it, the fins darkened the sphere's limb where the hair volume is bright).
+    var direct = 1.0;
+    if SHADOW {
+        direct = shadow[fur.atlas_layers - 1u];
+    }
     var rgb: vec3<f32>;
     if STRAND && LAMBERT {
-        // Shaded as the coat's top: a ray grazing a silhouette travels down through the sparse
-        // outer coat and meets its first hair there, near the tips, whatever the fin's own height
-        // (shaded at it, the fins darkened the sphere's limb where the hair volume is bright).
-        var direct = 1.0;
-        if SHADOW {
-            direct = shadow[fur.atlas_layers - 1u];
-        }
         // A fin texel column is one hair (u along the edge, v root to tip).
         let width = f32(textureDimensions(fin_alpha).x);
         let column = i32(min(floor(fract(in.uv.x) * width), width - 1.0));
         rgb = strand_shade(in.color.rgb * fur.tint.rgb, in.normal, in.tangent, in.world, to_eye, 1.0, direct, strand_mask(column, -1));
     } else {
-        var shade = lambert(in.normal, in.world);
-        if SHADOW {
-            shade = shade * shadow[fur.atlas_layers - 1u];
-        }
-        rgb = in.color.rgb * fur.tint.rgb * shade;
+        rgb = in.color.rgb * fur.tint.rgb * lambert(in.normal, in.world) * direct;
     }
     if ALPHA_BLEND {
         return vec4<f32>(rgb, alpha);

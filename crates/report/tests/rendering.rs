@@ -7,8 +7,9 @@
 use furbake_bake::BakeSettings;
 use furbake_bake::volume::slice_shell_atlas;
 use furbake_render::RenderSettings;
+use furbake_report::rendering::gpu::{MeasuringGpu, ReportTarget};
 use furbake_report::rendering::reference::{ReferenceSettings, render_reference};
-use furbake_report::rendering::report::{FinMode, reference_camera, reference_of, render_settings};
+use furbake_report::rendering::report::{FinMode, background, reference_camera, reference_of, render_settings};
 use furbake_report::rendering::scenes::{FurScene, SceneKind, bake_scene};
 use furbake_report::rendering::score::score;
 use furbake_report::rendering::shade::ShadeSettings;
@@ -109,13 +110,12 @@ fn shells_approach_the_reference_and_the_stacking_brings_them_closer() {
     // exponents (docs/design.md "Shell opacity") lower the error at both counts against blending
     // each layer's alpha as it is. (Fins do not yet lower it at 70°: docs/rendering-accuracy.md.)
     let scene = patch(&BakeSettings::preset("fur").unwrap());
-    let gpu = furbake_report::rendering::gpu::MeasuringGpu::new().unwrap();
-    let background = [0.06, 0.06, 0.07];
+    let gpu = MeasuringGpu::new().unwrap();
     let flip = |angle: f32, shells: u32, stacking_correction: bool, reference: &_| {
         let view = scene.view(angle, 12.0 * scene.fur_length_m);
         let settings = RenderSettings { stacking_correction, ..render_settings(shells, FinMode::Silhouette) };
         let frame = gpu.measure(&scene.asset, &settings, &view, 64, 64, 1).unwrap();
-        score(reference, &frame.image, background).0.flip_mean
+        score(reference, &frame.image, background()).0.flip_mean
     };
     let mut checked = 0;
     for angle in [0.0, 45.0] {
@@ -142,16 +142,15 @@ fn at_an_oblique_view_the_error_falls_as_shells_are_added() {
     // than the hair volume, more so the more layers) and layers shaded at their slab's top (too
     // bright at 8 layers, too dark at 64: the error fell to 8 shells and rose after).
     let scene = patch(&BakeSettings::preset("fur").unwrap());
-    let mut gpu = furbake_report::rendering::gpu::MeasuringGpu::new().unwrap();
-    assert!(gpu.float32_blendable, "lavapipe blends into Rgba32Float");
-    gpu.target = furbake_report::rendering::gpu::ReportTarget::Float32;
+    let mut gpu = MeasuringGpu::new().unwrap();
+    assert_eq!(gpu.set_target(ReportTarget::Float32), ReportTarget::Float32, "lavapipe blends into Rgba32Float");
     let view = scene.view(45.0, 16.0 * scene.fur_length_m);
     let reference = reference_of(&scene, &view, 64, 4).unwrap();
     let errors: Vec<(u32, f32)> = [8, 16, 32, 64]
         .into_iter()
         .map(|shells| {
             let frame = gpu.measure(&scene.asset, &render_settings(shells, FinMode::Silhouette), &view, 64, 64, 1);
-            (shells, score(&reference, &frame.unwrap().image, [0.06, 0.06, 0.07]).0.flip_mean)
+            (shells, score(&reference, &frame.unwrap().image, background()).0.flip_mean)
         })
         .collect();
     for pair in errors.windows(2) {

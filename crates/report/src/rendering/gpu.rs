@@ -226,6 +226,16 @@ impl MeasuringGpu {
         })
     }
 
+    /// Draws into `wanted` from now on, or into `Float16` where it is `Float32` and the adapter
+    /// does not blend into that; returns the target drawn into.
+    pub fn set_target(&mut self, wanted: ReportTarget) -> ReportTarget {
+        self.target = match wanted {
+            ReportTarget::Float32 if !self.float32_blendable => ReportTarget::Float16,
+            t => t,
+        };
+        self.target
+    }
+
     fn check(&self) -> Result<(), RenderError> {
         self.gpu.check()
     }

@@ -226,7 +226,8 @@ pub fn reference_of(
     Ok(render_reference(&scene.volume, &reference_camera(view), &light, size, size, &settings)?)
 }
 
-fn background() -> [f32; 3] {
+/// The renderer's default background, the colour the scores count as uncovered.
+pub fn background() -> [f32; 3] {
     let b = RenderSettings::default().background;
     [b[0], b[1], b[2]]
 }
@@ -238,10 +239,7 @@ pub fn rendering_report(
 ) -> Result<RenderingReport, RenderReportError> {
     let started = std::time::Instant::now();
     let mut gpu = MeasuringGpu::new()?;
-    gpu.target = match options.target {
-        ReportTarget::Float32 if !gpu.float32_blendable => ReportTarget::Float16,
-        t => t,
-    };
+    gpu.set_target(options.target);
     let size = options.size;
     let mut rows = Vec::new();
     let mut images = Vec::new();
