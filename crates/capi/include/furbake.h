@@ -259,16 +259,17 @@ typedef struct FurbakeShellLod {
   uint32_t size;
   // Shell layers per pixel of projected fur length (0: the default, 1).
   float layers_per_px;
-  // The fewest layers drawn (0: the default, 8).
+  // The fewest layers drawn (0: the default, 16).
   uint32_t min_layers;
 } FurbakeShellLod;
 
 // The shells one view draws: the `Frame` block's `shells` vector is `(layers, fade,
-// continuous, 0)`, and the shell draw has `layers` instances.
+// continuous, 0)`, and each shell draw has `layers` instances (blended shells are two draws:
+// back faces with first instance `layers`, then front faces with first instance 0; docs/c-api.md).
 typedef struct FurbakeShellLevel {
   // `sizeof(FurbakeShellLevel)`, set by the caller.
   uint32_t size;
-  // Instances of the shell draw; layer i sits at height (i + 1)/layers.
+  // Instances of each shell draw; layer i sits at height (i + 1)/layers.
   uint32_t layers;
   // Opacity in (0, 1] of the layers a transition between two levels adds.
   float fade;

@@ -182,18 +182,19 @@ pub struct FurbakeShellLod {
     pub size: u32,
     /// Shell layers per pixel of projected fur length (0: the default, 1).
     pub layers_per_px: f32,
-    /// The fewest layers drawn (0: the default, 8).
+    /// The fewest layers drawn (0: the default, 16).
     pub min_layers: u32,
 }
 
 /// The shells one view draws: the `Frame` block's `shells` vector is `(layers, fade,
-/// continuous, 0)`, and the shell draw has `layers` instances.
+/// continuous, 0)`, and each shell draw has `layers` instances (blended shells are two draws:
+/// back faces with first instance `layers`, then front faces with first instance 0; docs/c-api.md).
 #[repr(C)]
 #[derive(Clone, Copy, Debug)]
 pub struct FurbakeShellLevel {
     /// `sizeof(FurbakeShellLevel)`, set by the caller.
     pub size: u32,
-    /// Instances of the shell draw; layer i sits at height (i + 1)/layers.
+    /// Instances of each shell draw; layer i sits at height (i + 1)/layers.
     pub layers: u32,
     /// Opacity in (0, 1] of the layers a transition between two levels adds.
     pub fade: f32,

@@ -222,7 +222,9 @@ fn compare(look: Look, ours: &[u8], theirs: &[u8]) -> (usize, usize, f64) {
 }
 
 /// furbake's look, as `furbake preview` draws the scene: blended shells with the stacking
-/// exponents, strand shading, the level of detail's shell count and the atlas's mip chain, then
+/// exponents, strand shading, the level of detail's shell count and the atlas's mip chain (back
+/// faces first, then front faces; without the back faces' draw 161 Fox pixels differ by more
+/// than 8/255 and this fails), then
 /// the silhouette fins the exported compute pass selects for this view, all from the C
 /// interface's draw views. Without its fins the host's frame is visibly off (the comparison sees
 /// them).
@@ -235,8 +237,8 @@ fn an_opengl_host_draws_the_walking_fox_in_furbakes_look() {
     assert!(mean < 0.5, "mean difference {mean}");
     let finless = opengl_host(Look::FurbakeWithoutFins);
     let (_, over, _) = compare(Look::FurbakeWithoutFins, &finless, &theirs);
-    // Fins stand only where the skin turns beyond the shells' 80° (fin.wgsl): 65 of 1,718 Fox
-    // pixels (3.8 %) differ without them, twice the share the comparison above allows.
+    // Fins stand only where the skin turns beyond the shells' 80° (fin.wgsl): 69 of 1,718 Fox
+    // pixels (4.0 %) differ without them, twice the share the comparison above allows.
     assert!(over * 100 > 2 * fox, "without fins only {over} of {fox} pixels differ by more than 8/255");
 }
 

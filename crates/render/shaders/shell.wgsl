@@ -1,6 +1,9 @@
 // shell.wgsl — shell layers (fur thesis §3.2, fig. 3.10–3.12) drawn instanced, one instance per
 // layer, innermost first (instances rasterise in order, so blending is back-to-front along each
-// hair). Each corner is extruded along its normal by t·fur_length (t = (layer+1)/layers) and
+// hair). Blended shells are drawn twice (docs/design.md "Shell order"): first their back faces
+// (front faces culled) as instances layers … 2·layers − 1, outermost first, then their front faces
+// (back faces culled) as instances 0 … layers − 1, innermost first — so that where a ray grazes a
+// silhouette and crosses the coat twice, the far side blends before the near side. Each corner is extruded along its normal by t·fur_length (t = (layer+1)/layers) and
 // sheared towards its scale vector s by t^k·(s − n)·fur_length (eq. 3.35–3.36, §3.4.2); the
 // scale vectors live in a storage buffer the physics rewrites every frame (initially s = n, i.e.
 // no shear), one per welded vertex or — separable topologies, parted fur (§3.4.1) — one per
@@ -115,9 +118,11 @@ fn shell_slice(layer: u32, layers: u32) -> u32 {
 }
 
 @vertex
-fn vs_shell(v: SurfaceIn, @builtin(instance_index) layer: u32) -> ShellOut {
+fn vs_shell(v: SurfaceIn, @builtin(instance_index) instance: u32) -> ShellOut {
     // This view's level of detail (docs/design.md "Shell level of detail").
     let layers = max(u32(frame.shells.x), 1u);
+    // Instances past the layer count are the back faces' pass, outermost layer first.
+    let layer = select(instance, 2u * layers - 1u - instance, instance >= layers);
     let scale_at = scale_index(v.vertex_index, v.corner_index);
     let world = to_world(shell_vertex(v.vertex_index, v.position, v.normal, scale_at, layer, layers));
     var out: ShellOut;

@@ -22,6 +22,12 @@ use crate::shaders::{
     SKIN_WGSL, SKINNING_WGSL,
 };
 
+/// HLSL space and `b` register of the constant buffer naga adds for what HLSL has no built-in
+/// for (`_NagaConstants`: `int first_vertex, first_instance; uint other` — a draw's first vertex
+/// and first instance, or a dispatch's workgroup counts x, y, z), outside the groups furbake's
+/// modules use (0 and 1).
+pub const HLSL_SPECIAL_CONSTANTS: (u8, u32) = (8, 0);
+
 /// A shading language the shaders are exported to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ShaderTarget {
@@ -216,6 +222,17 @@ pub fn export_shaders(target: ShaderTarget) -> Result<ShaderExport, RenderError>
                         last["host_uniforms"] = json!(extra);
                     }
                 }
+                if target == ShaderTarget::Hlsl && String::from_utf8_lossy(&bytes).contains("_NagaConstants.") {
+                    // The constant buffer naga reads where HLSL lacks a built-in (SV_InstanceID
+                    // leaves out the draw's first instance, and there is no workgroup count).
+                    if let Some(last) = entries.last_mut() {
+                        last["host_constants"] = json!({
+                            "name": "_NagaConstants",
+                            "space": HLSL_SPECIAL_CONSTANTS.0,
+                            "register": HLSL_SPECIAL_CONSTANTS.1,
+                        });
+                    }
+                }
                 files.push(ExportedShader { file, bytes });
             }
         }
@@ -361,7 +378,15 @@ fn translate(
             Ok(out.into_bytes())
         }
         ShaderTarget::Hlsl => {
-            let options = hlsl::Options { fake_missing_bindings: true, ..hlsl::Options::default() };
+            let options = hlsl::Options {
+                fake_missing_bindings: true,
+                special_constants_binding: Some(hlsl::BindTarget {
+                    space: HLSL_SPECIAL_CONSTANTS.0,
+                    register: HLSL_SPECIAL_CONSTANTS.1,
+                    ..Default::default()
+                }),
+                ..hlsl::Options::default()
+            };
             let pipeline = hlsl::PipelineOptions { entry_point: Some((stage, entry.into())) };
             let mut out = String::new();
             hlsl::Writer::new(&mut out, &options, &pipeline).write(&module, &info, None).map_err(|e| e.to_string())?;

@@ -105,9 +105,11 @@
 //!
 //! # What is drawn
 //!
-//! The frame of a fur pack: the skin (Lambert × vertex colour), the shells as one instanced draw
-//! (instance = layer, so layers rasterise innermost first; each hair lit along its sheared
-//! direction by the strand shading, [`FurShading`], docs/design.md "Fur shading"), then the fins
+//! The frame of a fur pack: the skin (Lambert × vertex colour), the shells as instanced draws
+//! (blended: their back faces outermost first, then their front faces innermost first, so a ray
+//! grazing a silhouette blends the far side of the coat before the near side, docs/design.md
+//! "Shell order"; each hair lit along its sheared direction by the strand shading,
+//! [`FurShading`], docs/design.md "Fur shading"), then the fins
 //! on the pack's fin edges (borders, fur/bare edges: always on), then the silhouette fins: the
 //! interior edges on or near this frame's silhouette, selected by a compute pass that `prepare`
 //! records and drawn indirectly, faded by their faces' n·v

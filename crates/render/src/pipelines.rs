@@ -38,12 +38,15 @@ pub(crate) struct FurSwitches {
     pub light_slots: u32,
 }
 
-/// The three fur stages (fur thesis §3.2: skin, shells, fins), and the silhouette fins
-/// (`crate::silhouette`): the fin program drawn indirectly from the selected edges.
+/// The three fur stages (fur thesis §3.2: skin, shells, fins), the back faces of blended shells
+/// (the shell program with front faces culled, drawn before the front faces; docs/design.md
+/// "Shell order") and the silhouette fins (`crate::silhouette`): the fin program drawn indirectly
+/// from the selected edges.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub(crate) enum FurStage {
     Skin,
     Shell,
+    ShellBack,
     Fin,
     SilhouetteFin,
 }
@@ -65,7 +68,11 @@ struct PipelineKey {
 #[derive(Clone, Debug)]
 pub(crate) struct FurPipelines {
     pub skin: wgpu::RenderPipeline,
+    /// The shells; blended, their front faces only.
     pub shell: wgpu::RenderPipeline,
+    /// The back faces of blended shells, drawn first (none for alpha-tested shells, which write
+    /// depth and draw every face in one pass).
+    pub shell_back: Option<wgpu::RenderPipeline>,
     pub fin: wgpu::RenderPipeline,
     /// The silhouette fins, when the renderer draws them.
     pub silhouette_fin: Option<wgpu::RenderPipeline>,
@@ -289,6 +296,11 @@ impl PipelineCache {
         Ok(FurPipelines {
             skin: self.render_pipeline(target, Program::Fur(FurStage::Skin, skin_switches))?,
             shell: self.render_pipeline(target, Program::Fur(FurStage::Shell, switches))?,
+            shell_back: if switches.alpha_blend {
+                Some(self.render_pipeline(target, Program::Fur(FurStage::ShellBack, switches))?)
+            } else {
+                None
+            },
             fin: self.render_pipeline(target, Program::Fur(FurStage::Fin, switches))?,
             silhouette_fin: if silhouette {
                 Some(self.render_pipeline(target, Program::Fur(FurStage::SilhouetteFin, switches))?)
@@ -392,6 +404,7 @@ impl PipelineCache {
         let (label, module, vs, fs) = match stage {
             FurStage::Skin => ("furbake skin", self.module(Module::Skin), "vs_skin", "fs_skin"),
             FurStage::Shell => ("furbake shells", self.module(Module::Shell), "vs_shell", "fs_shell"),
+            FurStage::ShellBack => ("furbake shell back faces", self.module(Module::Shell), "vs_shell", "fs_shell"),
             FurStage::Fin => ("furbake fins", self.module(Module::Fin), "vs_fin", "fs_fin"),
             FurStage::SilhouetteFin => {
                 ("furbake silhouette fins", self.module(Module::Fin), "vs_silhouette_fin", "fs_fin")
@@ -434,8 +447,14 @@ impl PipelineCache {
         };
         let (blend, depth_write, cull) = match stage {
             FurStage::Skin => (None, true, Some(wgpu::Face::Back)),
-            // Shells cull nothing: back-facing shells near the silhouette are what makes it furry.
+            // Blended shells draw their back faces first, then their front faces, so that a ray
+            // grazing a silhouette blends the far side of the coat before the near side
+            // (docs/design.md "Shell order"). Both are drawn: back-facing shells near the
+            // silhouette are what makes it furry.
+            FurStage::ShellBack => (Some(target.color.blend), false, Some(wgpu::Face::Front)),
+            FurStage::Shell if s.alpha_blend => (Some(target.color.blend), false, Some(wgpu::Face::Back)),
             _ if s.alpha_blend => (Some(target.color.blend), false, None),
+            // Alpha-tested shells and fins write depth: every face in one pass.
             _ => (None, true, None),
         };
         let targets = target.color_states(blend);

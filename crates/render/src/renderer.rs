@@ -8,8 +8,8 @@
 //! A renderer is middleware in the host's frame: built for the host's pass ([`TargetDesc`], its
 //! pipelines from a shared [`PipelineCache`]), [`FurRenderer::prepare`] writes this frame's
 //! uniforms and records the skinning dispatch of an animated asset into the host's encoder, and
-//! [`FurRenderer::render`] draws skin, shells innermost to outermost (one instanced draw,
-//! instance = layer) and fins into the host's render pass, depth-tested against whatever the host
+//! [`FurRenderer::render`] draws skin, shells (instanced; blended ones back faces first,
+//! outermost to innermost, then front faces innermost to outermost) and fins into the host's render pass, depth-tested against whatever the host
 //! drew, then the silhouette fins ([`crate::silhouette`]: `prepare` also records their selection
 //! dispatch, `render` their indirect draw). Neither submits nor waits (`crate::blocking`). Effects are switched with WGSL `override`
 //! constants at pipeline creation. An animated asset (skin weights or morph targets) owns a
@@ -1015,8 +1015,13 @@ impl FurRenderer {
         }
         let layers = view.layers.load(Ordering::Relaxed);
         if gpu.furry_corners > 0 && layers > 0 {
-            pass.set_pipeline(&self.pipelines.shell);
             pass.set_vertex_buffer(0, gpu.surface.slice(..));
+            // Blended: the back faces first, as instances layers..2·layers (shell.wgsl).
+            if let Some(back) = &self.pipelines.shell_back {
+                pass.set_pipeline(back);
+                pass.draw(0..gpu.furry_corners, layers..2 * layers);
+            }
+            pass.set_pipeline(&self.pipelines.shell);
             pass.draw(0..gpu.furry_corners, 0..layers);
         }
         if let Some((buffer, count)) = gpu.fins.as_ref().filter(|_| self.drawn_layers > 0) {

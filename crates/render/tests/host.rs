@@ -153,9 +153,9 @@ fn fur_and_grass_render_into_ldr_and_hdr_targets_with_and_without_msaa() {
         let before = pipelines.render_pipeline_count();
         let fur = furbake_in(&pipelines, &options.target_desc());
         let created = pipelines.render_pipeline_count() - before;
-        // Skin, shell, fin and silhouette fin for the Fox (skinned) and for the patch (static),
-        // and the blades.
-        assert_eq!(created, 9, "{format:?} × {samples}: pipelines created");
+        // Skin, shell back faces, shell front faces, fin and silhouette fin for the Fox (skinned)
+        // and for the patch (static), and the blades.
+        assert_eq!(created, 11, "{format:?} × {samples}: pipelines created");
         // A second set of renderers for the same pass reuses every pipeline.
         let again = furbake_in(&pipelines, &options.target_desc());
         assert_eq!(pipelines.render_pipeline_count() - before, created, "{format:?}×{samples}: rebuilt");

@@ -571,16 +571,28 @@ int main(int argc, char **argv) {
     glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
     glUseProgram(skin);
     glDrawArrays(GL_TRIANGLES, 0, (GLsizei)corners);
-    /* Shells: innermost first (instance = layer), no culling; blended over what is drawn
-     * (straight alpha, depth tested but not written), or alpha-tested with depth written. */
-    glDisable(GL_CULL_FACE);
+    /* Shells, blended over what is drawn (straight alpha, depth tested but not written): first
+     * their back faces (front faces culled) as instances layers … 2·layers − 1, outermost first,
+     * then their front faces (back faces culled) as instances 0 … layers − 1, innermost first.
+     * GLSL's instance index leaves out the first instance; naga's naga_vs_first_instance uniform
+     * carries it. Alpha-tested shells write depth: one draw of every face, innermost first. */
+    glUseProgram(shells);
     if (furbake_look) {
         glEnable(GL_BLEND);
         glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
         glDepthMask(GL_FALSE);
+        GLint first_instance = glGetUniformLocation(shells, "naga_vs_first_instance");
+        glCullFace(GL_FRONT);
+        glUniform1ui(first_instance, layers);
+        glDrawArraysInstanced(GL_TRIANGLES, 0, (GLsizei)furry_corners, (GLsizei)layers);
+        glCullFace(GL_BACK);
+        glUniform1ui(first_instance, 0);
+        glDrawArraysInstanced(GL_TRIANGLES, 0, (GLsizei)furry_corners, (GLsizei)layers);
+        glDisable(GL_CULL_FACE);
+    } else {
+        glDisable(GL_CULL_FACE);
+        glDrawArraysInstanced(GL_TRIANGLES, 0, (GLsizei)furry_corners, (GLsizei)layers);
     }
-    glUseProgram(shells);
-    glDrawArraysInstanced(GL_TRIANGLES, 0, (GLsizei)furry_corners, (GLsizei)layers);
     if (furbake_look && !without_fins) {
         draw_fins(argc, argv, shader_dir, fox, &pose, &mesh, &model, eye, buffers[0], buffers[3], buffers[2], look.anisotropy);
     }

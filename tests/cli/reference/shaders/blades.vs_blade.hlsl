@@ -1,3 +1,10 @@
+struct NagaConstants {
+    int first_vertex;
+    int first_instance;
+    uint other;
+};
+ConstantBuffer<NagaConstants> _NagaConstants: register(b0, space8);
+
 struct Light {
     float4 vector_;
     float4 radiance;
@@ -381,11 +388,11 @@ VertexOutput_vs_blade vs_blade(uint vi : SV_VertexID, uint instance : SV_Instanc
     BladeOut out_ = (BladeOut)0;
 
     uint _e4 = params.vertex_count;
-    uint lod = naga_div(vi, _e4);
+    uint lod = naga_div((_NagaConstants.first_vertex + vi), _e4);
     uint _e8 = params.vertex_count;
-    uint v_4 = (vi - (lod * _e8));
+    uint v_4 = ((_NagaConstants.first_vertex + vi) - (lod * _e8));
     uint _e15 = asuint(instances.Load(lod*4));
-    uint entry = (4u + (3u * (_e15 + instance)));
+    uint entry = (4u + (3u * (_e15 + (_NagaConstants.first_instance + instance))));
     uint b_1 = asuint(instances.Load(entry*4));
     uint _e26 = asuint(instances.Load((entry + 1u)*4));
     uint _e32 = asuint(instances.Load((entry + 2u)*4));

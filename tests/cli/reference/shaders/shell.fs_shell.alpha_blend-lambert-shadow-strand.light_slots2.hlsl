@@ -1,3 +1,10 @@
+struct NagaConstants {
+    int first_vertex;
+    int first_instance;
+    uint other;
+};
+ConstantBuffer<NagaConstants> _NagaConstants: register(b0, space8);
+
 struct Light {
     float4 vector_;
     float4 radiance;

@@ -1,3 +1,10 @@
+struct NagaConstants {
+    int first_vertex;
+    int first_instance;
+    uint other;
+};
+ConstantBuffer<NagaConstants> _NagaConstants: register(b0, space8);
+
 struct Light {
     float4 vector_;
     float4 radiance;
@@ -161,9 +168,9 @@ float3 normal_to_world(float3 n_2)
     return normalize(mul(float4(n_2, 0.0), _e3).xyz);
 }
 
-float3 shell_vertex(uint vertex_index_2, float3 position_1, float3 normal_1, uint scale_at, uint layer_1, uint layers)
+float3 shell_vertex(uint vertex_index_2, float3 position_1, float3 normal_1, uint scale_at, uint layer, uint layers)
 {
-    float t_2 = (float((layer_1 + 1u)) / float(layers));
+    float t_2 = (float((layer + 1u)) / float(layers));
     const SkinnedVertex _e11 = posed_vertex(vertex_index_2, position_1, normal_1);
     float3 n_3 = normalize(_e11.normal.xyz);
     float4 _e17 = asfloat(scale_vectors.Load4(scale_at*16));
@@ -172,9 +179,9 @@ float3 shell_vertex(uint vertex_index_2, float3 position_1, float3 normal_1, uin
     return (_e11.position.xyz + _e21);
 }
 
-float3 shell_tangent(uint vertex_index_3, float3 position_2, float3 normal_2, uint scale_at_1, uint layer_2, uint layers_1)
+float3 shell_tangent(uint vertex_index_3, float3 position_2, float3 normal_2, uint scale_at_1, uint layer_1, uint layers_1)
 {
-    float t_3 = (float((layer_2 + 1u)) / float(layers_1));
+    float t_3 = (float((layer_1 + 1u)) / float(layers_1));
     const SkinnedVertex _e11 = posed_vertex(vertex_index_3, position_2, normal_2);
     float3 n_4 = normalize(_e11.normal.xyz);
     float4 _e17 = asfloat(scale_vectors.Load4(scale_at_1*16));
@@ -186,10 +193,10 @@ uint naga_div(uint lhs, uint rhs) {
     return lhs / (rhs == 0u ? 1u : rhs);
 }
 
-uint shell_slice(uint layer_3, uint layers_2)
+uint shell_slice(uint layer_2, uint layers_2)
 {
     uint a = fur.atlas_layers;
-    return min((a - 1u), (naga_div(((((layer_3 + 1u) * a) + layers_2) - 1u), layers_2) - 1u));
+    return min((a - 1u), (naga_div(((((layer_2 + 1u) * a) + layers_2) - 1u), layers_2) - 1u));
 }
 
 uint naga_mod(uint lhs, uint rhs) {
@@ -200,39 +207,40 @@ uint naga_f2u32(float value) {
     return uint(clamp(value, 0.0, 4294967000.0));
 }
 
-VertexOutput_vs_shell vs_shell(SurfaceIn v, uint layer : SV_InstanceID)
+VertexOutput_vs_shell vs_shell(SurfaceIn v, uint instance : SV_InstanceID)
 {
     ShellOut out_ = (ShellOut)0;
 
     float _e5 = frame.shells.x;
     uint layers_3 = max(naga_f2u32(_e5), 1u);
-    const uint _e11 = scale_index(v.vertex_index, v.corner_index);
-    const float3 _e15 = shell_vertex(v.vertex_index, v.position, v.normal, _e11, layer, layers_3);
-    const float3 _e16 = to_world(_e15);
-    float4x4 _e21 = frame.view_proj;
-    out_.clip_ = mul(float4(_e16, 1.0), _e21);
-    const SkinnedVertex _e29 = posed_vertex(v.vertex_index, v.position, v.normal);
-    const float3 _e32 = normal_to_world(_e29.normal.xyz);
-    out_.normal = _e32;
+    uint layer_3 = (((_NagaConstants.first_instance + instance) >= layers_3) ? (((2u * layers_3) - 1u) - (_NagaConstants.first_instance + instance)) : (_NagaConstants.first_instance + instance));
+    const uint _e18 = scale_index(v.vertex_index, v.corner_index);
+    const float3 _e22 = shell_vertex(v.vertex_index, v.position, v.normal, _e18, layer_3, layers_3);
+    const float3 _e23 = to_world(_e22);
+    float4x4 _e28 = frame.view_proj;
+    out_.clip_ = mul(float4(_e23, 1.0), _e28);
+    const SkinnedVertex _e36 = posed_vertex(v.vertex_index, v.position, v.normal);
+    const float3 _e39 = normal_to_world(_e36.normal.xyz);
+    out_.normal = _e39;
     out_.color = v.color;
     out_.uv = v.uv;
-    const uint _e38 = shell_slice(layer, layers_3);
-    out_.slice = _e38;
-    out_.world = _e16;
-    float _e49 = frame.shells.z;
-    out_.height = ((float((layer + 1u)) / float(layers_3)) - (0.5 / max(_e49, 1.0)));
-    float _e59 = frame.shells.y;
-    out_.fade = ((naga_mod(layer, 2u) == 0u) ? _e59 : 1.0);
+    const uint _e45 = shell_slice(layer_3, layers_3);
+    out_.slice = _e45;
+    out_.world = _e23;
+    float _e56 = frame.shells.z;
+    out_.height = ((float((layer_3 + 1u)) / float(layers_3)) - (0.5 / max(_e56, 1.0)));
+    float _e66 = frame.shells.y;
+    out_.fade = ((naga_mod(layer_3, 2u) == 0u) ? _e66 : 1.0);
     if (STRAND) {
-        const float3 _e71 = shell_tangent(v.vertex_index, v.position, v.normal, _e11, layer, layers_3);
-        const float3 _e72 = normal_to_world(_e71);
-        out_.tangent = _e72;
+        const float3 _e78 = shell_tangent(v.vertex_index, v.position, v.normal, _e18, layer_3, layers_3);
+        const float3 _e79 = normal_to_world(_e78);
+        out_.tangent = _e79;
     } else {
-        float3 _e75 = out_.normal;
-        out_.tangent = _e75;
+        float3 _e82 = out_.normal;
+        out_.tangent = _e82;
     }
-    ShellOut _e76 = out_;
-    const ShellOut shellout = _e76;
+    ShellOut _e83 = out_;
+    const ShellOut shellout = _e83;
     const VertexOutput_vs_shell shellout_1 = { shellout.normal, shellout.color, shellout.uv, shellout.slice, shellout.tangent, shellout.world, shellout.height, shellout.fade, shellout.clip_ };
     return shellout_1;
 }

@@ -171,14 +171,14 @@ metal::float3 shell_vertex(
     metal::float3 position_1,
     metal::float3 normal_1,
     uint scale_at,
-    uint layer_1,
+    uint layer,
     uint layers,
     constant Fur& fur,
     device type_8 const& scale_vectors,
     device type_9 const& skinned,
     constant _mslBufferSizes& _buffer_sizes
 ) {
-    float t_2 = static_cast<float>(layer_1 + 1u) / static_cast<float>(layers);
+    float t_2 = static_cast<float>(layer + 1u) / static_cast<float>(layers);
     SkinnedVertex _e11 = posed_vertex(vertex_index_2, position_1, normal_1, skinned, _buffer_sizes);
     metal::float3 n_3 = metal::normalize(_e11.normal.xyz);
     metal::float4 _e17 = scale_vectors[scale_at];
@@ -192,14 +192,14 @@ metal::float3 shell_tangent(
     metal::float3 position_2,
     metal::float3 normal_2,
     uint scale_at_1,
-    uint layer_2,
+    uint layer_1,
     uint layers_1,
     constant Fur& fur,
     device type_8 const& scale_vectors,
     device type_9 const& skinned,
     constant _mslBufferSizes& _buffer_sizes
 ) {
-    float t_3 = static_cast<float>(layer_2 + 1u) / static_cast<float>(layers_1);
+    float t_3 = static_cast<float>(layer_1 + 1u) / static_cast<float>(layers_1);
     SkinnedVertex _e11 = posed_vertex(vertex_index_3, position_2, normal_2, skinned, _buffer_sizes);
     metal::float3 n_4 = metal::normalize(_e11.normal.xyz);
     metal::float4 _e17 = scale_vectors[scale_at_1];
@@ -212,12 +212,12 @@ uint naga_div(uint lhs, uint rhs) {
 }
 
 uint shell_slice(
-    uint layer_3,
+    uint layer_2,
     uint layers_2,
     constant Fur& fur
 ) {
     uint a = fur.atlas_layers;
-    return metal::min(a - 1u, naga_div((((layer_3 + 1u) * a) + layers_2) - 1u, layers_2) - 1u);
+    return metal::min(a - 1u, naga_div((((layer_2 + 1u) * a) + layers_2) - 1u, layers_2) - 1u);
 }
 uint naga_f2u32(float value) {
     return static_cast<uint>(metal::clamp(value, 0.0, 4294967000.0));
@@ -250,7 +250,7 @@ struct vs_shellOutput {
 };
 vertex vs_shellOutput vs_shell(
   vs_shellInput varyings [[stage_in]]
-, uint layer [[instance_id]]
+, uint instance [[instance_id]]
 , constant Frame& frame [[buffer(0)]]
 , constant Fur& fur [[buffer(1)]]
 , device type_8 const& scale_vectors [[buffer(2)]]
@@ -261,32 +261,33 @@ vertex vs_shellOutput vs_shell(
     ShellOut out = {};
     float _e5 = frame.shells.x;
     uint layers_3 = metal::max(naga_f2u32(_e5), 1u);
-    uint _e11 = scale_index(v.vertex_index, v.corner_index, fur);
-    metal::float3 _e15 = shell_vertex(v.vertex_index, v.position, v.normal, _e11, layer, layers_3, fur, scale_vectors, skinned, _buffer_sizes);
-    metal::float3 _e16 = to_world(_e15, frame);
-    metal::float4x4 _e21 = frame.view_proj;
-    out.clip = _e21 * metal::float4(_e16, 1.0);
-    SkinnedVertex _e29 = posed_vertex(v.vertex_index, v.position, v.normal, skinned, _buffer_sizes);
-    metal::float3 _e32 = normal_to_world(_e29.normal.xyz, frame);
-    out.normal = _e32;
+    uint layer_3 = (instance >= layers_3) ? (((2u * layers_3) - 1u) - instance) : instance;
+    uint _e18 = scale_index(v.vertex_index, v.corner_index, fur);
+    metal::float3 _e22 = shell_vertex(v.vertex_index, v.position, v.normal, _e18, layer_3, layers_3, fur, scale_vectors, skinned, _buffer_sizes);
+    metal::float3 _e23 = to_world(_e22, frame);
+    metal::float4x4 _e28 = frame.view_proj;
+    out.clip = _e28 * metal::float4(_e23, 1.0);
+    SkinnedVertex _e36 = posed_vertex(v.vertex_index, v.position, v.normal, skinned, _buffer_sizes);
+    metal::float3 _e39 = normal_to_world(_e36.normal.xyz, frame);
+    out.normal = _e39;
     out.color = v.color;
     out.uv = v.uv;
-    uint _e38 = shell_slice(layer, layers_3, fur);
-    out.slice = _e38;
-    out.world = _e16;
-    float _e49 = frame.shells.z;
-    out.height = (static_cast<float>(layer + 1u) / static_cast<float>(layers_3)) - (0.5 / metal::max(_e49, 1.0));
-    float _e59 = frame.shells.y;
-    out.fade = (naga_mod(layer, 2u) == 0u) ? _e59 : 1.0;
+    uint _e45 = shell_slice(layer_3, layers_3, fur);
+    out.slice = _e45;
+    out.world = _e23;
+    float _e56 = frame.shells.z;
+    out.height = (static_cast<float>(layer_3 + 1u) / static_cast<float>(layers_3)) - (0.5 / metal::max(_e56, 1.0));
+    float _e66 = frame.shells.y;
+    out.fade = (naga_mod(layer_3, 2u) == 0u) ? _e66 : 1.0;
     if (STRAND) {
-        metal::float3 _e71 = shell_tangent(v.vertex_index, v.position, v.normal, _e11, layer, layers_3, fur, scale_vectors, skinned, _buffer_sizes);
-        metal::float3 _e72 = normal_to_world(_e71, frame);
-        out.tangent = _e72;
+        metal::float3 _e78 = shell_tangent(v.vertex_index, v.position, v.normal, _e18, layer_3, layers_3, fur, scale_vectors, skinned, _buffer_sizes);
+        metal::float3 _e79 = normal_to_world(_e78, frame);
+        out.tangent = _e79;
     } else {
-        metal::float3 _e75 = out.normal;
-        out.tangent = _e75;
+        metal::float3 _e82 = out.normal;
+        out.tangent = _e82;
     }
-    ShellOut _e76 = out;
-    const auto _tmp = _e76;
+    ShellOut _e83 = out;
+    const auto _tmp = _e83;
     return vs_shellOutput { _tmp.clip, _tmp.normal, _tmp.color, _tmp.uv, _tmp.slice, _tmp.tangent, _tmp.world, _tmp.height, _tmp.fade };
 }

@@ -1,3 +1,10 @@
+struct NagaConstants {
+    int first_vertex;
+    int first_instance;
+    uint other;
+};
+ConstantBuffer<NagaConstants> _NagaConstants: register(b0, space8);
+
 struct SkinningUniforms {
     uint vertex_count;
     uint influences_per_vertex;
@@ -57,7 +64,7 @@ void cs_skin(uint3 gid : SV_DispatchThreadID, uint3 groups : SV_GroupID)
     float4x4 m = ZeroValuefloat4x4();
     uint s = 0u;
 
-    uint v = (gid.x + ((gid.y * groups.x) * 64u));
+    uint v = (gid.x + ((gid.y * uint3(_NagaConstants.first_vertex, _NagaConstants.first_instance, _NagaConstants.other).x) * 64u));
     uint _e11 = params.vertex_count;
     if ((v >= _e11)) {
         return;
