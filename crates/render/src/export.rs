@@ -26,7 +26,7 @@ use crate::shaders::{
 /// for (`_NagaConstants`: `int first_vertex, first_instance; uint other` — a draw's first vertex
 /// and first instance, or a dispatch's workgroup counts x, y, z), outside the groups furbake's
 /// modules use (0 and 1).
-pub const HLSL_SPECIAL_CONSTANTS: (u8, u32) = (8, 0);
+const HLSL_SPECIAL_CONSTANTS: (u8, u32) = (8, 0);
 
 /// A shading language the shaders are exported to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

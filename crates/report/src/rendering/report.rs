@@ -617,29 +617,32 @@ than the hair volume and more so the more layers it had; each layer was shaded a
 slab instead of its middle, so few layers came out too light and many too dark; and the \
 half-float target darkens a stack of 64 faint layers by about half a percent on lavapipe, so this \
 report draws into `Rgba32Float` (`rendering_report --f16-target`: the patch rises from 32 to 64 \
-shells there, 0.0512 → 0.0553 at 45°). Against the committed run before them (mean over the nine \
-scene-angle cells): 16 shells 0.0542 → 0.0469, 32 shells 0.0569 → 0.0464, 64 shells 0.0602 → \
-0.0464; 8 shells 0.0562 → 0.0584 and 4 shells 0.0953 → 0.0975, which the old shading height had \
-flattered; the Fox seen face-on is the one view that lost at every count (16 shells 0.0512 → \
-0.0625), the light rim over its back below. Fins, which now take over only where the skin turns \
-beyond the stacking table's 80° and are shaded as the coat's top (docs/design.md \"Fin \
+shells there, 0.0512 → 0.0553 at 45°). Blended shells draw their back faces before their front \
+faces (docs/design.md \"Shell order\"): where a ray grazes a silhouette it crosses the coat twice, \
+and drawn in one pass, innermost layer first, the coat's far side blended its light outer layers \
+over the near side. Drawn in that order the sphere at 45° and 70° and the Fox at 0° and 45° \
+score 4–25 % lower at every count, the Fox at 70° 0.5–4 % (sphere at 70° and 16 shells 0.0421 → \
+0.0318, the Fox face-on 0.0625 → 0.0546); the patch and the sphere face-on, which show no back \
+faces, are unchanged; mean over the nine scene-angle cells \
+0.0469 → 0.0434 at 16 shells, 0.0464 → 0.0429 at 64. Fins, which take over only where the skin \
+turns beyond the stacking table's 80° and are shaded as the coat's top (docs/design.md \"Fin \
 opacity\"), lower the error at 70° at every count on the sphere, whose limb is in view (16 shells \
-0.0453 → 0.0421), and move the patch and the Fox, which show few silhouette pixels at that view, \
-by at most 0.0004 either way (a **no** in the table). Drawn into an 8-bit target \
-(`rendering_report --srgb8-target`) the error rises past the atlas's count: the faint layers that \
-64 shells blend round to zero or one step of 8 bits, so hosts that draw fur should use a float \
-target. The level-of-detail sweep puts the knee at 16 shells for fur from 0.25 to 16 px long \
-(8 shells score 15–27 % worse: 4 atlas texels apart along a 45° ray, their layers let it through \
-between the hairs) and 32 at 32 px, one layer per pixel of fur with a floor of 16, which is the \
-renderer's default (`ShellLod::default`). \n\n\
+0.0338 → 0.0318), leave the patch within 0.0002 (its far border, two pixel rows) and raise the \
+Fox's by 0.0004–0.0005 (a **no** in the table): its silhouette fins stand on the leg's contour \
+over the body's coat, where the coat's top is the wrong shade, and along its coarse belly the 80° \
+window erases them. Drawn into an 8-bit target (`rendering_report --srgb8-target`) the error \
+rises past the atlas's count: the faint layers that 64 shells blend round to zero or one step of \
+8 bits, so hosts that draw fur should use a float target. The level-of-detail sweep puts the knee \
+at 16 shells for fur from 0.25 to 16 px long (8 shells score 15–27 % worse: 4 atlas texels apart \
+along a 45° ray, their layers let it through between the hairs) and 32 at 32 px, one layer per \
+pixel of fur with a floor of 16, which is the renderer's default (`ShellLod::default`). \n\n\
 **What the images show.** The reference has individual strands, a bright fuzzy fringe on the \
 silhouettes (sphere and Fox at 70°) and dark gaps between coat hairs; 8 shells show a strand-like \
 texture over the coat, 32 shells a smoother one with the same overall colour and tone, a \
-polygonal outline softened by the fins, and at 70° a band at the sphere's limb (the outer shells \
-beyond the skin's outline) lighter and less speckled than before, where the fins' tips fill it, \
-but still polygonal where the reference's fringe is round; the \
-Fox seen face-on has a light rim along its back where the reference's sparse tips let the \
-background through. The FLIP maps are brightest along silhouettes and nearly dark over the coat.";
+polygonal outline softened by the fins, and a coat that runs on to the outline in the coat's own \
+tone, where one pass drew a light band (the sphere's limb) or rim (the Fox's back seen face-on); \
+the outline is still polygonal where the reference's fringe is round. The FLIP maps are \
+brightest along silhouettes and nearly dark over the coat.";
 
 impl RenderingReport {
     /// Writes the images, the chart and [`DOCUMENT_NAME`] into `dir` (created if missing).
