@@ -212,17 +212,17 @@ pub fn export_shaders(target: ShaderTarget) -> Result<ShaderExport, RenderError>
                     "bindings": bindings(target, name, &module, &info, &glsl, ep),
                     "vertex_inputs": vertex_inputs(&module, ep),
                 }));
+                let text = String::from_utf8_lossy(&bytes);
                 if target == ShaderTarget::Glsl {
                     // Uniforms naga adds that the host sets per draw (GLSL's instance index does
                     // not include the first instance).
-                    let text = String::from_utf8_lossy(&bytes);
                     let extra: Vec<&str> =
                         ["naga_vs_first_instance"].into_iter().filter(|u| text.contains(u)).collect();
                     if let Some(last) = entries.last_mut() {
                         last["host_uniforms"] = json!(extra);
                     }
                 }
-                if target == ShaderTarget::Hlsl && String::from_utf8_lossy(&bytes).contains("_NagaConstants.") {
+                if target == ShaderTarget::Hlsl && text.contains("_NagaConstants.") {
                     // The constant buffer naga reads where HLSL lacks a built-in (SV_InstanceID
                     // leaves out the draw's first instance, and there is no workgroup count).
                     if let Some(last) = entries.last_mut() {

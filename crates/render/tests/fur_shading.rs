@@ -257,28 +257,6 @@ fn anisotropic_filtering_changes_the_oblique_coat_and_spares_the_alpha_test() {
         render_image(gpu(), sphere(), &settings, &v, SIZE, SIZE).unwrap()
     };
     let (iso, aniso) = (draw(ShellBlend::AlphaBlend, 1), draw(ShellBlend::AlphaBlend, 16));
-    let tag = std::env::var("TAG").unwrap_or_default();
-    iso.save(format!("/tmp/p5/iso{tag}.png")).unwrap();
-    aniso.save(format!("/tmp/p5/aniso{tag}.png")).unwrap();
-    let mut grp = image::RgbaImage::new(SIZE, SIZE);
-    for y in 0..SIZE {
-        for x in 0..SIZE {
-            if let Some(n) = pixel_normal(&v, x, y) {
-                let a = degrees(n, (eye - n).normalize());
-                grp.put_pixel(
-                    x,
-                    y,
-                    image::Rgba([
-                        if a < 25.0 { 255 } else { 0 },
-                        if (55.0..75.0).contains(&a) { 255 } else { 0 },
-                        0,
-                        255,
-                    ]),
-                );
-            }
-        }
-    }
-    grp.save("/tmp/p5/groups.png").unwrap();
     // Pixels by the angle between the coat's normal and the view, and the sum over each group of
     // the absolute differences between the two frames, and of each frame's contrast with the
     // pixel to the right.

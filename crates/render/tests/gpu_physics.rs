@@ -606,6 +606,10 @@ fn crowd_scene(dir: &std::path::Path, n: usize, device: &str) -> furbake_runtime
     furbake_runtime::Scene::from_toml_str(&toml, std::path::Path::new("crowd.toml"), dir).unwrap()
 }
 
+// Ignored in `make test` on purpose: it prints a table and asserts nothing (speed belongs in
+// docs/performance.md, not in timed tests), and its waited-for frames of up to 50 spheres take
+// minutes on lavapipe. Run with
+// `cargo test -p furbake-render --test render -- --ignored --nocapture crowd_physics_frame_cost`.
 #[test]
 #[ignore = "a measurement, not a check"]
 fn crowd_physics_frame_cost() {

@@ -27,6 +27,14 @@ fn small_fur() -> BakeSettings {
     s
 }
 
+/// The report's GPU drawing into `Rgba32Float`, so that blending many faint layers rounds nothing
+/// away (lavapipe blends into it).
+fn float_target_gpu() -> MeasuringGpu {
+    let mut gpu = MeasuringGpu::new().unwrap();
+    assert_eq!(gpu.set_target(ReportTarget::Float32), ReportTarget::Float32, "lavapipe blends into Rgba32Float");
+    gpu
+}
+
 fn patch(settings: &BakeSettings) -> FurScene {
     bake_scene(SceneKind::Patch, &fixtures(), settings).unwrap()
 }
@@ -143,8 +151,7 @@ fn at_an_oblique_view_the_error_falls_as_shells_are_added() {
     // than the hair volume, more so the more layers) and layers shaded at their slab's top (too
     // bright at 8 layers, too dark at 64: the error fell to 8 shells and rose after).
     let scene = patch(&BakeSettings::preset("fur").unwrap());
-    let mut gpu = MeasuringGpu::new().unwrap();
-    assert_eq!(gpu.set_target(ReportTarget::Float32), ReportTarget::Float32, "lavapipe blends into Rgba32Float");
+    let gpu = float_target_gpu();
     let view = scene.view(45.0, 16.0 * scene.fur_length_m);
     let reference = reference_of(&scene, &view, 64, 4).unwrap();
     let errors: Vec<(u32, f32)> = [8, 16, 32, 64]
@@ -168,8 +175,7 @@ fn at_a_silhouette_the_near_side_of_the_coat_covers_the_far_side() {
     // the near side's inner ones and the limb came out light where the hair volume is not.
     // Measured on lavapipe (64², 12 fur lengths, 16 shells): FLIP 0.0484, and 0.0709 in one pass.
     let scene = bake_scene(SceneKind::Sphere, &fixtures(), &BakeSettings::preset("fur").unwrap()).unwrap();
-    let mut gpu = MeasuringGpu::new().unwrap();
-    assert_eq!(gpu.set_target(ReportTarget::Float32), ReportTarget::Float32, "lavapipe blends into Rgba32Float");
+    let gpu = float_target_gpu();
     let view = scene.view(70.0, 12.0 * scene.fur_length_m);
     let reference = reference_of(&scene, &view, 64, 4).unwrap();
     let frame = gpu.measure(&scene.asset, &render_settings(16, FinMode::Silhouette), &view, 64, 64, 1).unwrap();
