@@ -161,6 +161,19 @@ fn extension_hint(extension: &str) -> &'static str {
     }
 }
 
+/// The glTF JSON as `json::Root`, or the problem with the place it was found: the JSON path of the
+/// value that does not fit the schema (`cameras[0]: missing field `type``), then serde's line
+/// and column, so a file with one bad object among thousands names it.
+fn parse_root(json_bytes: &[u8]) -> Result<json::Root, String> {
+    let mut de = serde_json::Deserializer::from_slice(json_bytes);
+    let root: json::Root = serde_path_to_error::deserialize(&mut de).map_err(|e| {
+        let path = e.path().to_string();
+        if path == "." { format!("JSON: {}", e.inner()) } else { format!("JSON at {path}: {}", e.inner()) }
+    })?;
+    de.end().map_err(|e| format!("JSON: {e}"))?;
+    Ok(root)
+}
+
 /// Parses `bytes` (a `.glb` or `.gltf`) and loads its buffers. `file` names the input in errors;
 /// `external` resolves relative buffer URIs and confines them to the asset roots.
 pub(crate) fn load_asset(bytes: &[u8], file: &Path, external: ExternalFiles<'_>) -> Result<Asset, ImportError> {
@@ -171,7 +184,7 @@ pub(crate) fn load_asset(bytes: &[u8], file: &Path, external: ExternalFiles<'_>)
     } else {
         (bytes, None)
     };
-    let root: json::Root = json::deserialize::from_slice(json_bytes).map_err(|e| invalid(format!("JSON: {e}")))?;
+    let root = parse_root(json_bytes).map_err(invalid)?;
 
     // Refuse unsupported required extensions before validation, which would report them
     // obscurely (or, for compressed meshes, as missing accessors).

@@ -206,6 +206,24 @@ fn not_gltf_at_all_is_invalid_gltf() {
 }
 
 #[test]
+fn a_value_that_does_not_fit_the_schema_is_named_by_its_json_path() {
+    // An early glTF 2.0 sample's camera without its required `type`: the message names the
+    // object, not only a line and column.
+    let (p, i) = triangle();
+    let mut doc = document(p, i);
+    doc["cameras"] = json!([{ "perspective": { "yfov": 0.66, "znear": 1.0 } }]);
+    let err = import_value(&doc, &defaults()).unwrap_err();
+    let text = err.to_string();
+    assert!(matches!(err, ImportError::InvalidGltf { .. }), "{text}");
+    assert!(text.contains("JSON at cameras[0]: missing field `type`"), "{text}");
+    // Trailing bytes after the document are still refused.
+    let mut bytes = serde_json::to_vec(&document(triangle().0, triangle().1)).unwrap();
+    bytes.extend_from_slice(b" x");
+    let err = import_gltf_slice(&bytes, "trailing.gltf", None, &defaults()).unwrap_err();
+    assert!(matches!(err, ImportError::InvalidGltf { .. }), "{err}");
+}
+
+#[test]
 fn accessors_that_lie_about_their_size_are_errors_not_panics() {
     let (p, i) = triangle();
     let mut doc = document(p.clone(), i.clone());
