@@ -161,9 +161,9 @@ fn extension_hint(extension: &str) -> &'static str {
     }
 }
 
-/// The glTF JSON as `json::Root`, or the problem with the place it was found: the JSON path of the
-/// value that does not fit the schema (`cameras[0]: missing field `type``), then serde's line
-/// and column, so a file with one bad object among thousands names it.
+/// The glTF JSON as `json::Root`, or the problem and where it was found: the JSON path of the
+/// value that does not fit the schema (`cameras[0]` for a camera without its required `type`),
+/// then serde's line and column, so a file with one bad object among thousands names it.
 fn parse_root(json_bytes: &[u8]) -> Result<json::Root, String> {
     let mut de = serde_json::Deserializer::from_slice(json_bytes);
     let root: json::Root = serde_path_to_error::deserialize(&mut de).map_err(|e| {
