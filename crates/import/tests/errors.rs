@@ -217,7 +217,8 @@ fn a_value_that_does_not_fit_the_schema_is_named_by_its_json_path() {
     assert!(matches!(err, ImportError::InvalidGltf { .. }), "{text}");
     assert!(text.contains("JSON at cameras[0]: missing field `type`"), "{text}");
     // Trailing bytes after the document are still refused.
-    let mut bytes = serde_json::to_vec(&document(triangle().0, triangle().1)).unwrap();
+    let (p, i) = triangle();
+    let mut bytes = serde_json::to_vec(&document(p, i)).unwrap();
     bytes.extend_from_slice(b" x");
     let err = import_gltf_slice(&bytes, "trailing.gltf", None, &defaults()).unwrap_err();
     assert!(matches!(err, ImportError::InvalidGltf { .. }), "{err}");

@@ -7,8 +7,8 @@
 // extruded along its normal by t·fur_length (t = (layer+1)/layers) and sheared towards its
 // scale vector s by t^k·(s − n)·fur_length (eq. 3.35–3.36, §3.4.2); the scale vectors live in a
 // storage buffer the physics rewrites every frame (initially s = n, i.e. no shear), one per welded
-// vertex or — separable topologies, parted fur (§3.4.1) — one per
-// triangle corner, so two triangles sharing a vertex can shear apart. Fragment: alpha from the
+// vertex or — separable topologies, parted fur (§3.4.1) — one per triangle corner, so two
+// triangles sharing a vertex can shear apart. Fragment: alpha from the
 // shell texture array; colour = the strand shading (fur_common.wgsl `strand_shade`, docs/design.md
 // "Fur shading") of vertex colour × tint along the layer's hair direction (`strand_tangent`, the
 // eq. 3.36 derivative), at the layer's height, with its self-shadow factor and the noise of the

@@ -10,11 +10,12 @@
 //! uniforms and records the skinning dispatch of an animated asset into the host's encoder, and
 //! [`FurRenderer::render`] draws skin, shells (instanced; blended ones back faces first,
 //! outermost to innermost, then front faces innermost to outermost) and fins into the host's
-//! render pass, depth-tested against whatever the host drew, then the silhouette fins ([`crate::silhouette`]: `prepare` also records their selection
-//! dispatch, `render` their indirect draw). Neither submits nor waits (`crate::blocking`). Effects are switched with WGSL `override`
-//! constants at pipeline creation. An animated asset (skin weights or morph targets) owns a
-//! [`SkinningPass`]; the skin, shell and fin shaders (compiled with `SKINNED`) read their roots
-//! from its output instead of the vertex attributes; a static asset's shaders are compiled
+//! render pass, depth-tested against whatever the host drew, then the silhouette fins
+//! ([`crate::silhouette`]: `prepare` also records their selection dispatch, `render` their
+//! indirect draw). Neither submits nor waits (`crate::blocking`). Effects are switched with WGSL
+//! `override` constants at pipeline creation. An animated asset (skin weights or morph targets)
+//! owns a [`SkinningPass`]; the skin, shell and fin shaders (compiled with `SKINNED`) read their
+//! roots from its output instead of the vertex attributes; a static asset's shaders are compiled
 //! without it and draw exactly as before.
 
 use std::sync::Arc;
